@@ -1,0 +1,13 @@
+import matplotlib
+import numpy as np
+import pytest
+import xarray as xr
+
+matplotlib.use("Agg")
+
+
+@pytest.fixture(autouse=True)
+def _doctest_namespace(doctest_namespace):
+    import xrough
+
+    doctest_namespace.update(np=np, xr=xr, xrough=xrough)

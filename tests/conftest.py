@@ -1,0 +1,40 @@
+import os
+from pathlib import Path
+
+import matplotlib
+import numpy as np
+import pytest
+import xarray as xr
+
+matplotlib.use("Agg")
+
+import xrough  # noqa: E402
+
+DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+
+
+@pytest.fixture(autouse=True)
+def _close_figures():
+    yield
+    import matplotlib.pyplot as plt
+
+    plt.close("all")
+
+
+@pytest.fixture(params=["numpy", "dask"])
+def backend(request):
+    return request.param
+
+
+def to_backend(da, backend, chunks=None):
+    if backend == "dask":
+        extra = {d: 1 for d in da.dims if d not in ("x", "y")}
+        return da.chunk(chunks or extra or {})
+    return da
+
+
+def data_path(*parts):
+    path = DATA.joinpath(*parts)
+    if not path.exists():
+        pytest.skip(f"measurement data not available: {path.name}")
+    return path

@@ -1,0 +1,299 @@
+"""G(dr) estimators against brute force, closed forms and each other."""
+
+import itertools
+
+import numpy as np
+import pytest
+import xarray as xr
+from conftest import to_backend
+
+import xrough
+from xrough._kernels.binning import log_bin_edges
+
+
+def brute_force_binned(h, spacing, periodic, edges, direction="radial"):
+    """Average of (h(a) - h(b))^2 / 2 over unordered pairs {a, b} per bin, by enumeration."""
+    shape = h.shape
+    pts = list(itertools.product(*[range(n) for n in shape]))
+    nb = len(edges) - 1
+    s = np.zeros(nb)
+    n = np.zeros(nb)
+    for ia, a in enumerate(pts):
+        for b in pts[ia + 1:]:
+            d = []
+            for ax in range(len(shape)):
+                x = b[ax] - a[ax]
+                if periodic:
+                    m = shape[ax]
+                    x = ((x + m // 2) % m) - m // 2  # minimum image
+                d.append(x * spacing[ax])
+            if direction == "x" and len(shape) == 2 and d[0] != 0:
+                continue
+            r = np.hypot(*d) if len(d) == 2 else abs(d[0])
+            k = np.searchsorted(edges, r, side="right") - 1
+            if r == 0 or k < 0 or k >= nb:
+                continue
+            if np.isnan(h[a]) or np.isnan(h[b]):
+                continue
+            s[k] += 0.5 * (h[a] - h[b]) ** 2
+            n[k] += 1
+    with np.errstate(invalid="ignore"):
+        return s / n, n
+
+
+def _case(shape, masked, seed):
+    rng = np.random.default_rng(seed)
+    h = rng.normal(size=shape) + 5.0  # an offset: the estimator must not care
+    if masked:
+        h[rng.random(shape) < 0.3] = np.nan
+    return h
+
+
+@pytest.mark.parametrize("shape", [(7,), (8,), (5, 6), (6, 6), (4, 7)])
+@pytest.mark.parametrize("periodic", [True, False])
+@pytest.mark.parametrize("masked", [False, True])
+def test_fft_equals_brute_force(shape, periodic, masked):
+    """FFT pair sums are exact: equal to the enumeration of all pairs to round-off.
+
+    Tolerance 1e-10 relative: the FFT sums carry round-off of order eps * sum(h^2) ~ 1e-13.
+    """
+    h = _case(shape, masked, seed=sum(shape) + 10 * periodic + 100 * masked)
+    spacing = (0.7, 1.3)[-len(shape):] if len(shape) == 2 else (1.3,)
+    topo = xrough.topography(h, spacing=spacing, unit="nm", periodic=periodic)
+    edges = log_bin_edges(1.0, 12.0, 8)
+    G = topo.rough.acf(bins=edges)
+    ref, n = brute_force_binned(h, spacing, periodic, edges)
+    # bins the estimator keeps: those holding lattice lags (brute force on a full map)
+    _, lattice = brute_force_binned(np.zeros(shape), spacing, periodic, edges)
+    got = np.full(len(n), np.nan)
+    got[lattice > 0] = G.values
+    counts = np.zeros(len(n))
+    counts[lattice > 0] = G.pair_count.values
+    np.testing.assert_array_equal(counts, n)
+    np.testing.assert_allclose(got[n > 0], ref[n > 0], rtol=1e-10, atol=0)
+    assert np.all(np.isnan(got[(lattice > 0) & (n == 0)]))
+
+
+@pytest.mark.parametrize("periodic", [True, False])
+@pytest.mark.parametrize("masked", [False, True])
+def test_direction_x_equals_brute_force(periodic, masked):
+    h = _case((5, 8), masked, seed=3)
+    topo = xrough.topography(h, spacing=(2.0, 1.0), unit="nm", periodic=periodic)
+    edges = np.array([0.5, 1.5, 2.5, 3.5, 4.5, 7.5])
+    G = topo.rough.acf(direction="x", bins=edges)
+    ref, n = brute_force_binned(h, (2.0, 1.0), periodic, edges, direction="x")
+    np.testing.assert_allclose(G.values[G.pair_count > 0], ref[n > 0], rtol=1e-10)
+    Gy = topo.rough.acf(direction="y", bins=edges)
+    refy, ny = brute_force_binned(h.T.copy(), (1.0, 2.0), periodic, edges, direction="x")
+    np.testing.assert_allclose(Gy.values[Gy.pair_count > 0], refy[ny > 0], rtol=1e-10)
+
+
+def test_sinusoid_closed_form():
+    """A sinusoid h0 cos(q x) has G(dr) = h0^2/2 (1 - cos(q dr)) along x (exact, periodic)."""
+    n, period, h0 = 240, 24, 3.0
+    x = np.arange(n)
+    h = h0 * np.cos(2 * np.pi * x / period)[None, :] * np.ones((8, 1))
+    topo = xrough.topography(h, spacing=0.5, unit="um", periodic=True)
+    G = topo.rough.acf(direction="x", bins="linear")
+    expected = h0**2 / 2 * (1 - np.cos(2 * np.pi * G.dr.values / (period * 0.5)))
+    np.testing.assert_allclose(G.values, expected, rtol=1e-12, atol=1e-12)
+    # radially: cos(q.d) averaged over the lattice lags in each ring, checked directly
+    Gr = topo.rough.acf(bins="linear", dr_max=20 * 0.5)
+    assert np.all(Gr.values <= h0**2 + 1e-12)
+
+
+def test_nm_and_m_same_physics():
+    h = _case((32, 32), masked=True, seed=7)
+    nm = xrough.topography(h, spacing=2.0, unit="nm")
+    m = xrough.topography(h * 1e-9, spacing=2e-9, unit="m")
+    Gnm, Gm = nm.rough.acf(), m.rough.acf()
+    assert Gnm.attrs["units"] == "nm2" and Gm.attrs["units"] == "m2"
+    assert Gnm.dr.attrs["units"] == "nm" and Gm.dr.attrs["units"] == "m"
+    # same bins (edges sit on powers of ten in any decimal unit), values scale by 1e-18
+    np.testing.assert_allclose(Gm.dr.values * 1e9, Gnm.dr.values, rtol=1e-12)
+    np.testing.assert_allclose(Gm.values * 1e18, Gnm.values, rtol=1e-10)
+    np.testing.assert_array_equal(Gm.pair_count.values, Gnm.pair_count.values)
+
+
+def test_missing_points_do_not_change_g_of_a_large_map():
+    """30 % of points removed at random: G agrees with the full map within its noise.
+
+    Removing random points keeps ~49 % of pairs at every lag; the difference to the full
+    map's G is then a sampling effect of relative size ~ 1/sqrt(pairs): 1 % is > 5 sigma
+    for the smallest bin of a 256^2 map.
+    """
+    rng = np.random.default_rng(42)
+    topo = xrough.self_affine_surface(hurst=0.7, lambda_r="16 um", lambda_s="1 um",
+                                      size="64 um", n=256, rms_height="1 um", seed=5,
+                                      unit="um")
+    holey = topo.where(rng.random(topo.shape) >= 0.3)
+    G = topo.rough.acf(dr_max="16 um")
+    Gh = holey.rough.acf(dr_max="16 um")
+    np.testing.assert_allclose(Gh.values, G.values, rtol=0.01)
+    np.testing.assert_allclose(Gh.pair_count / G.pair_count, 0.49, atol=0.01)
+
+
+def test_random_pairs_agree_with_fft_within_reported_error():
+    """The random estimator samples the same pairs the FFT sums: z-scores are standard."""
+    topo = xrough.self_affine_surface(hurst=0.5, lambda_r="32 nm", lambda_s="2 nm",
+                                      size="128 nm", n=128, rms_height="1 nm", seed=3,
+                                      unit="nm")
+    for periodic in (1, 0):
+        t = topo.assign_attrs(periodic=periodic)
+        t = t.where(np.random.default_rng(1).random(t.shape) > 0.2)
+        Gf = t.rough.acf(points_per_decade=5)
+        Gr = t.rough.acf(estimator="random", n_pairs=200_000, seed=11, points_per_decade=5)
+        np.testing.assert_allclose(Gr.dr, Gf.dr)
+        z = (Gr - Gf) / Gr.sampling_error
+        # |z| < 4 for every bin: a 4-sigma excursion in one of ~11 bins has p ~ 1e-3
+        assert np.all(np.abs(z.values) < 4), z.values
+        assert 0.3 < float(np.sqrt((z**2).mean())) < 2.0
+        assert np.all(Gr.standard_error >= Gr.sampling_error)
+
+
+def test_random_is_seedable_and_numpy_equals_dask():
+    topo = xrough.topography(_case((3, 40, 40), False, 2)[0], spacing=1.0, unit="nm")
+    stack = xr.concat([topo * k for k in (1.0, 2.0, 3.0)], dim="scan")
+    a = stack.rough.acf(estimator="random", n_pairs=5000, seed=3)
+    b = stack.rough.acf(estimator="random", n_pairs=5000, seed=3)
+    xr.testing.assert_identical(a, b)
+    c = stack.chunk({"scan": 1}).rough.acf(estimator="random", n_pairs=5000, seed=3)
+    assert c.chunks is not None
+    xr.testing.assert_identical(a, c.compute())
+    d = stack.rough.acf(estimator="random", n_pairs=5000, seed=4)
+    assert not np.allclose(a.values, d.values)
+
+
+@pytest.mark.parametrize("masked", [False, True])
+def test_stack_numpy_equals_dask_and_pooling_is_exact(backend, masked):
+    maps = np.stack([_case((24, 20), masked, s) for s in range(4)])
+    base = xrough.topography(maps[0], spacing=1.0, unit="nm")
+    stack = xr.DataArray(maps, dims=("scan", "y", "x"),
+                         coords={"scan": np.arange(4), **{k: base[k] for k in ("x", "y")}},
+                         attrs=base.attrs, name="height")
+    G = to_backend(stack, backend).rough.acf()
+    if backend == "dask":
+        assert G.chunks is not None
+        G = G.compute()
+    else:
+        assert G.chunks is None
+    for k in range(4):
+        single = xrough.topography(maps[k], spacing=1.0, unit="nm").rough.acf()
+        np.testing.assert_allclose(G.isel(scan=k).values, single.values, rtol=1e-12)
+    pooled = to_backend(stack, backend).rough.acf(pool="scan").compute()
+    # pooling combines pair sums: the pair-count weighted mean of the per-scan G
+    w = G.pair_count
+    expected = (G * w).sum("scan") / w.sum("scan")
+    np.testing.assert_allclose(pooled.values, expected.values, rtol=1e-12)
+    assert pooled.attrs["pooled_over"] == "scan"
+
+
+def test_dask_graph_construction_does_not_compute():
+    import dask
+
+    calls = []
+
+    def counting_scheduler(dsk, keys, **kwargs):
+        calls.append(1)
+        return dask.get(dsk, keys, **kwargs)
+
+    maps = np.random.default_rng(0).normal(size=(3, 16, 16))
+    base = xrough.topography(maps[0], spacing=1.0, unit="nm")
+    stack = xr.DataArray(maps, dims=("scan", "y", "x"), coords={k: base[k] for k in "xy"},
+                         attrs=base.attrs).chunk({"scan": 1})
+    with dask.config.set(scheduler=counting_scheduler):
+        G = stack.rough.acf()
+        Gr = stack.rough.acf(estimator="random", n_pairs=1000, seed=0)
+    assert calls == []
+    assert G.chunks is not None and Gr.chunks is not None
+
+
+def test_dr_range_restricts_work_and_output():
+    topo = xrough.topography(_case((64, 64), False, 1), spacing=1.0, unit="nm")
+    G = topo.rough.acf(dr_min="3 nm", dr_max=2e-8)
+    assert G.dr.min() >= 3 and G.dr.max() <= 20
+    full = topo.rough.acf()
+    common = full.sel(dr=G.dr.values[1:-1])  # inner bins are identical
+    np.testing.assert_allclose(G.isel(dr=slice(1, -1)).values, common.values, rtol=1e-12)
+
+
+def test_points_per_decade_and_linear_bins():
+    topo = xrough.topography(_case((128,), False, 1), spacing=1.0, unit="nm")
+    G5 = topo.rough.acf(points_per_decade=5)
+    G20 = topo.rough.acf(points_per_decade=20)
+    assert G20.sizes["dr"] > G5.sizes["dr"]
+    lin = topo.rough.acf(bins="linear")
+    np.testing.assert_allclose(lin.dr.values, np.arange(1, 128))
+
+
+def test_float32_input_is_computed_in_double():
+    h = _case((48, 48), False, 9).astype(np.float32)
+    G32 = xrough.topography(h, spacing=1.0, unit="nm").rough.acf()
+    G64 = xrough.topography(h.astype(np.float64), spacing=1.0, unit="nm").rough.acf()
+    np.testing.assert_allclose(G32.values, G64.values, rtol=1e-12)
+
+
+def test_standard_error_is_calibrated():
+    """The finite-area error model is within a factor 2 of the seed-to-seed scatter."""
+    Gs = []
+    for seed in range(24):
+        topo = xrough.self_affine_surface(hurst=0.8, lambda_r="128 nm", lambda_s="4 nm",
+                                          size="128 nm", n=64, rms_height="1 nm",
+                                          seed=seed, unit="nm")
+        Gs.append(topo.rough.acf(points_per_decade=5, dr_max="32 nm"))
+    G = xr.concat(Gs, dim="seed")
+    ratio = G.std("seed") / G.standard_error.mean("seed")
+    assert np.all((ratio > 0.5) & (ratio < 2.0)), ratio.values
+
+
+@pytest.mark.parametrize(
+    "make, match",
+    [
+        (lambda: xr.DataArray(np.zeros((4, 4)), dims=("a", "b")), "dims"),
+        (lambda: xrough.topography(np.zeros((4, 4)), spacing=1.0, unit="nm").drop_vars("x"),
+         "no coordinate 'x'"),
+        (lambda: xrough.topography(np.zeros(5), spacing=1.0, unit="nm").assign_coords(
+            x=("x", [0, 1, 2, 4, 5], {"units": "nm"})), "'x' is not uniformly spaced"),
+        (lambda: xrough.topography(np.zeros(5), spacing=1.0, unit="nm").assign_coords(
+            x=("x", np.arange(5.0))), "coordinate 'x' has no 'units'"),
+        (lambda: xrough.topography(np.zeros(5), spacing=1.0, unit="nm").assign_attrs(
+            units="Pa"), "must be a length"),
+        (lambda: xrough.topography(np.zeros(5), spacing=1.0, unit="nm").assign_coords(
+            x=("x", np.arange(5.0), {"units": "s"})), "'x' must be a length"),
+        (lambda: xrough.topography(np.zeros(5), spacing=1.0, unit="nm").assign_attrs(
+            units=None), "'units'|unit"),
+    ],
+)
+def test_bad_topographies_are_refused(make, match):
+    with pytest.raises((ValueError, TypeError), match=match):
+        da = make()
+        xrough.height_difference_acf(da)
+
+
+def test_too_few_valid_points():
+    h = np.full((6, 6), np.nan)
+    h[0, 0] = 1.0
+    with pytest.raises(ValueError, match="fewer than 2 valid"):
+        xrough.topography(h, spacing=1.0, unit="nm")
+    topo = xrough.topography(np.zeros((6, 6)), spacing=1.0, unit="nm")
+    with pytest.raises(ValueError, match="fewer than 2 valid"):
+        topo.where(False).rough.acf()
+
+
+def test_bad_options():
+    topo = xrough.topography(np.zeros((8, 8)), spacing=1.0, unit="nm")
+    with pytest.raises(ValueError, match="estimator"):
+        topo.rough.acf(estimator="magic")
+    with pytest.raises(ValueError, match="direction"):
+        topo.rough.acf(direction="z")
+    with pytest.raises(ValueError, match="dr_min < dr_max"):
+        topo.rough.acf(dr_min="5 nm", dr_max="2 nm")
+    with pytest.raises(ValueError, match="not a length"):
+        topo.rough.acf(dr_max="2 MPa")
+    with pytest.raises(ValueError, match="pool"):
+        topo.rough.acf(pool="scan")
+    with pytest.raises(ValueError, match="n_pairs"):
+        topo.rough.acf(estimator="random", n_pairs=0)
+    chunked = xr.concat([topo, topo], "scan").chunk({"x": 4})
+    with pytest.raises(ValueError, match="chunk"):
+        chunked.rough.acf()

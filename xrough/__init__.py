@@ -1,0 +1,24 @@
+"""xrough: contact mechanics of rough surfaces from the height-difference ACF.
+
+Topographies, correlation functions and results are labelled :mod:`xarray` objects with
+physical units on data and coordinates; the ``.rough`` accessor chains the steps::
+
+    import xrough
+    topo = xrough.self_affine_surface(hurst=0.8, lambda_r="2 um", lambda_s="20 nm",
+                                      size="10 um", n=512, rms_gradient=0.5, seed=1)
+    G = topo.rough.acf()
+"""
+
+from importlib.metadata import PackageNotFoundError, version
+
+try:
+    __version__ = version("xrough")
+except PackageNotFoundError:  # pragma: no cover - running from a source tree
+    __version__ = "0.0.0+unknown"
+
+from . import plot, units  # noqa: E402
+from .correlation import height_difference_acf  # noqa: E402
+from .topography import topography  # noqa: E402
+from . import accessor  # noqa: E402,F401  (registers .rough)
+
+__all__ = ["__version__", "height_difference_acf", "plot", "topography", "units"]

@@ -1,0 +1,106 @@
+"""Bins in lag distance and the lattice geometry of lags (pure numpy).
+
+Lags live on the grid's lattice: ``d = (i dy, j dx)`` for maps, ``d = j dx`` for profiles.
+Because ``G(d) = G(-d)`` (squared differences are symmetric), pair sums are kept on the
+*folded* quarter plane ``i, j >= 0``: entry ``(i, j)`` holds the sum over the distinct lag
+vectors ``(+-i, +-j)``. The multiplicity of each entry (1, 2 or 4, less on a periodic
+Nyquist line where ``-i`` and ``i`` are the same lag) is what :func:`lag_multiplicity`
+returns.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["log_bin_edges", "linear_bin_edges", "lag_multiplicity", "lag_radius2",
+           "bin_index", "binned_sum", "max_lags"]
+
+
+def log_bin_edges(dr_min: float, dr_max: float, points_per_decade: float) -> np.ndarray:
+    """Logarithmic bin edges centred on ``10**(k / points_per_decade)``.
+
+    The edges ``10**((k +- 1/2) / ppd)`` do not depend on the unit as long as units differ
+    by powers of ten, so nm and m inputs give the same bins. The first and last edges are
+    clipped to ``[dr_min, dr_max]``.
+    """
+    if not (np.isfinite(dr_min) and np.isfinite(dr_max) and 0 < dr_min < dr_max):
+        raise ValueError(f"need 0 < dr_min < dr_max, got dr_min={dr_min:g}, dr_max={dr_max:g}")
+    if not points_per_decade > 0:
+        raise ValueError(f"points_per_decade must be positive, got {points_per_decade}")
+    ppd = float(points_per_decade)
+    k0 = int(np.floor(np.log10(dr_min) * ppd + 0.5))
+    k1 = int(np.ceil(np.log10(dr_max) * ppd - 0.5))
+    edges = 10.0 ** ((np.arange(k0, k1 + 2) - 0.5) / ppd)
+    edges = edges[(edges > dr_min) & (edges < dr_max)]
+    return np.concatenate([[dr_min], edges, [dr_max]])
+
+
+def linear_bin_edges(dr_min: float, dr_max: float, width: float) -> np.ndarray:
+    """Linear bin edges ``(k +- 1/2) * width`` clipped to ``[dr_min, dr_max]``."""
+    if not (0 <= dr_min < dr_max and width > 0):
+        raise ValueError(f"need 0 <= dr_min < dr_max and width > 0, got {dr_min:g}, "
+                         f"{dr_max:g}, {width:g}")
+    k0 = int(np.floor(dr_min / width + 0.5))
+    k1 = int(np.ceil(dr_max / width - 0.5))
+    edges = (np.arange(k0, k1 + 2) - 0.5) * width
+    edges = edges[(edges > dr_min) & (edges < dr_max)]
+    return np.concatenate([[dr_min], edges, [dr_max]])
+
+
+def max_lags(shape: tuple[int, ...], spacing: tuple[float, ...], periodic: bool,
+             dr_max: float) -> tuple[int, ...]:
+    """Largest lag index per axis that can matter for ``|d| < dr_max`` (inclusive)."""
+    out = []
+    for n, d in zip(shape, spacing):
+        limit = n // 2 if periodic else n - 1
+        out.append(int(min(limit, np.floor(dr_max / d * (1 + 1e-12)))))
+    return tuple(out)
+
+
+def lag_multiplicity(n: int, k: int, periodic: bool) -> np.ndarray:
+    """Number of distinct signed lags ``+-i`` for ``i = 0..k`` along one axis of length n."""
+    mult = np.full(k + 1, 2, dtype=np.int64)
+    mult[0] = 1
+    if periodic and n % 2 == 0 and k >= n // 2:
+        mult[n // 2] = 1  # +n/2 and -n/2 are the same lag on a periodic grid
+    return mult
+
+
+def lag_radius2(ks: tuple[int, ...], spacing: tuple[float, ...]) -> np.ndarray:
+    """Squared lag length on the folded lattice ``0..k`` per axis (broadcast to full shape)."""
+    r2 = 0.0
+    for axis, (k, d) in enumerate(zip(ks, spacing)):
+        shape = [1] * len(ks)
+        shape[axis] = k + 1
+        r2 = r2 + ((np.arange(k + 1, dtype=float) * d) ** 2).reshape(shape)
+    return np.broadcast_to(r2, tuple(k + 1 for k in ks))
+
+
+def bin_index(r2: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Bin number of each squared radius for half-open bins ``[edges[b], edges[b+1])``.
+
+    Values outside all bins get ``len(edges) - 1`` (one past the last bin), so that a
+    ``bincount`` with ``minlength=len(edges)`` collects them in a discard slot.
+    """
+    nb = len(edges) - 1
+    idx = np.searchsorted(edges**2, r2, side="right") - 1
+    idx[(idx < 0) | (idx >= nb)] = nb
+    return idx.astype(np.int32 if nb < 2**31 - 1 else np.int64)
+
+
+def binned_sum(values: np.ndarray, idx: np.ndarray, nbins: int) -> np.ndarray:
+    """Sum ``values[..., *core]`` per bin of ``idx`` (core shape), batch dims kept.
+
+    Returns an array ``(..., nbins)``.
+    """
+    core = idx.ndim
+    batch = values.shape[: values.ndim - core]
+    flat = values.reshape((-1, idx.size))
+    nb1 = nbins + 1
+    if flat.shape[0] == 1:
+        out = np.bincount(idx.ravel(), weights=flat[0], minlength=nb1)[None, :]
+    else:
+        offs = (np.arange(flat.shape[0], dtype=np.int64) * nb1)[:, None]
+        out = np.bincount((idx.ravel()[None, :] + offs).ravel(), weights=flat.ravel(),
+                          minlength=nb1 * flat.shape[0]).reshape(flat.shape[0], nb1)
+    return out[:, :nbins].reshape(batch + (nbins,))

@@ -1,0 +1,408 @@
+"""The height-difference autocorrelation function G(dr) of topographies (paper eq. 1).
+
+``G(dr) = 1/2 <(h(r) - h(r + dr))^2>`` averaged over every pair of valid points whose lag
+falls in a bin of ``|dr|``: over all orientations (``direction="radial"``) or along one
+axis (``"x"``, ``"y"``). Two estimators:
+
+``"fft"`` (systematic, all pairs)
+    Exact pair sums by FFT (:mod:`xrough._kernels.pairs`); periodic maps wrap around,
+    open maps are zero padded by the largest lag asked for, missing points (NaN) are
+    excluded pair by pair.
+``"random"`` (paper section 3.1)
+    Uniformly drawn pairs per log-spaced bin, a fixed budget, seedable; a Monte-Carlo
+    estimate of the same bin averages with its sampling error
+    (:mod:`xrough._kernels.random_pairs`).
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from . import __version__
+from . import units as u
+from ._kernels import binning
+from ._kernels.pairs import folded_geometric_counts, folded_pair_sums
+from ._kernels.random_pairs import random_pair_sums
+from .topography import Grid, check_valid_points, grid_of
+
+__all__ = ["height_difference_acf"]
+
+ESTIMATORS = ("fft", "random")
+DIRECTIONS = ("radial", "x", "y")
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """What the kernel needs: which axes are transformed, lags, bins, geometry."""
+
+    core_dims: tuple[str, ...]  # dims handed to the kernel, in kernel order
+    shape: tuple[int, ...]  # kernel core shape
+    lag_axes: int  # number of trailing axes with lags (1 or 2)
+    spacing: tuple[float, ...]  # spacing of the lag axes
+    periodic: bool
+    ks: tuple[int, ...]
+    edges: np.ndarray
+    keep: np.ndarray  # bins that contain at least one lattice lag
+    dr: np.ndarray  # pair-weighted mean lag distance of the kept bins
+    geometric_counts: np.ndarray  # pairs per kept bin on a map without missing points
+
+
+@functools.lru_cache(maxsize=4)
+def _geometry(shape, spacing, periodic, ks, edges_key):
+    edges = np.asarray(edges_key)
+    r2 = binning.lag_radius2(ks, spacing)
+    idx = binning.bin_index(r2, edges)
+    nb = len(edges) - 1
+    geo = folded_geometric_counts(shape, ks, periodic)
+    counts = binning.binned_sum(geo, idx, nb)
+    rsum = binning.binned_sum(geo * np.sqrt(r2), idx, nb)
+    idx.setflags(write=False)
+    return idx, counts, rsum
+
+
+def _length(value, lateral_unit: str, what: str) -> float | None:
+    if value is None:
+        return None
+    return u.to_si(value, "[length]", what=what) * u.conversion_factor("m", lateral_unit)
+
+
+def _plan(grid: Grid, *, direction: str, bins, points_per_decade, bin_width, dr_min,
+          dr_max) -> _Plan:
+    if direction not in DIRECTIONS:
+        raise ValueError(f"direction must be one of {DIRECTIONS}, got {direction!r}")
+    if len(grid.dims) == 1:
+        if direction == "y":
+            raise ValueError("a profile has no 'y' direction; use direction='x'")
+        core, lag_axes = ("x",), 1
+    elif direction == "radial":
+        core, lag_axes = ("y", "x"), 2
+    elif direction == "x":
+        core, lag_axes = ("y", "x"), 1
+    else:
+        core, lag_axes = ("x", "y"), 1
+    sp = dict(zip(grid.dims, grid.spacing))
+    shape_all = dict(zip(grid.dims, grid.shape))
+    shape = tuple(shape_all[d] for d in core)
+    lag_dims = core[-lag_axes:]
+    spacing = tuple(sp[d] for d in lag_dims)
+    lag_shape = shape[-lag_axes:]
+    lo = _length(dr_min, grid.lateral_unit, "dr_min")
+    hi = _length(dr_max, grid.lateral_unit, "dr_max")
+    if grid.periodic:
+        longest = min(n * d for n, d in zip(lag_shape, spacing)) / 2
+    else:
+        longest = max((n - 1) * d for n, d in zip(lag_shape, spacing))
+    lo = min(spacing) if lo is None else lo
+    hi = longest if hi is None else min(hi, np.sqrt(sum(((n - 1) * d) ** 2 for n, d in
+                                                         zip(lag_shape, spacing))))
+    if not (lo > 0 and hi > lo):
+        raise ValueError(f"need 0 < dr_min < dr_max; got dr_min={lo:g}, dr_max={hi:g} "
+                         f"{grid.lateral_unit} (largest lag on this grid: {longest:g})")
+    hi_edge = hi * (1 + 1e-12)  # include dr_max itself
+    if isinstance(bins, str):
+        if bins == "log":
+            edges = binning.log_bin_edges(lo, hi_edge, points_per_decade)
+        elif bins == "linear":
+            width = min(spacing) if bin_width is None else _length(
+                bin_width, grid.lateral_unit, "bin_width")
+            edges = binning.linear_bin_edges(lo, hi_edge, width)
+        else:
+            raise ValueError(f"bins must be 'log', 'linear' or an array of edges, got {bins!r}")
+    else:
+        edges = np.asarray(bins, dtype=float)
+        if edges.ndim != 1 or edges.size < 2 or np.any(np.diff(edges) <= 0) or edges[0] < 0:
+            raise ValueError("bin edges must be a 1D increasing array of >= 2 lags >= 0")
+    hi_lag = edges[-1]
+    ks = binning.max_lags(lag_shape, spacing, grid.periodic, hi_lag)
+    idx, counts, rsum = _geometry(lag_shape, spacing, grid.periodic, ks,
+                                  tuple(edges.tolist()))
+    keep = counts > 0
+    mean_dr = rsum[keep] / counts[keep]
+    counts = counts / 2  # unordered pairs
+    if lag_axes < len(shape):  # one-direction G of a map: every row contributes
+        counts = counts * shape[0]
+    if not keep.any():
+        raise ValueError(f"no lattice lag between dr_min={lo:g} and dr_max={hi:g} "
+                         f"{grid.lateral_unit}")
+    return _Plan(core_dims=core, shape=shape, lag_axes=lag_axes, spacing=spacing,
+                 periodic=grid.periodic, ks=ks, edges=edges, keep=keep,
+                 dr=mean_dr, geometric_counts=counts[keep])
+
+
+def _progress_bar(total: int, progress, desc: str):
+    if progress is False or total <= 1 and progress is None:
+        return None
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, desc=desc, disable=None if progress is None else not progress,
+                leave=False)
+
+
+def _fft_kernel(h: np.ndarray, *, plan: _Plan, workers: int, progress) -> tuple:
+    """(..., *core) heights -> (sum of squared differences, pair counts) per kept bin."""
+    ncore = len(plan.shape)
+    batch = h.shape[: h.ndim - ncore]
+    check_valid_points(h, ndim=ncore)
+    flat = h.reshape((-1,) + plan.shape)
+    idx, _, _ = _geometry(plan.shape[-plan.lag_axes:], plan.spacing, plan.periodic, plan.ks,
+                          tuple(plan.edges.tolist()))
+    nb = len(plan.edges) - 1
+    sums = np.empty((flat.shape[0], int(plan.keep.sum())))
+    counts = np.empty_like(sums)
+    bar = _progress_bar(flat.shape[0], progress, "G(dr) by FFT")
+    try:
+        for b in range(flat.shape[0]):
+            s, n = folded_pair_sums(flat[b], plan.ks, periodic=plan.periodic, workers=workers)
+            if plan.lag_axes < ncore:  # pool the rows of a one-direction G
+                s, n = s.sum(axis=0), n.sum(axis=0)
+            # the folded sums run over ordered pairs (r, r+d) and (r, r-d): halve both to
+            # count each unordered pair once
+            sums[b] = 0.5 * binning.binned_sum(s, idx, nb)[plan.keep]
+            counts[b] = 0.5 * binning.binned_sum(n, idx, nb)[plan.keep]
+            if bar is not None:
+                bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+    shape = batch + (sums.shape[-1],)
+    return sums.reshape(shape), counts.reshape(shape)
+
+
+def _random_kernel(h: np.ndarray, seeds: np.ndarray, *, plan: _Plan, n_per_bin: int,
+                   progress) -> tuple:
+    ncore = len(plan.shape)
+    batch = h.shape[: h.ndim - ncore]
+    check_valid_points(h, ndim=ncore)
+    flat = h.reshape((-1,) + plan.shape)
+    seeds = np.broadcast_to(seeds, batch).reshape(-1)
+    edges = plan.edges
+    nb = len(edges) - 1
+    out = np.empty((flat.shape[0], 3, int(plan.keep.sum())))
+    bar = _progress_bar(flat.shape[0] * nb, progress, "G(dr) by random pairs")
+    try:
+        for b in range(flat.shape[0]):
+            rng = np.random.default_rng(int(seeds[b]))
+            res = random_pair_sums(flat[b], plan.spacing, edges, n_per_bin,
+                                   periodic=plan.periodic, rng=rng,
+                                   progress=None if bar is None else bar.update)
+            out[b] = res[:, plan.keep]
+    finally:
+        if bar is not None:
+            bar.close()
+    out = out.reshape(batch + out.shape[1:])
+    return out[..., 0, :], out[..., 1, :], out[..., 2, :]
+
+
+def _standard_error_area(G, pair_count, dr, valid_points, pixel_area, lag_axes, ncore):
+    """Statistical error of G as an estimate of the surface's G (finite-area model).
+
+    Gaussian heights give ``var[(dh)^2/2] = 2 G^2``; squared differences at lag ``dr`` are
+    correlated over about ``dr``, so a map of valid area ``A`` holds about
+    ``A / (pi dr^2)`` independent ones (``L / (2 dr)`` along a profile), never more than
+    the pairs themselves.
+    """
+    area = valid_points * pixel_area
+    if lag_axes == 2:
+        independent = area / (np.pi * dr**2)
+    elif ncore == 2:  # one direction on a map: rows further apart than dr are independent
+        independent = area / (2 * dr * np.maximum(dr, pixel_area ** 0.5))
+    else:
+        independent = area / (2 * dr)
+    n_eff = np.minimum(pair_count, np.maximum(independent, 1.0))
+    return np.sqrt(2.0 / n_eff) * G
+
+
+def height_difference_acf(
+    topography: xr.DataArray,
+    *,
+    direction: str = "radial",
+    estimator: str = "fft",
+    bins: Any = "log",
+    points_per_decade: float = 10,
+    bin_width: Any = None,
+    dr_min: Any = None,
+    dr_max: Any = None,
+    pool: str | tuple[str, ...] | None = None,
+    n_pairs: int = 1_000_000,
+    seed: int | None = None,
+    workers: int | None = None,
+    progress: bool | None = None,
+) -> xr.DataArray:
+    r"""Height-difference autocorrelation function ``G(dr)`` of a topography (eq. 1).
+
+    .. math:: G(\Delta r) = \tfrac12 \langle [h(\mathbf r) - h(\mathbf r + \Delta\mathbf r)]^2
+              \rangle
+
+    averaged over all pairs of valid points whose lag length falls in a bin.
+
+    Parameters
+    ----------
+    topography : xarray.DataArray with dims (..., "y", "x") or (..., "x")
+        Heights with length units on data and coordinates (see :func:`xrough.topography`);
+        NaN marks missing points; ``attrs["periodic"]`` selects circular lags. Extra dims
+        (e.g. ``scan``) are kept, or pooled with ``pool``.
+    direction : {'radial', 'x', 'y'}
+        Average over all orientations of the lag (the full lag plane, all four quadrants),
+        or only lags along one axis.
+    estimator : {'fft', 'random'}
+        All pairs by FFT (exact), or the random-pair estimator of section 3.1.
+    bins : {'log', 'linear'} or array_like
+        Log-spaced bins centred on ``10**(k/points_per_decade)`` (in the lateral unit),
+        linear bins of ``bin_width`` (default: one pixel), or explicit edges.
+    points_per_decade : float
+        Bins per decade for ``bins='log'``.
+    bin_width : float, str or Quantity, optional
+        Width of linear bins.
+    dr_min, dr_max : float, str or Quantity, optional
+        Lag range to compute (numbers in metres). Defaults: one pixel, and half the period
+        (periodic) or the scan length (open). Only the lags needed are computed: an open
+        map is padded by ``dr_max``, not by its full size.
+    pool : str or tuple of str, optional
+        Extra dims whose pair sums are combined into one G (exact pooling of scans).
+    n_pairs : int
+        Random-pair budget, split evenly over the bins.
+    seed : int, optional
+        Seed of the random-pair estimator (each map along extra dims gets its own stream,
+        so numpy and dask give the same numbers).
+    workers : int, optional
+        FFT threads (default: all cores).
+    progress : bool, optional
+        Progress bar over maps (FFT) or bins (random); default: only in a terminal.
+
+    Returns
+    -------
+    xarray.DataArray
+        ``G`` on dim ``dr`` (the pair-weighted mean lag of each bin; bins without any
+        lattice lag are dropped), units of height squared, with coords ``pair_count``
+        (pairs averaged), ``standard_error`` (statistical error of G as an estimate of the
+        surface's G: finite-area model plus, for random pairs, the sampling error) and
+        ``sampling_error`` (Monte-Carlo error against the all-pairs value; 0 for ``fft``).
+        A bin whose pairs all touch missing points is NaN with ``pair_count`` 0.
+
+    Raises
+    ------
+    ValueError
+        Invalid topography (dims, units, spacing, fewer than 2 valid points), unknown
+        options, an empty lag range, chunked core dims.
+
+    See Also
+    --------
+    xrough.acf_from_spectrum : G of a model spectrum (eq. 9).
+
+    Notes
+    -----
+    With a validity mask ``m`` and heights zeroed where missing, the pair sums are
+    ``S(d) = corr(h^2, m) + corr(m, h^2) - 2 corr(h, h)`` and ``N(d) = corr(m, m)``, each
+    correlation a product of real FFTs; ``G = S / (2N)`` per bin. Without missing points a
+    periodic map needs one forward and one inverse FFT.
+
+    Examples
+    --------
+    >>> import numpy as np, xrough
+    >>> x = np.arange(256) * 1.0
+    >>> topo = xrough.topography(np.sin(2 * np.pi * x / 32), spacing=1.0, unit="um",
+    ...                          periodic=True)
+    >>> G = topo.rough.acf(bins="linear")
+    >>> float(G.sel(dr=16.0))  # half a period apart: h differs by 2 sin, G = 1
+    1.0
+    >>> G.attrs["units"], G.dr.attrs["units"]
+    ('um2', 'um')
+    """
+    if estimator not in ESTIMATORS:
+        raise ValueError(f"estimator must be one of {ESTIMATORS}, got {estimator!r}")
+    grid = grid_of(topography)
+    plan = _plan(grid, direction=direction, bins=bins, points_per_decade=points_per_decade,
+                 bin_width=bin_width, dr_min=dr_min, dr_max=dr_max)
+    da = topography
+    if da.chunks is not None:
+        for d in grid.dims:
+            if len(da.chunksizes[d]) > 1:
+                raise ValueError(
+                    f"dim {d!r} is split into several dask chunks; G needs each map whole: "
+                    f"use topography.chunk({{'y': -1, 'x': -1}}) (parallelism comes from "
+                    f"extra dims such as 'scan')"
+                )
+    pool_dims = (pool,) if isinstance(pool, str) else tuple(pool or ())
+    for d in pool_dims:
+        if d not in da.dims or d in grid.dims:
+            raise ValueError(f"pool: {d!r} is not an extra dim of the topography "
+                             f"(extra dims: {[x for x in da.dims if x not in grid.dims]})")
+    nb = int(plan.keep.sum())
+    workers = workers if workers is not None else (os.cpu_count() or 1)
+    common = dict(input_core_dims=[list(plan.core_dims)], dask="parallelized",
+                  dask_gufunc_kwargs={"output_sizes": {"dr": nb}}, keep_attrs=False)
+    if estimator == "fft":
+        sums, counts = xr.apply_ufunc(
+            _fft_kernel, da, output_core_dims=[["dr"], ["dr"]], output_dtypes=[float, float],
+            kwargs={"plan": plan, "workers": workers, "progress": progress}, **common)
+        gsum, gsq = 0.5 * sums, None
+    else:
+        if not (isinstance(n_pairs, (int, np.integer)) and n_pairs > 0):
+            raise ValueError(f"n_pairs must be a positive integer, got {n_pairs!r}")
+        extra = [d for d in da.dims if d not in grid.dims]
+        nmaps = int(np.prod([da.sizes[d] for d in extra])) if extra else 1
+        seeds = np.random.SeedSequence(seed).generate_state(nmaps, dtype=np.uint64)
+        seeds = xr.DataArray(seeds.reshape([da.sizes[d] for d in extra]), dims=extra)
+        common["input_core_dims"] = [list(plan.core_dims), []]
+        gsum, gsq, counts = xr.apply_ufunc(
+            _random_kernel, da, seeds, output_core_dims=[["dr"], ["dr"], ["dr"]],
+            output_dtypes=[float, float, float],
+            kwargs={"plan": plan, "n_per_bin": max(1, int(n_pairs) // nb),
+                    "progress": progress}, **common)
+    valid = da.notnull().sum(dim=list(grid.dims))
+    if pool_dims:
+        gsum, counts, valid = (x.sum(pool_dims) for x in (gsum, counts, valid))
+        gsq = gsq.sum(pool_dims) if gsq is not None else None
+    has = counts > 0
+    G = (gsum / counts.where(has)).where(has)
+    dr = plan.dr
+    drc = xr.DataArray(dr, dims="dr")
+    area_err = _standard_error_area(G, counts, drc, valid, grid.pixel_area, plan.lag_axes,
+                                    len(plan.shape))
+    if gsq is None:
+        sampling = xr.zeros_like(G).where(has)
+    else:
+        var = (gsq / counts.where(has) - G**2).clip(min=0.0)
+        sampling = np.sqrt(var / (counts - 1).where(counts > 1))
+    total = np.sqrt(area_err**2 + sampling.fillna(0.0) ** 2).where(has)
+    hunit = grid.height_unit
+    G = G.assign_coords(
+        dr=("dr", dr, {"units": grid.lateral_unit, "long_name": "lag distance"}),
+        pair_count=counts.astype(np.int64).assign_attrs(
+            long_name="number of point pairs averaged", units="1"),
+        standard_error=total.assign_attrs(
+            units=u.power_units(hunit, 2), long_name="standard error of G"),
+        sampling_error=sampling.assign_attrs(
+            units=u.power_units(hunit, 2),
+            long_name="Monte-Carlo error of G against the all-pairs average"),
+    )
+    G.name = "G"
+    attrs = {
+        "units": u.power_units(hunit, 2),
+        "long_name": "height-difference autocorrelation function",
+        "symbol": "G",
+        "equation": "eq. 1: G(dr) = 1/2 <(h(r) - h(r + dr))^2>",
+        "estimator": "fft (all pairs)" if estimator == "fft" else "random pairs",
+        "direction": direction if len(grid.dims) == 2 else "x",
+        "periodic": int(grid.periodic),
+        "bins": bins if isinstance(bins, str) else "explicit",
+        "pixel_size": float(min(grid.spacing)),
+        "scan_size": float(max(grid.size)),
+        "source": str(topography.attrs.get("source", topography.name or "")),
+        "xrough_version": __version__,
+    }
+    if isinstance(bins, str) and bins == "log":
+        attrs["points_per_decade"] = float(points_per_decade)
+    if estimator == "random":
+        attrs["n_pairs"] = int(n_pairs)
+        attrs["seed"] = -1 if seed is None else int(seed)
+    if pool_dims:
+        attrs["pooled_over"] = " ".join(pool_dims)
+    G.attrs = attrs
+    return G

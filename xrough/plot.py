@@ -1,0 +1,119 @@
+"""Matplotlib plots of every xrough result, labelled with names and units.
+
+:func:`plot` dispatches on what the DataArray is: a topography map (image), a profile
+(line), or a function of lag ``dr`` or wavenumber ``q`` (log-log, with the standard error
+as a band when present). Every function returns the :class:`matplotlib.axes.Axes`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+
+__all__ = ["plot", "plot_topography", "plot_loglog"]
+
+
+def _label(da: xr.DataArray, default: str) -> str:
+    name = da.attrs.get("long_name", da.name or default)
+    units = da.attrs.get("units")
+    return f"{name} ({units})" if units else str(name)
+
+
+def _axes(ax):
+    if ax is None:
+        import matplotlib.pyplot as plt
+
+        _, ax = plt.subplots()
+    return ax
+
+
+def plot_topography(topography: xr.DataArray, *, ax=None, cmap: str = "viridis"):
+    """Image of a height map or line of a profile, axes in physical units.
+
+    Examples
+    --------
+    >>> import numpy as np, xrough
+    >>> topo = xrough.topography(np.zeros((4, 5)), spacing=1.0, unit="nm")
+    >>> ax = xrough.plot.plot_topography(topo)
+    >>> ax.get_xlabel()
+    'x position (nm)'
+    """
+    ax = _axes(ax)
+    if topography.ndim == 1:
+        ax.plot(topography["x"].values, topography.values)
+        ax.set_xlabel(_label(topography["x"], "x"))
+        ax.set_ylabel(_label(topography, "height"))
+        return ax
+    if topography.ndim != 2:
+        raise ValueError(f"plot one map or profile at a time; got dims {topography.dims} "
+                         "(select one, e.g. topo.isel(scan=0))")
+    t = topography.transpose("y", "x")
+    x, y = t["x"].values, t["y"].values
+    img = ax.imshow(t.values, origin="lower", cmap=cmap, aspect="equal",
+                    extent=(x[0], x[-1], y[0], y[-1]))
+    ax.figure.colorbar(img, ax=ax, label=_label(t, "height"))
+    ax.set_xlabel(_label(t["x"], "x"))
+    ax.set_ylabel(_label(t["y"], "y"))
+    return ax
+
+
+def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
+    """Log-log plot of a function of ``dr`` or ``q``, with the standard error as a band.
+
+    Extra dims (e.g. ``scan``) give one line each.
+
+    Examples
+    --------
+    >>> import numpy as np, xrough
+    >>> topo = xrough.topography(np.random.default_rng(0).normal(size=(32, 32)),
+    ...                          spacing=1.0, unit="nm")
+    >>> ax = topo.rough.acf().rough.plot()
+    >>> ax.get_xscale(), ax.get_yscale()
+    ('log', 'log')
+    """
+    ax = _axes(ax)
+    dim = "dr" if "dr" in da.dims else "q"
+    extra = [d for d in da.dims if d != dim]
+    stacked = da.stack(_line=extra) if extra else da.expand_dims("_line")
+    for k in range(stacked.sizes["_line"]):
+        line = stacked.isel(_line=k)
+        x = line[dim].values
+        y = line.values
+        label = kwargs.pop("label", None) if k == 0 else None
+        if extra and label is None:
+            label = ", ".join(f"{d}={line[d].item()}" for d in extra if d in line.coords)
+        (ln,) = ax.plot(x, y, label=label, **kwargs)
+        if error and "standard_error" in line.coords:
+            se = line["standard_error"].values
+            lo = np.where(y - se > 0, y - se, np.nan)
+            ax.fill_between(x, lo, y + se, color=ln.get_color(), alpha=0.25, linewidth=0)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(_label(da[dim], dim))
+    ax.set_ylabel(_label(da, da.name or ""))
+    if extra or kwargs.get("label"):
+        ax.legend()
+    return ax
+
+
+def plot(da: xr.DataArray, *, ax=None, **kwargs):
+    """Plot any xrough DataArray (topography, G(dr), C(q), ...).
+
+    Parameters
+    ----------
+    da : xarray.DataArray
+        A topography (dims ``y, x`` or ``x``) or a result on ``dr`` / ``q``.
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw into (default: a new figure).
+    **kwargs
+        Passed to the specific plot function.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    if "dr" in da.dims or "q" in da.dims:
+        return plot_loglog(da, ax=ax, **kwargs)
+    if "x" in da.dims:
+        return plot_topography(da, ax=ax, **kwargs)
+    raise ValueError(f"do not know how to plot a DataArray with dims {da.dims}")

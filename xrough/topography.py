@@ -1,0 +1,318 @@
+"""Topographies: construct and validate height maps and line profiles with units.
+
+A topography is an :class:`xarray.DataArray` of heights on uniform lateral coordinates:
+dims ``("y", "x")`` for a map or ``("x",)`` for a profile, optionally with extra leading
+dims (``scan``, ``sample``...) for stacks. Heights and coordinates carry a CF ``units``
+attribute of dimension length; missing points are NaN; ``attrs["periodic"]`` (1 or 0) says
+whether the map is one period of a periodically repeated surface.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pint
+import xarray as xr
+
+from . import units as u
+
+__all__ = ["topography", "Grid", "grid_of", "SPACING_RTOL"]
+
+#: Largest relative deviation of coordinate steps from their mean accepted as "uniform".
+SPACING_RTOL = 1e-6
+_CORE_DIMS = (("y", "x"), ("x",))
+
+
+@dataclass(frozen=True)
+class Grid:
+    """Geometry of a validated topography (the core dims only).
+
+    Attributes
+    ----------
+    dims : tuple of str
+        ``("y", "x")`` or ``("x",)``.
+    shape : tuple of int
+        Number of points along ``dims``.
+    spacing : tuple of float
+        Grid spacing along ``dims``, in ``lateral_unit``.
+    lateral_unit, height_unit : str
+        CF unit strings.
+    periodic : bool
+    """
+
+    dims: tuple[str, ...]
+    shape: tuple[int, ...]
+    spacing: tuple[float, ...]
+    lateral_unit: str
+    height_unit: str
+    periodic: bool
+
+    @property
+    def size(self) -> tuple[float, ...]:
+        """Physical size ``n * spacing`` along each dim (lateral unit)."""
+        return tuple(n * d for n, d in zip(self.shape, self.spacing))
+
+    @property
+    def pixel_area(self) -> float:
+        """Area (2D) or length (1D) of one grid cell, in lateral units."""
+        return float(np.prod(self.spacing))
+
+
+def _uniform_spacing(values: np.ndarray, name: str) -> float:
+    values = np.asarray(values)
+    if values.ndim != 1:
+        raise ValueError(f"coordinate {name!r} must be one-dimensional")
+    if values.size < 2:
+        raise ValueError(f"coordinate {name!r} needs at least 2 points to define a spacing")
+    if values.dtype.kind not in "iuf":
+        raise ValueError(f"coordinate {name!r} must be numeric, got dtype {values.dtype}")
+    steps = np.diff(values.astype(float))
+    step = (values[-1] - values[0]) / (values.size - 1)
+    if not np.isfinite(step) or step == 0:
+        raise ValueError(f"coordinate {name!r} has zero or non-finite spacing")
+    tol = SPACING_RTOL if values.dtype.itemsize >= 8 else 1e-4
+    dev = np.max(np.abs(steps - step)) / abs(step)
+    if dev > tol:
+        worst = int(np.argmax(np.abs(steps - step)))
+        raise ValueError(
+            f"coordinate {name!r} is not uniformly spaced: step {worst} is {steps[worst]:g} "
+            f"while the mean step is {step:g} (relative deviation {dev:.2g} > {tol:g}). "
+            "Resample the data onto a uniform grid first."
+        )
+    return float(abs(step))
+
+
+def _core_dims(da: xr.DataArray) -> tuple[str, ...]:
+    if "y" in da.dims and "x" in da.dims:
+        return ("y", "x")
+    if "x" in da.dims and "y" not in da.dims:
+        return ("x",)
+    raise ValueError(
+        f"a topography needs dims ('y', 'x') for a map or ('x',) for a profile; got "
+        f"{da.dims}. Rename dims, e.g. da.rename({{'row': 'y', 'col': 'x'}})."
+    )
+
+
+def grid_of(da: xr.DataArray, *, what: str = "topography") -> Grid:
+    """Validate a topography and return its :class:`Grid`.
+
+    Checks dims, units on heights and on every core coordinate (lengths), uniform spacing,
+    and that heights are finite or NaN (never inf).
+
+    Raises
+    ------
+    ValueError
+        Naming the dim, coordinate or attribute at fault.
+    """
+    if not isinstance(da, xr.DataArray):
+        raise TypeError(f"{what} must be an xarray.DataArray, got {type(da).__name__}")
+    dims = _core_dims(da)
+    if da.dtype.kind not in "iuf":
+        raise ValueError(f"{what} heights must be real numbers, got dtype {da.dtype}")
+    hunit = u.as_length_unit(u.units_of(da, what=f"{what} heights"), what=f"{what} heights")
+    spacing = []
+    lunit = None
+    for dim in dims:
+        if dim not in da.coords:
+            raise ValueError(
+                f"{what} has no coordinate {dim!r}; build it with xrough.topography(..., "
+                f"spacing=...) or assign one with units"
+            )
+        coord = da.coords[dim]
+        cunit = u.as_length_unit(u.units_of(coord, what=f"coordinate {dim!r}"),
+                                 what=f"coordinate {dim!r}")
+        step = _uniform_spacing(coord.values, dim)
+        if lunit is None:
+            lunit = cunit
+        else:
+            step *= u.conversion_factor(cunit, lunit)
+        spacing.append(step)
+    for dim in dims:
+        if da.sizes[dim] < 2:
+            raise ValueError(f"{what} needs at least 2 points along {dim!r}")
+    periodic = bool(int(da.attrs.get("periodic", 0)))
+    return Grid(dims=dims, shape=tuple(da.sizes[d] for d in dims), spacing=tuple(spacing),
+                lateral_unit=u.format_units(lunit), height_unit=u.format_units(hunit),
+                periodic=periodic)
+
+
+def check_valid_points(values: np.ndarray, *, what: str = "topography", ndim: int = 2) -> None:
+    """Raise if any map in ``values`` (core dims last) has inf or fewer than 2 valid points."""
+    values = np.asarray(values)
+    if np.isinf(values).any():
+        raise ValueError(f"{what} contains infinite heights; mark missing points as NaN")
+    valid = np.isfinite(values).reshape(values.shape[: values.ndim - ndim] + (-1,)).sum(-1)
+    if np.any(valid < 2):
+        raise ValueError(
+            f"{what} has fewer than 2 valid (non-NaN) points"
+            + (" in at least one map of the stack" if np.ndim(valid) else "")
+        )
+
+
+def _length_param(value: Any, what: str) -> tuple[float, pint.Unit | None]:
+    """Magnitude and unit of a length parameter (number -> metres, no explicit unit)."""
+    if isinstance(value, (int, float, np.integer, np.floating)):
+        return float(value), None
+    q = u.quantity(value, default_units="m", what=what)
+    if not q.check("[length]"):
+        raise ValueError(f"{what}: {value!r} is not a length")
+    return float(q.magnitude), q.units
+
+
+def _pair(value: Any, n: int, what: str) -> list[Any]:
+    if isinstance(value, (tuple, list)):
+        if len(value) != n:
+            raise ValueError(f"{what} must have {n} entries (one per dim), got {len(value)}")
+        return list(value)
+    return [value] * n
+
+
+def topography(
+    heights: Any,
+    *,
+    spacing: Any = None,
+    size: Any = None,
+    unit: str | None = None,
+    height_unit: str | None = None,
+    periodic: bool | None = None,
+    name: str | None = None,
+    attrs: dict | None = None,
+) -> xr.DataArray:
+    """Build a validated topography (height map or profile) with physical units.
+
+    Parameters
+    ----------
+    heights : array_like, pint.Quantity or xarray.DataArray
+        2D ``(y, x)`` map or 1D ``(x,)`` profile; NaN marks missing points. A DataArray
+        may have extra leading dims (a stack of scans) and keeps its coords and attrs.
+    spacing : float, str, Quantity or pair of them, optional
+        Grid spacing ``(dy, dx)`` or one value for both. Numbers are metres unless
+        ``unit`` is given.
+    size : float, str, Quantity or pair of them, optional
+        Physical size ``n * spacing`` per dim (alternative to ``spacing``).
+    unit : str, optional
+        Length unit of the lateral coordinates and, unless ``height_unit`` is given, of
+        the heights (``"nm"``, ``"um"``, ``"m"``). Required for plain arrays: heights in
+        unknown units are refused rather than guessed.
+    height_unit : str, optional
+        Unit of the heights when it differs from the lateral unit.
+    periodic : bool, optional
+        Whether the map is one period of a periodic surface (default: keep the
+        DataArray's ``attrs["periodic"]``, else False).
+    name : str, optional
+        Name of the DataArray (default ``"height"``).
+    attrs : dict, optional
+        Extra attributes (instrument, date, ...).
+
+    Returns
+    -------
+    xarray.DataArray
+        Heights with ``units`` on data and on ``x`` (and ``y``), coordinates starting at
+        zero, ``attrs["periodic"]`` = 1 or 0.
+
+    Raises
+    ------
+    ValueError
+        Wrong dims, non-uniform or unit-less coordinates, non-length units, infinite
+        values, fewer than 2 valid points, inconsistent spacing/size.
+
+    Examples
+    --------
+    >>> import numpy as np, xrough
+    >>> h = np.random.default_rng(0).normal(size=(4, 6))
+    >>> topo = xrough.topography(h, spacing="2 nm", unit="nm")
+    >>> topo.dims, topo.attrs["units"], topo.x.attrs["units"], float(topo.x[1])
+    (('y', 'x'), 'nm', 'nm', 2.0)
+    """
+    if isinstance(heights, xr.DataArray):
+        da = heights.copy()
+        if da.dtype.kind in "iu":
+            da = da.astype(float)
+        if unit is not None or height_unit is not None:
+            hu = height_unit or unit
+            if "units" in da.attrs and u.parse_units(da.attrs["units"]) != u.parse_units(hu):
+                raise ValueError(f"heights already have units {da.attrs['units']!r}; "
+                                 f"convert explicitly instead of relabelling as {hu!r}")
+            da.attrs["units"] = u.format_units(hu)
+        dims = _core_dims(da)
+        if spacing is not None or size is not None:
+            da = _assign_coords(da, dims, spacing, size, unit)
+        elif unit is not None:
+            for d in dims:
+                if d in da.coords and "units" not in da.coords[d].attrs:
+                    da.coords[d].attrs["units"] = u.format_units(unit)
+    else:
+        hu = height_unit or unit
+        if isinstance(heights, pint.Quantity):
+            if hu is None:
+                hu = u.format_units(heights.units)
+                unit = unit or hu
+            values = np.asarray(heights.to(u.parse_units(hu)).magnitude, dtype=float)
+        else:
+            values = np.asarray(heights)
+            if values.dtype.kind not in "iuf":
+                raise ValueError(f"heights must be real numbers, got dtype {values.dtype}")
+            values = values.astype(float, copy=False)
+        if hu is None:
+            raise ValueError(
+                "heights given as plain numbers need a unit: pass unit='nm' (or "
+                "height_unit=...) so that no unit is guessed"
+            )
+        if values.ndim == 2:
+            dims = ("y", "x")
+        elif values.ndim == 1:
+            dims = ("x",)
+        else:
+            raise ValueError(
+                f"heights must be 2D (y, x) or 1D (x,), got {values.ndim} dims; stack "
+                "several maps as a DataArray with an extra dim such as 'scan'"
+            )
+        if spacing is None and size is None:
+            raise ValueError("give the grid spacing or the physical size (spacing= or size=)")
+        da = xr.DataArray(values, dims=dims, attrs={"units": u.format_units(hu)})
+        da = _assign_coords(da, dims, spacing, size, unit)
+    if name is not None or da.name is None:
+        da.name = name or "height"
+    if periodic is not None:
+        da.attrs["periodic"] = int(bool(periodic))
+    else:
+        da.attrs["periodic"] = int(bool(int(da.attrs.get("periodic", 0))))
+    da.attrs.setdefault("long_name", "height")
+    if attrs:
+        da.attrs.update(attrs)
+    grid_of(da)
+    if not _is_dask(da):
+        check_valid_points(da.transpose(..., *dims).values, ndim=len(dims))
+    return da
+
+
+def _is_dask(da: xr.DataArray) -> bool:
+    return da.chunks is not None
+
+
+def _assign_coords(da, dims, spacing, size, unit):
+    if spacing is not None and size is not None:
+        raise ValueError("give either spacing or size, not both")
+    n = len(dims)
+    vals = _pair(spacing if spacing is not None else size, n, "spacing" if spacing is not None
+                 else "size")
+    what = "spacing" if spacing is not None else "size"
+    parsed = [_length_param(v, what) for v in vals]
+    lunit = u.parse_units(unit) if unit is not None else None
+    if lunit is None:
+        explicit = [p[1] for p in parsed if p[1] is not None]
+        lunit = explicit[0] if explicit else u.parse_units("m")
+    lunit = u.as_length_unit(lunit, what="lateral unit")
+    for dim, (mag, pu) in zip(dims, parsed):
+        step = mag * (u.conversion_factor(pu, lunit) if pu is not None else
+                      u.conversion_factor("m", lunit) if unit is None else 1.0)
+        if what == "size":
+            step /= da.sizes[dim]
+        if not (np.isfinite(step) and step > 0):
+            raise ValueError(f"{what} along {dim!r} must be positive, got {mag!r}")
+        da = da.assign_coords({dim: (dim, np.arange(da.sizes[dim]) * step,
+                                     {"units": u.format_units(lunit),
+                                      "long_name": f"{dim} position"})})
+    return da

@@ -1,0 +1,243 @@
+"""Units: parse, check and format physical units with pint.
+
+xrough keeps units as CF/UDUNITS strings in the ``units`` attribute of every data variable
+and dimension coordinate (``"m"``, ``"nm"``, ``"m2"``, ``"J m-2"``). pint does all parsing
+and conversion; this module only translates between CF strings and pint, and checks
+dimensionality with messages that name the offending quantity.
+
+Physical parameters accept a plain number (taken as SI), a string (``"25 MPa"``) or a pint
+Quantity.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+import numpy as np
+import pint
+
+__all__ = [
+    "ureg",
+    "parse_units",
+    "format_units",
+    "units_of",
+    "quantity",
+    "to_si",
+    "as_length_unit",
+    "conversion_factor",
+    "multiply_units",
+    "power_units",
+]
+
+#: The registry xrough uses everywhere.  Quantities from another registry are converted
+#: through their string representation.
+ureg = pint.UnitRegistry()
+ureg.formatter.default_format = "~"
+
+# CF/UDUNITS writes "m2", "m-2", "J m-2"; pint wants "m**2", "m**-2", "J*m**-2".
+_CF_TOKEN = re.compile(r"^([A-Za-zµμ_%]+)(\^|\*\*)?(-?\d+)?$")
+
+
+def _cf_to_pint(text: str) -> str:
+    text = text.strip()
+    if not text:
+        return ""
+    tokens = text.replace("·", " ").split()
+    out = []
+    for tok in tokens:
+        match = _CF_TOKEN.match(tok)
+        if match and match.group(3) is not None and match.group(2) is None:
+            out.append(f"{match.group(1)}**{match.group(3)}")
+        else:
+            out.append(tok)
+    return "*".join(out) if len(out) > 1 else out[0]
+
+
+def parse_units(units: str | pint.Unit, *, what: str = "units") -> pint.Unit:
+    """Parse a CF/UDUNITS or pint unit string into a pint Unit.
+
+    Parameters
+    ----------
+    units : str or pint.Unit
+        For example ``"nm"``, ``"um"``, ``"m2"``, ``"J m-2"``, ``"mJ/m^2"``.
+    what : str
+        Name of the quantity, used in error messages.
+
+    Raises
+    ------
+    ValueError
+        If pint does not understand the string.
+
+    Examples
+    --------
+    >>> str(parse_units("J m-2"))
+    'joule / meter ** 2'
+    """
+    if isinstance(units, pint.Unit):
+        return ureg.Unit(str(units))
+    if not isinstance(units, str):
+        raise TypeError(f"{what}: expected a unit string, got {type(units).__name__}")
+    try:
+        return ureg.Unit(_cf_to_pint(units))
+    except (pint.errors.UndefinedUnitError, pint.errors.DefinitionSyntaxError, ValueError,
+            AttributeError, TypeError) as err:
+        try:  # allow scale prefixes written like "1e-6 m" via a full parse
+            q = ureg.Quantity(_cf_to_pint(units))
+            if q.magnitude == 1:
+                return q.units
+        except Exception:  # noqa: BLE001 - fall through to the clear message below
+            pass
+        raise ValueError(f"{what}: cannot understand the unit {units!r} ({err})") from None
+
+
+def format_units(unit: pint.Unit | str) -> str:
+    """Format a unit as a CF/UDUNITS string: ``"m2"``, ``"J m-2"``, ``"Pa"``.
+
+    Examples
+    --------
+    >>> format_units(parse_units("mJ/m^2"))
+    'mJ m-2'
+    >>> format_units(parse_units("nm") ** 2)
+    'nm2'
+    """
+    if isinstance(unit, str):
+        unit = parse_units(unit)
+    parts = []
+    for name, exp in unit._units.items():  # noqa: SLF001 - pint's documented container
+        sym = ureg.get_symbol(name).replace("µ", "u")  # UDUNITS spells micro "u"
+        if exp == 1:
+            parts.append(sym)
+        else:
+            e = int(exp) if float(exp).is_integer() else exp
+            parts.append(f"{sym}{e}")
+    # positive exponents first, as CF does ("J m-2", not "m-2 J")
+    parts.sort(key=lambda p: bool(re.search(r"-\d", p)))
+    return " ".join(parts) if parts else "1"
+
+
+def units_of(obj: Any, *, what: str | None = None) -> pint.Unit:
+    """The pint Unit of an xarray object's ``units`` attribute.
+
+    Raises
+    ------
+    ValueError
+        If the object has no ``units`` attribute.
+    """
+    name = what or getattr(obj, "name", None) or "data"
+    units = getattr(obj, "attrs", {}).get("units")
+    if units is None:
+        raise ValueError(
+            f"{name!s} has no 'units' attribute; set it, e.g. da.attrs['units'] = 'nm' "
+            "(xrough needs physical units on data and coordinates)"
+        )
+    return parse_units(units, what=str(name))
+
+
+def quantity(value: Any, *, default_units: str | pint.Unit = "", what: str = "value"):
+    """Turn a number, string or pint Quantity into a pint Quantity of this registry.
+
+    Plain numbers get ``default_units`` (SI for physical parameters).
+    """
+    if isinstance(value, pint.Quantity):
+        if value._REGISTRY is not ureg:  # noqa: SLF001
+            return ureg.Quantity(value.magnitude, str(value.units))
+        return value
+    if isinstance(value, str):
+        try:
+            q = ureg.Quantity(_cf_to_pint(value)) if " " not in value.strip() else ureg.Quantity(
+                value
+            )
+        except Exception as err:  # noqa: BLE001
+            raise ValueError(f"{what}: cannot parse {value!r} as a quantity ({err})") from None
+        if not isinstance(q, pint.Quantity):
+            q = ureg.Quantity(q)
+        return q
+    if isinstance(value, (int, float, np.integer, np.floating)) or (
+        isinstance(value, np.ndarray) and value.dtype.kind in "iuf"
+    ):
+        return ureg.Quantity(value, default_units)
+    raise TypeError(f"{what}: expected a number, a string like '25 MPa' or a pint Quantity, "
+                    f"got {type(value).__name__}")
+
+
+def to_si(value: Any, dimension: str, *, what: str) -> float:
+    """Convert a parameter to an SI magnitude after checking its dimensionality.
+
+    Parameters
+    ----------
+    value : float, str or pint.Quantity
+        Plain numbers are taken as SI.
+    dimension : str
+        A pint dimensionality such as ``"[length]"`` or ``"[pressure]"``.
+    what : str
+        Parameter name for error messages.
+
+    Examples
+    --------
+    >>> to_si("25 MPa", "[pressure]", what="E_star")
+    25000000.0
+    >>> to_si(2.0, "[length]", what="dx")
+    2.0
+    """
+    si_unit = _SI_UNITS.get(dimension)
+    if si_unit is None:
+        raise KeyError(f"no SI unit known for dimension {dimension!r}")
+    q = quantity(value, default_units=si_unit, what=what)
+    if not q.check(dimension):
+        raise ValueError(f"{what}: {value!r} is not a {dimension.strip('[]')} "
+                         f"(it has dimensions {q.dimensionality})")
+    mag = q.to(si_unit).magnitude
+    return float(mag) if np.ndim(mag) == 0 else np.asarray(mag, dtype=float)
+
+
+_SI_UNITS = {
+    "[length]": "m",
+    "[pressure]": "Pa",
+    "[mass] / [time] ** 2": "J/m**2",  # energy per area (surface energy)
+    "[]": "",
+}
+
+
+def as_length_unit(units: str | pint.Unit, *, what: str) -> pint.Unit:
+    """Parse ``units`` and check that it is a length.
+
+    Raises
+    ------
+    ValueError
+        Naming ``what`` when the unit is not a length.
+    """
+    unit = parse_units(units, what=what) if not isinstance(units, pint.Unit) else units
+    if unit.dimensionality != ureg.meter.dimensionality:
+        raise ValueError(f"{what} must be a length, but its units are {format_units(unit)!r} "
+                         f"(dimensions {unit.dimensionality})")
+    return unit
+
+
+def conversion_factor(from_units: str | pint.Unit, to_units: str | pint.Unit) -> float:
+    """Multiplicative factor from one unit to another (``1 from = f to``).
+
+    Examples
+    --------
+    >>> conversion_factor("um", "nm")
+    1000.0
+    """
+    f = parse_units(from_units) if isinstance(from_units, str) else from_units
+    t = parse_units(to_units) if isinstance(to_units, str) else to_units
+    # pint multiplies prefixes in floating point (um -> nm gives 999.9999999999999);
+    # unit factors are exact decimals, so round away the last-digit noise.
+    return float(f"{ureg.Quantity(1, f).to(t).magnitude:.14g}")
+
+
+def multiply_units(*units: str | pint.Unit) -> str:
+    """CF string of a product of units. ``multiply_units("nm", "nm") == "nm2"``."""
+    out = ureg.dimensionless
+    for u in units:
+        out = out * (parse_units(u) if isinstance(u, str) else u)
+    return format_units(out)
+
+
+def power_units(units: str | pint.Unit, exponent: float) -> str:
+    """CF string of a unit raised to a power. ``power_units("nm", 2) == "nm2"``."""
+    u = parse_units(units) if isinstance(units, str) else units
+    return format_units(u**exponent)
