@@ -18,7 +18,17 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree
 
 from . import plot, units  # noqa: E402
 from .correlation import height_difference_acf  # noqa: E402
+from .models import self_affine_model  # noqa: E402
+from .synthetic import self_affine_surface  # noqa: E402
 from .topography import topography  # noqa: E402
 from . import accessor  # noqa: E402,F401  (registers .rough)
 
-__all__ = ["__version__", "height_difference_acf", "plot", "topography", "units"]
+__all__ = [
+    "__version__",
+    "height_difference_acf",
+    "plot",
+    "self_affine_model",
+    "self_affine_surface",
+    "topography",
+    "units",
+]

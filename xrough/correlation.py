@@ -29,6 +29,7 @@ from . import units as u
 from ._kernels import binning
 from ._kernels.pairs import folded_geometric_counts, folded_pair_sums
 from ._kernels.random_pairs import random_pair_sums
+from ._kernels.uncertainty import g_variance
 from .topography import Grid, check_valid_points, grid_of
 
 __all__ = ["height_difference_acf"]
@@ -148,7 +149,6 @@ def _fft_kernel(h: np.ndarray, *, plan: _Plan, workers: int, progress) -> tuple:
     """(..., *core) heights -> (sum of squared differences, pair counts) per kept bin."""
     ncore = len(plan.shape)
     batch = h.shape[: h.ndim - ncore]
-    check_valid_points(h, ndim=ncore)
     flat = h.reshape((-1,) + plan.shape)
     idx, _, _ = _geometry(plan.shape[-plan.lag_axes:], plan.spacing, plan.periodic, plan.ks,
                           tuple(plan.edges.tolist()))
@@ -160,11 +160,13 @@ def _fft_kernel(h: np.ndarray, *, plan: _Plan, workers: int, progress) -> tuple:
         for b in range(flat.shape[0]):
             s, n = folded_pair_sums(flat[b], plan.ks, periodic=plan.periodic, workers=workers)
             if plan.lag_axes < ncore:  # pool the rows of a one-direction G
-                s, n = s.sum(axis=0), n.sum(axis=0)
-            # the folded sums run over ordered pairs (r, r+d) and (r, r-d): halve both to
+                s = s.sum(axis=0)
+                n = None if n is None else n.sum(axis=0)
+            # the folded sums run over ordered pairs (r, r+d) and (r, r-d): halve them to
             # count each unordered pair once
             sums[b] = 0.5 * binning.binned_sum(s, idx, nb)[plan.keep]
-            counts[b] = 0.5 * binning.binned_sum(n, idx, nb)[plan.keep]
+            counts[b] = (plan.geometric_counts if n is None else
+                         0.5 * binning.binned_sum(n, idx, nb)[plan.keep])
             if bar is not None:
                 bar.update(1)
     finally:
@@ -199,23 +201,15 @@ def _random_kernel(h: np.ndarray, seeds: np.ndarray, *, plan: _Plan, n_per_bin: 
     return out[..., 0, :], out[..., 1, :], out[..., 2, :]
 
 
-def _standard_error_area(G, pair_count, dr, valid_points, pixel_area, lag_axes, ncore):
-    """Statistical error of G as an estimate of the surface's G (finite-area model).
-
-    Gaussian heights give ``var[(dh)^2/2] = 2 G^2``; squared differences at lag ``dr`` are
-    correlated over about ``dr``, so a map of valid area ``A`` holds about
-    ``A / (pi dr^2)`` independent ones (``L / (2 dr)`` along a profile), never more than
-    the pairs themselves.
-    """
-    area = valid_points * pixel_area
-    if lag_axes == 2:
-        independent = area / (np.pi * dr**2)
-    elif ncore == 2:  # one direction on a map: rows further apart than dr are independent
-        independent = area / (2 * dr * np.maximum(dr, pixel_area ** 0.5))
-    else:
-        independent = area / (2 * dr)
-    n_eff = np.minimum(pair_count, np.maximum(independent, 1.0))
-    return np.sqrt(2.0 / n_eff) * G
+def _area_variance(g, pairs, valid, *, dr, pixel_area, geometry):
+    """Kernel wrapper: finite-area variance of G per bin (see :mod:`.uncertainty`)."""
+    g, pairs, valid = np.broadcast_arrays(g, pairs, valid[..., None])
+    out = np.empty(g.shape)
+    for k in np.ndindex(g.shape[:-1]):
+        area = float(valid[k][0]) * pixel_area
+        out[k] = g_variance(dr, g[k], pairs[k], area=area, pixel_area=pixel_area,
+                            geometry=geometry)
+    return out
 
 
 def height_difference_acf(
@@ -362,15 +356,19 @@ def height_difference_acf(
     has = counts > 0
     G = (gsum / counts.where(has)).where(has)
     dr = plan.dr
-    drc = xr.DataArray(dr, dims="dr")
-    area_err = _standard_error_area(G, counts, drc, valid, grid.pixel_area, plan.lag_axes,
-                                    len(plan.shape))
+    geometry = ("profile" if len(plan.shape) == 1 else
+                "radial" if plan.lag_axes == 2 else "axis")
+    area_var = xr.apply_ufunc(
+        _area_variance, G, counts, valid, input_core_dims=[["dr"], ["dr"], []],
+        output_core_dims=[["dr"]], dask="parallelized", output_dtypes=[float],
+        kwargs={"dr": plan.dr, "pixel_area": grid.pixel_area,
+                "geometry": geometry}, keep_attrs=False)
     if gsq is None:
         sampling = xr.zeros_like(G).where(has)
     else:
         var = (gsq / counts.where(has) - G**2).clip(min=0.0)
         sampling = np.sqrt(var / (counts - 1).where(counts > 1))
-    total = np.sqrt(area_err**2 + sampling.fillna(0.0) ** 2).where(has)
+    total = np.sqrt(area_var + sampling.fillna(0.0) ** 2).where(has)
     hunit = grid.height_unit
     G = G.assign_coords(
         dr=("dr", dr, {"units": grid.lateral_unit, "long_name": "lag distance"}),

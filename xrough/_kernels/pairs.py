@@ -12,8 +12,10 @@ the height is NaN) and ``h`` set to 0 there,
 
 and every correlation is one product of real FFTs. Non-periodic maps are zero padded by the
 largest lag needed (not by the full size unless asked), so circular wrap-around never mixes
-in. Without missing points cheaper exact forms are used: periodic maps need one forward and
-one inverse transform; non-periodic ones get the ``h**2`` terms from a summed-area table.
+in. Only the folded sums are needed, so each inverse transform runs as a type-I DCT of the
+quarter spectrum (see :func:`_inverse_folded`). Without missing points cheaper exact forms
+are used: periodic maps need one forward transform and one quarter-size DCT; non-periodic
+ones get the ``h**2`` terms from a summed-area table.
 """
 
 from __future__ import annotations
@@ -27,12 +29,67 @@ __all__ = ["folded_pair_sums", "folded_geometric_counts", "padded_shape"]
 
 
 def padded_shape(shape: tuple[int, ...], ks: tuple[int, ...], periodic: bool) -> tuple[int, ...]:
-    """FFT shape: the map itself (periodic) or padded by the largest lag, to a fast length."""
+    """FFT shape: the map itself (periodic) or padded by the largest lag to an even fast length.
+
+    Even lengths let the inverse transform run as a type-I DCT on the quarter plane.
+    """
     if periodic:
         return tuple(shape)
-    nd = len(shape)
-    return tuple(sfft.next_fast_len(n + k, real=(ax == nd - 1))
-                 for ax, (n, k) in enumerate(zip(shape, ks)))
+    out = []
+    for ax, (n, k) in enumerate(zip(shape, ks)):
+        target = n + k
+        while True:
+            m = sfft.next_fast_len(target, real=(ax == len(shape) - 1))
+            if m % 2 == 0:
+                break
+            target = m + 1
+        out.append(m)
+    return tuple(out)
+
+
+def _rfftn(x: np.ndarray, fshape: tuple[int, ...], axes: tuple[int, ...],
+           workers: int) -> np.ndarray:
+    """Real FFT over ``axes`` zero padded to ``fshape``, padding one axis at a time.
+
+    Transforming the last axis first on the unpadded rows skips the rows of zeros.
+    """
+    out = sfft.rfft(x, n=fshape[-1], axis=axes[-1], workers=workers)
+    for ax, m in zip(axes[:-1][::-1], fshape[:-1][::-1]):
+        out = sfft.fft(out, n=m, axis=ax, workers=workers, overwrite_x=True)
+    return out
+
+
+def _inverse_folded(spec: np.ndarray, fshape: tuple[int, ...], ks: tuple[int, ...],
+                    workers: int) -> np.ndarray:
+    """Folded inverse transform of a real, point-symmetric half spectrum.
+
+    ``spec`` is the rfft half spectrum (last axis halved) of a real correlation plane
+    ``c``; returns ``sum over distinct signed lags (+-i, +-j) of c`` for lags ``0..k``.
+    With even lengths the spectrum is averaged over ``k`` and ``-k`` along the full axes,
+    which makes it even in every axis, and the inverse DFT of an even sequence is a type-I
+    DCT of its quarter: a quarter of the work of ``irfftn`` and no full-size output.
+    """
+    nd = len(ks)
+    spec = np.asarray(spec.real if np.iscomplexobj(spec) else spec)
+    if any(m % 2 for m in fshape):
+        plane = sfft.irfftn(spec, s=fshape, axes=tuple(range(-nd, 0)), workers=workers)
+        return fold(plane, ks)
+    quarter = spec
+    for off, m in enumerate(fshape[:-1]):
+        axis = spec.ndim - nd + off
+        half = m // 2
+        q = _take(quarter, axis, slice(0, half + 1)).copy()
+        inner = _take(q, axis, slice(1, half))
+        inner += _take(quarter, axis, slice(m - 1, half, -1))
+        inner *= 0.5
+        quarter = q
+    c = sfft.dctn(quarter, type=1, axes=tuple(range(-nd, 0)), workers=workers,
+                  overwrite_x=True)
+    c = c[(...,) + tuple(slice(0, k + 1) for k in ks)]
+    weight = np.ones(())
+    for m, k in zip(fshape, ks):
+        weight = np.multiply.outer(weight, lag_multiplicity(m, k, True))
+    return c * (weight / np.prod(fshape))
 
 
 def fold(plane: np.ndarray, ks: tuple[int, ...]) -> np.ndarray:
@@ -128,7 +185,14 @@ def folded_pair_sums(h: np.ndarray, ks: tuple[int, ...], *, periodic: bool,
     Returns
     -------
     S, N : ndarray (..., ks[0]+1[, ks[1]+1])
-        Folded sum of ``(h(r) - h(r+d))**2`` and number of valid pairs per lag.
+        Folded sum of ``(h(r) - h(r+d))**2`` and number of valid pairs per lag; ``N`` is
+        None when no point is missing (the counts are then
+        :func:`folded_geometric_counts`).
+
+    Raises
+    ------
+    ValueError
+        Infinite heights, or a map with fewer than 2 valid points.
     """
     nd = len(ks)
     axes = tuple(range(-nd, 0))
@@ -137,44 +201,39 @@ def folded_pair_sums(h: np.ndarray, ks: tuple[int, ...], *, periodic: bool,
     h = np.asarray(h, dtype=np.float64)
     valid = np.isfinite(h)
     if valid.all():
-        return _unmasked(h, ks, shape, fshape, axes, periodic, workers)
+        return _unmasked(h, ks, fshape, axes, periodic, workers), None
+    if np.isinf(h).any():
+        raise ValueError("heights contain infinite values; mark missing points as NaN")
+    if np.any(valid.sum(axis=axes) < 2):
+        raise ValueError("a map has fewer than 2 valid (non-NaN) points")
     return _masked(h, valid, ks, fshape, axes, workers)
 
 
-def _abs2_inplace(a: np.ndarray) -> np.ndarray:
-    """|a|^2 written into the real part of ``a`` (imaginary part zeroed); returns ``a``."""
-    re, im = a.real, a.imag
-    np.multiply(re, re, out=re)
-    np.multiply(im, im, out=im)
-    re += im
-    im[...] = 0.0
-    return a
-
-
-def _unmasked(h, ks, shape, fshape, axes, periodic, workers):
-    batch = h.shape[: h.ndim - len(ks)]
-    counts = np.broadcast_to(folded_geometric_counts(shape, ks, periodic),
-                             batch + tuple(k + 1 for k in ks))
+def _unmasked(h, ks, fshape, axes, periodic, workers):
     if periodic:
         a = sfft.rfftn(h, axes=axes, workers=workers)
         a[(...,) + (0,) * len(ks)] = 0.0  # remove the mean exactly
-        corr = sfft.irfftn(_abs2_inplace(a), s=fshape, axes=axes, workers=workers,
-                           overwrite_x=True)
+        power = _abs2(a)
         del a
-        zero = corr[(...,) + (0,) * len(ks)][(...,) + (None,) * len(ks)].copy()
-        folded = fold(corr, ks)
-        del corr
-        folded_zero = zero * folded_geometric_counts(shape, ks, True) / np.prod(shape)
-        return 2.0 * (folded_zero - folded), counts.copy()
+        corr = _inverse_folded(power, fshape, ks, workers)
+        del power
+        # sum of squared differences over pairs: 2 (C(0) - C(d)) per distinct signed lag
+        zero = corr[(...,) + (0,) * len(ks)][(...,) + (None,) * len(ks)]
+        mult = folded_geometric_counts(fshape, ks, True) / np.prod(fshape)
+        return 2.0 * (zero * mult - corr)
     hc = h - h.mean(axis=axes, keepdims=True)
-    a = sfft.rfftn(hc, s=fshape, axes=axes, workers=workers)
-    corr = sfft.irfftn(_abs2_inplace(a), s=fshape, axes=axes, workers=workers,
-                       overwrite_x=True)
-    del a
-    folded = fold(corr, ks)
-    del corr
+    power = _abs2(_rfftn(hc, fshape, axes, workers))
+    corr = _inverse_folded(power, fshape, ks, workers)
+    del power
     np.multiply(hc, hc, out=hc)
-    return _sq_terms_nonperiodic(hc, ks) - 2.0 * folded, counts.copy()
+    return _sq_terms_nonperiodic(hc, ks) - 2.0 * corr
+
+
+def _abs2(a: np.ndarray) -> np.ndarray:
+    """|a|^2 as a new real array; overwrites ``a`` (squares its parts in place)."""
+    v = a.view(np.float64)
+    np.square(v, out=v)
+    return np.add(v[..., 0::2], v[..., 1::2])
 
 
 def _masked(h, valid, ks, fshape, axes, workers):
@@ -182,24 +241,21 @@ def _masked(h, valid, ks, fshape, axes, workers):
     nvalid = m.sum(axis=axes, keepdims=True)
     mean = np.nansum(h, axis=axes, keepdims=True) / np.maximum(nvalid, 1)
     hz = np.where(valid, h - mean, 0.0)
-    fm = sfft.rfftn(m, s=fshape, axes=axes, workers=workers)
+    fm = _rfftn(m, fshape, axes, workers)
     del m
-    fb = sfft.rfftn(hz * hz, s=fshape, axes=axes, workers=workers)
+    fb = _rfftn(hz * hz, fshape, axes, workers)
+    # 2 Re(conj(B) M) is the spectrum of corr(h^2, m) + corr(m, h^2)
     w = fb.real * fm.real
     w += fb.imag * fm.imag
     w *= 2.0
     del fb
-    n_plane = sfft.irfftn(_abs2_inplace(fm), s=fshape, axes=axes, workers=workers,
-                          overwrite_x=True)
+    counts = np.rint(_inverse_folded(_abs2(fm), fshape, ks, workers))
     del fm
-    counts = np.rint(fold(n_plane, ks))
-    del n_plane
-    fa = sfft.rfftn(hz, s=fshape, axes=axes, workers=workers)
+    fa = _rfftn(hz, fshape, axes, workers)
     del hz
-    w -= 2.0 * _abs2_inplace(fa).real
+    w -= 2.0 * _abs2(fa)
     del fa
-    s_plane = sfft.irfftn(w, s=fshape, axes=axes, workers=workers)
+    sums = _inverse_folded(w, fshape, ks, workers)
     del w
-    sums = fold(s_plane, ks)
     sums[counts == 0] = 0.0  # no pairs: only round-off was there
     return sums, counts

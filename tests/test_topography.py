@@ -1,0 +1,157 @@
+"""Topography construction, validation, units and the NetCDF contract."""
+
+import numpy as np
+import pint
+import pytest
+import xarray as xr
+
+import xrough
+from xrough import units as u
+
+
+def test_from_array_with_string_spacing_and_units():
+    h = np.arange(12.0).reshape(3, 4)
+    topo = xrough.topography(h, spacing=("2 nm", "0.5 nm"), unit="nm", periodic=True)
+    assert topo.dims == ("y", "x")
+    assert topo.attrs["units"] == "nm" and topo.attrs["periodic"] == 1
+    np.testing.assert_allclose(topo.x, [0, 0.5, 1.0, 1.5])
+    np.testing.assert_allclose(topo.y, [0, 2, 4])
+    assert topo.x.attrs["units"] == "nm" and topo.y.attrs["units"] == "nm"
+
+
+def test_size_and_units_conversions():
+    topo = xrough.topography(np.zeros((4, 8)), size=("4 um", "8 um"), unit="nm")
+    np.testing.assert_allclose(float(topo.x[1]), 1000.0)
+    # plain numbers are metres unless a unit is given for them
+    topo_m = xrough.topography(np.zeros(10), spacing=1e-9, height_unit="m")
+    assert topo_m.x.attrs["units"] == "m"
+    np.testing.assert_allclose(float(topo_m.x[1]), 1e-9)
+
+
+def test_pint_quantity_heights_and_profile():
+    q = np.linspace(0, 1, 11) * u.ureg.micrometer
+    topo = xrough.topography(q, spacing=u.ureg.Quantity(0.1, "um"))
+    assert topo.dims == ("x",)
+    assert topo.attrs["units"] == "um"
+    assert topo.x.attrs["units"] == "um"
+
+
+def test_height_unit_differs_from_lateral_unit():
+    topo = xrough.topography(np.zeros((3, 3)), spacing=1.0, unit="um", height_unit="nm")
+    assert topo.attrs["units"] == "nm" and topo.x.attrs["units"] == "um"
+    G = topo.rough.acf()
+    assert G.attrs["units"] == "nm2" and G.dr.attrs["units"] == "um"
+
+
+def test_dataarray_input_keeps_metadata():
+    da = xr.DataArray(np.ones((3, 4)), dims=("y", "x"),
+                      coords={"x": ("x", np.arange(4.0), {"units": "um"}),
+                              "y": ("y", np.arange(3.0), {"units": "um"})},
+                      attrs={"units": "nm", "instrument": "AFM"}, name="h")
+    topo = xrough.topography(da)
+    assert topo.attrs["instrument"] == "AFM" and topo.name == "h"
+    assert topo.attrs["periodic"] == 0
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"heights": np.zeros((3, 3)), "spacing": 1.0}, "need a unit"),
+        ({"heights": np.zeros((3, 3)), "unit": "nm"}, "spacing or the physical size"),
+        ({"heights": np.zeros((2, 3, 3)), "spacing": 1.0, "unit": "nm"}, "2D .* or 1D"),
+        ({"heights": np.zeros((3, 3)), "spacing": 1.0, "unit": "Pa"}, "must be a length"),
+        ({"heights": np.zeros((3, 3)), "spacing": "1 s", "unit": "nm"}, "not a length"),
+        ({"heights": np.zeros((3, 3)), "spacing": -1.0, "unit": "nm"}, "positive"),
+        ({"heights": np.zeros((3, 3)), "spacing": 1.0, "size": 2.0, "unit": "nm"},
+         "either spacing or size"),
+        ({"heights": np.array([[1.0, np.inf], [0, 0]]), "spacing": 1.0, "unit": "nm"},
+         "infinite"),
+        ({"heights": np.full((3, 3), np.nan), "spacing": 1.0, "unit": "nm"},
+         "fewer than 2 valid"),
+        ({"heights": np.zeros((1, 5)), "spacing": 1.0, "unit": "nm"}, "at least 2 points"),
+        ({"heights": np.array(["a", "b"]), "spacing": 1.0, "unit": "nm"}, "real numbers"),
+        ({"heights": np.zeros(4), "spacing": 1.0, "unit": "parsec2"}, "cannot understand"
+         "|must be a length"),
+    ],
+)
+def test_constructor_errors(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        xrough.topography(**kwargs)
+
+
+def test_non_uniform_coordinate_named():
+    da = xr.DataArray(np.zeros((3, 4)), dims=("y", "x"),
+                      coords={"x": ("x", [0.0, 1.0, 2.0, 3.5], {"units": "nm"}),
+                              "y": ("y", [0.0, 1.0, 2.0], {"units": "nm"})},
+                      attrs={"units": "nm"})
+    with pytest.raises(ValueError, match="coordinate 'x' is not uniformly spaced"):
+        xrough.topography(da)
+
+
+def test_relabelling_units_is_refused():
+    topo = xrough.topography(np.zeros(4), spacing=1.0, unit="nm")
+    with pytest.raises(ValueError, match="already have units"):
+        xrough.topography(topo, unit="um")
+
+
+def test_units_parsing_and_formatting():
+    assert u.format_units(u.parse_units("J m-2")) == "J m-2"
+    assert u.format_units(u.parse_units("mJ/m^2")) == "mJ m-2"
+    assert u.format_units(u.parse_units("um") ** 2) == "um2"
+    assert u.format_units(u.parse_units("µm")) == "um"
+    assert u.conversion_factor("um", "nm") == 1000.0
+    assert u.to_si("25 MPa", "[pressure]", what="E_star") == 25e6
+    assert u.to_si(u.ureg.Quantity(3, "kPa"), "[pressure]", what="p0") == 3000.0
+    with pytest.raises(ValueError, match="E_star.*not a pressure"):
+        u.to_si("25 nm", "[pressure]", what="E_star")
+    with pytest.raises(ValueError, match="cannot understand"):
+        u.parse_units("furlongs per fortnight squared")
+    # quantities from another registry are accepted
+    other = pint.UnitRegistry()
+    assert u.to_si(other.Quantity(2, "nm"), "[length]", what="dx") == pytest.approx(2e-9)
+
+
+def test_netcdf_round_trip_topography_and_G(tmp_path):
+    rng = np.random.default_rng(0)
+    h = rng.normal(size=(16, 20))
+    h[rng.random(h.shape) < 0.1] = np.nan
+    topo = xrough.topography(h, spacing=("3 nm", "2 nm"), unit="nm", periodic=False,
+                             attrs={"instrument": "AFM", "tip_radius": 5.0})
+    G = topo.rough.acf()
+    Gr = topo.rough.acf(estimator="random", n_pairs=2000, seed=1)
+    for k, da in enumerate((topo, G, Gr)):
+        path = tmp_path / f"a{k}.nc"
+        da.to_netcdf(path)
+        with xr.open_dataarray(path) as back:
+            xr.testing.assert_identical(back.load(), da)
+
+
+def test_netcdf_round_trip_synthetic_and_stack(tmp_path):
+    topo = xrough.self_affine_surface(hurst=0.3, lambda_r="1 um", lambda_s="80 nm",
+                                      size="2 um", n=64, rms_height="3 nm", seed=2,
+                                      unit="nm")
+    stack = xr.concat([topo, topo * 2], dim=xr.DataArray(["a", "b"], dims="scan",
+                                                          name="scan"))
+    G = stack.rough.acf()
+    for k, da in enumerate((topo, G)):
+        path = tmp_path / f"b{k}.nc"
+        da.to_netcdf(path)
+        with xr.open_dataarray(path) as back:
+            xr.testing.assert_identical(back.load(), da)
+
+
+def test_plots_return_axes():
+    topo = xrough.topography(np.random.default_rng(0).normal(size=(16, 16)), spacing=1.0,
+                             unit="nm")
+    ax = topo.rough.plot()
+    assert ax.get_ylabel() == "y position (nm)"
+    ax = topo.isel(y=0).rough.plot()
+    assert ax.get_ylabel() == "height (nm)"
+    G = topo.rough.acf()
+    ax = G.rough.plot()
+    assert "nm2" in ax.get_ylabel() and ax.get_xscale() == "log"
+    stack = xr.concat([topo, 2 * topo], dim="scan").rough.acf()
+    ax = stack.rough.plot()
+    assert len(ax.get_lines()) == 2
+    with pytest.raises(ValueError, match="one map"):
+        xr.concat([topo, topo], dim="scan").rough.plot()

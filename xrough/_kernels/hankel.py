@@ -1,0 +1,605 @@
+"""Hankel-type integrals of isotropic spectra (pure numpy/scipy, no xarray).
+
+Conventions (THEORY.md): angular wavenumber ``q``; isotropic 2D spectrum ``C(q)`` (length^4);
+
+* eq. 9, height-difference ACF:
+  ``G(dr) = (1/2pi) int_0^inf dq q C(q) [1 - J0(q dr)]``;
+* spectral moments ``(1/2pi) int_0^inf dq q^(1+k) C(q)`` (k=0: sigma_h^2, k=2: gbar^2);
+* 1D spectrum of a line scan through an isotropic surface,
+  ``C1D(qx) = (1/pi) int_|qx|^inf dq q C(q) / sqrt(q^2 - qx^2)`` (length^3), normalised so that
+  ``G(x) = (1/pi) int_0^inf dqx C1D(qx) [1 - cos(qx x)]`` equals the 2D ``G``.
+
+Spectra are vectorised callables ``C(q)`` that vanish outside ``[breakpoints[0],
+breakpoints[-1]]`` and are smooth (analytic) between consecutive breakpoints; jumps and kinks
+are allowed only at breakpoints.
+
+Method for eq. 9 (with ``t = q dr`` and a split point ``T``, default 64):
+
+* ``t < T``: composite Gauss-Legendre on panels whose edges are the breakpoints, a
+  logarithmic grid in ``q`` (resolves power laws over many decades) and a grid of spacing 2 in
+  ``t`` (resolves the at most ``T/pi`` oscillations of ``J0``).  ``1 - J0(t)`` comes from its
+  power series for ``t < 1``, so ``G ~ gbar^2 dr^2 / 4`` keeps full relative precision at small
+  ``dr``.
+* ``t > T``: ``int q C dq`` (same panels, weight 1) minus ``int q C J0(q dr) dq``.  For the
+  latter, ``C`` is represented as a piecewise power law ``c q^alpha`` between knots (the
+  breakpoints themselves when ``C`` is a power law between them, otherwise ``knots_per_decade``
+  knots), and each piece ``int t^beta J0(t) dt`` is integrated in closed form with the Hankel
+  asymptotic expansion of ``J0`` combined with the asymptotic antiderivative of
+  ``t^gamma e^{it}``.  Its cost is O(1) per piece, whatever the number of oscillations.  Pieces
+  with a steep exponent (``|beta|`` comparable to ``T``) start the expansion later and are
+  integrated by Gauss-Legendre in between.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from functools import lru_cache
+
+import numpy as np
+from scipy import special
+
+__all__ = [
+    "acf_from_spectrum_kernel",
+    "spectral_moment_kernel",
+    "profile_spectrum_kernel",
+    "PowerLawInterpolant",
+]
+
+Spectrum = Callable[[np.ndarray], np.ndarray]
+
+#: Number of terms of the combined asymptotic series and its relative truncation target.
+_N_ASYMPTOTIC = 30
+_ASYMPTOTIC_TOL = 1e-17
+_TERM_TIERS = np.array([4, 6, 9, 13, 19, 25, _N_ASYMPTOTIC])
+#: Relative offset used to evaluate one-sided limits of C at knots (C may jump there).
+_NUDGE = 1e-11
+#: Work arrays are processed in blocks of about this many quadrature nodes.
+_BLOCK_NODES = 2**19
+
+
+# --------------------------------------------------------------------------------------
+# small helpers
+# --------------------------------------------------------------------------------------
+@lru_cache(maxsize=16)
+def _gauss_legendre(order: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Legendre nodes on [-1, 1] and weights (cached, read-only)."""
+    x, w = np.polynomial.legendre.leggauss(order)
+    x.setflags(write=False)
+    w.setflags(write=False)
+    return x, w
+
+
+def _one_minus_j0(t: np.ndarray) -> np.ndarray:
+    """``1 - J0(t)`` without cancellation at small ``t`` (power series for ``t < 1``)."""
+    t = np.asarray(t, dtype=float)
+    out = 1.0 - special.j0(t)
+    small = np.abs(t) < 1.0
+    if np.any(small):
+        ts = t[small]
+        z = -0.25 * ts * ts
+        # 1 - J0 = -sum_{k>=1} z^k/(k!)^2 = (t^2/4) (1 + z/4 (1 + z/9 (1 + ...)))
+        acc = np.ones_like(ts)
+        for k in range(12, 1, -1):
+            acc = 1.0 + acc * z / (k * k)
+        out[small] = -z * acc
+    return out
+
+
+def _check_breakpoints(breakpoints) -> np.ndarray:
+    bp = np.unique(np.asarray(breakpoints, dtype=float).ravel())
+    if bp.size < 2 or not np.all(np.isfinite(bp)) or bp[0] < 0:
+        raise ValueError(
+            "breakpoints must hold at least two distinct finite wavenumbers >= 0 (the support "
+            f"of C and the places where it jumps or kinks), got {breakpoints!r}"
+        )
+    return bp
+
+
+def _log_grid(bp: np.ndarray, per_decade: float, *, depth: float) -> np.ndarray:
+    """Breakpoints plus a logarithmic grid inside every segment.
+
+    A segment starting at 0 gets a logarithmic grid over ``depth`` decades below its upper
+    end (and 0 itself).
+    """
+    pts = [bp]
+    for a, b in zip(bp[:-1], bp[1:]):
+        lo = a if a > 0 else b * 10.0**-depth
+        n = int(np.ceil(per_decade * np.log10(b / lo)))
+        if n > 0:
+            pts.append(np.geomspace(lo, b, n + 1))
+    return np.unique(np.concatenate(pts))
+
+
+def _blocks(n_rows: int, row_nodes: int):
+    step = max(1, _BLOCK_NODES // max(row_nodes, 1))
+    for start in range(0, n_rows, step):
+        yield slice(start, min(start + step, n_rows))
+
+
+def _panel_quadrature(edges: np.ndarray, integrand, order: int) -> np.ndarray:
+    """Sum of Gauss-Legendre panels between sorted ``edges`` along the last axis.
+
+    ``integrand(t, row)`` gets node positions ``t`` of shape ``(rows, panels, order)`` and
+    must return values of the same shape.  Zero-width panels contribute nothing (even if the
+    integrand is not finite there).
+    """
+    x, w = _gauss_legendre(order)
+    lo = edges[:, :-1]
+    hi = edges[:, 1:]
+    half = 0.5 * (hi - lo)
+    mid = 0.5 * (hi + lo)
+    t = mid[..., None] + half[..., None] * x
+    with np.errstate(all="ignore"):
+        f = integrand(t)
+    f = np.where((half > 0)[..., None], f, 0.0)
+    return np.einsum("rpn,n,rp->r", f, w, half)
+
+
+# --------------------------------------------------------------------------------------
+# piecewise power laws and the asymptotic oscillatory integral
+# --------------------------------------------------------------------------------------
+class PowerLawInterpolant:
+    """Piecewise power law through samples ``(q_j, C_j)`` (log-log interpolation).
+
+    ``C(q) = C_j (q/q_j)^alpha_j`` on ``[q_j, q_{j+1}]``; zero outside ``[q_0, q_last]`` and on
+    pieces that touch a zero sample.  Callable (vectorised); :attr:`breakpoints` are the
+    samples, and the interpolant is an exact power law between consecutive breakpoints.
+
+    Parameters
+    ----------
+    q : array_like
+        Strictly increasing positive wavenumbers.
+    values : array_like
+        Non-negative finite samples ``C(q)``.
+    """
+
+    def __init__(self, q, values) -> None:
+        q = np.asarray(q, dtype=float)
+        c = np.asarray(values, dtype=float)
+        if q.ndim != 1 or q.shape != c.shape or q.size < 2:
+            raise ValueError("q and values must be 1-D arrays of the same length >= 2")
+        if not (np.all(np.isfinite(q)) and q[0] > 0 and np.all(np.diff(q) > 0)):
+            raise ValueError("q must be finite, positive and strictly increasing")
+        if not (np.all(np.isfinite(c)) and np.all(c >= 0)):
+            raise ValueError("spectrum values must be finite and >= 0")
+        self.q = q
+        self.values = c
+        pos = (c[:-1] > 0) & (c[1:] > 0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            alpha = np.log(c[1:] / c[:-1]) / np.log(q[1:] / q[:-1])
+        self.alpha = np.where(pos, alpha, 0.0)
+        self.coef = np.where(pos, c[:-1], 0.0)
+
+    @property
+    def breakpoints(self) -> tuple[float, ...]:
+        """The sample wavenumbers."""
+        return tuple(self.q)
+
+    def __call__(self, q: np.ndarray) -> np.ndarray:
+        """Interpolated ``C(q)``."""
+        x = np.asarray(q, dtype=float)
+        j = np.clip(np.searchsorted(self.q, x, side="right") - 1, 0, self.q.size - 2)
+        inside = (x >= self.q[0]) & (x <= self.q[-1])
+        with np.errstate(all="ignore"):
+            val = self.coef[j] * np.exp(self.alpha[j] * np.log(x / self.q[j]))
+        out = np.where(inside, val, 0.0)
+        # exact sample values (the last sample belongs to the last piece)
+        return np.where(x == self.q[-1], self.values[-1] if self.coef[-1] > 0 else 0.0, out)
+
+
+def _power_law_pieces(spectrum: Spectrum, bp: np.ndarray, knots_per_decade: float,
+                      q_min: float):
+    """Piecewise representation of ``C`` for the oscillatory integral.
+
+    Returns ``(K_lo, K_hi, c_top, alpha, kappa)`` for the pieces that reach above ``q_min``,
+    with ``C(q) = c_top x^alpha [1 + kappa (x - rho)(x - 1)]``, ``x = q / K_hi``,
+    ``rho = K_lo / K_hi``: a power law through both knots, times a quadratic correction that
+    also matches ``C`` at the geometric midpoint (``kappa = 0`` when ``C`` is declared a power
+    law between breakpoints).  One-sided limits at the knots come from evaluations nudged into
+    the piece, rescaled with the piece's own exponent.
+    """
+    refine = bool(knots_per_decade) and knots_per_decade > 0
+    lo_list, hi_list = [], []
+    for a, b in zip(bp[:-1], bp[1:]):
+        if b <= q_min:
+            continue
+        if refine:
+            start = a if a > 0 else min(b * 1e-3, 0.5 * q_min)
+            n = max(1, int(np.ceil(knots_per_decade * np.log10(b / start))))
+            k = np.geomspace(start, b, n + 1)
+            k[0], k[-1] = start, b
+            if a == 0:
+                k = np.concatenate([[0.0], k])
+        else:
+            k = np.array([a, b])
+        lo_list.append(k[:-1])
+        hi_list.append(k[1:])
+    if not lo_list:
+        empty = np.empty(0)
+        return empty, empty, empty, empty, empty
+    klo = np.concatenate(lo_list)
+    khi = np.concatenate(hi_list)
+    keep = khi > q_min
+    klo, khi = klo[keep], khi[keep]
+    # evaluation points inside each piece
+    p_hi = khi * (1.0 - _NUDGE)
+    p_lo = np.where(klo > 0, klo * (1.0 + _NUDGE), 0.5 * khi)
+    with np.errstate(all="ignore"):
+        c_hi = np.asarray(spectrum(p_hi), dtype=float)
+        c_lo = np.asarray(spectrum(p_lo), dtype=float)
+        alpha = np.log(c_hi / c_lo) / np.log(p_hi / p_lo)
+        ok = (c_hi > 0) & (c_lo > 0) & np.isfinite(alpha)
+        c_top = np.where(ok, c_hi * (khi / p_hi) ** alpha, 0.0)
+        alpha = np.where(ok, alpha, 0.0)
+        kappa = np.zeros_like(khi)
+        if refine:
+            rho = klo / khi
+            x_mid = np.sqrt(rho)
+            c_mid = np.asarray(spectrum(khi * x_mid), dtype=float)
+            kappa = (c_mid / (c_top * x_mid**alpha) - 1.0) / ((x_mid - rho) * (x_mid - 1.0))
+            kappa = np.where(ok & (klo > 0) & np.isfinite(kappa), kappa, 0.0)
+    return klo, khi, c_top, alpha, kappa
+
+
+@lru_cache(maxsize=1)
+def _hankel_coefficients() -> np.ndarray:
+    """``a_k(0)`` of ``H0^(1)(t) ~ sqrt(2/(pi t)) e^{i(t-pi/4)} sum_k i^k a_k t^-k``."""
+    a = np.empty(_N_ASYMPTOTIC + 1)
+    a[0] = 1.0
+    for k in range(1, _N_ASYMPTOTIC + 1):
+        a[k] = a[k - 1] * (-((2 * k - 1) ** 2)) / (8.0 * k)
+    return a
+
+
+def _asymptotic_coefficients(beta: np.ndarray) -> np.ndarray:
+    """Real coefficients ``e_m(beta)``, shape ``(M+1, pieces)``.
+
+    ``int t^beta J0(t) dt = Re[ sqrt(2/pi) e^{i(t - pi/4)} t^(beta-1/2) sum_m d_m t^-m ]``
+    with ``d_m = -i^(m+1) e_m``: the Hankel series of ``J0`` term by term times the asymptotic
+    antiderivative of ``t^gamma e^{it}`` (``c_0 = -i``, ``c_n = i (gamma - n + 1) c_{n-1}``),
+    regrouped by total power; ``e_0 = 1``, ``e_{m+1} = (beta - 1/2 - m) e_m + a_{m+1}``.
+    """
+    a = _hankel_coefficients()
+    e = np.empty((_N_ASYMPTOTIC + 1, beta.size))
+    e[0] = 1.0
+    for m in range(_N_ASYMPTOTIC):
+        e[m + 1] = (beta - 0.5 - m) * e[m] + a[m + 1]
+    return e
+
+
+def _asymptotic_start(e: np.ndarray, t_split: float) -> np.ndarray:
+    """Smallest ``t >= t_split`` where the truncated series is accurate for each piece."""
+    last = np.abs(e[-1])
+    with np.errstate(divide="ignore"):
+        t_ok = (last / _ASYMPTOTIC_TOL) ** (1.0 / _N_ASYMPTOTIC)
+    return np.maximum(t_split, t_ok)
+
+
+def _phase(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``sqrt(2/(pi t)) (cos, sin)(t - pi/4)``."""
+    c, s = np.cos(t), np.sin(t)
+    amp = np.sqrt(1.0 / (np.pi * t))  # sqrt(2/(pi t)) / sqrt(2)
+    return amp * (c + s), amp * (s - c)
+
+
+def _antiderivative(t: np.ndarray, e: np.ndarray, phase, n_terms: int) -> np.ndarray:
+    """``t^(1/2-beta) A(t)`` where ``A' = t^beta J0(t)``; ``e`` has shape ``(M+1, n)``.
+
+    Returns ``sqrt(2/(pi t)) Re[e^{i(t-pi/4)} sum_{m<n_terms} d_m t^-m]``; multiply by
+    ``t^beta`` (in physical form: ``q C(q) / dr``) to get the antiderivative.
+    ``phase = _phase(t)``.
+    """
+    u = 1.0 / t
+    re = np.zeros_like(t)
+    im = np.zeros_like(t)
+    # d_m = -i^(m+1) e_m: m = 0,1,2,3 -> -i e0, +e1, +i e2, -e3, ...
+    for m in range(n_terms - 1, -1, -1):
+        re *= u
+        im *= u
+        r = m % 4
+        if r == 0:
+            im -= e[m]
+        elif r == 1:
+            re += e[m]
+        elif r == 2:
+            im += e[m]
+        else:
+            re -= e[m]
+    cos_p, sin_p = phase
+    return re * cos_p - im * sin_p
+
+
+def _series_tier(t: np.ndarray, coeffs: list[np.ndarray]) -> np.ndarray:
+    """Index into ``_TERM_TIERS``: the shortest series whose truncation error is negligible.
+
+    The first omitted term ``|e_n| t^-n`` must stay below ``_ASYMPTOTIC_TOL``.
+    """
+    big = np.max([np.abs(e).max(axis=1) for e in coeffs], axis=0)  # (M+1,)
+    n = np.minimum(_TERM_TIERS, big.size - 1)
+    threshold = (big[n] / _ASYMPTOTIC_TOL) ** (1.0 / n)
+    threshold[-1] = 0.0  # the longest series is always used beyond _asymptotic_start
+    ok = t[:, None] >= threshold[None, :]
+    return ok.argmax(axis=1)
+
+
+def _oscillatory_part(r: np.ndarray, pieces, t_split: float, order: int) -> np.ndarray:
+    """``int_{T/r}^inf q C(q) J0(q r) dq`` for the piecewise representation ``pieces``."""
+    klo, khi, c_top, alpha, kappa = pieces
+    out = np.zeros(r.size)
+    use = c_top > 0
+    if not np.any(use) or r.size == 0:
+        return out
+    klo, khi, c_top, alpha, kappa = klo[use], khi[use], c_top[use], alpha[use], kappa[use]
+    rho = klo / khi
+    # q C(q) = c_top K_hi sum_l g_l x^(1 + alpha + l), x = q / K_hi
+    g = np.stack([1.0 + kappa * rho, -kappa * (1.0 + rho), kappa])
+    n_terms = 3 if np.any(kappa != 0) else 1
+    coeffs = [_asymptotic_coefficients(1.0 + alpha + l) for l in range(n_terms)]
+    t_start = np.max([_asymptotic_start(e, t_split) for e in coeffs], axis=0)
+    # all (r, piece) pairs that reach beyond t_split
+    ri, pj = np.nonzero(khi[None, :] * r[:, None] > t_split)
+    if ri.size == 0:
+        return out
+    rr = r[ri]
+    t_lo = np.maximum(klo[pj] * rr, t_split)
+    t_hi = khi[pj] * rr
+    t_asy = np.maximum(t_lo, t_start[pj])
+
+    def antiderivative(t, idx, rows):
+        x = t / (rows * khi[idx])
+        base = c_top[idx] * khi[idx] * np.exp((1.0 + alpha[idx]) * np.log(x)) / rows
+        out = np.zeros_like(t)
+        # evaluate in tiers of series length (far fewer terms are needed at large t)
+        tiers = _series_tier(t, coeffs)
+        for tier in np.unique(tiers):
+            sel = tiers == tier
+            n = _TERM_TIERS[tier]
+            ts, ii = t[sel], idx[sel]
+            phase = _phase(ts)
+            total = 0.0
+            for l in range(n_terms):
+                s = _antiderivative(ts, coeffs[l][:, ii], phase, n)
+                total = total + (g[l, ii] * x[sel] ** l) * s if l else g[0, ii] * s
+            out[sel] = base[sel] * total
+        return out
+
+    # closed-form (asymptotic) part on [t_asy, t_hi]
+    act = t_hi > t_asy
+    if np.any(act):
+        idx, rows = pj[act], rr[act]
+        val = antiderivative(t_hi[act], idx, rows) - antiderivative(t_asy[act], idx, rows)
+        np.add.at(out, ri[act], val)
+    # steep pieces: Gauss-Legendre with panels of width <= 2 on [t_lo, min(t_hi, t_asy)]
+    b_all = np.minimum(t_hi, t_asy)
+    steep = b_all > t_lo
+    if np.any(steep):
+        idx, rows = pj[steep], rr[steep]
+        a, b = t_lo[steep], b_all[steep]
+        n_pan = np.ceil((b - a) / 2.0).astype(int)
+        rep = np.repeat(np.arange(idx.size), n_pan)
+        k = np.arange(rep.size) - np.repeat(np.cumsum(n_pan) - n_pan, n_pan)
+        width = (b - a)[rep] / n_pan[rep]
+        x, w = _gauss_legendre(order)
+        t = (a[rep] + k * width)[:, None] + 0.5 * width[:, None] * (x + 1.0)
+        ii, rw = idx[rep][:, None], rows[rep][:, None]
+        xq = t / (rw * khi[ii])
+        poly = g[0, ii] + g[1, ii] * xq + g[2, ii] * xq * xq
+        f = c_top[ii] * khi[ii] * np.exp((1.0 + alpha[ii]) * np.log(xq)) * poly / rw
+        vals = ((f * special.j0(t)) @ w) * 0.5 * width
+        np.add.at(out, ri[steep][rep], vals)
+    return out
+
+
+# --------------------------------------------------------------------------------------
+# public kernels
+# --------------------------------------------------------------------------------------
+def acf_from_spectrum_kernel(
+    dr,
+    spectrum: Spectrum,
+    breakpoints,
+    *,
+    knots_per_decade: float = 160.0,
+    t_split: float = 64.0,
+    panels_per_decade: float = 6.0,
+    order: int = 16,
+) -> np.ndarray:
+    """Height-difference ACF from an isotropic spectrum, eq. 9.
+
+    ``G(dr) = (1/2pi) int_0^inf dq q C(q) [1 - J0(q dr)]``.
+
+    Parameters
+    ----------
+    dr : array_like
+        Lag distances (length, >= 0), any shape.
+    spectrum : callable
+        Vectorised ``C(q)`` (length^4, in the inverse of the unit of ``dr`` for ``q``); zero
+        outside ``[breakpoints[0], breakpoints[-1]]``.
+    breakpoints : sequence of float
+        Increasing wavenumbers: the support of ``C`` and every place where it jumps or kinks.
+    knots_per_decade : float
+        Knot density of the piecewise power law that represents ``C`` in the oscillatory
+        range ``q dr > t_split``.  ``0`` declares that ``C`` is an exact power law between
+        consecutive breakpoints (the sharp model, log-log interpolated samples); the
+        breakpoints are then the only knots and the representation is exact.
+    t_split : float
+        ``T``: Gauss-Legendre with the full ``1 - J0`` below ``q dr = T``, asymptotic
+        closed form of the ``J0`` part above.
+    panels_per_decade, order : float, int
+        Logarithmic panel density in ``q`` and Gauss-Legendre order per panel.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``G`` (length^2) with the shape of ``dr``.
+
+    Notes
+    -----
+    Relative accuracy is about 1e-12 for piecewise power laws (``knots_per_decade=0``) and
+    about 1e-9 for smooth spectra with the default knot density, over any range of ``dr``.
+
+    Examples
+    --------
+    A flat disc of spectrum, ``C = 1`` for ``q < 1``:
+    ``G = (1/2pi)(1/2 - J1(dr)/dr)``.
+
+    >>> import numpy as np
+    >>> from scipy.special import j1
+    >>> flat = lambda q: np.where(q < 1.0, 1.0, 0.0)
+    >>> dr = np.array([1e-3, 1.0, 1e4])
+    >>> G = acf_from_spectrum_kernel(dr, flat, [0.0, 1.0], knots_per_decade=0)
+    >>> exact = (0.5 - j1(dr) / dr) / (2 * np.pi)
+    >>> bool(np.allclose(G, exact, rtol=1e-12, atol=0))
+    True
+    """
+    r_in = np.asarray(dr, dtype=float)
+    r = r_in.ravel()
+    if not np.all(np.isfinite(r)) or np.any(r < 0):
+        raise ValueError("dr must be finite and >= 0")
+    bp = _check_breakpoints(breakpoints)
+    out = np.zeros(r.size)
+    pos = np.nonzero(r > 0)[0]
+    if pos.size == 0:
+        return out.reshape(r_in.shape)
+    rp = r[pos]
+    T = float(t_split)
+    q_lo, q_hi = bp[0], bp[-1]
+
+    # -- Gauss-Legendre part: weight 1 - J0(t) below T, 1 above ------------------------
+    qgrid = _log_grid(bp, panels_per_decade, depth=4.0)
+    tgrid = np.append(np.arange(2.0, T, 2.0), T)
+    n_edges = qgrid.size + tgrid.size
+    gl = np.empty(rp.size)
+    for blk in _blocks(rp.size, n_edges * order):
+        rb = rp[blk][:, None]
+        edges = np.concatenate([qgrid[None, :] * rb,
+                                np.broadcast_to(tgrid, (rb.shape[0], tgrid.size))], axis=1)
+        edges = np.sort(np.clip(edges, q_lo * rb, q_hi * rb), axis=1)
+        r3 = rb[..., None]
+
+        def integrand(t, r3=r3):
+            w = np.where(t < T, _one_minus_j0(np.minimum(t, T)), 1.0)
+            return t * np.asarray(spectrum(t / r3), dtype=float) * w
+
+        gl[blk] = _panel_quadrature(edges, integrand, order) / rb[:, 0] ** 2
+
+    # -- oscillatory part: subtract int_{T/r} q C J0(q r) dq ----------------------------
+    osc = np.zeros(rp.size)
+    far = q_hi * rp > T
+    if np.any(far):
+        pieces = _power_law_pieces(spectrum, bp, knots_per_decade, T / rp[far].max())
+        osc[far] = _oscillatory_part(rp[far], pieces, T, order)
+    out[pos] = (gl - osc) / (2.0 * np.pi)
+    return out.reshape(r_in.shape)
+
+
+def spectral_moment_kernel(
+    spectrum: Spectrum,
+    breakpoints,
+    k: float,
+    *,
+    panels_per_decade: float = 8.0,
+    order: int = 16,
+) -> float:
+    """Spectral moment ``(1/2pi) int dq q^(1+k) C(q)``.
+
+    ``k = 0`` gives the height variance ``sigma_h^2`` (length^2), ``k = 2`` the mean-square
+    gradient ``gbar^2`` (dimensionless), for ``C`` in length^4 and ``q`` in 1/length.
+
+    Parameters
+    ----------
+    spectrum : callable
+        Vectorised ``C(q)``, zero outside ``[breakpoints[0], breakpoints[-1]]``.
+    breakpoints : sequence of float
+        Support and jump/kink locations of ``C``.
+    k : float
+        Order of the moment (``k > -2`` if the support reaches ``q = 0``).
+    panels_per_decade, order : float, int
+        Logarithmic panel density and Gauss-Legendre order.
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> flat = lambda q: np.where(q < 2.0, 1.0, 0.0)
+    >>> m2 = spectral_moment_kernel(flat, [0.0, 2.0], 2)   # (1/2pi) 2^4/4
+    >>> print(f"{m2 * 2 * np.pi:.12f}")
+    4.000000000000
+    """
+    bp = _check_breakpoints(breakpoints)
+    edges = _log_grid(bp, panels_per_decade, depth=12.0)[None, :]
+
+    def integrand(q):
+        return q ** (1.0 + k) * np.asarray(spectrum(q), dtype=float)
+
+    return float(_panel_quadrature(edges, integrand, order)[0] / (2.0 * np.pi))
+
+
+def profile_spectrum_kernel(
+    qx,
+    spectrum: Spectrum,
+    breakpoints,
+    *,
+    panels_per_decade: float = 5.0,
+    order: int = 12,
+) -> np.ndarray:
+    """1D spectrum of a line scan through an isotropic surface.
+
+    ``C1D(qx) = (1/pi) int_|qx|^inf dq q C(q) / sqrt(q^2 - qx^2)`` (length^3), the 1D
+    convention ``C1D = L <|h~(qx)|^2>``, so that the profile's
+    ``G(x) = (1/pi) int_0^inf dqx C1D(qx) [1 - cos(qx x)]`` equals the 2D ``G`` of eq. 9.
+
+    With ``s = sqrt(q^2 - qx^2)`` the integral becomes
+    ``(1/pi) int_0^inf ds C(sqrt(s^2 + qx^2))`` without the inverse square-root singularity;
+    it is split at the images of the breakpoints and integrated on logarithmic panels.
+
+    Parameters
+    ----------
+    qx : array_like
+        Profile wavenumbers (1/length), any shape and sign.
+    spectrum : callable
+        Vectorised isotropic ``C(q)`` (length^4), zero outside the breakpoints' range.
+    breakpoints : sequence of float
+        Support and jump/kink locations of ``C``.
+    panels_per_decade, order : float, int
+        Logarithmic panel density and Gauss-Legendre order.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``C1D`` with the shape of ``qx``.
+
+    Examples
+    --------
+    For ``C = 1`` on ``q < 1``: ``C1D(qx) = sqrt(1 - qx^2) / pi``.
+
+    >>> import numpy as np
+    >>> flat = lambda q: np.where(q < 1.0, 1.0, 0.0)
+    >>> c1 = profile_spectrum_kernel([0.0, 0.6, 2.0], flat, [0.0, 1.0])
+    >>> print(np.round(c1 * np.pi, 12))
+    [1.  0.8 0. ]
+    """
+    qx_in = np.asarray(qx, dtype=float)
+    a = np.abs(qx_in.ravel())
+    if not np.all(np.isfinite(a)):
+        raise ValueError("qx must be finite")
+    bp = _check_breakpoints(breakpoints)
+    qgrid = _log_grid(bp, panels_per_decade, depth=1.0)
+    out = np.empty(a.size)
+    for blk in _blocks(a.size, (qgrid.size + 2) * order):
+        ab = a[blk][:, None]
+        s_grid = np.sqrt(np.maximum(qgrid[None, :] ** 2 - ab**2, 0.0))
+        # split the first panel [0, ~qx] once more: C(sqrt(s^2+qx^2)) has branch points at
+        # s = +-i qx
+        extra = np.concatenate([0.5 * ab, ab], axis=1)
+        s_max = s_grid[:, -1:]
+        edges = np.sort(np.concatenate([s_grid, np.minimum(extra, s_max)], axis=1), axis=1)
+        a3 = ab[..., None]
+
+        def integrand(s, a3=a3):
+            return np.asarray(spectrum(np.sqrt(s * s + a3 * a3)), dtype=float)
+
+        out[blk] = _panel_quadrature(edges, integrand, order) / np.pi
+    return out.reshape(qx_in.shape)

@@ -1,0 +1,129 @@
+"""Parameters of the self-affine model spectrum (eq. 35) with units.
+
+One place turns user parameters (wavelengths as numbers in metres, strings or pint
+Quantities; one of ``C_r``, ``rms_height``, ``rms_gradient``) into a
+:class:`~xrough._kernels.spectral_models.SpectrumModel` in a chosen length unit, and
+back and forth between a model and netCDF-legal attributes.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from . import units as u
+from ._kernels.spectral_models import SpectrumModel
+
+__all__ = ["self_affine_model", "model_attrs", "model_from_attrs"]
+
+
+def _wavelength(value: Any, unit: str, what: str) -> float:
+    lam = u.to_si(value, "[length]", what=what) * u.conversion_factor("m", unit)
+    if not (np.isfinite(lam) and lam > 0):
+        raise ValueError(f"{what} must be a positive length, got {value!r}")
+    return float(lam)
+
+
+def self_affine_model(
+    *,
+    hurst: float,
+    lambda_r: Any,
+    lambda_s: Any,
+    lambda_0: Any = None,
+    C_r: Any = None,
+    rms_height: Any = None,
+    rms_gradient: Any = None,
+    rolloff: str = "sharp",
+    unit: str = "m",
+) -> SpectrumModel:
+    """Build the model spectrum of eq. 35 in ``unit`` from physical parameters.
+
+    Parameters
+    ----------
+    hurst : float
+        Hurst exponent, 0 < H < 1.
+    lambda_r, lambda_s : float, str or Quantity
+        Roll-off and short-cutoff wavelengths (``q = 2 pi / lambda``); numbers in metres.
+    lambda_0 : float, str or Quantity, optional
+        Long-wavelength cutoff (system size); None for none.
+    C_r, rms_height, rms_gradient : optional
+        Exactly one: plateau value (length^4), rms height (length) or rms gradient.
+    rolloff : {'sharp', 'smooth'}
+    unit : str
+        Length unit of the model's wavenumbers and ``C_r``.
+
+    Returns
+    -------
+    SpectrumModel
+
+    Raises
+    ------
+    ValueError
+        Not exactly one amplitude, non-positive or wrongly dimensioned parameters,
+        ``lambda_s >= lambda_r``, H outside (0, 1).
+
+    Examples
+    --------
+    >>> m = self_affine_model(hurst=0.5, lambda_r="1 um", lambda_s="10 nm",
+    ...                       rms_height="2 nm", unit="nm")
+    >>> round(float(m.moment(0)) ** 0.5, 6)
+    2.0
+    """
+    given = {k: v for k, v in (("C_r", C_r), ("rms_height", rms_height),
+                               ("rms_gradient", rms_gradient)) if v is not None}
+    if len(given) != 1:
+        raise ValueError("give exactly one of C_r, rms_height, rms_gradient to set the "
+                         f"amplitude (got {sorted(given) or 'none'})")
+    if not isinstance(hurst, (int, float, np.integer, np.floating)):
+        raise TypeError(f"hurst must be a number, got {type(hurst).__name__}")
+    u.as_length_unit(unit, what="unit")
+    q_r = 2 * np.pi / _wavelength(lambda_r, unit, "lambda_r")
+    q_s = 2 * np.pi / _wavelength(lambda_s, unit, "lambda_s")
+    q_0 = 0.0 if lambda_0 is None else 2 * np.pi / _wavelength(lambda_0, unit, "lambda_0")
+    if q_s <= q_r:
+        raise ValueError("lambda_s must be shorter than lambda_r")
+    if q_0 > q_r:
+        raise ValueError("lambda_0 (system size) must be at least lambda_r")
+    shape = SpectrumModel(hurst=float(hurst), q_r=q_r, q_s=q_s, q_0=q_0, C_r=1.0,
+                          rolloff=rolloff)
+    (name, value), = given.items()
+    if name == "C_r":
+        q = u.quantity(value, default_units="m**4", what="C_r")
+        if not q.check("[length] ** 4"):
+            raise ValueError(f"C_r must have units of length^4, got {value!r}")
+        c_r = float(q.to(u.parse_units(unit) ** 4).magnitude)
+    elif name == "rms_height":
+        s = u.to_si(value, "[length]", what="rms_height") * u.conversion_factor("m", unit)
+        c_r = s**2 / shape.shape_moment(0)
+    else:
+        g = float(u.quantity(value, default_units="", what="rms_gradient").to("").magnitude)
+        c_r = g**2 / shape.shape_moment(2)
+    if not (np.isfinite(c_r) and c_r > 0):
+        raise ValueError(f"{name} must be positive and finite, got {value!r}")
+    return SpectrumModel(hurst=float(hurst), q_r=q_r, q_s=q_s, q_0=q_0, C_r=float(c_r),
+                         rolloff=rolloff)
+
+
+def model_attrs(model: SpectrumModel) -> dict:
+    """NetCDF-legal attributes that describe ``model`` (in its own length unit)."""
+    return {
+        "model": "self-affine",
+        "rolloff": model.rolloff,
+        "hurst": float(model.hurst),
+        "q_r": float(model.q_r),
+        "q_s": float(model.q_s),
+        "q_0": float(model.q_0),
+        "C_r": float(model.C_r),
+        "rms_height": float(np.sqrt(model.moment(0))),
+        "rms_gradient": float(np.sqrt(model.moment(2))),
+    }
+
+
+def model_from_attrs(attrs: dict) -> SpectrumModel | None:
+    """Rebuild a :class:`SpectrumModel` from :func:`model_attrs` output (None if absent)."""
+    if attrs.get("model") != "self-affine":
+        return None
+    return SpectrumModel(hurst=float(attrs["hurst"]), q_r=float(attrs["q_r"]),
+                         q_s=float(attrs["q_s"]), q_0=float(attrs["q_0"]),
+                         C_r=float(attrs["C_r"]), rolloff=str(attrs["rolloff"]))

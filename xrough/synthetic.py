@@ -1,0 +1,153 @@
+"""Random periodic self-affine surfaces and profiles with a model spectrum (eq. 35).
+
+Fourier synthesis on a periodic grid: ``h(r) = sum_q h~(q) exp(i q.r)`` with
+``<|h~(q)|^2> = C(q) / A`` (THEORY.md conventions), the complex amplitudes drawn as the
+FFT of white Gaussian noise (so Hermitian symmetry is exact) or, with
+``random_amplitudes=False``, with fixed moduli and random phases. A profile is one line
+scan of such an isotropic surface: its 1D spectrum is the projection of ``C(q)``, so the
+profile has the same G(dr) as the surface.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from scipy import fft as sfft
+
+from . import units as u
+from ._kernels.hankel import profile_spectrum_kernel
+from .models import model_attrs, self_affine_model
+from .topography import topography
+
+__all__ = ["self_affine_surface"]
+
+
+def _as_tuple(value: Any, nd: int, what: str) -> tuple:
+    if isinstance(value, (tuple, list)):
+        if len(value) != nd:
+            raise ValueError(f"{what} needs {nd} entries, got {len(value)}")
+        return tuple(value)
+    return (value,) * nd
+
+
+def self_affine_surface(
+    *,
+    hurst: float,
+    lambda_r: Any,
+    lambda_s: Any,
+    size: Any,
+    n: int | tuple[int, int],
+    rms_height: Any = None,
+    rms_gradient: Any = None,
+    C_r: Any = None,
+    lambda_0: Any = None,
+    rolloff: str = "sharp",
+    unit: str = "m",
+    profile: bool = False,
+    random_amplitudes: bool = True,
+    seed: int | np.random.Generator | None = None,
+) -> "xr.DataArray":  # noqa: F821
+    r"""Random periodic self-affine topography with the spectrum of eq. 35.
+
+    Parameters
+    ----------
+    hurst : float
+        Hurst exponent H, 0 < H < 1.
+    lambda_r, lambda_s : float, str or Quantity
+        Roll-off wavelength ``2 pi / q_r`` and short-wavelength cutoff ``2 pi / q_s``
+        (numbers in metres). ``lambda_s`` must be at least two pixels.
+    size : float, str, Quantity or pair
+        Physical size of the periodic domain ``(Ly, Lx)`` (one value: square).
+    n : int or pair of int
+        Grid points ``(ny, nx)`` (one value: square; the number of points of a profile).
+    rms_height, rms_gradient, C_r : optional
+        Exactly one sets the amplitude: rms height (length), rms gradient (dimensionless)
+        or the plateau value ``C_r`` (length^4) of the model spectrum. Heights and
+        gradients refer to the model's continuous spectrum; a realisation scatters
+        around them.
+    lambda_0 : float, str or Quantity, optional
+        Long-wavelength cutoff ``2 pi / q_0`` of the model (default: the system size).
+    rolloff : {'sharp', 'smooth'}
+        Eq. 35's flat plateau below ``q_r``, or ``C ~ [1 + (q/q_r)^2]^-(1+H)``.
+    unit : str
+        Length unit of the output (heights and coordinates).
+    profile : bool
+        Return a 1D line scan (dims ``x``) of the isotropic surface instead of a map.
+    random_amplitudes : bool
+        Gaussian random amplitudes (a Gaussian random field, default) or fixed moduli
+        ``sqrt(C/A)`` with random phases (less scatter, not Gaussian at the largest
+        scales).
+    seed : int or numpy.random.Generator, optional
+        Random seed.
+
+    Returns
+    -------
+    xarray.DataArray
+        Periodic topography (``attrs["periodic"] = 1``) whose attrs record the model in
+        the output unit (``hurst``, ``q_r``, ``q_s``, ``q_0``, ``rolloff``, ``C_r``, and the
+        model's ``rms_height`` and ``rms_gradient``; see :func:`xrough.models.model_attrs`)
+        and the ``seed``.
+
+    Raises
+    ------
+    ValueError
+        Invalid model parameters, or ``lambda_s`` below two pixels (unresolved).
+
+    See Also
+    --------
+    xrough.model_spectrum : the model spectrum as a DataArray.
+    xrough.acf_from_spectrum : its exact G(dr) (eq. 9).
+
+    Examples
+    --------
+    >>> import xrough
+    >>> topo = xrough.self_affine_surface(hurst=0.8, lambda_r="1 um", lambda_s="20 nm",
+    ...                                   size="4 um", n=512, rms_gradient=0.3, seed=1,
+    ...                                   unit="nm")
+    >>> topo.dims, topo.attrs["units"], round(float(topo.x[1]), 3)
+    (('y', 'x'), 'nm', 7.8125)
+    """
+    nd = 1 if profile else 2
+    sizes = _as_tuple(size, nd, "size")
+    ns = tuple(int(k) for k in _as_tuple(n, nd, "n"))
+    if any(k < 2 for k in ns):
+        raise ValueError(f"n must be at least 2 per dim, got {n}")
+    conv = u.conversion_factor("m", unit)
+    lengths = tuple(u.to_si(s, "[length]", what="size") * conv for s in sizes)
+    if any(not (L > 0) for L in lengths):
+        raise ValueError(f"size must be positive, got {size}")
+    if lambda_0 is None:
+        lambda_0 = f"{max(lengths)!r} {unit}"
+    model = self_affine_model(hurst=hurst, lambda_r=lambda_r, lambda_s=lambda_s,
+                              lambda_0=lambda_0, C_r=C_r, rms_height=rms_height,
+                              rms_gradient=rms_gradient, rolloff=rolloff, unit=unit)
+    spacing = tuple(L / k for L, k in zip(lengths, ns))
+    if 2 * np.pi / model.q_s < 2 * max(spacing) * (1 - 1e-9):
+        raise ValueError(
+            f"lambda_s = {2 * np.pi / model.q_s:g} {unit} is shorter than two pixels "
+            f"({2 * max(spacing):g} {unit}): the cutoff is not resolved; use more points"
+        )
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    white = rng.standard_normal(ns)
+    coeff = sfft.rfftn(white, workers=-1)
+    if not random_amplitudes:
+        mod = np.abs(coeff)
+        coeff = np.divide(coeff, mod, out=np.ones_like(coeff), where=mod > 0)
+        coeff *= np.sqrt(np.prod(ns))
+    qs = [2 * np.pi * sfft.fftfreq(k, d) for k, d in zip(ns[:-1], spacing[:-1])]
+    qs.append(2 * np.pi * sfft.rfftfreq(ns[-1], spacing[-1]))
+    if profile:
+        C = profile_spectrum_kernel(qs[0], model, model.breakpoints)
+    else:
+        C = model(np.hypot(qs[0][:, None], qs[1][None, :]))
+    C = np.asarray(C, dtype=float)
+    C.flat[0] = 0.0  # zero mean
+    area = float(np.prod(lengths))
+    coeff *= np.sqrt(np.prod(ns) * C / area)
+    heights = sfft.irfftn(coeff, s=ns, workers=-1)
+    attrs = {"source": "synthetic self-affine surface", **model_attrs(model),
+             "random_amplitudes": int(bool(random_amplitudes)),
+             "seed": -1 if seed is None or isinstance(seed, np.random.Generator) else int(seed)}
+    return topography(heights, spacing=spacing if nd == 2 else spacing[0], unit=unit,
+                      periodic=True, attrs=attrs)
