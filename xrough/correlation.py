@@ -102,11 +102,12 @@ def _plan(grid: Grid, *, direction: str, bins, points_per_decade, bin_width, dr_
     lo = min(spacing) if lo is None else lo
     hi = longest if hi is None else min(hi, np.sqrt(sum(((n - 1) * d) ** 2 for n, d in
                                                          zip(lag_shape, spacing))))
-    if not (lo > 0 and hi > lo):
+    explicit = not isinstance(bins, str)
+    if not explicit and not (lo > 0 and hi >= lo and (hi > lo or dr_min is None)):
         raise ValueError(f"need 0 < dr_min < dr_max; got dr_min={lo:g}, dr_max={hi:g} "
                          f"{grid.lateral_unit} (largest lag on this grid: {longest:g})")
     hi_edge = hi * (1 + 1e-12)  # include dr_max itself
-    if isinstance(bins, str):
+    if not explicit:
         if bins == "log":
             edges = binning.log_bin_edges(lo, hi_edge, points_per_decade)
         elif bins == "linear":
