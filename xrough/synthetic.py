@@ -106,7 +106,7 @@ def self_affine_surface(
     ...                                   size="4 um", n=512, rms_gradient=0.3, seed=1,
     ...                                   unit="nm")
     >>> topo.dims, topo.attrs["units"], round(float(topo.x[1]), 3)
-    (('y', 'x'), 'nm', 7.8125)
+    (('y', 'x'), 'nm', 7.812)
     """
     nd = 1 if profile else 2
     sizes = _as_tuple(size, nd, "size")

@@ -445,7 +445,7 @@ def acf_from_spectrum_kernel(
     >>> import numpy as np
     >>> from scipy.special import j1
     >>> flat = lambda q: np.where(q < 1.0, 1.0, 0.0)
-    >>> dr = np.array([1e-3, 1.0, 1e4])
+    >>> dr = np.array([0.5, 1.0, 1e4])
     >>> G = acf_from_spectrum_kernel(dr, flat, [0.0, 1.0], knots_per_decade=0)
     >>> exact = (0.5 - j1(dr) / dr) / (2 * np.pi)
     >>> bool(np.allclose(G, exact, rtol=1e-12, atol=0))
