@@ -1,14 +1,10 @@
-import os
 from pathlib import Path
 
 import matplotlib
-import numpy as np
 import pytest
-import xarray as xr
 
 matplotlib.use("Agg")
 
-import xrough  # noqa: E402
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 

@@ -5,9 +5,9 @@ import itertools
 import numpy as np
 import pytest
 import xarray as xr
-from conftest import to_backend
 
 import xrough
+from conftest import to_backend
 from xrough._kernels.binning import log_bin_edges
 
 

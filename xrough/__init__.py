@@ -16,16 +16,22 @@ try:
 except PackageNotFoundError:  # pragma: no cover - running from a source tree
     __version__ = "0.0.0+unknown"
 
-from . import plot, units  # noqa: E402
+from . import (  # noqa: E402
+    accessor,  # noqa: E402,F401  (registers .rough)
+    plot,
+    units,
+)
 from .correlation import height_difference_acf  # noqa: E402
 from .models import self_affine_model  # noqa: E402
+from .spectra import acf_from_spectrum, model_spectrum  # noqa: E402
 from .synthetic import self_affine_surface  # noqa: E402
 from .topography import topography  # noqa: E402
-from . import accessor  # noqa: E402,F401  (registers .rough)
 
 __all__ = [
     "__version__",
+    "acf_from_spectrum",
     "height_difference_acf",
+    "model_spectrum",
     "plot",
     "self_affine_model",
     "self_affine_surface",

@@ -68,9 +68,8 @@ def _geometry(shape, spacing, periodic, ks, edges_key):
 
 
 def _length(value, lateral_unit: str, what: str) -> float | None:
-    if value is None:
-        return None
-    return u.to_si(value, "[length]", what=what) * u.conversion_factor("m", lateral_unit)
+    return None if value is None else u.length_in(value, lateral_unit, what=what,
+                                                  positive=False)
 
 
 def _plan(grid: Grid, *, direction: str, bins, points_per_decade, bin_width, dr_min,

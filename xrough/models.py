@@ -18,13 +18,6 @@ from ._kernels.spectral_models import SpectrumModel
 __all__ = ["self_affine_model", "model_attrs", "model_from_attrs"]
 
 
-def _wavelength(value: Any, unit: str, what: str) -> float:
-    lam = u.to_si(value, "[length]", what=what) * u.conversion_factor("m", unit)
-    if not (np.isfinite(lam) and lam > 0):
-        raise ValueError(f"{what} must be a positive length, got {value!r}")
-    return float(lam)
-
-
 def self_affine_model(
     *,
     hurst: float,
@@ -38,6 +31,10 @@ def self_affine_model(
     unit: str = "m",
 ) -> SpectrumModel:
     """Build the model spectrum of eq. 35 in ``unit`` from physical parameters.
+
+    Amplitudes given as rms height or gradient are converted with the model's moments
+    ``sigma_h^2 = (1/2pi) int q C dq`` and ``gbar^2 = (1/2pi) int q^3 C dq`` (eq. 26 at
+    ``dr -> 0``).
 
     Parameters
     ----------
@@ -78,9 +75,9 @@ def self_affine_model(
     if not isinstance(hurst, (int, float, np.integer, np.floating)):
         raise TypeError(f"hurst must be a number, got {type(hurst).__name__}")
     u.as_length_unit(unit, what="unit")
-    q_r = 2 * np.pi / _wavelength(lambda_r, unit, "lambda_r")
-    q_s = 2 * np.pi / _wavelength(lambda_s, unit, "lambda_s")
-    q_0 = 0.0 if lambda_0 is None else 2 * np.pi / _wavelength(lambda_0, unit, "lambda_0")
+    q_r = 2 * np.pi / u.length_in(lambda_r, unit, what="lambda_r")
+    q_s = 2 * np.pi / u.length_in(lambda_s, unit, what="lambda_s")
+    q_0 = 0.0 if lambda_0 is None else 2 * np.pi / u.length_in(lambda_0, unit, what="lambda_0")
     if q_s <= q_r:
         raise ValueError("lambda_s must be shorter than lambda_r")
     if q_0 > q_r:
@@ -92,15 +89,19 @@ def self_affine_model(
         q = u.quantity(value, default_units="m**4", what="C_r")
         if not q.check("[length] ** 4"):
             raise ValueError(f"C_r must have units of length^4, got {value!r}")
-        c_r = float(q.to(u.parse_units(unit) ** 4).magnitude)
+        amplitude = float(q.to(u.parse_units(unit) ** 4).magnitude)
     elif name == "rms_height":
-        s = u.to_si(value, "[length]", what="rms_height") * u.conversion_factor("m", unit)
-        c_r = s**2 / shape.shape_moment(0)
+        amplitude = u.to_si(value, "[length]", what="rms_height") * u.conversion_factor(
+            "m", unit)
     else:
-        g = float(u.quantity(value, default_units="", what="rms_gradient").to("").magnitude)
-        c_r = g**2 / shape.shape_moment(2)
-    if not (np.isfinite(c_r) and c_r > 0):
+        q = u.quantity(value, default_units="", what="rms_gradient")
+        if not q.dimensionless:
+            raise ValueError(f"rms_gradient must be dimensionless, got {value!r}")
+        amplitude = float(q.to("").magnitude)
+    if not (np.isfinite(amplitude) and amplitude > 0):
         raise ValueError(f"{name} must be positive and finite, got {value!r}")
+    c_r = {"C_r": amplitude, "rms_height": amplitude**2 / shape.shape_moment(0),
+           "rms_gradient": amplitude**2 / shape.shape_moment(2)}[name]
     return SpectrumModel(hurst=float(hurst), q_r=q_r, q_s=q_s, q_0=q_0, C_r=float(c_r),
                          rolloff=rolloff)
 

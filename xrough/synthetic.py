@@ -47,7 +47,7 @@ def self_affine_surface(
     profile: bool = False,
     random_amplitudes: bool = True,
     seed: int | np.random.Generator | None = None,
-) -> "xr.DataArray":  # noqa: F821
+) -> xr.DataArray:  # noqa: F821
     r"""Random periodic self-affine topography with the spectrum of eq. 35.
 
     Parameters

@@ -25,6 +25,7 @@ __all__ = [
     "quantity",
     "to_si",
     "as_length_unit",
+    "length_in",
     "conversion_factor",
     "multiply_units",
     "power_units",
@@ -39,22 +40,20 @@ except OSError:  # pragma: no cover - read-only home
 ureg.formatter.default_format = "~"
 
 # CF/UDUNITS writes "m2", "m-2", "J m-2"; pint wants "m**2", "m**-2", "J*m**-2".
+_NUMBER_UNIT = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*)$")
 _CF_TOKEN = re.compile(r"^([A-Za-zµμ_%]+)(\^|\*\*)?(-?\d+)?$")
 
 
 def _cf_to_pint(text: str) -> str:
+    """Rewrite a CF/UDUNITS product ("J m-2", "um4") for pint; leave anything else alone."""
     text = text.strip()
-    if not text:
-        return ""
     tokens = text.replace("·", " ").split()
-    out = []
-    for tok in tokens:
-        match = _CF_TOKEN.match(tok)
-        if match and match.group(3) is not None and match.group(2) is None:
-            out.append(f"{match.group(1)}**{match.group(3)}")
-        else:
-            out.append(tok)
-    return "*".join(out) if len(out) > 1 else out[0]
+    matches = [_CF_TOKEN.match(tok) for tok in tokens]
+    if not tokens or not all(m and m.group(2) is None for m in matches):
+        return text  # not a CF product: pint's own grammar ("mJ/m^2", "meter ** 2")
+    out = [f"{m.group(1)}**{m.group(3)}" if m.group(3) is not None else m.group(1)
+           for m in matches]
+    return "*".join(out)
 
 
 def parse_units(units: str | pint.Unit, *, what: str = "units") -> pint.Unit:
@@ -74,8 +73,8 @@ def parse_units(units: str | pint.Unit, *, what: str = "units") -> pint.Unit:
 
     Examples
     --------
-    >>> str(parse_units("J m-2"))
-    'joule / meter ** 2'
+    >>> parse_units("J m-2") == parse_units("J/m^2") == parse_units("joule / meter ** 2")
+    True
     """
     if isinstance(units, pint.Unit):
         return ureg.Unit(str(units))
@@ -120,7 +119,7 @@ def format_units(unit: pint.Unit | str) -> str:
 
 
 def units_of(obj: Any, *, what: str | None = None) -> pint.Unit:
-    """The pint Unit of an xarray object's ``units`` attribute.
+    """Parse the ``units`` attribute of an xarray object into a pint Unit.
 
     Raises
     ------
@@ -147,10 +146,13 @@ def quantity(value: Any, *, default_units: str | pint.Unit = "", what: str = "va
             return ureg.Quantity(value.magnitude, str(value.units))
         return value
     if isinstance(value, str):
+        match = _NUMBER_UNIT.match(value)
         try:
-            q = ureg.Quantity(_cf_to_pint(value)) if " " not in value.strip() else ureg.Quantity(
-                value
-            )
+            if match:  # "2 um4", "25 MPa", "50 mJ m-2": number, then a CF or pint unit
+                q = ureg.Quantity(float(match.group(1)), parse_units(match.group(2), what=what)
+                                  if match.group(2).strip() else "")
+            else:
+                q = ureg.Quantity(value)
         except Exception as err:  # noqa: BLE001
             raise ValueError(f"{what}: cannot parse {value!r} as a quantity ({err})") from None
         if not isinstance(q, pint.Quantity):
@@ -200,6 +202,21 @@ _SI_UNITS = {
     "[mass] / [time] ** 2": "J/m**2",  # energy per area (surface energy)
     "[]": "",
 }
+
+
+def length_in(value: Any, unit: str | pint.Unit, *, what: str, positive: bool = True) -> float:
+    """Convert a length parameter to a float in ``unit`` (plain numbers are metres).
+
+    Examples
+    --------
+    >>> length_in("2 um", "nm", what="lambda_r")
+    2000.0
+    """
+    mag = to_si(value, "[length]", what=what)
+    if np.ndim(mag) != 0 or not np.isfinite(mag) or (positive and not mag > 0):
+        raise ValueError(f"{what} must be a {'positive ' if positive else ''}length, "
+                         f"got {value!r}")
+    return float(mag) * conversion_factor("m", unit)
 
 
 def as_length_unit(units: str | pint.Unit, *, what: str) -> pint.Unit:

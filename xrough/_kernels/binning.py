@@ -58,7 +58,7 @@ def max_lags(shape: tuple[int, ...], spacing: tuple[float, ...], periodic: bool,
 
 
 def lag_multiplicity(n: int, k: int, periodic: bool) -> np.ndarray:
-    """Number of distinct signed lags ``+-i`` for ``i = 0..k`` along one axis of length n."""
+    """Count the distinct signed lags ``+-i`` for ``i = 0..k`` along an axis of length n."""
     mult = np.full(k + 1, 2, dtype=np.int64)
     mult[0] = 1
     if periodic and n % 2 == 0 and k >= n // 2:

@@ -20,14 +20,19 @@ Method for eq. 9 (with ``t = q dr`` and a split point ``T``, default 64):
   ``t`` (resolves the at most ``T/pi`` oscillations of ``J0``).  ``1 - J0(t)`` comes from its
   power series for ``t < 1``, so ``G ~ gbar^2 dr^2 / 4`` keeps full relative precision at small
   ``dr``.
-* ``t > T``: ``int q C dq`` (same panels, weight 1) minus ``int q C J0(q dr) dq``.  For the
-  latter, ``C`` is represented as a piecewise power law ``c q^alpha`` between knots (the
-  breakpoints themselves when ``C`` is a power law between them, otherwise ``knots_per_decade``
-  knots), and each piece ``int t^beta J0(t) dt`` is integrated in closed form with the Hankel
-  asymptotic expansion of ``J0`` combined with the asymptotic antiderivative of
-  ``t^gamma e^{it}``.  Its cost is O(1) per piece, whatever the number of oscillations.  Pieces
-  with a steep exponent (``|beta|`` comparable to ``T``) start the expansion later and are
-  integrated by Gauss-Legendre in between.
+* ``t > T``: ``int q C dq`` minus ``int q C J0(q dr) dq``.  The first comes from
+  Gauss-Legendre integrals over the fixed ``q`` panels, summed from the top (positive terms,
+  no cancellation), plus one partial panel at ``q = T/dr``.  For the second, ``C`` is
+  represented between knots as a power law through both knots (the breakpoints themselves
+  when ``C`` is a power law between them: exact), or, for smooth spectra, times a quadratic
+  correction that also matches ``C`` at the geometric midpoint (``knots_per_decade`` knots;
+  error ~ h^3 and only ~T^-1.5 of ``G`` is affected).  Each power law ``int t^beta J0(t) dt``
+  is integrated in closed form from the Hankel asymptotic expansion of ``J0`` combined with
+  the asymptotic antiderivative of ``t^gamma e^{it}``, regrouped into one series
+  ``sum_m d_m(beta) t^-m`` that is truncated where its terms fall below 1e-17.  The cost is
+  O(1) per piece, whatever the number of oscillations.  Pieces with a steep exponent
+  (``|beta|`` comparable to ``T``, e.g. noisy measured spectra) start the expansion later
+  and are integrated by Gauss-Legendre in between.
 """
 
 from __future__ import annotations
@@ -102,11 +107,11 @@ def _log_grid(bp: np.ndarray, per_decade: float, *, depth: float) -> np.ndarray:
     end (and 0 itself).
     """
     pts = [bp]
-    for a, b in zip(bp[:-1], bp[1:]):
-        lo = a if a > 0 else b * 10.0**-depth
-        n = int(np.ceil(per_decade * np.log10(b / lo)))
-        if n > 0:
-            pts.append(np.geomspace(lo, b, n + 1))
+    lo = np.where(bp[:-1] > 0, bp[:-1], bp[1:] * 10.0**-depth)
+    n = np.ceil(per_decade * np.log10(bp[1:] / lo)).astype(int)
+    for a, b, k in zip(lo[n > 1], bp[1:][n > 1], n[n > 1], strict=True):
+        pts.append(np.geomspace(a, b, k + 1))
+    pts.append(lo)
     return np.unique(np.concatenate(pts))
 
 
@@ -200,11 +205,13 @@ def _power_law_pieces(spectrum: Spectrum, bp: np.ndarray, knots_per_decade: floa
     """
     refine = bool(knots_per_decade) and knots_per_decade > 0
     lo_list, hi_list = [], []
-    for a, b in zip(bp[:-1], bp[1:]):
+    for a, b in zip(bp[:-1], bp[1:], strict=True):
         if b <= q_min:
             continue
         if refine:
-            start = a if a > 0 else min(b * 1e-3, 0.5 * q_min)
+            # (a segment from 0 ends in one power-law piece [0, start]; C(q) is analytic
+            # there, so start <= 1e-12 b is plenty)
+            start = a if a > 0 else max(min(b * 1e-3, 0.5 * q_min), b * 1e-12)
             n = max(1, int(np.ceil(knots_per_decade * np.log10(b / start))))
             k = np.geomspace(start, b, n + 1)
             k[0], k[-1] = start, b
@@ -331,10 +338,10 @@ def _oscillatory_part(r: np.ndarray, pieces, t_split: float, order: int) -> np.n
         return out
     klo, khi, c_top, alpha, kappa = klo[use], khi[use], c_top[use], alpha[use], kappa[use]
     rho = klo / khi
-    # q C(q) = c_top K_hi sum_l g_l x^(1 + alpha + l), x = q / K_hi
+    # q C(q) = c_top K_hi sum_j g_j x^(1 + alpha + j), x = q / K_hi
     g = np.stack([1.0 + kappa * rho, -kappa * (1.0 + rho), kappa])
     n_terms = 3 if np.any(kappa != 0) else 1
-    coeffs = [_asymptotic_coefficients(1.0 + alpha + l) for l in range(n_terms)]
+    coeffs = [_asymptotic_coefficients(1.0 + alpha + j) for j in range(n_terms)]
     t_start = np.max([_asymptotic_start(e, t_split) for e in coeffs], axis=0)
     # all (r, piece) pairs that reach beyond t_split
     ri, pj = np.nonzero(khi[None, :] * r[:, None] > t_split)
@@ -357,9 +364,9 @@ def _oscillatory_part(r: np.ndarray, pieces, t_split: float, order: int) -> np.n
             ts, ii = t[sel], idx[sel]
             phase = _phase(ts)
             total = 0.0
-            for l in range(n_terms):
-                s = _antiderivative(ts, coeffs[l][:, ii], phase, n)
-                total = total + (g[l, ii] * x[sel] ** l) * s if l else g[0, ii] * s
+            for j in range(n_terms):
+                s = _antiderivative(ts, coeffs[j][:, ii], phase, n)
+                total = total + (g[j, ii] * x[sel] ** j) * s if j else g[0, ii] * s
             out[sel] = base[sel] * total
         return out
 
@@ -434,8 +441,10 @@ def acf_from_spectrum_kernel(
 
     Notes
     -----
-    Relative accuracy is about 1e-12 for piecewise power laws (``knots_per_decade=0``) and
-    about 1e-9 for smooth spectra with the default knot density, over any range of ``dr``.
+    Measured relative accuracy (against 30-digit mpmath) over 16 decades of ``dr``
+    (``1e-4/q_s`` to ``1e6/q_r``, ``q_s/q_r = 1e6``, ``0.05 <= H <= 0.95``): a few 1e-15 for
+    the sharp model (an exact piecewise power law), about 1e-10 for the smooth roll-off with
+    the default knot density.  200 values take about 10 ms (sharp) or 60 ms (smooth).
 
     Examples
     --------
@@ -464,23 +473,47 @@ def acf_from_spectrum_kernel(
     T = float(t_split)
     q_lo, q_hi = bp[0], bp[-1]
 
-    # -- Gauss-Legendre part: weight 1 - J0(t) below T, 1 above ------------------------
     qgrid = _log_grid(bp, panels_per_decade, depth=4.0)
+
+    # -- t < T: Gauss-Legendre with the full 1 - J0(t) ---------------------------------
+    # r is processed in increasing order, so that each block only carries the q-panels
+    # that lie below t = T for its smallest r.
     tgrid = np.append(np.arange(2.0, T, 2.0), T)
-    n_edges = qgrid.size + tgrid.size
+    order_r = np.argsort(rp)
     gl = np.empty(rp.size)
-    for blk in _blocks(rp.size, n_edges * order):
-        rb = rp[blk][:, None]
-        edges = np.concatenate([qgrid[None, :] * rb,
+    for blk in _blocks(rp.size, (qgrid.size + tgrid.size) * order):
+        idx = order_r[blk]
+        rb = rp[idx][:, None]
+        cols = qgrid[qgrid * rb[0, 0] < T]
+        edges = np.concatenate([cols[None, :] * rb,
                                 np.broadcast_to(tgrid, (rb.shape[0], tgrid.size))], axis=1)
-        edges = np.sort(np.clip(edges, q_lo * rb, q_hi * rb), axis=1)
+        edges = np.sort(np.clip(edges, q_lo * rb, np.minimum(q_hi * rb, T)), axis=1)
         r3 = rb[..., None]
 
         def integrand(t, r3=r3):
-            w = np.where(t < T, _one_minus_j0(np.minimum(t, T)), 1.0)
-            return t * np.asarray(spectrum(t / r3), dtype=float) * w
+            q = t / r3
+            return q * np.asarray(spectrum(q), dtype=float) * _one_minus_j0(t)
 
-        gl[blk] = _panel_quadrature(edges, integrand, order) / rb[:, 0] ** 2
+        # sum over t-panels of q C (1 - J0) dt, and dq = dt / r
+        gl[idx] = _panel_quadrature(edges, integrand, order) / rb[:, 0]
+
+    # -- t > T: int q C dq from per-panel integrals summed from the top (all positive) ----
+    far = q_hi * rp > T
+    if np.any(far):
+        x, w = _gauss_legendre(order)
+
+        def panel_integrals(a, b):
+            half, mid = 0.5 * (b - a), 0.5 * (b + a)
+            qn = mid[:, None] + half[:, None] * x
+            with np.errstate(all="ignore"):
+                f = qn * np.asarray(spectrum(qn), dtype=float)
+            return np.where(half > 0, (f @ w) * half, 0.0)
+
+        above = np.concatenate([np.cumsum(panel_integrals(qgrid[:-1], qgrid[1:])[::-1])[::-1],
+                                [0.0]])  # above[p] = int_{qgrid[p]}^{q_hi} q C dq
+        q_t = np.maximum(T / rp[far], q_lo)
+        p = np.clip(np.searchsorted(qgrid, q_t, side="right"), 1, qgrid.size - 1)
+        gl[far] += above[p] + panel_integrals(q_t, qgrid[p])
 
     # -- oscillatory part: subtract int_{T/r} q C J0(q r) dq ----------------------------
     osc = np.zeros(rp.size)

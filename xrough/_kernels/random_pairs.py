@@ -32,7 +32,7 @@ def _signed_range(n: int, periodic: bool) -> tuple[int, int]:
 
 
 def _weight(i: np.ndarray, n: int, periodic: bool) -> np.ndarray:
-    """Number of start points along one axis with the partner on the map."""
+    """Count the start points along one axis whose partner lies on the map."""
     if periodic:
         return np.full(i.shape, float(n))
     return (n - np.abs(i)).astype(float)
