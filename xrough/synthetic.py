@@ -10,6 +10,7 @@ profile has the same G(dr) as the surface.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
@@ -137,10 +138,13 @@ def self_affine_surface(
         coeff *= np.sqrt(np.prod(ns))
     qs = [2 * np.pi * sfft.fftfreq(k, d) for k, d in zip(ns[:-1], spacing[:-1])]
     qs.append(2 * np.pi * sfft.rfftfreq(ns[-1], spacing[-1]))
+    # grid modes that sit on a cutoff (q_0 = 2 pi / L is the lowest mode by default) are
+    # kept whatever the round-off of the unit: the band is closed, [q_0, q_s]
+    band = dataclasses.replace(model, q_0=model.q_0 * (1 - 1e-9), q_s=model.q_s * (1 + 1e-9))
     if profile:
-        C = profile_spectrum_kernel(qs[0], model, model.breakpoints)
+        C = profile_spectrum_kernel(qs[0], band, band.breakpoints)
     else:
-        C = model(np.hypot(qs[0][:, None], qs[1][None, :]))
+        C = band(np.hypot(qs[0][:, None], qs[1][None, :]))
     C = np.asarray(C, dtype=float)
     C.flat[0] = 0.0  # zero mean
     area = float(np.prod(lengths))
