@@ -147,7 +147,9 @@ def _sq_terms_nonperiodic(h2: np.ndarray, ks: tuple[int, ...]) -> np.ndarray:
     ky, kx = ks
     ny, nx = h2.shape[-2:]
     t = np.zeros(h2.shape[:-2] + (ny + 1, nx + 1))
-    np.cumsum(np.cumsum(h2, axis=-2), axis=-1, out=t[..., 1:, 1:])
+    inner = t[..., 1:, 1:]
+    np.cumsum(h2, axis=-2, out=inner)
+    np.cumsum(inner, axis=-1, out=inner)
     # Rectangle sums R(r0:r1, c0:c1) from the summed-area table t (t[0, :] = t[:, 0] = 0).
     # For lags (+i, +j) and (+i, -j) the corners are 0, i, ny - i, ny (and likewise in j),
     # so every term is a (reversed) slice of t: views, no gathers.
@@ -236,25 +238,35 @@ def _abs2(a: np.ndarray) -> np.ndarray:
     return np.add(v[..., 0::2], v[..., 1::2])
 
 
+def _real_cross(b: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """Re(conj(b) m) as a new real array; overwrites ``b``."""
+    v = b.view(np.float64)
+    np.multiply(v, m.view(np.float64), out=v)
+    return np.add(v[..., 0::2], v[..., 1::2])
+
+
 def _masked(h, valid, ks, fshape, axes, workers):
     m = valid.astype(np.float64)
     nvalid = m.sum(axis=axes, keepdims=True)
     mean = np.nansum(h, axis=axes, keepdims=True) / np.maximum(nvalid, 1)
-    hz = np.where(valid, h - mean, 0.0)
+    hz = np.subtract(h, mean)
+    np.copyto(hz, 0.0, where=~valid)
     fm = _rfftn(m, fshape, axes, workers)
     del m
-    fb = _rfftn(hz * hz, fshape, axes, workers)
+    fb = _rfftn(np.square(hz), fshape, axes, workers)
     # 2 Re(conj(B) M) is the spectrum of corr(h^2, m) + corr(m, h^2)
-    w = fb.real * fm.real
-    w += fb.imag * fm.imag
-    w *= 2.0
+    w = _real_cross(fb, fm)
     del fb
+    w *= 2.0
     counts = np.rint(_inverse_folded(_abs2(fm), fshape, ks, workers))
     del fm
     fa = _rfftn(hz, fshape, axes, workers)
     del hz
-    w -= 2.0 * _abs2(fa)
+    power = _abs2(fa)
     del fa
+    power *= 2.0
+    w -= power
+    del power
     sums = _inverse_folded(w, fshape, ks, workers)
     del w
     sums[counts == 0] = 0.0  # no pairs: only round-off was there
