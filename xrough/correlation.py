@@ -146,7 +146,8 @@ def _progress_bar(total: int, progress, desc: str):
 
 
 def _fft_kernel(h: np.ndarray, *, plan: _Plan, workers: int, progress) -> tuple:
-    """(..., *core) heights -> (sum of squared differences, pair counts) per kept bin."""
+    """(..., *core) heights -> sums of squared differences and pair counts per kept bin,
+    and the number of valid points per map."""
     ncore = len(plan.shape)
     batch = h.shape[: h.ndim - ncore]
     flat = h.reshape((-1,) + plan.shape)
@@ -155,10 +156,14 @@ def _fft_kernel(h: np.ndarray, *, plan: _Plan, workers: int, progress) -> tuple:
     nb = len(plan.edges) - 1
     sums = np.empty((flat.shape[0], int(plan.keep.sum())))
     counts = np.empty_like(sums)
+    nvalid = np.empty(flat.shape[0])
     bar = _progress_bar(flat.shape[0], progress, "G(dr) by FFT")
     try:
         for b in range(flat.shape[0]):
             s, n = folded_pair_sums(flat[b], plan.ks, periodic=plan.periodic, workers=workers)
+            # the ordered pairs at lag 0 are the valid points themselves
+            nvalid[b] = np.prod(plan.shape) if n is None else n[(...,) + (0,) * len(
+                plan.ks)].sum()
             if plan.lag_axes < ncore:  # pool the rows of a one-direction G
                 s = s.sum(axis=0)
                 n = None if n is None else n.sum(axis=0)
@@ -173,7 +178,7 @@ def _fft_kernel(h: np.ndarray, *, plan: _Plan, workers: int, progress) -> tuple:
         if bar is not None:
             bar.close()
     shape = batch + (sums.shape[-1],)
-    return sums.reshape(shape), counts.reshape(shape)
+    return sums.reshape(shape), counts.reshape(shape), nvalid.reshape(batch)
 
 
 def _random_kernel(h: np.ndarray, seeds: np.ndarray, *, plan: _Plan, n_per_bin: int,
@@ -198,7 +203,8 @@ def _random_kernel(h: np.ndarray, seeds: np.ndarray, *, plan: _Plan, n_per_bin: 
         if bar is not None:
             bar.close()
     out = out.reshape(batch + out.shape[1:])
-    return out[..., 0, :], out[..., 1, :], out[..., 2, :]
+    nvalid = np.isfinite(h).sum(axis=tuple(range(-ncore, 0))).astype(float)
+    return out[..., 0, :], out[..., 1, :], out[..., 2, :], nvalid
 
 
 def _area_variance(g, pairs, valid, *, dr, pixel_area, geometry):
@@ -332,8 +338,9 @@ def height_difference_acf(
     common = dict(input_core_dims=[list(plan.core_dims)], dask="parallelized",
                   dask_gufunc_kwargs={"output_sizes": {"dr": nb}}, keep_attrs=False)
     if estimator == "fft":
-        sums, counts = xr.apply_ufunc(
-            _fft_kernel, da, output_core_dims=[["dr"], ["dr"]], output_dtypes=[float, float],
+        sums, counts, valid = xr.apply_ufunc(
+            _fft_kernel, da, output_core_dims=[["dr"], ["dr"], []],
+            output_dtypes=[float, float, float],
             kwargs={"plan": plan, "workers": workers, "progress": progress}, **common)
         gsum, gsq = 0.5 * sums, None
     else:
@@ -344,12 +351,11 @@ def height_difference_acf(
         seeds = np.random.SeedSequence(seed).generate_state(nmaps, dtype=np.uint64)
         seeds = xr.DataArray(seeds.reshape([da.sizes[d] for d in extra]), dims=extra)
         common["input_core_dims"] = [list(plan.core_dims), []]
-        gsum, gsq, counts = xr.apply_ufunc(
-            _random_kernel, da, seeds, output_core_dims=[["dr"], ["dr"], ["dr"]],
-            output_dtypes=[float, float, float],
+        gsum, gsq, counts, valid = xr.apply_ufunc(
+            _random_kernel, da, seeds, output_core_dims=[["dr"], ["dr"], ["dr"], []],
+            output_dtypes=[float, float, float, float],
             kwargs={"plan": plan, "n_per_bin": max(1, int(n_pairs) // nb),
                     "progress": progress}, **common)
-    valid = da.notnull().sum(dim=list(grid.dims))
     if pool_dims:
         gsum, counts, valid = (x.sum(pool_dims) for x in (gsum, counts, valid))
         gsq = gsq.sum(pool_dims) if gsq is not None else None

@@ -220,15 +220,19 @@ def _unmasked(h, ks, fshape, axes, periodic, workers):
         corr = _inverse_folded(power, fshape, ks, workers)
         del power
         # sum of squared differences over pairs: 2 (C(0) - C(d)) per distinct signed lag
-        zero = corr[(...,) + (0,) * len(ks)][(...,) + (None,) * len(ks)]
+        zero = corr[(...,) + (0,) * len(ks)][(...,) + (None,) * len(ks)].copy()
         mult = folded_geometric_counts(fshape, ks, True) / np.prod(fshape)
-        return 2.0 * (zero * mult - corr)
+        corr *= -2.0
+        corr += (2.0 * zero) * mult
+        return corr
     hc = h - h.mean(axis=axes, keepdims=True)
     power = _abs2(_rfftn(hc, fshape, axes, workers))
     corr = _inverse_folded(power, fshape, ks, workers)
     del power
     np.multiply(hc, hc, out=hc)
-    return _sq_terms_nonperiodic(hc, ks) - 2.0 * corr
+    corr *= -2.0
+    corr += _sq_terms_nonperiodic(hc, ks)
+    return corr
 
 
 def _abs2(a: np.ndarray) -> np.ndarray:
