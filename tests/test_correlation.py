@@ -210,7 +210,7 @@ def test_dask_graph_construction_does_not_compute():
 
 def test_dr_range_restricts_work_and_output():
     topo = xrough.topography(_case((64, 64), False, 1), spacing=1.0, unit="nm")
-    G = topo.rough.acf(dr_min="3 nm", dr_max=2e-8)
+    G = topo.rough.acf(dr_min="3 nm", dr_max=20)  # plain numbers: the map's unit (nm)
     assert G.dr.min() >= 3 and G.dr.max() <= 20
     full = topo.rough.acf()
     common = full.sel(dr=G.dr.values[1:-1])  # inner bins are identical
@@ -307,3 +307,73 @@ def test_bad_options():
     chunked = xr.concat([topo, topo], "scan").chunk({"x": 4})
     with pytest.raises(ValueError, match="chunk"):
         chunked.rough.acf()
+
+
+def test_dead_scan_line_and_column():
+    """A row (or column) without valid points contributes no pairs; it is not an error."""
+    rng = np.random.default_rng(0)
+    h = rng.normal(size=(16, 20))
+    h[5, :] = np.nan
+    h[:, 7] = np.nan
+    h[9, 1:] = np.nan  # a row with a single valid point
+    topo = xrough.topography(h, spacing=1.0, unit="nm")
+    edges = np.array([0.5, 1.5, 2.5, 4.5, 9.5])
+    for direction in ("x", "y"):
+        G = topo.rough.acf(direction=direction, bins=edges)
+        hh = h if direction == "x" else h.T.copy()
+        ref, n = brute_force_binned(hh, (1.0, 1.0), False, edges, direction="x")
+        np.testing.assert_allclose(G.values, ref, rtol=1e-10)
+        np.testing.assert_array_equal(G.pair_count.values, n)
+
+
+def test_stack_error_names_the_map():
+    maps = np.random.default_rng(0).normal(size=(3, 8, 8))
+    maps[1] = np.nan
+    base = xrough.topography(maps[0], spacing=1.0, unit="nm")
+    stack = xr.DataArray(maps, dims=("scan", "y", "x"), coords={k: base[k] for k in "xy"},
+                         attrs=base.attrs)
+    for estimator, kw in (("fft", {}), ("random", {"seed": 0})):
+        with pytest.raises(ValueError, match=r"fewer than 2 valid .*map \(1,\) of the stack"):
+            stack.rough.acf(estimator=estimator, **kw)
+
+
+def test_zero_lag_never_counts():
+    topo = xrough.topography(np.random.default_rng(0).normal(size=(32, 32)), spacing="1 nm",
+                             unit="nm", periodic=True)
+    a = topo.rough.acf(bins=np.array([0.0, 1.5]))
+    b = topo.rough.acf(bins=np.array([0.5, 1.5]))
+    xr.testing.assert_identical(a.drop_attrs(), b.drop_attrs())
+    r = topo.rough.acf(bins=np.array([0.0, 1.5]), estimator="random", seed=0, n_pairs=1000)
+    assert r.item() > 0.5
+
+
+def test_random_budget_counts_valid_pairs():
+    rng = np.random.default_rng(0)
+    h = rng.normal(size=(128, 128))
+    h[rng.random(h.shape) < 0.9] = np.nan
+    topo = xrough.topography(h, spacing=1.0, unit="nm")
+    G = topo.rough.acf(estimator="random", n_pairs=20 * 1000, seed=0, points_per_decade=5)
+    per_bin = 20 * 1000 // G.sizes["dr"]
+    # every bin with enough valid pairs reaches the budget exactly
+    full = G.pair_count.values[G.dr.values < 40]
+    np.testing.assert_array_equal(full, per_bin)
+
+
+def test_options_that_do_not_apply_are_refused():
+    topo = xrough.topography(np.zeros((8, 8)), spacing=1.0, unit="nm")
+    with pytest.raises(ValueError, match="apply to estimator='random'"):
+        topo.rough.acf(seed=3)
+    with pytest.raises(ValueError, match="bin_width applies to bins='linear'"):
+        topo.rough.acf(bin_width="2 nm")
+
+
+def test_error_hints_name_the_users_dims_and_coords():
+    da = xr.DataArray(np.zeros((4, 5)), dims=("lat", "lon"), attrs={"units": "nm"})
+    with pytest.raises(ValueError, match=r"da.rename\(\{'lat': 'y', 'lon': 'x'\}\)"):
+        xrough.height_difference_acf(da)
+    topo = xrough.topography(np.zeros(5), spacing=1.0, unit="nm")
+    with pytest.raises(ValueError, match=r"da.coords\['x'\].attrs\['units'\]"):
+        topo.assign_coords(x=("x", np.arange(5.0))).rough.acf()
+    prof = xr.concat([topo, topo], dim="scan").chunk({"x": 2})
+    with pytest.raises(ValueError, match=r"chunk\(\{'x': -1\}\)"):
+        prof.rough.acf()

@@ -83,7 +83,7 @@ def test_amplitude_options_agree(rolloff):
     from_c = spectrum_nm(rolloff=rolloff, rms_height=None,
                          C_r=f"{from_h.attrs['C_r']!r} nm^4")
     from_c_si = spectrum_nm(rolloff=rolloff, rms_height=None,
-                            C_r=from_h.attrs["C_r"] * 1e-36)  # plain number: m^4
+                            C_r=from_h.attrs["C_r"])  # plain number: in unit^4 (nm^4)
     for other in (from_g, from_c, from_c_si):
         np.testing.assert_allclose(other.values, from_h.values, rtol=1e-12, atol=0)
         assert other.attrs["rms_height"] == pytest.approx(2.0, rel=1e-12)
@@ -95,10 +95,11 @@ def test_amplitude_options_agree(rolloff):
         2.0, rel=1e-12)
 
 
-def test_quantity_and_si_number_inputs():
+def test_quantity_and_plain_number_inputs():
+    # plain lengths are in the output unit (nm here), strings and Quantities carry theirs
     ref = spectrum_nm()
-    alt = model_spectrum(hurst=0.8, lambda_r=1e-6, lambda_s=units.ureg.Quantity(10, "nm"),
-                         rms_height=2e-9, unit="nm")
+    alt = model_spectrum(hurst=0.8, lambda_r=1000, lambda_s=units.ureg.Quantity(10, "nm"),
+                         rms_height=2.0, unit="nm")
     xr.testing.assert_identical(ref, alt)
 
 
@@ -162,7 +163,7 @@ def test_netcdf_round_trip(tmp_path, name):
         (dict(lambda_r=0.0), "lambda_r must be a positive length"),
         (dict(lambda_r="1 MPa"), "lambda_r: '1 MPa' is not a length"),
         (dict(rms_height="2 nm^2"), "rms_height: .* is not a length"),
-        (dict(rms_height="-2 nm"), "rms_height must be positive"),
+        (dict(rms_height="-2 nm"), "rms_height must be a positive length"),
         (dict(rms_height=None, rms_gradient=-0.1), "rms_gradient must be positive"),
         (dict(rms_height=None, rms_gradient="1 nm"), "rms_gradient must be dimensionless"),
         (dict(rms_height=None, C_r="1 nm^3"), "C_r must have units of length\\^4"),
@@ -198,7 +199,7 @@ def test_acf_units_attrs_and_default_grid():
     # default range 0.01 * 2pi/q_max ... 100 * 2pi/q_min (rtol 1e-12: geomspace end points)
     assert dr[0] == pytest.approx(0.01 * 2 * np.pi / q.max(), rel=1e-12)
     assert dr[-1] == pytest.approx(100 * 2 * np.pi / q.min(), rel=1e-12)
-    G2 = acf_from_spectrum(C, dr_min="1 nm", dr_max=1e-5)
+    G2 = acf_from_spectrum(C, dr_min="1 nm", dr_max=1e4)  # plain numbers: nm here
     assert G2["dr"].values[0] == pytest.approx(1.0, rel=1e-12)
     assert G2["dr"].values[-1] == pytest.approx(1e4, rel=1e-12)
 

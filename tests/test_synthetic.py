@@ -36,7 +36,7 @@ def test_seed_average_matches_eq9(hurst, rolloff, profile):
 def test_amplitude_options_and_units():
     common = dict(hurst=0.7, lambda_r="1 um", lambda_s="20 nm", size="4 um", n=512, seed=0)
     a = xrough.self_affine_surface(rms_height="5 nm", unit="nm", **common)
-    b = xrough.self_affine_surface(rms_height=5e-9, unit="m", **common)
+    b = xrough.self_affine_surface(rms_height=5e-9, unit="m", **common)  # numbers in unit
     # identical up to round-off (heights near zero crossings carry relative noise)
     np.testing.assert_allclose(a.values * 1e-9, b.values, rtol=1e-10, atol=1e-12 * 5e-9)
     assert a.attrs["units"] == "nm" and b.attrs["units"] == "m"
@@ -45,9 +45,9 @@ def test_amplitude_options_and_units():
     assert float(a.std()) == pytest.approx(5.0, rel=0.25)
     g = xrough.self_affine_surface(rms_gradient=0.2, unit="nm", **common)
     assert g.attrs["rms_gradient"] == pytest.approx(0.2)
-    c = xrough.self_affine_surface(C_r=a.attrs["C_r"] * 1e-36, unit="nm", **common)
+    c = xrough.self_affine_surface(C_r=f"{a.attrs['C_r'] * 1e-36!r} m^4", unit="nm", **common)
     assert c.attrs["C_r"] == pytest.approx(a.attrs["C_r"])
-    np.testing.assert_allclose(c.values, a.values, rtol=1e-9)  # C_r in SI m^4
+    np.testing.assert_allclose(c.values, a.values, rtol=1e-9)
 
 
 def test_reproducible_fixed_amplitudes_and_profile():

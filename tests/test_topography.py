@@ -22,10 +22,13 @@ def test_from_array_with_string_spacing_and_units():
 def test_size_and_units_conversions():
     topo = xrough.topography(np.zeros((4, 8)), size=("4 um", "8 um"), unit="nm")
     np.testing.assert_allclose(float(topo.x[1]), 1000.0)
-    # plain numbers are metres unless a unit is given for them
-    topo_m = xrough.topography(np.zeros(10), spacing=1e-9, height_unit="m")
-    assert topo_m.x.attrs["units"] == "m"
-    np.testing.assert_allclose(float(topo_m.x[1]), 1e-9)
+    # plain-number spacing is in the lateral unit; without one it is refused
+    topo_nm = xrough.topography(np.zeros(10), spacing=5, unit="nm")
+    np.testing.assert_allclose(float(topo_nm.x[1]), 5.0)
+    topo_um = xrough.topography(np.zeros(10), spacing="5 nm", height_unit="um")
+    assert topo_um.x.attrs["units"] == "nm" and topo_um.attrs["units"] == "um"
+    with pytest.raises(ValueError, match="plain-number spacing needs a lateral unit"):
+        xrough.topography(np.zeros(10), spacing=5, height_unit="nm")
 
 
 def test_pint_quantity_heights_and_profile():
@@ -61,7 +64,7 @@ def test_dataarray_input_keeps_metadata():
         ({"heights": np.zeros((2, 3, 3)), "spacing": 1.0, "unit": "nm"}, "2D .* or 1D"),
         ({"heights": np.zeros((3, 3)), "spacing": 1.0, "unit": "Pa"}, "must be a length"),
         ({"heights": np.zeros((3, 3)), "spacing": "1 s", "unit": "nm"}, "not a length"),
-        ({"heights": np.zeros((3, 3)), "spacing": -1.0, "unit": "nm"}, "positive"),
+        ({"heights": np.zeros((3, 3)), "spacing": -1.0, "unit": "nm"}, "positive length"),
         ({"heights": np.zeros((3, 3)), "spacing": 1.0, "size": 2.0, "unit": "nm"},
          "either spacing or size"),
         ({"heights": np.array([[1.0, np.inf], [0, 0]]), "spacing": 1.0, "unit": "nm"},
@@ -155,3 +158,13 @@ def test_plots_return_axes():
     assert len(ax.get_lines()) == 2
     with pytest.raises(ValueError, match="one map"):
         xr.concat([topo, topo], dim="scan").rough.plot()
+
+
+def test_plot_labels_and_profile_stacks():
+    topo = xrough.topography(np.random.default_rng(0).normal(size=(16, 16)), spacing=1.0,
+                             unit="nm")
+    ax = topo.rough.acf().rough.plot(label="my map")
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["my map"]
+    profiles = xr.concat([topo.isel(y=0), topo.isel(y=1)], dim="scan")
+    ax = profiles.rough.plot()
+    assert len(ax.get_lines()) == 2

@@ -1,12 +1,15 @@
 """xrough: contact mechanics of rough surfaces from the height-difference ACF.
 
 Topographies, correlation functions and results are labelled :mod:`xarray` objects with
-physical units on data and coordinates; the ``.rough`` accessor chains the steps::
+physical units on data and coordinates; the ``.rough`` accessor chains the steps:
 
-    import xrough
-    topo = xrough.self_affine_surface(hurst=0.8, lambda_r="2 um", lambda_s="20 nm",
-                                      size="10 um", n=512, rms_gradient=0.5, seed=1)
-    G = topo.rough.acf()
+>>> import xrough
+>>> topo = xrough.self_affine_surface(hurst=0.8, lambda_r="2 um", lambda_s="40 nm",
+...                                   size="10 um", n=512, rms_gradient=0.5, seed=1,
+...                                   unit="nm")
+>>> G = topo.rough.acf()
+>>> G.attrs["units"], G.dr.attrs["units"]
+('nm2', 'nm')
 """
 
 from importlib.metadata import PackageNotFoundError, version

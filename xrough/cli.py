@@ -28,7 +28,8 @@ def _demo(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     print(f"xrough {xrough.__version__} demo: synthetic self-affine surface, "
           f"{args.n}x{args.n} points, H = {args.hurst}")
-    topo = xrough.self_affine_surface(hurst=args.hurst, lambda_r="2 um", lambda_s="40 nm",
+    lambda_s = f"{4 * 16 / args.n!r} um"  # the short cutoff at four pixels
+    topo = xrough.self_affine_surface(hurst=args.hurst, lambda_r="2 um", lambda_s=lambda_s,
                                       size="16 um", n=args.n, rms_gradient=0.5,
                                       seed=args.seed, unit="um")
     t0 = time.perf_counter()
@@ -39,7 +40,7 @@ def _demo(args: argparse.Namespace) -> int:
                         points_per_decade=10)
     t_rnd = time.perf_counter() - t0
     exact = xrough.acf_from_spectrum(xrough.model_spectrum(
-        hurst=args.hurst, lambda_r="2 um", lambda_s="40 nm", lambda_0="16 um",
+        hurst=args.hurst, lambda_r="2 um", lambda_s=lambda_s, lambda_0="16 um",
         rms_gradient=0.5, unit="um"), dr=G.dr.values)
     topo.to_netcdf(out / "topography.nc")
     G.to_netcdf(out / "G_fft.nc")
@@ -47,17 +48,19 @@ def _demo(args: argparse.Namespace) -> int:
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
     topo.rough.plot(ax=axes[0])
     G.rough.plot(ax=axes[1], label="all pairs (FFT)")
-    Gr.rough.plot(ax=axes[1], label=f"random pairs ({args.pairs:.0e})", linestyle="--")
+    Gr.rough.plot(ax=axes[1], label=f"random pairs ({args.pairs:,} pairs)", linestyle="--")
     axes[1].plot(exact.dr, exact, "k:", label="model spectrum, eq. 9")
     axes[1].legend()
+    axes[0].set_title(f"synthetic surface, H = {args.hurst}, rms gradient 0.5")
+    axes[1].set_title("height-difference ACF G(dr)")
     fig.tight_layout()
     fig.savefig(out / "demo.png", dpi=120)
     rel = np.abs(G.values / exact.values - 1)
-    print(f"\n{'dr (um)':>10} {'G fft (um2)':>12} {'G random':>12} {'G model':>12} "
-          f"{'std err':>10}")
+    print(f"\n{'dr (um)':>10} {'G fft (um2)':>12} {'G rnd (um2)':>12} {'G eq.9 (um2)':>12} "
+          f"{'std err (um2)':>13}")
     for k in range(0, G.sizes["dr"], max(1, G.sizes["dr"] // 8)):
         print(f"{G.dr.values[k]:10.4g} {G.values[k]:12.4g} {Gr.values[k]:12.4g} "
-              f"{exact.values[k]:12.4g} {G.standard_error.values[k]:10.2g}")
+              f"{exact.values[k]:12.4g} {G.standard_error.values[k]:13.2g}")
     print(f"\nrms height {float(topo.std()):.4g} um (model {topo.attrs['rms_height']:.4g}); "
           f"FFT estimator {t_fft:.2f} s, random pairs {t_rnd:.2f} s; median |G/G_model - 1| "
           f"= {np.median(rel):.2%}")
@@ -68,14 +71,19 @@ def _demo(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``xrough`` command."""
-    parser = argparse.ArgumentParser(prog="xrough", description=__doc__.splitlines()[0])
+    from . import __version__
+
+    parser = argparse.ArgumentParser(
+        prog="xrough", description="Contact mechanics of rough surfaces from the "
+        "height-difference autocorrelation function G(dr).")
+    parser.add_argument("--version", action="version", version=f"xrough {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     demo = sub.add_parser("demo", help="run the main job on built-in synthetic data")
     demo.add_argument("-o", "--output", default="xrough-demo", help="output folder")
     demo.add_argument("-n", type=int, default=1024, help="grid points per side")
-    demo.add_argument("--hurst", type=float, default=0.8)
+    demo.add_argument("--hurst", type=float, default=0.8, help="Hurst exponent, 0 < H < 1")
     demo.add_argument("--pairs", type=int, default=400_000, help="random-pair budget")
-    demo.add_argument("--seed", type=int, default=1)
+    demo.add_argument("--seed", type=int, default=1, help="random seed of the surface")
     demo.set_defaults(func=_demo)
     args = parser.parse_args(argv)
     try:

@@ -30,11 +30,12 @@ from ._kernels import binning
 from ._kernels.pairs import folded_geometric_counts, folded_pair_sums
 from ._kernels.random_pairs import random_pair_sums
 from ._kernels.uncertainty import g_variance
-from .topography import Grid, check_valid_points, grid_of
+from .topography import Grid, grid_of
 
 __all__ = ["height_difference_acf"]
 
 ESTIMATORS = ("fft", "random")
+_DEFAULT_PAIRS = 1_000_000
 DIRECTIONS = ("radial", "x", "y")
 
 
@@ -60,6 +61,7 @@ def _geometry(shape, spacing, periodic, ks, edges_key):
     r2 = binning.lag_radius2(ks, spacing)
     idx = binning.bin_index(r2, edges)
     nb = len(edges) - 1
+    idx[(0,) * len(ks)] = nb  # a point paired with itself is no pair, whatever the bins
     geo = folded_geometric_counts(shape, ks, periodic)
     counts = binning.binned_sum(geo, idx, nb)
     rsum = binning.binned_sum(geo * np.sqrt(r2), idx, nb)
@@ -146,8 +148,7 @@ def _progress_bar(total: int, progress, desc: str):
 
 
 def _fft_kernel(h: np.ndarray, *, plan: _Plan, workers: int, progress) -> tuple:
-    """(..., *core) heights -> sums of squared differences and pair counts per kept bin,
-    and the number of valid points per map."""
+    """Map (..., *core) heights to pair sums, pair counts per kept bin and valid points."""
     ncore = len(plan.shape)
     batch = h.shape[: h.ndim - ncore]
     flat = h.reshape((-1,) + plan.shape)
@@ -164,6 +165,8 @@ def _fft_kernel(h: np.ndarray, *, plan: _Plan, workers: int, progress) -> tuple:
             # the ordered pairs at lag 0 are the valid points themselves
             nvalid[b] = np.prod(plan.shape) if n is None else n[(...,) + (0,) * len(
                 plan.ks)].sum()
+            if nvalid[b] < 2:
+                raise ValueError(_few_points_message(b, batch))
             if plan.lag_axes < ncore:  # pool the rows of a one-direction G
                 s = s.sum(axis=0)
                 n = None if n is None else n.sum(axis=0)
@@ -181,12 +184,22 @@ def _fft_kernel(h: np.ndarray, *, plan: _Plan, workers: int, progress) -> tuple:
     return sums.reshape(shape), counts.reshape(shape), nvalid.reshape(batch)
 
 
+def _few_points_message(index: int, batch: tuple[int, ...]) -> str:
+    where = (f" (map {tuple(int(i) for i in np.unravel_index(index, batch))} of the stack)"
+             if batch else "")
+    return f"topography has fewer than 2 valid (non-NaN) points{where}"
+
+
 def _random_kernel(h: np.ndarray, seeds: np.ndarray, *, plan: _Plan, n_per_bin: int,
                    progress) -> tuple:
     ncore = len(plan.shape)
     batch = h.shape[: h.ndim - ncore]
-    check_valid_points(h, ndim=ncore)
     flat = h.reshape((-1,) + plan.shape)
+    if np.isinf(flat).any():
+        raise ValueError("heights contain infinite values; mark missing points as NaN")
+    nvalid = np.isfinite(flat).reshape(flat.shape[0], -1).sum(axis=1)
+    for b in np.flatnonzero(nvalid < 2)[:1]:
+        raise ValueError(_few_points_message(int(b), batch))
     seeds = np.broadcast_to(seeds, batch).reshape(-1)
     edges = plan.edges
     nb = len(edges) - 1
@@ -203,8 +216,7 @@ def _random_kernel(h: np.ndarray, seeds: np.ndarray, *, plan: _Plan, n_per_bin: 
         if bar is not None:
             bar.close()
     out = out.reshape(batch + out.shape[1:])
-    nvalid = np.isfinite(h).sum(axis=tuple(range(-ncore, 0))).astype(float)
-    return out[..., 0, :], out[..., 1, :], out[..., 2, :], nvalid
+    return out[..., 0, :], out[..., 1, :], out[..., 2, :], nvalid.reshape(batch).astype(float)
 
 
 def _area_variance(g, pairs, valid, *, dr, pixel_area, geometry):
@@ -229,7 +241,7 @@ def height_difference_acf(
     dr_min: Any = None,
     dr_max: Any = None,
     pool: str | tuple[str, ...] | None = None,
-    n_pairs: int = 1_000_000,
+    n_pairs: int = 1_000_000,  # keep equal to _DEFAULT_PAIRS
     seed: int | None = None,
     workers: int | None = None,
     progress: bool | None = None,
@@ -254,19 +266,21 @@ def height_difference_acf(
         All pairs by FFT (exact), or the random-pair estimator of section 3.1.
     bins : {'log', 'linear'} or array_like
         Log-spaced bins centred on ``10**(k/points_per_decade)`` (in the lateral unit),
-        linear bins of ``bin_width`` (default: one pixel), or explicit edges.
+        linear bins of ``bin_width`` (default: one pixel), or explicit edges in the lateral
+        unit. A point is never paired with itself, whatever the edges.
     points_per_decade : float
         Bins per decade for ``bins='log'``.
     bin_width : float, str or Quantity, optional
-        Width of linear bins.
+        Width of linear bins (numbers in the lateral unit; default one pixel).
     dr_min, dr_max : float, str or Quantity, optional
-        Lag range to compute (numbers in metres). Defaults: one pixel, and half the period
+        Lag range to compute (numbers in the lateral unit). Defaults: one pixel, and half the period
         (periodic) or the scan length (open). Only the lags needed are computed: an open
         map is padded by ``dr_max``, not by its full size.
     pool : str or tuple of str, optional
         Extra dims whose pair sums are combined into one G (exact pooling of scans).
     n_pairs : int
-        Random-pair budget, split evenly over the bins.
+        Random-pair budget: valid pairs, split evenly over the bins (pairs touching a NaN
+        are replaced by new draws, up to 1000 draws per pair).
     seed : int, optional
         Seed of the random-pair estimator (each map along extra dims gets its own stream,
         so numpy and dask give the same numbers).
@@ -278,10 +292,11 @@ def height_difference_acf(
     Returns
     -------
     xarray.DataArray
-        ``G`` on dim ``dr`` (the pair-weighted mean lag of each bin; bins without any
-        lattice lag are dropped), units of height squared, with coords ``pair_count``
-        (pairs averaged), ``standard_error`` (statistical error of G as an estimate of the
-        surface's G: finite-area model plus, for random pairs, the sampling error) and
+        ``G`` on dim ``dr`` (the mean lag of each bin over the pairs of a complete map;
+        bins without any lattice lag are dropped), units of height squared, with coords
+        ``pair_count`` (pairs averaged), ``standard_error`` (statistical error of G as an
+        estimate of the surface's G: finite-area model plus, for random pairs, the
+        sampling error) and
         ``sampling_error`` (Monte-Carlo error against the all-pairs value; 0 for ``fft``).
         A bin whose pairs all touch missing points is NaN with ``pair_count`` 0.
 
@@ -316,6 +331,10 @@ def height_difference_acf(
     """
     if estimator not in ESTIMATORS:
         raise ValueError(f"estimator must be one of {ESTIMATORS}, got {estimator!r}")
+    if estimator == "fft" and (seed is not None or n_pairs != _DEFAULT_PAIRS):
+        raise ValueError("n_pairs and seed apply to estimator='random' only")
+    if bin_width is not None and not (isinstance(bins, str) and bins == "linear"):
+        raise ValueError("bin_width applies to bins='linear' only")
     grid = grid_of(topography)
     plan = _plan(grid, direction=direction, bins=bins, points_per_decade=points_per_decade,
                  bin_width=bin_width, dr_min=dr_min, dr_max=dr_max)
@@ -323,10 +342,11 @@ def height_difference_acf(
     if da.chunks is not None:
         for d in grid.dims:
             if len(da.chunksizes[d]) > 1:
+                whole = ", ".join(f"{c!r}: -1" for c in grid.dims)
                 raise ValueError(
                     f"dim {d!r} is split into several dask chunks; G needs each map whole: "
-                    f"use topography.chunk({{'y': -1, 'x': -1}}) (parallelism comes from "
-                    f"extra dims such as 'scan')"
+                    f"use topography.chunk({{{whole}}}) (parallelism comes from extra dims "
+                    f"such as 'scan')"
                 )
     pool_dims = (pool,) if isinstance(pool, str) else tuple(pool or ())
     for d in pool_dims:

@@ -1,6 +1,6 @@
 """Parameters of the self-affine model spectrum (eq. 35) with units.
 
-One place turns user parameters (wavelengths as numbers in metres, strings or pint
+One place turns user parameters (wavelengths as numbers in ``unit``, strings or pint
 Quantities; one of ``C_r``, ``rms_height``, ``rms_gradient``) into a
 :class:`~xrough._kernels.spectral_models.SpectrumModel` in a chosen length unit, and
 back and forth between a model and netCDF-legal attributes.
@@ -41,11 +41,12 @@ def self_affine_model(
     hurst : float
         Hurst exponent, 0 < H < 1.
     lambda_r, lambda_s : float, str or Quantity
-        Roll-off and short-cutoff wavelengths (``q = 2 pi / lambda``); numbers in metres.
+        Roll-off and short-cutoff wavelengths (``q = 2 pi / lambda``); numbers in ``unit``.
     lambda_0 : float, str or Quantity, optional
         Long-wavelength cutoff (system size); None for none.
     C_r, rms_height, rms_gradient : optional
-        Exactly one: plateau value (length^4), rms height (length) or rms gradient.
+        Exactly one: plateau value (length^4; numbers in ``unit``^4), rms height (length;
+        numbers in ``unit``) or rms gradient.
     rolloff : {'sharp', 'smooth'}
     unit : str
         Length unit of the model's wavenumbers and ``C_r``.
@@ -86,13 +87,12 @@ def self_affine_model(
                           rolloff=rolloff)
     (name, value), = given.items()
     if name == "C_r":
-        q = u.quantity(value, default_units="m**4", what="C_r")
+        q = u.quantity(value, default_units=u.parse_units(unit) ** 4, what="C_r")
         if not q.check("[length] ** 4"):
             raise ValueError(f"C_r must have units of length^4, got {value!r}")
         amplitude = float(q.to(u.parse_units(unit) ** 4).magnitude)
     elif name == "rms_height":
-        amplitude = u.to_si(value, "[length]", what="rms_height") * u.conversion_factor(
-            "m", unit)
+        amplitude = u.length_in(value, unit, what="rms_height")
     else:
         q = u.quantity(value, default_units="", what="rms_gradient")
         if not q.dimensionless:

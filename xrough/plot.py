@@ -39,8 +39,11 @@ def plot_topography(topography: xr.DataArray, *, ax=None, cmap: str = "viridis")
     'x position (nm)'
     """
     ax = _axes(ax)
-    if topography.ndim == 1:
-        ax.plot(topography["x"].values, topography.values)
+    if "y" not in topography.dims:  # profiles: one line each
+        lines = topography.transpose(..., "x")
+        flat = lines.values.reshape(-1, lines.sizes["x"])
+        for row in flat:
+            ax.plot(topography["x"].values, row, linewidth=0.8)
         ax.set_xlabel(_label(topography["x"], "x"))
         ax.set_ylabel(_label(topography, "height"))
         return ax
@@ -49,8 +52,10 @@ def plot_topography(topography: xr.DataArray, *, ax=None, cmap: str = "viridis")
                          "(select one, e.g. topo.isel(scan=0))")
     t = topography.transpose("y", "x")
     x, y = t["x"].values, t["y"].values
-    img = ax.imshow(t.values, origin="lower", cmap=cmap, aspect="equal",
-                    extent=(x[0], x[-1], y[0], y[-1]))
+    dx = (x[-1] - x[0]) / (x.size - 1)
+    dy = (y[-1] - y[0]) / (y.size - 1)
+    img = ax.imshow(t.values, origin="lower", cmap=cmap, aspect="equal",  # pixel centres
+                    extent=(x[0] - dx / 2, x[-1] + dx / 2, y[0] - dy / 2, y[-1] + dy / 2))
     ax.figure.colorbar(img, ax=ax, label=_label(t, "height"))
     ax.set_xlabel(_label(t["x"], "x"))
     ax.set_ylabel(_label(t["y"], "y"))
@@ -75,13 +80,15 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
     dim = "dr" if "dr" in da.dims else "q"
     extra = [d for d in da.dims if d != dim]
     stacked = da.stack(_line=extra) if extra else da.expand_dims("_line")
+    user_label = kwargs.pop("label", None)
     for k in range(stacked.sizes["_line"]):
         line = stacked.isel(_line=k)
         x = line[dim].values
         y = line.values
-        label = kwargs.pop("label", None) if k == 0 else None
-        if extra and label is None:
-            label = ", ".join(f"{d}={line[d].item()}" for d in extra if d in line.coords)
+        label = user_label if k == 0 else None
+        if extra:
+            index = ", ".join(f"{d}={line[d].item()}" for d in extra if d in line.coords)
+            label = f"{user_label} ({index})" if user_label else index
         (ln,) = ax.plot(x, y, label=label, **kwargs)
         if error and "standard_error" in line.coords:
             se = line["standard_error"].values
@@ -91,7 +98,7 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
     ax.set_yscale("log")
     ax.set_xlabel(_label(da[dim], dim))
     ax.set_ylabel(_label(da, da.name or ""))
-    if extra or kwargs.get("label"):
+    if extra or user_label:
         ax.legend()
     return ax
 

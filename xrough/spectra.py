@@ -1,6 +1,6 @@
 """Spectra and the height-difference ACF: model spectra and eq. 9.
 
-Conventions (THEORY.md): ``q`` is the angular wavenumber (``2 pi / wavelength``, never
+Conventions (docs/theory.md): ``q`` is the angular wavenumber (``2 pi / wavelength``, never
 cycles); ``C(q) = A <|h~(q)|^2>`` is the isotropic 2D height spectrum (units length^4);
 ``G(dr) = 1/2 <(h(r) - h(r + dr))^2>`` is the height-difference autocorrelation function
 (length^2), with ``G(inf) = sigma_h^2``.
@@ -102,12 +102,12 @@ def model_spectrum(
     hurst : float
         Hurst exponent ``H``, ``0 < H < 1``.
     lambda_r, lambda_s : float, str or pint.Quantity
-        Roll-off and short-wavelength cutoff wavelengths (length; plain numbers are metres),
+        Roll-off and short-wavelength cutoff wavelengths (length; plain numbers in ``unit``),
         ``lambda_s < lambda_r``.
     lambda_0 : float, str or pint.Quantity, optional
         Longest wavelength (system size), ``lambda_0 >= lambda_r``; None for no lower cutoff.
     C_r, rms_height, rms_gradient : float, str or pint.Quantity
-        Exactly one sets the amplitude: the plateau ``C_r`` (length^4, plain numbers in m^4),
+        Exactly one sets the amplitude: the plateau ``C_r`` (length^4, plain numbers in ``unit``^4),
         the rms height ``sigma_h`` (length) or the rms gradient ``gbar`` (dimensionless), with
         ``sigma_h^2 = (1/2pi) int dq q C`` and ``gbar^2 = (1/2pi) int dq q^3 C``.
     rolloff : {'sharp', 'smooth'}
@@ -245,7 +245,7 @@ def acf_from_spectrum(
     points_per_decade : float
         Density of the default ``dr`` grid.
     dr_min, dr_max : float, str or pint.Quantity, optional
-        Override the range of the default grid (plain numbers are metres).
+        Override the range of the default grid (plain numbers in the spectrum's length unit).
 
     Returns
     -------

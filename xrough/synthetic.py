@@ -1,7 +1,7 @@
 """Random periodic self-affine surfaces and profiles with a model spectrum (eq. 35).
 
 Fourier synthesis on a periodic grid: ``h(r) = sum_q h~(q) exp(i q.r)`` with
-``<|h~(q)|^2> = C(q) / A`` (THEORY.md conventions), the complex amplitudes drawn as the
+``<|h~(q)|^2> = C(q) / A`` (docs/theory.md conventions), the complex amplitudes drawn as the
 FFT of white Gaussian noise (so Hermitian symmetry is exact) or, with
 ``random_amplitudes=False``, with fixed moduli and random phases. A profile is one line
 scan of such an isotropic surface: its 1D spectrum is the projection of ``C(q)``, so the
@@ -57,7 +57,7 @@ def self_affine_surface(
         Hurst exponent H, 0 < H < 1.
     lambda_r, lambda_s : float, str or Quantity
         Roll-off wavelength ``2 pi / q_r`` and short-wavelength cutoff ``2 pi / q_s``
-        (numbers in metres). ``lambda_s`` must be at least two pixels.
+        (numbers in ``unit``). ``lambda_s`` must be at least two pixels.
     size : float, str, Quantity or pair
         Physical size of the periodic domain ``(Ly, Lx)`` (one value: square).
     n : int or pair of int
@@ -114,10 +114,7 @@ def self_affine_surface(
     ns = tuple(int(k) for k in _as_tuple(n, nd, "n"))
     if any(k < 2 for k in ns):
         raise ValueError(f"n must be at least 2 per dim, got {n}")
-    conv = u.conversion_factor("m", unit)
-    lengths = tuple(u.to_si(s, "[length]", what="size") * conv for s in sizes)
-    if any(not (L > 0) for L in lengths):
-        raise ValueError(f"size must be positive, got {size}")
+    lengths = tuple(u.length_in(s, unit, what="size") for s in sizes)
     if lambda_0 is None:
         lambda_0 = f"{max(lengths)!r} {unit}"
     model = self_affine_model(hurst=hurst, lambda_r=lambda_r, lambda_s=lambda_s,

@@ -89,9 +89,12 @@ def _core_dims(da: xr.DataArray) -> tuple[str, ...]:
         return ("y", "x")
     if "x" in da.dims and "y" not in da.dims:
         return ("x",)
+    last = da.dims[-2:]
+    example = ("{" + ", ".join(f"{d!r}: {n!r}" for d, n in zip(last, ("y", "x")[-len(last):]))
+               + "}") if last else "{...}"
     raise ValueError(
         f"a topography needs dims ('y', 'x') for a map or ('x',) for a profile; got "
-        f"{da.dims}. Rename dims, e.g. da.rename({{'row': 'y', 'col': 'x'}})."
+        f"{da.dims}. Rename them, e.g. da.rename({example})."
     )
 
 
@@ -151,16 +154,6 @@ def check_valid_points(values: np.ndarray, *, what: str = "topography", ndim: in
         )
 
 
-def _length_param(value: Any, what: str) -> tuple[float, pint.Unit | None]:
-    """Magnitude and unit of a length parameter (number -> metres, no explicit unit)."""
-    if isinstance(value, (int, float, np.integer, np.floating)):
-        return float(value), None
-    q = u.quantity(value, default_units="m", what=what)
-    if not q.check("[length]"):
-        raise ValueError(f"{what}: {value!r} is not a length")
-    return float(q.magnitude), q.units
-
-
 def _pair(value: Any, n: int, what: str) -> list[Any]:
     if isinstance(value, (tuple, list)):
         if len(value) != n:
@@ -188,10 +181,10 @@ def topography(
         2D ``(y, x)`` map or 1D ``(x,)`` profile; NaN marks missing points. A DataArray
         may have extra leading dims (a stack of scans) and keeps its coords and attrs.
     spacing : float, str, Quantity or pair of them, optional
-        Grid spacing ``(dy, dx)`` or one value for both. Numbers are metres unless
-        ``unit`` is given.
+        Grid spacing ``(dy, dx)`` or one value for both; plain numbers are in ``unit``.
     size : float, str, Quantity or pair of them, optional
-        Physical size ``n * spacing`` per dim (alternative to ``spacing``).
+        Physical size ``n * spacing`` per dim (alternative to ``spacing``; the coordinates
+        then start at zero).
     unit : str, optional
         Length unit of the lateral coordinates and, unless ``height_unit`` is given, of
         the heights (``"nm"``, ``"um"``, ``"m"``). Required for plain arrays: heights in
@@ -293,26 +286,28 @@ def _is_dask(da: xr.DataArray) -> bool:
 
 
 def _assign_coords(da, dims, spacing, size, unit):
+    """Uniform coordinates from a spacing or size; plain numbers are in the lateral unit."""
     if spacing is not None and size is not None:
         raise ValueError("give either spacing or size, not both")
-    n = len(dims)
-    vals = _pair(spacing if spacing is not None else size, n, "spacing" if spacing is not None
-                 else "size")
     what = "spacing" if spacing is not None else "size"
-    parsed = [_length_param(v, what) for v in vals]
-    lunit = u.parse_units(unit) if unit is not None else None
-    if lunit is None:
-        explicit = [p[1] for p in parsed if p[1] is not None]
-        lunit = explicit[0] if explicit else u.parse_units("m")
-    lunit = u.as_length_unit(lunit, what="lateral unit")
-    for dim, (mag, pu) in zip(dims, parsed):
-        step = mag * (u.conversion_factor(pu, lunit) if pu is not None else
-                      u.conversion_factor("m", lunit) if unit is None else 1.0)
+    vals = _pair(spacing if spacing is not None else size, len(dims), what)
+    if unit is not None:
+        lunit = unit
+    else:
+        explicit = [u.quantity(v, what=what).units for v in vals
+                    if not isinstance(v, (int, float, np.integer, np.floating))]
+        if not explicit:
+            raise ValueError(
+                f"a plain-number {what} needs a lateral unit: pass unit='nm' or give the "
+                f"{what} with its unit, e.g. {what}='5 nm'"
+            )
+        lunit = explicit[0]
+    lunit = u.format_units(u.as_length_unit(lunit if not isinstance(lunit, str) else
+                                            u.parse_units(lunit), what="lateral unit"))
+    for dim, value in zip(dims, vals):
+        step = u.length_in(value, lunit, what=f"{what} along {dim!r}")
         if what == "size":
             step /= da.sizes[dim]
-        if not (np.isfinite(step) and step > 0):
-            raise ValueError(f"{what} along {dim!r} must be positive, got {mag!r}")
         da = da.assign_coords({dim: (dim, np.arange(da.sizes[dim]) * step,
-                                     {"units": u.format_units(lunit),
-                                      "long_name": f"{dim} position"})})
+                                     {"units": lunit, "long_name": f"{dim} position"})})
     return da

@@ -5,8 +5,9 @@ and dimension coordinate (``"m"``, ``"nm"``, ``"m2"``, ``"J m-2"``). pint does a
 and conversion; this module only translates between CF strings and pint, and checks
 dimensionality with messages that name the offending quantity.
 
-Physical parameters accept a plain number (taken as SI), a string (``"25 MPa"``) or a pint
-Quantity.
+Physical parameters accept a plain number, a string (``"25 MPa"``) or a pint Quantity. Plain
+numbers are SI (``E_star=25e6`` is 25 MPa), except lengths tied to data or to a ``unit=``
+argument, which are in that unit (``dr_max=100`` on a map in nm is 100 nm).
 """
 
 from __future__ import annotations
@@ -129,8 +130,10 @@ def units_of(obj: Any, *, what: str | None = None) -> pint.Unit:
     name = what or getattr(obj, "name", None) or "data"
     units = getattr(obj, "attrs", {}).get("units")
     if units is None:
+        hint = (f"da.coords[{obj.name!r}].attrs['units'] = 'nm'" if str(name).startswith(
+            "coordinate") else "da.attrs['units'] = 'nm'")
         raise ValueError(
-            f"{name!s} has no 'units' attribute; set it, e.g. da.attrs['units'] = 'nm' "
+            f"{name!s} has no 'units' attribute; set it, e.g. {hint} "
             "(xrough needs physical units on data and coordinates)"
         )
     return parse_units(units, what=str(name))
@@ -205,18 +208,34 @@ _SI_UNITS = {
 
 
 def length_in(value: Any, unit: str | pint.Unit, *, what: str, positive: bool = True) -> float:
-    """Convert a length parameter to a float in ``unit`` (plain numbers are metres).
+    """Convert a length parameter to a float in ``unit``; plain numbers are already in it.
+
+    Lengths tied to data follow the data's unit: ``dr_max=100`` on a map in nm means
+    100 nm, ``lambda_r=2000`` with ``unit="nm"`` means 2000 nm. Strings and pint Quantities
+    carry their own unit.
 
     Examples
     --------
     >>> length_in("2 um", "nm", what="lambda_r")
     2000.0
+    >>> length_in(5, "nm", what="dr_max")
+    5.0
     """
-    mag = to_si(value, "[length]", what=what)
-    if np.ndim(mag) != 0 or not np.isfinite(mag) or (positive and not mag > 0):
-        raise ValueError(f"{what} must be a {'positive ' if positive else ''}length, "
+    unit = parse_units(unit, what=what) if isinstance(unit, str) else unit
+    if isinstance(value, (int, float, np.integer, np.floating)):
+        mag = float(value)
+    else:
+        q = quantity(value, default_units=unit, what=what)
+        if not q.check("[length]"):
+            raise ValueError(f"{what}: {value!r} is not a length "
+                             f"(it has dimensions {q.dimensionality})")
+        if np.ndim(q.magnitude) != 0:
+            raise ValueError(f"{what} must be a single length, got {value!r}")
+        mag = float(q.magnitude) * conversion_factor(q.units, unit)
+    if not np.isfinite(mag) or (positive and not mag > 0):
+        raise ValueError(f"{what} must be a {'positive' if positive else 'finite'} length, "
                          f"got {value!r}")
-    return float(mag) * conversion_factor("m", unit)
+    return mag
 
 
 def as_length_unit(units: str | pint.Unit, *, what: str) -> pint.Unit:

@@ -1,6 +1,6 @@
 """Hankel-type integrals of isotropic spectra (pure numpy/scipy, no xarray).
 
-Conventions (THEORY.md): angular wavenumber ``q``; isotropic 2D spectrum ``C(q)`` (length^4);
+Conventions (docs/theory.md): angular wavenumber ``q``; isotropic 2D spectrum ``C(q)`` (length^4);
 
 * eq. 9, height-difference ACF:
   ``G(dr) = (1/2pi) int_0^inf dq q C(q) [1 - J0(q dr)]``;

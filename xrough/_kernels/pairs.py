@@ -194,7 +194,7 @@ def folded_pair_sums(h: np.ndarray, ks: tuple[int, ...], *, periodic: bool,
     Raises
     ------
     ValueError
-        Infinite heights, or a map with fewer than 2 valid points.
+        Infinite heights. (Rows or maps without valid points just contribute no pairs.)
     """
     nd = len(ks)
     axes = tuple(range(-nd, 0))
@@ -206,8 +206,6 @@ def folded_pair_sums(h: np.ndarray, ks: tuple[int, ...], *, periodic: bool,
         return _unmasked(h, ks, fshape, axes, periodic, workers), None
     if np.isinf(h).any():
         raise ValueError("heights contain infinite values; mark missing points as NaN")
-    if np.any(valid.sum(axis=axes) < 2):
-        raise ValueError("a map has fewer than 2 valid (non-NaN) points")
     return _masked(h, valid, ks, fshape, axes, workers)
 
 

@@ -22,6 +22,7 @@ import numpy as np
 __all__ = ["random_pair_sums"]
 
 _ENUMERATE_MAX = 200_000  # lattice vectors; above this a bin is sampled continuously
+_MAX_DRAWS = 1000  # draws per wanted pair before a bin of mostly missing pairs gives up
 
 
 def _signed_range(n: int, periodic: bool) -> tuple[int, int]:
@@ -47,7 +48,7 @@ def _enumerated_lags(lo, hi, shape, spacing, periodic):
         grids.append(np.arange(max(a, -kmax), min(b, kmax) + 1))
     mesh = np.meshgrid(*grids, indexing="ij")
     r2 = sum((m * d) ** 2 for m, d in zip(mesh, spacing))
-    sel = (r2 >= lo * lo) & (r2 < hi * hi)
+    sel = (r2 >= lo * lo) & (r2 < hi * hi) & (r2 > 0)
     lags = [m[sel] for m in mesh]
     w = np.ones(lags[0].shape)
     for lag, n in zip(lags, shape):
@@ -78,7 +79,7 @@ def _continuous_lags(rng, count, lo, hi, shape, spacing, periodic):
         i = np.rint(r * np.sin(phi) / spacing[0]).astype(np.int64)
         j = np.rint(r * np.cos(phi) / spacing[1]).astype(np.int64)
         r2 = (i * spacing[0]) ** 2 + (j * spacing[1]) ** 2
-        ok = (r2 >= lo * lo) & (r2 < hi * hi)
+        ok = (r2 >= lo * lo) & (r2 < hi * hi) & (r2 > 0)
         for lag, (a, b) in zip((i, j), ranges):
             ok &= (lag >= a) & (lag <= b)
         if not periodic:
@@ -116,7 +117,9 @@ def random_pair_sums(h: np.ndarray, spacing: tuple[float, ...], edges: np.ndarra
     edges : ndarray
         Bin edges in lag distance; bins are ``[edges[b], edges[b+1])``.
     n_per_bin : int
-        Pairs drawn per bin (those touching a NaN are then discarded).
+        Valid pairs wanted per bin. Pairs touching a NaN are discarded and replaced by
+        new draws, up to 1000 draws per wanted pair (a bin whose pairs are nearly all
+        missing then ends with fewer; one with none in ten times the budget stops).
     periodic : bool
     rng : numpy.random.Generator
     progress : callable, optional
@@ -134,22 +137,34 @@ def random_pair_sums(h: np.ndarray, spacing: tuple[float, ...], edges: np.ndarra
     nb = len(edges) - 1
     out = np.zeros((3, nb))
     for b in range(nb):
-        lags = _draw_lags(rng, n_per_bin, edges[b], edges[b + 1], shape, spacing, periodic)
-        if lags is not None:
-            start = end = rng.integers(0, h.shape[0], lags[0].size) * strides[0] if rows else 0
-            for lag, n, stride in zip(lags, shape, strides[rows:]):
-                if periodic:
-                    a = rng.integers(0, n, lag.size)
-                    e = (a + lag) % n
-                else:
-                    lo = np.maximum(0, -lag)
-                    a = lo + np.floor(rng.random(lag.size) * (n - np.abs(lag))).astype(np.int64)
-                    e = a + lag
-                start = start + a * stride
-                end = end + e * stride
-            diff = flat[start] - flat[end]
-            g = 0.5 * diff[np.isfinite(diff)] ** 2
-            out[:, b] = g.sum(), (g * g).sum(), g.size
+        drawn = 0
+        while out[2, b] < n_per_bin and drawn < _MAX_DRAWS * n_per_bin and not (
+                out[2, b] == 0 and drawn >= 10 * n_per_bin):  # no valid pair in sight
+            want = int(n_per_bin - out[2, b])
+            lags = _draw_lags(rng, want, edges[b], edges[b + 1], shape, spacing, periodic)
+            if lags is None:
+                break
+            drawn += want
+            g = _squared_differences(flat, lags, shape, strides, rows, h.shape[0], periodic,
+                                     rng)
+            out[:, b] += g.sum(), (g * g).sum(), g.size
         if progress is not None:
             progress(1)
     return out
+
+
+def _squared_differences(flat, lags, shape, strides, rows, nrows, periodic, rng):
+    """``(h(r) - h(r+d))^2 / 2`` for the given lags and uniform start points; NaN pairs dropped."""
+    start = end = rng.integers(0, nrows, lags[0].size) * strides[0] if rows else 0
+    for lag, n, stride in zip(lags, shape, strides[rows:]):
+        if periodic:
+            a = rng.integers(0, n, lag.size)
+            e = (a + lag) % n
+        else:
+            lo = np.maximum(0, -lag)
+            a = lo + np.floor(rng.random(lag.size) * (n - np.abs(lag))).astype(np.int64)
+            e = a + lag
+        start = start + a * stride
+        end = end + e * stride
+    diff = flat[start] - flat[end]
+    return 0.5 * diff[np.isfinite(diff)] ** 2

@@ -1,6 +1,6 @@
 """Model height spectra C(q) of isotropic self-affine surfaces (pure numpy).
 
-Conventions (THEORY.md): angular wavenumber q = 2 pi / wavelength; C(q) = A <|h~(q)|^2>
+Conventions (docs/theory.md): angular wavenumber q = 2 pi / wavelength; C(q) = A <|h~(q)|^2>
 for a 2D map (units length^4); moments ``(1/2pi) int dq q^(1+k) C(q)``.
 
 Two shapes:
