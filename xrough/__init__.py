@@ -24,7 +24,9 @@ from . import (  # noqa: E402
     plot,
     units,
 )
+from .contact import elastic_energy, patch_radius, persson, stress_acf  # noqa: E402
 from .correlation import height_difference_acf  # noqa: E402
+from .gradient import rms_gradient  # noqa: E402
 from .models import self_affine_model  # noqa: E402
 from .spectra import acf_from_spectrum, model_spectrum  # noqa: E402
 from .synthetic import self_affine_surface  # noqa: E402
@@ -33,11 +35,16 @@ from .topography import topography  # noqa: E402
 __all__ = [
     "__version__",
     "acf_from_spectrum",
+    "elastic_energy",
     "height_difference_acf",
     "model_spectrum",
+    "patch_radius",
+    "persson",
+    "rms_gradient",
     "plot",
     "self_affine_model",
     "self_affine_surface",
+    "stress_acf",
     "topography",
     "units",
 ]

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import xarray as xr
 
-from . import correlation, plot
+from . import contact, correlation, gradient, plot
 
 __all__ = ["RoughDataArrayAccessor"]
 
@@ -23,6 +23,26 @@ class RoughDataArrayAccessor:
     def acf(self, **kwargs) -> xr.DataArray:
         """G(dr) of a topography; see :func:`xrough.height_difference_acf`."""
         return correlation.height_difference_acf(self._obj, **kwargs)
+
+    def energy(self, **kwargs) -> xr.Dataset:
+        """Elastic energy of full contact (eq. 16, 44); see :func:`xrough.elastic_energy`."""
+        return contact.elastic_energy(self._obj, **kwargs)
+
+    def gradient(self, **kwargs) -> xr.DataArray:
+        """Scale-dependent rms gradient (eq. 26); see :func:`xrough.rms_gradient`."""
+        return gradient.rms_gradient(self._obj, **kwargs)
+
+    def stress_acf(self, **kwargs) -> xr.DataArray:
+        """Stress ACF (eq. 24, 30/48); see :func:`xrough.stress_acf`."""
+        return contact.stress_acf(self._obj, **kwargs)
+
+    def persson(self, **kwargs) -> xr.Dataset:
+        """Real-space Persson theory (eq. 29-50); see :func:`xrough.persson`."""
+        return contact.persson(self._obj, **kwargs)
+
+    def patch_radius(self, **kwargs) -> xr.Dataset:
+        """Adhesive patch radius (eq. 44, 46); see :func:`xrough.patch_radius`."""
+        return contact.patch_radius(self._obj, **kwargs)
 
     def plot(self, **kwargs):
         """Plot a topography or a correlation function; see :func:`xrough.plot.plot`."""
