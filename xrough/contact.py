@@ -1,9 +1,10 @@
 """Contact mechanics from G(dr): energy, stress ACF, Persson theory, patch radius.
 
-Paper sections 2.3-2.6 and 3.4-3.6. Every function takes a height-difference ACF ``G`` (dim ``dr``, length^2; measured,
-stitched or from a model spectrum) and physical parameters as numbers in SI, strings
-(``"25 MPa"``) or pint Quantities, and returns DataArrays or Datasets in SI units
-(Pa, Pa^2, J m-2) with lengths in the unit of ``G``'s ``dr``.
+Paper sections 2.3-2.6 and 3.4-3.6. Every function takes a height-difference ACF ``G``
+(dim ``dr``, length^2; measured, stitched or from a model spectrum) and physical
+parameters as numbers in SI, strings (``"25 MPa"``) or pint Quantities, and returns
+DataArrays or Datasets in SI units (Pa, Pa^2, J m-2) with lengths in the unit of ``G``'s
+``dr``.
 """
 
 from __future__ import annotations

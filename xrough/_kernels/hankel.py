@@ -39,9 +39,10 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from functools import lru_cache
+from typing import NamedTuple
 
 import numpy as np
-from scipy import special
+from scipy import interpolate, special
 
 __all__ = [
     "acf_from_spectrum_kernel",
@@ -332,15 +333,27 @@ def _series_tier(t: np.ndarray, coeffs: list[np.ndarray]) -> np.ndarray:
 def _oscillatory_part(r: np.ndarray, pieces, t_split: float, order: int) -> np.ndarray:
     """``int_{T/r}^inf q C(q) J0(q r) dq`` for the piecewise representation ``pieces``."""
     klo, khi, c_top, alpha, kappa = pieces
+    rho = klo / khi
+    # q C(q) = c_top K_hi sum_j g_j x^(1 + alpha + j), x = q / K_hi
+    g = np.stack([1.0 + kappa * rho, -kappa * (1.0 + rho), kappa])
+    return _oscillatory_terms(r, klo, khi, c_top, alpha, g, t_split, order)
+
+
+def _oscillatory_terms(r: np.ndarray, klo, khi, c_top, alpha, g, t_split: float,
+                       order: int) -> np.ndarray:
+    """``int_{T/r}^inf q f(q) J0(q r) dq`` for pieces ``q f = c_top K_hi sum_j g_j x^(1+alpha+j)``.
+
+    ``x = q / K_hi`` on ``[K_lo, K_hi]``; ``g`` has shape ``(terms, pieces)``.  Each power
+    law is integrated with the asymptotic antiderivative beyond ``t_split`` (Gauss-Legendre
+    where a steep exponent delays the expansion).
+    """
     out = np.zeros(r.size)
     use = c_top > 0
     if not np.any(use) or r.size == 0:
         return out
-    klo, khi, c_top, alpha, kappa = klo[use], khi[use], c_top[use], alpha[use], kappa[use]
-    rho = klo / khi
-    # q C(q) = c_top K_hi sum_j g_j x^(1 + alpha + j), x = q / K_hi
-    g = np.stack([1.0 + kappa * rho, -kappa * (1.0 + rho), kappa])
-    n_terms = 3 if np.any(kappa != 0) else 1
+    klo, khi, c_top, alpha, g = klo[use], khi[use], c_top[use], alpha[use], g[:, use]
+    nonzero = np.flatnonzero(np.any(g != 0, axis=1))
+    n_terms = int(nonzero[-1]) + 1 if nonzero.size else 1
     coeffs = [_asymptotic_coefficients(1.0 + alpha + j) for j in range(n_terms)]
     t_start = np.max([_asymptotic_start(e, t_split) for e in coeffs], axis=0)
     # all (r, piece) pairs that reach beyond t_split
@@ -390,7 +403,9 @@ def _oscillatory_part(r: np.ndarray, pieces, t_split: float, order: int) -> np.n
         t = (a[rep] + k * width)[:, None] + 0.5 * width[:, None] * (x + 1.0)
         ii, rw = idx[rep][:, None], rows[rep][:, None]
         xq = t / (rw * khi[ii])
-        poly = g[0, ii] + g[1, ii] * xq + g[2, ii] * xq * xq
+        poly = g[0, ii]
+        for j in range(1, n_terms):
+            poly = poly + g[j, ii] * xq**j
         f = c_top[ii] * khi[ii] * np.exp((1.0 + alpha[ii]) * np.log(xq)) * poly / rw
         vals = ((f * special.j0(t)) @ w) * 0.5 * width
         np.add.at(out, ri[steep][rep], vals)
@@ -636,3 +651,226 @@ def profile_spectrum_kernel(
 
         out[blk] = _panel_quadrature(edges, integrand, order) / np.pi
     return out.reshape(qx_in.shape)
+
+
+# --------------------------------------------------------------------------------------
+# eq. 10/11: spectrum from the height-difference ACF
+# --------------------------------------------------------------------------------------
+class _RadialPieces(NamedTuple):
+    """``G(r) = sum_m coef[m] (r / hi)^(p0 + m)`` on ``[lo, hi]`` for each piece.
+
+    Piece 0 starts at ``r = 0``; ``G`` is flat beyond the last ``hi`` at the level of the
+    last piece plus ``step`` (a jump there).
+    """
+
+    lo: np.ndarray
+    hi: np.ndarray
+    coef: np.ndarray  # (terms, pieces)
+    p0: np.ndarray
+    step: float
+
+    def index(self, r: np.ndarray) -> np.ndarray:
+        return np.clip(np.searchsorted(self.hi, r, side="left"), 0, self.hi.size - 1)
+
+    def laplacian(self, r: np.ndarray) -> np.ndarray:
+        """``f = d/dr (r dG/dr) = r * Laplacian(G)``, zero beyond the last knot."""
+        j = self.index(r)
+        x = r / self.hi[j]
+        out = np.zeros_like(r)
+        for m in range(self.coef.shape[0]):
+            p = self.p0[j] + m
+            out += self.coef[m, j] * p * p * np.exp(p * np.log(x))
+        return np.where(r <= self.hi[-1], out / r, 0.0)
+
+    def r_dG(self, side: str) -> np.ndarray:
+        """``r dG/dr`` at the lower (``side="lo"``) or upper end of every piece."""
+        p = self.p0[None, :] + np.arange(self.coef.shape[0])[:, None]
+        if side == "hi":
+            return np.sum(self.coef * p, axis=0)
+        with np.errstate(divide="ignore"):
+            x = np.where(self.lo > 0, self.lo / self.hi, 0.0)
+            powers = np.where(x > 0, np.exp(p * np.log(np.maximum(x, 1e-300))), 0.0)
+        return np.sum(self.coef * p * powers, axis=0)
+
+    def jumps(self) -> tuple[np.ndarray, np.ndarray]:
+        """Knots (every ``hi``) and the jump of ``r dG/dr`` across each."""
+        right = np.append(self.r_dG("lo")[1:], 0.0)
+        return self.hi, right - self.r_dG("hi")
+
+
+def _knot_slopes(dr: np.ndarray, G: np.ndarray) -> np.ndarray:
+    """``d ln G / d ln dr`` at the samples from a cubic spline of ``ln G`` against ``ln dr``."""
+    u, v = np.log(dr), np.log(G)
+    if dr.size < 4:
+        return np.gradient(v, u)
+    return interpolate.CubicSpline(u, v, bc_type="not-a-knot")(u, 1)
+
+
+def _acf_pieces(dr: np.ndarray, G: np.ndarray, *, interpolation: str, plateau: float | None,
+                low_exponent: float, high_extent: float) -> _RadialPieces:
+    """Representation of ``G`` through the samples ``(dr_j, G_j)``.
+
+    Between samples: the power law through both (``"power law"``), or that power law times
+    a cubic in ``x = dr / dr_{j+1}`` that also matches the spline slopes at both samples
+    (``"hermite"``: ``G`` continuously differentiable).  Below ``dr[0]``:
+    ``G ~ dr^low_exponent``.  Beyond ``dr[-1]``: the power law with the last slope continues
+    for a factor ``high_extent`` in ``dr`` (1: not at all) or, with a ``plateau``, until it
+    reaches the plateau (at most 6 decades); then ``G`` is flat, at ``plateau`` if given
+    (a step where the continued law does not reach it).
+    """
+    alpha = np.log(G[1:] / G[:-1]) / np.log(dr[1:] / dr[:-1])
+    n = dr.size
+    lo = np.concatenate([[0.0], dr[:-1]])
+    hi = dr.copy()
+    p0 = np.concatenate([[low_exponent], alpha])
+    coef = np.zeros((4, n))
+    coef[0] = G
+    if interpolation == "hermite":
+        s = _knot_slopes(dr, G)
+        rho = dr[:-1] / dr[1:]
+        d = 1.0 - rho
+        s0, s1 = s[:-1] - alpha, s[1:] - alpha
+        # P(x) = 1 + (x - 1)(x - rho)(A + B x): P(rho) = P(1) = 1, x P'(x) = s - alpha at both
+        B = (s1 + s0 / rho) / (d * d)
+        A = s1 / d - B
+        coef[:, 1:] = G[1:] * np.stack([1.0 + A * rho, -A * (1.0 + rho) + B * rho,
+                                        A - B * (1.0 + rho), B])
+        a_last = s[-1]
+    elif interpolation == "power law":
+        a_last = alpha[-1]
+    else:
+        raise ValueError(f"interpolation must be 'hermite' or 'power law', got {interpolation!r}")
+    r_end = dr[-1] * high_extent
+    if plateau is not None:
+        reach = np.log(plateau / G[-1]) / a_last if a_last != 0 else np.inf
+        r_end = dr[-1] * np.exp(reach) if 0 < reach < np.log(1e6) else dr[-1]
+    g_end = G[-1]
+    if r_end > dr[-1] * (1 + 1e-12) and a_last != 0:
+        g_end = G[-1] * (r_end / dr[-1]) ** a_last
+        lo, hi, p0 = np.append(lo, dr[-1]), np.append(hi, r_end), np.append(p0, a_last)
+        coef = np.concatenate([coef, [[g_end], [0.0], [0.0], [0.0]]], axis=1)
+    step = 0.0 if plateau is None else plateau - g_end
+    return _RadialPieces(lo, hi, coef, p0, float(step))
+
+
+def _one_minus_j0_over_t2(t: np.ndarray) -> np.ndarray:
+    """``(1 - J0(t)) / t^2`` (``1/4`` at ``t = 0``), without cancellation at small ``t``."""
+    t = np.asarray(t, dtype=float)
+    out = np.empty_like(t)
+    small = t < 1.0
+    z = -0.25 * t[small] ** 2
+    acc = np.ones_like(z)
+    for k in range(12, 1, -1):
+        acc = 1.0 + acc * z / (k * k)
+    out[small] = 0.25 * acc
+    big = ~small
+    out[big] = (1.0 - special.j0(t[big])) / t[big] ** 2
+    return out
+
+
+def _j1_over_t(t: np.ndarray) -> np.ndarray:
+    """``J1(t) / t`` (``1/2`` at ``t = 0``)."""
+    t = np.asarray(t, dtype=float)
+    safe = np.where(t > 0, t, 1.0)
+    return np.where(t > 0, special.j1(safe) / safe, 0.5)
+
+
+def _hankel_of_pieces(q: np.ndarray, pieces: _RadialPieces, *, t_split: float,
+                      panels_per_decade: float, order: int) -> np.ndarray:
+    """``C(q) = 2 pi int_0^inf dr r J0(q r) [G(inf) - G(r)]`` for a piecewise ``G``.
+
+    Two integrations by parts turn eq. 10 into the Hankel transform of the Laplacian,
+    ``q^2 C / 2pi = sum_k J_k J0(q r_k) + int dr f(r) J0(q r)`` (``f = (r G')'``, ``J_k`` the
+    jump of ``r G'`` at knot ``r_k``) plus ``2 pi step r_end J1(q r_end) / q`` for a jump of
+    ``G`` at the end: no ``G(inf) - G`` cancellation at any ``q``.  Where ``q r_end < 1`` the
+    equivalent form with ``1 - J0`` keeps the ``q -> 0`` limit exact.
+    """
+    out = np.zeros(q.size)
+    knots, jumps = pieces.jumps()
+    r_end = pieces.hi[-1]
+    T = float(t_split)
+    rgrid = _log_grid(np.concatenate([[0.0], pieces.hi]), panels_per_decade, depth=1.0)
+    tgrid = np.append(np.arange(2.0, T, 2.0), T)
+    x, w = _gauss_legendre(order)
+
+    def quadrature(qs: np.ndarray, weight, t_max: np.ndarray) -> np.ndarray:
+        """``int_0^{t_max/q} f(r) weight(t, r) dr`` for each ``q`` (panels in ``t = q r``)."""
+        res = np.empty(qs.size)
+        order_q = np.argsort(qs)
+        for blk in _blocks(qs.size, (rgrid.size + tgrid.size) * order):
+            idx = order_q[blk]
+            qb = qs[idx][:, None]
+            cols = rgrid[rgrid * qb[0, 0] < t_max[idx].max()]
+            edges = np.concatenate([cols[None, :] * qb,
+                                    np.broadcast_to(tgrid, (qb.shape[0], tgrid.size))], axis=1)
+            edges = np.sort(np.clip(edges, 0.0, t_max[idx][:, None]), axis=1)
+            q3 = qb[..., None]
+
+            def integrand(t, q3=q3):
+                r = t / q3
+                return pieces.laplacian(r) * weight(t, r)
+
+            res[idx] = _panel_quadrature(edges, integrand, order) / qb[:, 0]
+        return res
+
+    small = q * r_end < 1.0
+    if np.any(small):
+        qs = q[small]
+        lap = quadrature(np.maximum(qs, 1e-300 / r_end), lambda t, r: r * r *
+                         _one_minus_j0_over_t2(t), np.minimum(qs * r_end, 1.0))
+        kn = np.sum(jumps[None, :] * knots**2 * _one_minus_j0_over_t2(qs[:, None] * knots),
+                    axis=1)
+        out[small] = (-(kn + lap) + pieces.step * r_end**2 * _j1_over_t(qs * r_end)) * 2 * np.pi
+    big = ~small
+    if np.any(big):
+        qb = q[big]
+        near = quadrature(qb, lambda t, r: special.j0(t), np.minimum(qb * r_end, T))
+        # the power laws of f beyond t = T: q f(q) -> f(r), with f = sum_m coef_m p_m^2
+        # x^(p_m - 1) / hi: c_top = 1 / hi^2, alpha = p0 - 2, g_m = coef_m p_m^2
+        p = pieces.p0[None, :] + np.arange(pieces.coef.shape[0])[:, None]
+        g = pieces.coef * p * p
+        live = np.any(g != 0, axis=0)
+        c_top = np.where(live, 1.0 / pieces.hi**2, 0.0)
+        far = _oscillatory_terms(qb, pieces.lo, pieces.hi, c_top, pieces.p0 - 2.0, g, T,
+                                 order)
+        kn = special.j0(qb[:, None] * knots) @ jumps
+        out[big] = 2 * np.pi * ((kn + near + far) / qb**2
+                                + pieces.step * r_end * special.j1(qb * r_end) / qb)
+    return out
+
+
+def spectrum_from_acf_kernel(
+    q,
+    dr,
+    G,
+    *,
+    interpolation: str = "hermite",
+    plateau: float | None = None,
+    low_exponent: float = 2.0,
+    high_extent: float = 1.0,
+    t_split: float = 64.0,
+    panels_per_decade: float = 6.0,
+    order: int = 16,
+) -> np.ndarray:
+    """Isotropic spectrum from the height-difference ACF, eq. 10/11.
+
+    ``C(q) = 2 pi int_0^inf d(dr) dr J0(q dr) [sigma_h^2 - G(dr)]``.
+    """
+    q_in = np.asarray(q, dtype=float)
+    qv = q_in.ravel()
+    r = np.asarray(dr, dtype=float)
+    g = np.asarray(G, dtype=float)
+    if r.ndim != 1 or r.shape != g.shape or r.size < 2:
+        raise ValueError("dr and G must be 1-D arrays of the same length >= 2")
+    if not (np.all(np.isfinite(r)) and r[0] > 0 and np.all(np.diff(r) > 0)):
+        raise ValueError("dr must be finite, positive and strictly increasing")
+    if not (np.all(np.isfinite(g)) and np.all(g > 0)):
+        raise ValueError("G must be finite and > 0")
+    if not (np.all(np.isfinite(qv)) and np.all(qv >= 0)):
+        raise ValueError("q must be finite and >= 0")
+    pieces = _acf_pieces(r, g, interpolation=interpolation, plateau=plateau,
+                         low_exponent=low_exponent,
+                         high_extent=high_extent)
+    out = _hankel_of_pieces(qv, pieces, t_split=t_split,
+                            panels_per_decade=panels_per_decade, order=order)
+    return out.reshape(q_in.shape)
