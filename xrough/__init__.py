@@ -24,7 +24,13 @@ from . import (  # noqa: E402
     plot,
     units,
 )
-from .contact import elastic_energy, patch_radius, persson, stress_acf  # noqa: E402
+from .contact import (  # noqa: E402
+    elastic_energy,
+    patch_radius,
+    persson,
+    stress_acf,
+    stress_acf_from_spectrum,
+)
 from .correlation import height_difference_acf  # noqa: E402
 from .gradient import rms_gradient  # noqa: E402
 from .models import self_affine_model  # noqa: E402
@@ -45,6 +51,7 @@ __all__ = [
     "self_affine_model",
     "self_affine_surface",
     "stress_acf",
+    "stress_acf_from_spectrum",
     "topography",
     "units",
 ]

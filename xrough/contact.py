@@ -19,7 +19,8 @@ from . import units as u
 from .curves import check_acf, curves_si
 from .gradient import rms_gradient
 
-__all__ = ["elastic_energy", "stress_acf", "persson", "patch_radius", "KAPPA_PERSSON"]
+__all__ = ["elastic_energy", "stress_acf", "stress_acf_from_spectrum", "persson",
+           "patch_radius", "KAPPA_PERSSON"]
 
 #: Persson's small-pressure slope of the contact area, ``a_r ~ kappa p*`` (eq. 29).
 KAPPA_PERSSON = float(np.sqrt(8 / np.pi))
@@ -245,6 +246,60 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
     ds = persson(G, E_star=E, p0=p0, theory=theory, gradient=gradient, kappa=kappa,
                  gradient_method=gradient_method, variables=("G_sigma",), _full=full)
     return ds["G_sigma"]
+
+
+def stress_acf_from_spectrum(C: xr.DataArray, dr: Any, *, E_star: Any) -> xr.DataArray:
+    r"""Full-contact stress ACF of a model spectrum by the spectral route (eq. 22-24).
+
+    .. math:: G_\sigma^{full}(\Delta r) = \left(\frac{E^*}{2}\right)^2 \frac{1}{2\pi}
+              \int dq\, q^3 C(q) J_0(q\Delta r)
+              = \left(\frac{E^*}{2}\right)^2 \left[\bar g^2 - G_{q^2C}(\Delta r)\right]
+
+    where ``G_{q^2 C}`` is eq. 9 applied to the spectrum ``q^2 C(q)``: exact per power-law
+    piece, so this is the reference that :func:`stress_acf` (a derivative of G) is tested
+    against.
+
+    Parameters
+    ----------
+    C : xarray.DataArray
+        A model spectrum from :func:`xrough.model_spectrum`.
+    dr : array_like
+        Lags in the length unit of ``C``.
+    E_star : float, str or Quantity
+        Contact modulus (Pa for numbers).
+
+    Returns
+    -------
+    xarray.DataArray
+        ``G_sigma`` on ``dr`` in Pa^2.
+
+    Examples
+    --------
+    >>> C = xrough.model_spectrum(hurst=0.8, lambda_r="1 um", lambda_s="10 nm",
+    ...                           rms_gradient=0.1, unit="nm")
+    >>> S = xrough.stress_acf_from_spectrum(C, [1e-3], E_star="1 MPa")
+    >>> print(f"{float(S[0]):.4g}")  # (E*/2)^2 gbar^2 at dr -> 0
+    2.5e+09
+    """
+    from ._kernels.hankel import acf_from_spectrum_kernel
+    from .models import model_from_attrs
+
+    E = _positive(E_star, "[pressure]", "E_star")
+    model = model_from_attrs(C.attrs)
+    if model is None:
+        raise ValueError("stress_acf_from_spectrum needs a model spectrum "
+                         "(xrough.model_spectrum)")
+    lunit = u.format_units(u.parse_units(C["q"].attrs["units"]) ** -1)
+    dr = np.atleast_1d(np.asarray(dr, dtype=float))
+    knots = 0.0 if model.rolloff == "sharp" else 160.0
+    g_q2 = acf_from_spectrum_kernel(dr, lambda q: q**2 * model(q), model.breakpoints,
+                                    knots_per_decade=knots)
+    values = (E / 2) ** 2 * (model.moment(2) - g_q2)
+    return xr.DataArray(values, dims="dr", name="G_sigma",
+                        coords={"dr": ("dr", dr, {"units": lunit,
+                                                  "long_name": "lag distance"})},
+                        attrs={"units": "Pa2", "long_name": "stress autocorrelation function",
+                               "equation": "eq. 22-24, spectral route"})
 
 
 PERSSON_VARIABLES = ("p_star", "a_r", "a_ri", "sigma_c", "G_sigma", "Gamma_sigma", "G_du")
