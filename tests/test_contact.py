@@ -297,3 +297,27 @@ def test_stress_acf_of_noisy_g_is_not_amplified(noise):
     ref = xrough.stress_acf_from_spectrum(C, G.dr.values[sel], E_star=1.0)
     err = np.abs(S.values[sel] - ref.values) / 0.25
     assert err.max() < 0.03
+
+
+def test_quick_stress_estimates_follow_the_gradient():
+    """Eq. 41 reads sigma_sa = E* gbar(dr) in the self-affine range, eq. 42 the roll-off law.
+
+    Reference: gbar^2(dr) = (1/2pi) int_0^{2pi/dr} q^3 C dq of the model by quadrature.
+    Tolerance 10 %: H, sigma_h and lambda_r come from a fit of G, and c_sa, c_ro are
+    asymptotic constants.
+    """
+    from scipy import integrate
+
+    C = xrough.model_spectrum(hurst=0.5, lambda_r="10 um", lambda_s="1 nm",
+                              rms_gradient=1.0, unit="nm")
+    model = xrough.models.model_from_attrs(C.attrs)
+    G = xrough.acf_from_spectrum(C, dr_min="0.1 nm", dr_max="1 mm", points_per_decade=10)
+    ds = G.rough.persson(E_star=E_STAR, p0=1.0, variables=("sigma_quick",))
+    for dr in (100.0, 1000.0, 1e5, 3e5):
+        got = float(ds.sigma_quick.sel(dr=dr, method="nearest"))
+        drn = float(G.dr.sel(dr=dr, method="nearest"))
+        gbar2 = integrate.quad(lambda q: q**3 * model(q), 0, 2 * np.pi / drn,
+                               points=[p for p in model.breakpoints if p < 2 * np.pi / drn],
+                               limit=200)[0] / (2 * np.pi)
+        assert got == pytest.approx(E_STAR * np.sqrt(gbar2), rel=0.1), dr
+    assert ds.sigma_quick.attrs["units"] == "Pa"

@@ -32,6 +32,7 @@ from .contact import (  # noqa: E402
     stress_acf_from_spectrum,
 )
 from .correlation import height_difference_acf  # noqa: E402
+from .fitting import fit_acf, gradient_from_fit, model_acf  # noqa: E402
 from .gradient import rms_gradient  # noqa: E402
 from .models import self_affine_model  # noqa: E402
 from .spectra import acf_from_spectrum, model_spectrum  # noqa: E402
@@ -42,7 +43,10 @@ __all__ = [
     "__version__",
     "acf_from_spectrum",
     "elastic_energy",
+    "fit_acf",
+    "gradient_from_fit",
     "height_difference_acf",
+    "model_acf",
     "model_spectrum",
     "patch_radius",
     "persson",

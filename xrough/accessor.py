@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import xarray as xr
 
-from . import contact, correlation, gradient, plot
+from . import contact, correlation, fitting, gradient, plot
 
 __all__ = ["RoughDataArrayAccessor"]
 
@@ -23,6 +23,10 @@ class RoughDataArrayAccessor:
     def acf(self, **kwargs) -> xr.DataArray:
         """G(dr) of a topography; see :func:`xrough.height_difference_acf`."""
         return correlation.height_difference_acf(self._obj, **kwargs)
+
+    def fit(self, **kwargs) -> xr.Dataset:
+        """Fit G (eq. 36 or the model spectrum); see :func:`xrough.fit_acf`."""
+        return fitting.fit_acf(self._obj, **kwargs)
 
     def energy(self, **kwargs) -> xr.Dataset:
         """Elastic energy of full contact (eq. 16, 44); see :func:`xrough.elastic_energy`."""

@@ -302,13 +302,52 @@ def stress_acf_from_spectrum(C: xr.DataArray, dr: Any, *, E_star: Any) -> xr.Dat
                                "equation": "eq. 22-24, spectral route"})
 
 
-PERSSON_VARIABLES = ("p_star", "a_r", "a_ri", "sigma_c", "G_sigma", "Gamma_sigma", "G_du")
+PERSSON_VARIABLES = ("p_star", "a_r", "a_ri", "sigma_c", "sigma_quick", "G_sigma",
+                     "Gamma_sigma", "G_du")
+
+
+def _gradient_on(gradient: xr.DataArray, G: xr.DataArray) -> np.ndarray:
+    """gbar on G's lags, refusing a gradient that does not cover them."""
+    gradient = gradient.transpose(..., "dr")
+    if gradient.sizes["dr"] != G.sizes["dr"] or not np.allclose(gradient["dr"].values,
+                                                               G["dr"].values, rtol=1e-9):
+        raise ValueError(
+            "the rms gradient is not given on the lags of G (an 'exact' gradient is only "
+            "defined where G supports the spectrum); restrict G with G.sel(dr=gbar.dr) or "
+            "use gradient_method='simple' or 'fit'")
+    values = np.broadcast_to(gradient.values, G.shape)
+    if not np.all(np.isfinite(values)) or np.any(values <= 0):
+        raise ValueError("the rms gradient must be positive and finite on every lag of G")
+    return values
+
+
+def _quick_stress(G: xr.DataArray, fit: xr.Dataset, E: float, p0s: np.ndarray) -> np.ndarray:
+    """Eq. 41 below lambda_r, eq. 42 beyond it, never below p0 (shape p0, ..., dr)."""
+    from ._kernels.shape_factors import rolloff_factor, self_affine_factor
+
+    lf, gf = check_acf(G)
+    hurst = np.asarray(fit["hurst"].values, dtype=float)
+    rolloff = str(fit.attrs.get("rolloff", "sharp"))
+    c_sa = self_affine_factor(np.clip(hurst, 1e-3, 1 - 1e-3))
+    c_ro = rolloff_factor(np.clip(hurst, 1e-3, 1 - 1e-3), rolloff=rolloff)
+    lam_r = np.asarray(fit["lambda_r"].values, dtype=float) * lf
+    sig_h = np.asarray(fit["sigma_h"].values, dtype=float) * lf
+    extra = (...,) + (None,)
+    dr = G["dr"].values * lf
+    g = G.values * gf
+    sa = E * np.sqrt(np.asarray(c_sa)[extra] * g) / dr
+    ro = E * np.sqrt(np.asarray(c_ro)[extra]) * lam_r[extra] * sig_h[extra] / dr**2
+    est = np.where(dr < lam_r[extra], sa, ro)
+    return np.maximum(est[None], p0s.reshape((-1,) + (1,) * G.ndim))
+
+
+
 
 
 def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
             kappa: float = KAPPA_PERSSON, gradient: xr.DataArray | None = None,
             gradient_method: str = "exact", variables: tuple[str, ...] | None = None,
-            _full: np.ndarray | None = None) -> xr.Dataset:
+            fit: xr.Dataset | None = None, _full: np.ndarray | None = None) -> xr.Dataset:
     r"""Real-space Persson theory of partial contact as a function of resolution ``dr``.
 
     Wherever Persson theory evaluates a function of wavenumber at resolution ``2 pi / q``,
@@ -319,6 +358,10 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
       ``kappa = sqrt(8/pi)``), the relative contact area at resolution ``dr``;
     - ``a_ri = (1 - a_r^2) erf(sqrt(pi) p*) + a_r^3`` (eq. 50);
     - ``sigma_c = p0 / a_r`` (eq. 39/40), the mean contact stress;
+    - ``sigma_quick``: the quick estimates ``E* sqrt(c_sa(H) G(dr)) / dr`` below
+      ``lambda_r`` (eq. 41) and ``E* sqrt(c_ro(H)) lambda_r sigma_h / dr^2`` beyond it
+      (eq. 42), or ``p0`` where that is larger, with ``H``, ``sigma_h``, ``lambda_r`` from
+      :func:`xrough.fit_acf` (or ``fit``);
     - ``G_sigma = p0^2 + (E*/2)^2 Laplacian(G) W`` (eq. 30/48), ``W = a_r`` or
       ``a_r^2 / a_ri`` (eq. 49);
     - ``Gamma_sigma = G_sigma / a(dr -> 0)`` (eq. 47, ``a = a_r`` or ``a_ri``);
@@ -342,7 +385,9 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
         See :func:`xrough.rms_gradient`.
     variables : tuple of str, optional
         Only these outputs (others are not computed); default all of
-        ``p_star, a_r, a_ri, sigma_c, G_sigma, Gamma_sigma, G_du``.
+        ``p_star, a_r, a_ri, sigma_c, sigma_quick, G_sigma, Gamma_sigma, G_du``.
+    fit : xarray.Dataset, optional
+        Precomputed :func:`xrough.fit_acf` result for ``sigma_quick``.
 
     Returns
     -------
@@ -376,18 +421,19 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     p0s, many = _p0_values(p0)
     check_acf(G)
     G = G.transpose(..., "dr")
-    if gradient is None:
-        gradient = rms_gradient(G, method=gradient_method)
-    gbar = np.broadcast_to(gradient.transpose(..., "dr").values, G.shape)
     extra = G.dims[:-1]
     dims = ("p0",) + extra + ("dr",)
     pshape = (-1,) + (1,) * len(G.dims)
-    p_star = p0s.reshape(pshape) / (E * gbar[None])
-    a_r = _contact_area(p_star, kappa)
     out: dict[str, tuple] = {}
-    need_ai = theory == "modified" or "a_ri" in wanted
-    a_ri = _improved_area(p_star, a_r) if need_ai else None
-    weight = a_r if theory == "persson" else a_r**2 / a_ri
+    if set(wanted) - {"sigma_quick"}:  # everything else needs gbar(dr)
+        if gradient is None:
+            gradient = rms_gradient(G, method=gradient_method)
+        gbar = _gradient_on(gradient, G)
+        p_star = p0s.reshape(pshape) / (E * gbar[None])
+        a_r = _contact_area(p_star, kappa)
+        need_ai = theory == "modified" or "a_ri" in wanted
+        a_ri = _improved_area(p_star, a_r) if need_ai else None
+        weight = a_r if theory == "persson" else a_r**2 / a_ri
     if "p_star" in wanted:
         out["p_star"] = (dims, p_star * np.ones_like(a_r), {
             "units": "1", "long_name": "reduced pressure p0 / (E* gbar)", "equation":
@@ -402,6 +448,14 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
         out["sigma_c"] = (dims, p0s.reshape(pshape) / a_r, {
             "units": "Pa", "long_name": "mean contact stress at resolution dr",
             "equation": "eq. 39/40: p0 / a_r"})
+    if "sigma_quick" in wanted:
+        if fit is None:
+            from .fitting import fit_acf
+
+            fit = fit_acf(G)
+        out["sigma_quick"] = (dims, _quick_stress(G, fit, E, p0s), {
+            "units": "Pa", "long_name": "quick estimate of the mean contact stress",
+            "equation": "eq. 41 (dr < lambda_r), eq. 42 (dr > lambda_r), at least p0"})
     if "G_sigma" in wanted or "Gamma_sigma" in wanted:
         full = _full_stress(G, E) if _full is None else _full
         g_sigma = p0s.reshape(pshape) ** 2 + full[None] * weight
@@ -426,7 +480,8 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
               "p0": ("p0", p0s, {"units": "Pa", "long_name": "mean pressure"})}
     ds = xr.Dataset(out, coords=coords, attrs={
         "E_star": E, "E_star_units": "Pa", "kappa": float(kappa), "theory": theory,
-        "gradient_method": gradient.attrs.get("method", "given"),
+        "gradient_method": "none" if gradient is None else gradient.attrs.get("method",
+                                                                              "given"),
         "note": "real-space Persson theory: functions of q evaluated at dr = 2 pi / q"})
     if not many:
         ds = ds.isel(p0=0)
