@@ -307,7 +307,7 @@ PERSSON_VARIABLES = ("p_star", "a_r", "a_ri", "sigma_c", "sigma_quick", "G_sigma
 
 
 def _gradient_on(gradient: xr.DataArray, G: xr.DataArray) -> np.ndarray:
-    """gbar on G's lags, refusing a gradient that does not cover them."""
+    """Gbar on G's lags, refusing a gradient that does not cover them."""
     gradient = gradient.transpose(..., "dr")
     if gradient.sizes["dr"] != G.sizes["dr"] or not np.allclose(gradient["dr"].values,
                                                                G["dr"].values, rtol=1e-9):
