@@ -35,7 +35,13 @@ from .correlation import height_difference_acf  # noqa: E402
 from .fitting import fit_acf, gradient_from_fit, model_acf  # noqa: E402
 from .gradient import rms_gradient  # noqa: E402
 from .models import self_affine_model  # noqa: E402
-from .spectra import acf_from_spectrum, model_spectrum  # noqa: E402
+from .spectra import (  # noqa: E402
+    acf_from_spectrum,
+    gradient_from_spectrum,
+    model_spectrum,
+    rms_gradient_exact,
+    spectrum,
+)
 from .synthetic import self_affine_surface  # noqa: E402
 from .topography import topography  # noqa: E402
 
@@ -45,15 +51,18 @@ __all__ = [
     "elastic_energy",
     "fit_acf",
     "gradient_from_fit",
+    "gradient_from_spectrum",
     "height_difference_acf",
     "model_acf",
     "model_spectrum",
     "patch_radius",
     "persson",
     "rms_gradient",
+    "rms_gradient_exact",
     "plot",
     "self_affine_model",
     "self_affine_surface",
+    "spectrum",
     "stress_acf",
     "stress_acf_from_spectrum",
     "topography",

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import xarray as xr
 
-from . import contact, correlation, fitting, gradient, plot
+from . import contact, correlation, fitting, gradient, plot, spectra
 
 __all__ = ["RoughDataArrayAccessor"]
 
@@ -23,6 +23,10 @@ class RoughDataArrayAccessor:
     def acf(self, **kwargs) -> xr.DataArray:
         """G(dr) of a topography; see :func:`xrough.height_difference_acf`."""
         return correlation.height_difference_acf(self._obj, **kwargs)
+
+    def spectrum(self, **kwargs) -> xr.DataArray:
+        """Spectrum C(q) from G (eq. 10/11); see :func:`xrough.spectrum`."""
+        return spectra.spectrum(self._obj, **kwargs)
 
     def fit(self, **kwargs) -> xr.Dataset:
         """Fit G (eq. 36 or the model spectrum); see :func:`xrough.fit_acf`."""

@@ -233,19 +233,19 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
     if theory not in THEORIES:
         raise ValueError(f"theory must be one of {THEORIES}, got {theory!r}")
     E = _positive(E_star, "[pressure]", "E_star")
+    if p0 is not None:
+        ds = persson(G, E_star=E, p0=p0, theory=theory, gradient=gradient, kappa=kappa,
+                     gradient_method=gradient_method, variables=("G_sigma",))
+        return ds["G_sigma"]
     full = _full_stress(G, E)
     extra = G.transpose(..., "dr").dims[:-1]
     attrs = {"units": "Pa2", "long_name": "stress autocorrelation function",
              "derivative": "Laplacian of a GCV smoothing spline of ln G against ln dr, "
              "weighted by the standard error"}
     coords = {**_extra_coords(G), "dr": _lag_coord(G)}
-    if p0 is None:
-        attrs["equation"] = "eq. 24 (full contact, p0^2 offset left out)"
-        return xr.DataArray(full, dims=extra + ("dr",), coords=coords, name="G_sigma",
-                            attrs=attrs)
-    ds = persson(G, E_star=E, p0=p0, theory=theory, gradient=gradient, kappa=kappa,
-                 gradient_method=gradient_method, variables=("G_sigma",), _full=full)
-    return ds["G_sigma"]
+    attrs["equation"] = "eq. 24 (full contact, p0^2 offset left out)"
+    return xr.DataArray(full, dims=extra + ("dr",), coords=coords, name="G_sigma",
+                        attrs=attrs)
 
 
 def stress_acf_from_spectrum(C: xr.DataArray, dr: Any, *, E_star: Any) -> xr.DataArray:
@@ -306,6 +306,16 @@ PERSSON_VARIABLES = ("p_star", "a_r", "a_ri", "sigma_c", "sigma_quick", "G_sigma
                      "Gamma_sigma", "G_du")
 
 
+def _restrict_to(G: xr.DataArray, gradient: xr.DataArray) -> xr.DataArray:
+    """G on the lags where gbar is given (the exact gbar covers only supported lags)."""
+    if gradient.sizes["dr"] == G.sizes["dr"]:
+        return G
+    keep = np.isin(G["dr"].values, gradient["dr"].values)
+    if keep.sum() != gradient.sizes["dr"]:
+        return G  # not a subset: _gradient_on explains
+    return G.isel(dr=np.flatnonzero(keep))
+
+
 def _gradient_on(gradient: xr.DataArray, G: xr.DataArray) -> np.ndarray:
     """Gbar on G's lags, refusing a gradient that does not cover them."""
     gradient = gradient.transpose(..., "dr")
@@ -347,7 +357,7 @@ def _quick_stress(G: xr.DataArray, fit: xr.Dataset, E: float, p0s: np.ndarray) -
 def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
             kappa: float = KAPPA_PERSSON, gradient: xr.DataArray | None = None,
             gradient_method: str = "exact", variables: tuple[str, ...] | None = None,
-            fit: xr.Dataset | None = None, _full: np.ndarray | None = None) -> xr.Dataset:
+            fit: xr.Dataset | None = None) -> xr.Dataset:
     r"""Real-space Persson theory of partial contact as a function of resolution ``dr``.
 
     Wherever Persson theory evaluates a function of wavenumber at resolution ``2 pi / q``,
@@ -382,7 +392,8 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     gradient : xarray.DataArray, optional
         Precomputed ``gbar(dr)`` on the same ``dr``; computed once otherwise.
     gradient_method : {'exact', 'simple', 'fit'}
-        See :func:`xrough.rms_gradient`.
+        See :func:`xrough.rms_gradient`. The exact gradient exists only on the lags where G
+        supports the spectrum; the result then covers those lags only.
     variables : tuple of str, optional
         Only these outputs (others are not computed); default all of
         ``p_star, a_r, a_ri, sigma_c, sigma_quick, G_sigma, Gamma_sigma, G_du``.
@@ -428,6 +439,7 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     if set(wanted) - {"sigma_quick"}:  # everything else needs gbar(dr)
         if gradient is None:
             gradient = rms_gradient(G, method=gradient_method)
+        G = _restrict_to(G, gradient)
         gbar = _gradient_on(gradient, G)
         p_star = p0s.reshape(pshape) / (E * gbar[None])
         a_r = _contact_area(p_star, kappa)
@@ -457,7 +469,7 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
             "units": "Pa", "long_name": "quick estimate of the mean contact stress",
             "equation": "eq. 41 (dr < lambda_r), eq. 42 (dr > lambda_r), at least p0"})
     if "G_sigma" in wanted or "Gamma_sigma" in wanted:
-        full = _full_stress(G, E) if _full is None else _full
+        full = _full_stress(G, E)
         g_sigma = p0s.reshape(pshape) ** 2 + full[None] * weight
         if "G_sigma" in wanted:
             out["G_sigma"] = (dims, g_sigma, {

@@ -10,7 +10,8 @@ needs at resolution ``dr``. Three ways to get it from G:
     ``gbar^2 = 4 G(dr) / dr^2``, exact only in the ballistic regime (``q_s dr << 1``) and an
     overestimate elsewhere.
 ``"fit"``
-    eq. 37/38 from the fitted parameters of eq. 36.
+    from the fit of G (:func:`xrough.fit_acf`): eq. 26 of the fitted model spectrum, or
+    eq. 37/38 for a fit of eq. 36.
 """
 
 from __future__ import annotations
@@ -39,14 +40,15 @@ def rms_gradient(G: xr.DataArray, *, method: str = "exact") -> xr.DataArray:
     G : xarray.DataArray
         Height-difference ACF on dim ``dr`` (length^2, ``dr`` in length).
     method : {'exact', 'simple', 'fit'}
-        Eq. 26 via the spectrum from eq. 10/11; ``sqrt(4 G / dr^2)``; or eq. 37/38 from
-        the fit of eq. 36.
+        Eq. 26 via the spectrum from eq. 10/11; ``sqrt(4 G / dr^2)``; or from the fit of G
+        (eq. 26 of the fitted spectrum, or eq. 37/38 for eq. 36).
 
     Returns
     -------
     xarray.DataArray
         ``gbar`` on ``dr`` (dimensionless, ``units="1"``), ``attrs["method"]`` and the
-        paper equation.
+        paper equation. ``"exact"`` returns only the lags where G supports the spectrum
+        (see :func:`xrough.rms_gradient_exact`); the others return every lag of G.
 
     Raises
     ------
@@ -80,11 +82,13 @@ def rms_gradient(G: xr.DataArray, *, method: str = "exact") -> xr.DataArray:
     else:
         from .fitting import fit_acf, gradient_from_fit
 
-        out = gradient_from_fit(fit_acf(G), G["dr"])
-        equation = "eq. 37/38 with the fit of eq. 36"
+        params = fit_acf(G)
+        out = gradient_from_fit(params, G["dr"])
+        equation = ("eq. 26 of the fitted model spectrum" if params.attrs.get("model") ==
+                    "spectrum" else "eq. 37/38 with the fit of eq. 36")
     out = out.drop_vars([c for c in out.coords if c not in out.dims and c != "dr"],
                         errors="ignore")
     out.name = "gbar"
-    out.attrs = {"units": "1", "long_name": "scale-dependent rms gradient",
+    out.attrs = {**out.attrs, "units": "1", "long_name": "scale-dependent rms gradient",
                  "equation": equation, "method": method}
     return out

@@ -443,8 +443,9 @@ def _acf_input(G: Any, noise: Any) -> _AcfInput:
     if np.any(np.isinf(g)) or np.any(~np.isfinite(dr)):
         raise ValueError("G and its coordinate must be finite (NaN marks an empty bin)")
     if noise is None:
-        rel = (np.asarray(G["sampling_error"].values, dtype=float) * factor / g
-               if "sampling_error" in G.coords else np.zeros_like(g))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = (np.asarray(G["sampling_error"].values, dtype=float) * factor / g
+                   if "sampling_error" in G.coords else np.zeros_like(g))
     else:
         rel = np.broadcast_to(np.asarray(noise, dtype=float), g.shape)
         if not np.all(np.isfinite(rel) & (rel >= 0)):
@@ -548,14 +549,17 @@ def spectrum(
              = \frac{2\pi}{q^2} \int_0^\infty d\Delta r\, J_0(q \Delta r)\,
                \frac{d}{d\Delta r}\left[\Delta r \frac{dG}{d\Delta r}\right]
 
-    The second form (two integrations by parts, the limit of eq. 11's split at ``a -> inf``
-    with every boundary term kept exactly) contains no ``sigma_h^2 - G``: there is no
-    round-off where ``G ~ sigma_h^2``, and ``sigma_h^2`` drops out.
+    The second form (two integrations by parts, every boundary term kept exactly) contains
+    no ``sigma_h^2 - G``: there is no round-off where ``G ~ sigma_h^2``, and ``sigma_h^2``
+    drops out.  As in eq. 11 it is split, at ``dr = 1/q``: below, ``J0`` is replaced by
+    ``-(1 - J0)`` plus the boundary term ``dr dG/d(dr)`` at ``1/q``, so that nothing
+    cancels at small ``q`` either.
 
     ``G`` is represented through its valid (non-NaN) bins as a piecewise power law in
-    log-log, times a cubic correction per interval that matches the slopes of a cubic
-    spline of ``ln G`` against ``ln dr``, so that ``G`` is continuously differentiable (a
-    kink would add a ``q^-2.5`` tail that swamps the ``q^-2(1+H)`` of a self-affine ``C``).
+    log-log, times a quintic correction per interval that matches the slopes and
+    curvatures of a cubic spline of ``ln G`` against ``ln dr``, so that ``G`` is twice
+    continuously differentiable (a kink would add a ``q^-2.5`` tail that swamps the
+    ``q^-2(1+H)`` of a self-affine ``C``).
     Beyond the data, the log-log slope of ``G`` turns smoothly (C2, within one decade) to 2
     below the smallest lag (ballistic, ``G ~ dr^2``) and to 0 beyond the largest (flat:
     ``sigma_h^2`` is the level this extension reaches, ``attrs["sigma_h2"]``).  Each
@@ -585,7 +589,8 @@ def spectrum(
     support_rtol : float
         Relative change of ``C`` allowed for ``q`` to count as supported (see Notes).
     interpolation : {'hermite', 'power law'}
-        ``'power law'`` drops the cubic correction (kinks at the samples; for comparison).
+        ``'power law'`` drops the quintic correction (kinks at the samples; for
+        comparison).
     points_per_decade : float
         Density of the default ``q`` grid.
 
@@ -615,23 +620,29 @@ def spectrum(
     Notes
     -----
     **Supported range.** ``C(q)`` counts as determined by the data where it is positive
-    and changes by at most ``support_rtol |C|`` when (i) the measured log-log slope at the
-    smallest lag continues one decade further down before it turns ballistic, (ii) the
-    slope at the largest lag continues one decade further up before ``G`` turns flat, and
-    (iii) with ``noise``, ``G`` is perturbed by that independent relative scatter (standard
-    deviation over 16 seeded copies).  The longest such interval within
-    ``[2 pi / dr_max, 2 pi / dr_min]`` is reported, its ends located on a grid of 10 per
-    decade and interpolated.  A ballistic ``G`` at the smallest lags and a plateau at the
-    largest give the whole interval; a ``G`` that is still self-affine at ``dr_min`` or
-    still rising at ``dr_max`` gives less.
+    and changes by at most ``support_rtol |C|`` when the extrapolation changes: the
+    measured log-log slope at the smallest lag turns ballistic sooner (within 0.2 instead of
+    1 decade) or later (after one more decade), the same for the turn to flat at the
+    largest lag, and, with ``noise``, ``G`` is perturbed by that independent relative
+    scatter (standard deviation over 16 seeded copies).  Changes are evaluated on a grid
+    of 10 per decade over ``[2 pi / dr_max, 2 pi / dr_min]``, and the largest within
+    +-0.2 decades counts (the difference of two extrapolations oscillates in ``q``); the
+    longest interval that passes is reported, its ends interpolated.  A ballistic ``G``
+    at the smallest lags and a plateau at the largest give nearly all of
+    ``[2 pi / dr_max, 2 pi / dr_min]`` (less where ``C`` drops to 0); a ``G`` that is
+    still self-affine at ``dr_min`` or still rising at ``dr_max`` gives less, or nothing.
+    The rule measures what the extrapolation leaves open, not the interpolation error
+    (next paragraph).
 
-    **Accuracy** (benchmarks in docs/spectra.md): with noise-free ``G`` sampled at 20
-    points per decade, ``C`` is accurate to ~1e-4 where it is smooth; a jump of ``C`` (the
-    cutoff ``q_s`` of eq. 35) is smeared over about ``q_s/2 .. 2 q_s``, and a kink of ``C``
-    rings in ``G`` in a way that a logarithmic grid cannot follow at large ``dr`` (sharp
-    eq. 35: ~10 % below ``q_r`` at 20 points per decade, 1 % at 100).  Noise is amplified
-    strongly where ``C`` is small compared with ``sigma_h^2 dr^2`` (below the roll-off):
-    independent 5 % scatter makes ``C`` meaningless there without ``smooth``.
+    **Accuracy** (docs/spectra.md): with noise-free ``G`` sampled at 20 points per decade,
+    ``C`` is accurate to ~1e-5 where it is smooth.  A jump of ``C`` (the cutoff ``q_s`` of
+    eq. 35) rings in ``G`` as ``dr^-3/2``, which no logarithmic grid follows: ``C`` is off
+    by ~1 % from ``q_s / 4`` and by tens of % within a factor 2 of ``q_s``.  A kink of
+    ``C`` (``q_r`` in the sharp eq. 35) rings as ``dr^-5/2``: 10-20 % error far below
+    ``q_r`` at 20 points per decade, ~1 % at 100.  Noise is amplified where ``C`` is small
+    compared with ``sigma_h^2 dr^2`` (below the roll-off): independent 5 % scatter leaves
+    nothing supported at 1 %, and with ``smooth=1`` about one decade around the roll-off
+    at 20 %.
 
     Examples
     --------
@@ -840,7 +851,7 @@ def gradient_from_spectrum(
         gbar2 = _model_gradient2(spec.model, q_cut)
         extra = model_attrs(spec.model)
     else:
-        gbar2 = power_law_moment_kernel(q_cut, spec.func, 2)
+        gbar2 = power_law_moment_kernel(q_cut, spec.func.q, spec.func.values, 2)
         extra = {}
     return _gradient_da(np.sqrt(gbar2), dr_arr, spec.unit_str,
                         {"estimator": "spectrum", **extra})
@@ -856,21 +867,24 @@ def rms_gradient_exact(
     interpolation: str = "hermite",
     points_per_decade: float = 40,
 ) -> xr.DataArray:
-    r"""The "exact" scale-dependent rms gradient of a measured ``G`` (paper eq. 26 via eq. 10/11).
+    r"""Compute the "exact" scale-dependent rms gradient of a ``G`` (eq. 26 via eq. 10/11).
 
     .. math::
 
         \bar g^2(\Delta r) = \frac{1}{2\pi} \int_0^{2\pi/\Delta r} dq\, q^3\, C(q),
         \qquad C \text{ from } G \text{ by eq. 10/11 (:func:`spectrum`)}
 
-    ``C`` is evaluated on ``points_per_decade`` from ``2 pi / dr_max`` to
-    ``2 pi / dr_min``, taken flat below, and integrated exactly as a piecewise power law
-    (negative values, possible where ``G`` does not determine ``C``, count as 0).  ``gbar``
-    is returned only where it is supported: where neither the flat part below
-    ``2 pi / dr_max``, nor the extrapolation variants of :func:`spectrum` (the end slopes
-    of ``G`` kept one decade longer), nor noise change ``gbar^2`` by more than
-    ``support_rtol``.  ``gbar`` can be supported where ``C`` is not: ``q^3 C`` beyond the
-    roll-off of a self-affine surface decides little of ``gbar^2``.
+    ``C`` is evaluated on ``points_per_decade`` from ``0.01 * 2 pi / dr_max`` to
+    ``2 pi / dr_min`` (taken flat below, a negligible share) and integrated exactly as a
+    piecewise power law (a straight line between samples where ``C <= 0``, possible where
+    ``G`` does not determine ``C``: the ringing around a jump of ``C`` must not be
+    clipped).  ``gbar`` is returned only where it is supported: where neither the
+    extrapolation variants of :func:`spectrum` (the end slopes of ``G`` turning sooner or
+    later), nor leaving out ``C`` below the grid, nor noise change ``gbar`` by more than
+    ``support_rtol`` (the largest change within +-0.2 decades counts).  ``gbar`` can be
+    supported where ``C`` is not: ``q^3 C`` beyond the short-wavelength cutoff decides
+    little of ``gbar^2``, and a ``G`` that has reached its plateau fixes the small
+    wavenumbers.
 
     Parameters
     ----------
@@ -921,25 +935,31 @@ def rms_gradient_exact(
     """
     _check_options(smooth, support_rtol, interpolation, points_per_decade)
     acf = _acf_input(G, noise)
-    q = _log_range(2 * np.pi / acf.dr[-1], 2 * np.pi / acf.dr[0], points_per_decade)
+    # from two decades below the data's range: the flat C assumed below the grid is
+    # negligible, and what G's extrapolation implies there is tested by its variants
+    # (on a coarser grid: they only locate the supported range)
+    lo, hi = 0.02 * np.pi / acf.dr[-1], 2 * np.pi / acf.dr[0]
+    q = _log_range(lo, hi, 10)
     base, extrapolated, noisy = spectrum_variants_kernel(
         q, acf.dr, acf.G, noise=acf.noise, smooth=smooth, interpolation=interpolation)
 
-    def cumulative(values):
+    def cumulative(q, values):
         """gbar^2 at every grid q: C flat below the grid, a power law between points."""
-        func = PowerLawInterpolant(q, np.maximum(values, 0.0))
-        below = max(values[0], 0.0) * q[0] ** 4 / (8.0 * np.pi)
-        return below, func, below + power_law_moment_kernel(q, func, 2)
+        below = values[0] * q[0] ** 4 / (8.0 * np.pi)
+        return below + power_law_moment_kernel(q, q, values, 2, nonpositive="linear")
 
-    below, func, total = cumulative(base)
-    change = np.full(q.size, below)
-    for variant in extrapolated:
-        change = np.maximum(change, np.abs(cumulative(variant)[2] - total))
-    if noisy.shape[0]:
-        change = np.maximum(change, np.std([cumulative(v)[2] for v in noisy], axis=0))
+    # relative changes of gbar (not gbar^2), the quantity returned
+    total = cumulative(q, base)
+    below = np.abs(base[0] * q[0] ** 4 / (8.0 * np.pi))
+    variants = [cumulative(q, v) for v in extrapolated] + [total - below]
     with np.errstate(divide="ignore", invalid="ignore"):
-        change = np.where(total > 0, change / total, np.inf)
-    q_lo, q_hi = supported_interval(q, change, support_rtol)
+        ratios = np.sqrt(np.maximum(np.array(variants), 0.0) / total)
+        change = np.max(np.abs(ratios - 1.0), axis=0)
+        if noisy.shape[0]:
+            sample = np.sqrt(np.maximum([cumulative(q, v) for v in noisy], 0.0) / total)
+            change = np.maximum(change, np.std(sample, axis=0))
+        change = np.where(total > 0, change, np.inf)
+    q_lo, q_hi = supported_interval(q, change, support_rtol, envelope=0.2)
     if not np.isfinite(q_lo):
         raise ValueError(
             f"G does not determine gbar anywhere to within support_rtol={support_rtol:g}: "
@@ -960,7 +980,11 @@ def rms_gradient_exact(
                 f"gbar is supported for {dr_lo:.4g} <= dr <= {dr_hi:.4g} {acf.unit_str} only "
                 f"(got dr = {dr_arr[bad][:3]}): elsewhere the extrapolation of G or noise "
                 f"changes gbar^2 by more than support_rtol={support_rtol:g}")
-    gbar2 = below + power_law_moment_kernel(2 * np.pi / dr_arr, func, 2)
+    q = _log_range(lo, hi, points_per_decade)
+    g = acf.G if smooth is None else smooth_acf_kernel(acf.dr, acf.G, smooth)
+    values = spectrum_from_acf_kernel(q, acf.dr, g, interpolation=interpolation)
+    gbar2 = values[0] * q[0] ** 4 / (8.0 * np.pi) + power_law_moment_kernel(
+        2 * np.pi / dr_arr, q, values, 2, nonpositive="linear")
     attrs = {
         "estimator": "eq. 26 with C from G by eq. 10/11",
         "dr_min_supported": float(dr_lo),
