@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import integrate
 
-__all__ = ["SpectrumModel"]
+__all__ = ["SpectrumModel", "model_gradient2"]
 
 ROLLOFFS = ("sharp", "smooth")
 
@@ -118,3 +118,70 @@ class SpectrumModel:
             val, _ = integrate.quad(f, a, b, epsrel=1e-13, epsabs=0.0, limit=200)
             total += val
         return float(total / (2 * np.pi))
+
+
+def _expm1_minus_linear(v):
+    """``exp(v) - 1 - v`` without cancellation."""
+    v = np.asarray(v, dtype=float)
+    small = np.abs(v) < 0.1
+    vs = np.where(small, v, 0.0)
+    series, term = np.zeros_like(vs), vs.copy()
+    for k in range(2, 14):
+        term = term * vs / k
+        series += term
+    return np.where(small, series, np.expm1(np.where(small, 0.0, v)) - v)
+
+
+def model_gradient2(q_cut, *, c: float, hurst: float, q_r: float, q_s: float,
+                    q_0: float = 0.0, rolloff: str = "sharp") -> np.ndarray:
+    """Eq. 26 of the model spectrum in closed form: ``(1/2pi) int_0^{q_cut} dq q^3 C(q)``.
+
+    ``c = C_r q_r^(2+2H)`` is the amplitude of the self-affine power law
+    ``C -> c q^(-2-2H)``, so that the limits a fit can reach are allowed besides those of
+    :class:`SpectrumModel`: ``q_r = 0`` (no roll-off: the bare power law, no lower cutoff)
+    and ``q_s = inf`` (no short-wavelength cutoff).
+
+    Parameters
+    ----------
+    q_cut : array_like
+        Upper limits (1/length, ``2 pi / dr``), ``>= 0`` (``inf`` for the whole moment).
+    c, hurst, q_r, q_s, q_0, rolloff
+        Amplitude, Hurst exponent, cutoffs (``q_0 = 0``: none) and shape of the model.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``gbar^2`` (dimensionless for ``C`` in length^4) with the shape of ``q_cut``.
+
+    Notes
+    -----
+    Sharp (eq. 35), with ``q_c = min(q_cut, q_s)``: ``2 pi gbar^2 = C_r (min(q_c, q_r)^4 -
+    q_0^4) / 4 + c (q_c^(2-2H) - q_r^(2-2H)) / (2 - 2H)`` (second term for ``q_c > q_r``).
+    Smooth: ``int q^3 [1 + (q/q_r)^2]^-(1+H) dq = (q_r^4 / 2) Phi(u)``, ``u = (q/q_r)^2``,
+    with ``Phi(u) = [(1+u)^(1-H) - 1]/(1-H) + [(1+u)^-H - 1]/H`` evaluated as
+    ``E((1-H) L)/(1-H) + E(-H L)/H``, ``L = ln(1+u)``, ``E(x) = e^x - 1 - x`` (the linear
+    parts cancel exactly).
+
+    Examples
+    --------
+    >>> g2 = model_gradient2([1.0, 1e3], c=1.0, hurst=0.5, q_r=0.0, q_s=100.0)
+    >>> print(g2 * 2 * np.pi)  # c q_c^(2-2H) / (2-2H), q_c = min(q_cut, q_s)
+    [  1. 100.]
+    """
+    H = hurst
+    qc = np.minimum(q_cut, q_s)
+    e = 2.0 - 2.0 * H
+    if q_r == 0.0:  # pure power law c q^(-2-2H) (no lower cutoff)
+        return c * qc**e / e / (2 * np.pi)
+    if rolloff == "sharp":
+        a = np.clip(qc, q_0, q_r)
+        b = np.clip(qc, q_r, q_s)
+        flat = (a**4 - q_0**4) / (4 * q_r ** (2 + 2 * H))
+        return c * (flat + (b**e - q_r**e) / e) / (2 * np.pi)
+
+    def phi(v):
+        L = np.log1p(v)
+        return _expm1_minus_linear((1 - H) * L) / (1 - H) + _expm1_minus_linear(-H * L) / H
+
+    u = (np.maximum(qc, q_0) / q_r) ** 2
+    return c * q_r**e / 2 * (phi(u) - phi((q_0 / q_r) ** 2)) / (2 * np.pi)

@@ -1,0 +1,271 @@
+"""Quadrature building blocks of the Hankel transforms (pure numpy/scipy, no xarray).
+
+Shared by eq. 9 (:mod:`xrough._kernels.hankel`, ``G`` from ``C``) and eq. 10/11
+(:mod:`xrough._kernels.hankel_inverse`, ``C`` from ``G``):
+
+* composite Gauss-Legendre on panels (:func:`_panel_quadrature`), on grids that are
+  logarithmic between breakpoints (:func:`_log_grid`), processed in blocks of rows;
+* ``1 - J0(t)`` and ``(1 - J0(t)) / t^2`` without cancellation at small ``t`` (power series
+  for ``t < 1``);
+* ``int q f(q) J0(q r) dq`` beyond ``q r = T`` for ``f`` a sum of power laws per piece
+  (:func:`_oscillatory_terms`): each ``int t^beta J0(t) dt`` in closed form from the Hankel
+  asymptotic expansion of ``J0`` times the asymptotic antiderivative of ``t^gamma e^{it}``,
+  regrouped into one series ``sum_m d_m(beta) t^-m`` and truncated where its terms fall below
+  1e-17 (O(1) per piece, whatever the number of oscillations); steep pieces start the
+  expansion later and are integrated by Gauss-Legendre in between.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+from scipy import special
+
+#: Number of terms of the combined asymptotic series and its relative truncation target.
+_N_ASYMPTOTIC = 30
+_ASYMPTOTIC_TOL = 1e-17
+_TERM_TIERS = np.array([4, 6, 9, 13, 19, 25, _N_ASYMPTOTIC])
+#: Work arrays are processed in blocks of about this many quadrature nodes.
+_BLOCK_NODES = 2**19
+
+
+# --------------------------------------------------------------------------------------
+# Gauss-Legendre panels and 1 - J0 without cancellation
+# --------------------------------------------------------------------------------------
+@lru_cache(maxsize=16)
+def _gauss_legendre(order: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Legendre nodes on [-1, 1] and weights (cached, read-only)."""
+    x, w = np.polynomial.legendre.leggauss(order)
+    x.setflags(write=False)
+    w.setflags(write=False)
+    return x, w
+
+
+def _j0_series(t: np.ndarray) -> np.ndarray:
+    """``(1 - J0(t)) / (t^2/4)`` from the power series of ``J0`` (accurate for ``|t| < 1``).
+
+    ``1 - J0 = -sum_{k>=1} z^k/(k!)^2 = (t^2/4) (1 + z/4 (1 + z/9 (1 + ...)))``, ``z = -t^2/4``.
+    """
+    z = -0.25 * t * t
+    acc = np.ones_like(t)
+    for k in range(12, 1, -1):
+        acc = 1.0 + acc * z / (k * k)
+    return acc
+
+
+def _one_minus_j0(t: np.ndarray) -> np.ndarray:
+    """``1 - J0(t)`` without cancellation at small ``t`` (power series for ``t < 1``)."""
+    t = np.asarray(t, dtype=float)
+    out = 1.0 - special.j0(t)
+    small = np.abs(t) < 1.0
+    if np.any(small):
+        ts = t[small]
+        out[small] = 0.25 * ts * ts * _j0_series(ts)
+    return out
+
+
+def _one_minus_j0_over_t2(t: np.ndarray) -> np.ndarray:
+    """``(1 - J0(t)) / t^2`` (``1/4`` at ``t = 0``) without cancellation at small ``t``."""
+    t = np.asarray(t, dtype=float)
+    small = t < 1.0
+    safe = np.where(small, 1.0, t)
+    acc = _j0_series(np.where(small, t, 0.0))
+    return np.where(small, 0.25 * acc, (1.0 - special.j0(safe)) / safe**2)
+
+
+def _log_grid(bp: np.ndarray, per_decade: float, *, depth: float) -> np.ndarray:
+    """Breakpoints plus a logarithmic grid inside every segment.
+
+    A segment starting at 0 gets a logarithmic grid over ``depth`` decades below its upper
+    end (and 0 itself).
+    """
+    pts = [bp]
+    lo = np.where(bp[:-1] > 0, bp[:-1], bp[1:] * 10.0**-depth)
+    n = np.ceil(per_decade * np.log10(bp[1:] / lo)).astype(int)
+    for a, b, k in zip(lo[n > 1], bp[1:][n > 1], n[n > 1], strict=True):
+        pts.append(np.geomspace(a, b, k + 1))
+    pts.append(lo)
+    return np.unique(np.concatenate(pts))
+
+
+def _blocks(n_rows: int, row_nodes: int):
+    step = max(1, _BLOCK_NODES // max(row_nodes, 1))
+    for start in range(0, n_rows, step):
+        yield slice(start, min(start + step, n_rows))
+
+
+def _panel_quadrature(edges: np.ndarray, integrand, order: int) -> np.ndarray:
+    """Sum of Gauss-Legendre panels between sorted ``edges`` along the last axis.
+
+    ``integrand(t, row)`` gets node positions ``t`` of shape ``(rows, panels, order)`` and
+    must return values of the same shape.  Zero-width panels contribute nothing (even if the
+    integrand is not finite there).
+    """
+    x, w = _gauss_legendre(order)
+    lo = edges[:, :-1]
+    hi = edges[:, 1:]
+    half = 0.5 * (hi - lo)
+    mid = 0.5 * (hi + lo)
+    t = mid[..., None] + half[..., None] * x
+    with np.errstate(all="ignore"):
+        f = integrand(t)
+    f = np.where((half > 0)[..., None], f, 0.0)
+    return np.einsum("rpn,n,rp->r", f, w, half)
+
+
+# --------------------------------------------------------------------------------------
+# the asymptotic oscillatory integral
+# --------------------------------------------------------------------------------------
+@lru_cache(maxsize=1)
+def _hankel_coefficients() -> np.ndarray:
+    """``a_k(0)`` of ``H0^(1)(t) ~ sqrt(2/(pi t)) e^{i(t-pi/4)} sum_k i^k a_k t^-k``."""
+    a = np.empty(_N_ASYMPTOTIC + 1)
+    a[0] = 1.0
+    for k in range(1, _N_ASYMPTOTIC + 1):
+        a[k] = a[k - 1] * (-((2 * k - 1) ** 2)) / (8.0 * k)
+    return a
+
+
+def _asymptotic_coefficients(beta: np.ndarray) -> np.ndarray:
+    """Real coefficients ``e_m(beta)``, shape ``(M+1, pieces)``.
+
+    ``int t^beta J0(t) dt = Re[ sqrt(2/pi) e^{i(t - pi/4)} t^(beta-1/2) sum_m d_m t^-m ]``
+    with ``d_m = -i^(m+1) e_m``: the Hankel series of ``J0`` term by term times the asymptotic
+    antiderivative of ``t^gamma e^{it}`` (``c_0 = -i``, ``c_n = i (gamma - n + 1) c_{n-1}``),
+    regrouped by total power; ``e_0 = 1``, ``e_{m+1} = (beta - 1/2 - m) e_m + a_{m+1}``.
+    """
+    a = _hankel_coefficients()
+    e = np.empty((_N_ASYMPTOTIC + 1, beta.size))
+    e[0] = 1.0
+    for m in range(_N_ASYMPTOTIC):
+        e[m + 1] = (beta - 0.5 - m) * e[m] + a[m + 1]
+    return e
+
+
+def _asymptotic_start(e: np.ndarray, t_split: float) -> np.ndarray:
+    """Smallest ``t >= t_split`` where the truncated series is accurate for each piece."""
+    last = np.abs(e[-1])
+    with np.errstate(divide="ignore"):
+        t_ok = (last / _ASYMPTOTIC_TOL) ** (1.0 / _N_ASYMPTOTIC)
+    return np.maximum(t_split, t_ok)
+
+
+def _phase(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``sqrt(2/(pi t)) (cos, sin)(t - pi/4)``."""
+    c, s = np.cos(t), np.sin(t)
+    amp = np.sqrt(1.0 / (np.pi * t))  # sqrt(2/(pi t)) / sqrt(2)
+    return amp * (c + s), amp * (s - c)
+
+
+def _antiderivative(t: np.ndarray, e: np.ndarray, phase, n_terms: int) -> np.ndarray:
+    """``t^(1/2-beta) A(t)`` where ``A' = t^beta J0(t)``; ``e`` has shape ``(M+1, n)``.
+
+    Returns ``sqrt(2/(pi t)) Re[e^{i(t-pi/4)} sum_{m<n_terms} d_m t^-m]``; multiply by
+    ``t^beta`` (in physical form: ``q C(q) / dr``) to get the antiderivative.
+    ``phase = _phase(t)``.
+    """
+    u = 1.0 / t
+    re = np.zeros_like(t)
+    im = np.zeros_like(t)
+    # d_m = -i^(m+1) e_m: m = 0,1,2,3 -> -i e0, +e1, +i e2, -e3, ...
+    for m in range(n_terms - 1, -1, -1):
+        re *= u
+        im *= u
+        r = m % 4
+        if r == 0:
+            im -= e[m]
+        elif r == 1:
+            re += e[m]
+        elif r == 2:
+            im += e[m]
+        else:
+            re -= e[m]
+    cos_p, sin_p = phase
+    return re * cos_p - im * sin_p
+
+
+def _series_tier(t: np.ndarray, coeffs: list[np.ndarray]) -> np.ndarray:
+    """Index into ``_TERM_TIERS``: the shortest series whose truncation error is negligible.
+
+    The first omitted term ``|e_n| t^-n`` must stay below ``_ASYMPTOTIC_TOL``.
+    """
+    big = np.max([np.abs(e).max(axis=1) for e in coeffs], axis=0)  # (M+1,)
+    n = np.minimum(_TERM_TIERS, big.size - 1)
+    threshold = (big[n] / _ASYMPTOTIC_TOL) ** (1.0 / n)
+    threshold[-1] = 0.0  # the longest series is always used beyond _asymptotic_start
+    ok = t[:, None] >= threshold[None, :]
+    return ok.argmax(axis=1)
+
+
+def _oscillatory_terms(r: np.ndarray, klo, khi, c_top, alpha, g, t_split: float,
+                       order: int) -> np.ndarray:
+    """``int_{T/r}^inf q f(q) J0(q r) dq`` for pieces ``q f = c_top K_hi sum_j g_j x^(1+alpha+j)``.
+
+    ``x = q / K_hi`` on ``[K_lo, K_hi]``; ``g`` has shape ``(terms, pieces)``.  Each power
+    law is integrated with the asymptotic antiderivative beyond ``t_split`` (Gauss-Legendre
+    where a steep exponent delays the expansion).
+    """
+    out = np.zeros(r.size)
+    use = c_top > 0
+    if not np.any(use) or r.size == 0:
+        return out
+    klo, khi, c_top, alpha, g = klo[use], khi[use], c_top[use], alpha[use], g[:, use]
+    nonzero = np.flatnonzero(np.any(g != 0, axis=1))
+    n_terms = int(nonzero[-1]) + 1 if nonzero.size else 1
+    coeffs = [_asymptotic_coefficients(1.0 + alpha + j) for j in range(n_terms)]
+    t_start = np.max([_asymptotic_start(e, t_split) for e in coeffs], axis=0)
+    # all (r, piece) pairs that reach beyond t_split
+    ri, pj = np.nonzero(khi[None, :] * r[:, None] > t_split)
+    if ri.size == 0:
+        return out
+    rr = r[ri]
+    t_lo = np.maximum(klo[pj] * rr, t_split)
+    t_hi = khi[pj] * rr
+    t_asy = np.maximum(t_lo, t_start[pj])
+
+    def antiderivative(t, idx, rows):
+        x = t / (rows * khi[idx])
+        base = c_top[idx] * khi[idx] * np.exp((1.0 + alpha[idx]) * np.log(x)) / rows
+        out = np.zeros_like(t)
+        # evaluate in tiers of series length (far fewer terms are needed at large t)
+        tiers = _series_tier(t, coeffs)
+        for tier in np.unique(tiers):
+            sel = tiers == tier
+            n = _TERM_TIERS[tier]
+            ts, ii = t[sel], idx[sel]
+            phase = _phase(ts)
+            total = 0.0
+            for j in range(n_terms):
+                s = _antiderivative(ts, coeffs[j][:, ii], phase, n)
+                total = total + (g[j, ii] * x[sel] ** j) * s if j else g[0, ii] * s
+            out[sel] = base[sel] * total
+        return out
+
+    # closed-form (asymptotic) part on [t_asy, t_hi]
+    act = t_hi > t_asy
+    if np.any(act):
+        idx, rows = pj[act], rr[act]
+        val = antiderivative(t_hi[act], idx, rows) - antiderivative(t_asy[act], idx, rows)
+        np.add.at(out, ri[act], val)
+    # steep pieces: Gauss-Legendre with panels of width <= 2 on [t_lo, min(t_hi, t_asy)]
+    b_all = np.minimum(t_hi, t_asy)
+    steep = b_all > t_lo
+    if np.any(steep):
+        idx, rows = pj[steep], rr[steep]
+        a, b = t_lo[steep], b_all[steep]
+        n_pan = np.ceil((b - a) / 2.0).astype(int)
+        rep = np.repeat(np.arange(idx.size), n_pan)
+        k = np.arange(rep.size) - np.repeat(np.cumsum(n_pan) - n_pan, n_pan)
+        width = (b - a)[rep] / n_pan[rep]
+        x, w = _gauss_legendre(order)
+        t = (a[rep] + k * width)[:, None] + 0.5 * width[:, None] * (x + 1.0)
+        ii, rw = idx[rep][:, None], rows[rep][:, None]
+        xq = t / (rw * khi[ii])
+        poly = g[0, ii]
+        for j in range(1, n_terms):
+            poly = poly + g[j, ii] * xq**j
+        f = c_top[ii] * khi[ii] * np.exp((1.0 + alpha[ii]) * np.log(xq)) * poly / rw
+        vals = ((f * special.j0(t)) @ w) * 0.5 * width
+        np.add.at(out, ri[steep][rep], vals)
+    return out

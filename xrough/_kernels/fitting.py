@@ -1,0 +1,528 @@
+"""Least-squares fits of the height-difference ACF, one curve at a time (pure numpy/scipy).
+
+All lengths in one unit.  Both models minimise ``sum_i [(ln G_model - ln G_i) / s_i]^2``
+with ``s_i`` the standard error of ``ln G`` (1 unweighted); see
+:func:`xrough.fitting.fit_acf` for the models, the parametrisation and the uncertainties.
+
+* eq. 36, ``1/G = C_b/dr^2 + C_sa/dr^(2H) + 1/sigma_h^2`` (:func:`fit_eq36_kernel`):
+  started from non-negative linear least squares in ``1/G`` on a grid of ``H``;
+* the model spectrum (eq. 35) through its exact G of eq. 9 (:func:`fit_spectrum_kernel`),
+  started from the fit of eq. 36; :func:`fitted_spectrum_acf` and
+  :func:`fitted_spectrum_gradient` evaluate such a fit.
+
+A fit returns one vector of floats in the order of :data:`EQ36_OUTPUTS` or
+:data:`SPECTRUM_OUTPUTS`: the parameters, their standard deviations, the reduced chi^2, the
+number of bins and (spectrum) the flags of the resolved cutoffs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import optimize
+
+from .hankel import acf_from_spectrum_kernel
+from .shape_factors import rolloff_crossover, self_affine_constant
+from .spectral_models import SpectrumModel, model_gradient2
+
+__all__ = [
+    "MODELS",
+    "PARAMETERS",
+    "SPECTRUM_PARAMETERS",
+    "FLAGS",
+    "EQ36_OUTPUTS",
+    "SPECTRUM_OUTPUTS",
+    "H_BOUNDS",
+    "fit_eq36_kernel",
+    "fit_spectrum_kernel",
+    "fitted_spectrum_acf",
+    "fitted_spectrum_gradient",
+]
+
+MODELS = ("spectrum", "eq36")
+PARAMETERS = ("sigma_h", "G_sa", "hurst", "C_b", "lambda_r")
+EQ36_OUTPUTS = (*PARAMETERS, *(f"{p}_std" for p in PARAMETERS), "reduced_chi2", "n_bins")
+SPECTRUM_PARAMETERS = ("sigma_h", "G_sa", "hurst", "lambda_r", "lambda_s", "C_r")
+FLAGS = ("lambda_r_resolved", "lambda_s_resolved")
+SPECTRUM_OUTPUTS = (*SPECTRUM_PARAMETERS, *(f"{p}_std" for p in SPECTRUM_PARAMETERS),
+                    "reduced_chi2", "n_bins", *FLAGS)
+#: Bounds of H in the fit (the model degenerates at H = 0 and H = 1).
+H_BOUNDS = (0.01, 0.99)
+#: Hurst exponents tried for the starting point (linear least squares at each).
+_H_GRID = np.linspace(0.02, 0.98, 49)
+#: Lower bound of ln(eta), ln(eps): a cutoff that changes G by less than e^-16 (1e-7) is
+#: absent (it is then set to none, below _MIN_EFFECT).
+_LN_FLOOR = -16.0
+#: Cutoffs further than these factors beyond the lags (below for lambda_s, above for
+#: lambda_r) are moved there and corrected to leading order.
+_FAR_S, _FAR_R = 1e3, 1e5
+#: Knots per decade of the power-law representation of C in eq. 9 (sharp: exact with 0).
+_KNOTS = {"sharp": 0.0, "smooth": 40.0}
+#: Quadrature of eq. 9 in the fit: relative error <= 5e-15 (sharp) and 5e-9 (smooth, set
+#: by _KNOTS) against the defaults over 16 decades of dr, 0.02 <= H <= 0.99; half the cost.
+_QUADRATURE = {"t_split": 32.0, "order": 10, "panels_per_decade": 4.0}
+#: A cutoff is resolved when its eta (eps) exceeds this many standard deviations and
+#: _MIN_EFFECT (a relative change of G below 1e-6 is no cutoff, even in exact data).
+_SIGNIFICANCE, _MIN_EFFECT = 2.0, 1e-6
+
+
+# --------------------------------------------------------------------------------------
+# the bins of one G
+# --------------------------------------------------------------------------------------
+def _select(G, se, use, weighted, dr, unit, what):
+    """Bins to fit (in the dr range, finite, with a standard error when weighted)."""
+    sel = use & np.isfinite(G)
+    if weighted:
+        sel &= np.isfinite(se)
+    bad = sel & ~(G > 0)
+    if np.any(bad):
+        raise ValueError(f"G must be positive to fit {what}, but G = {G[bad][0]:g} at "
+                         f"dr = {dr[bad][0]:g} {unit}; restrict the range with "
+                         "dr_min/dr_max")
+    if weighted and np.any(sel & ~(se > 0)):
+        k = np.flatnonzero(sel & ~(se > 0))[0]
+        raise ValueError(f"standard_error must be positive where G is fitted, got "
+                         f"{se[k]:g} at dr = {dr[k]:g} {unit} (or use weights=None)")
+    return sel
+
+
+def _check_count(n, p, what):
+    if n < p + 1:
+        raise ValueError(f"too few bins to fit {what}: {n} valid bin(s) in the dr range, "
+                         f"but {p} free parameters need at least {p + 1} (widen "
+                         "dr_min/dr_max or fix parameters)")
+
+
+def _fit_data(G, se, *, dr, use, dr_ref, weighted, fixed, unit, what):
+    """Select and scale the bins of one G to fit: ``(free, n, p, x, G_sel, G_ref, w)``.
+
+    ``free`` flags the fitted parameters (the amplitude, and those of ``fixed`` that are
+    NaN), ``n`` and ``p`` count bins and free parameters, ``x = dr / dr_ref``, ``G_ref`` is
+    the geometric mean of the selected ``G_sel`` and ``w`` the standard error of ``ln G``
+    (1 unweighted).
+    """
+    G = np.asarray(G, dtype=float)
+    se = np.asarray(se, dtype=float)
+    sel = _select(G, se, use, weighted, dr, unit, what)
+    free = np.array([True, np.isnan(fixed[0]), np.isnan(fixed[1]), np.isnan(fixed[2])])
+    n, p = int(sel.sum()), int(free.sum())
+    _check_count(n, p, what)
+    x = dr[sel] / dr_ref
+    G_ref = float(np.exp(np.mean(np.log(G[sel]))))
+    w = se[sel] / G[sel] if weighted else np.ones(n)  # standard error of ln G
+    return free, n, p, x, G[sel], G_ref, w
+
+
+# --------------------------------------------------------------------------------------
+# eq. 36
+# --------------------------------------------------------------------------------------
+def _terms(theta: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Ballistic, self-affine and plateau terms of ``1/g`` for ``theta = [ln a, H, b, s]``."""
+    ln_a, H, b, s = theta
+    sa = np.exp(ln_a - 2.0 * H * np.log(x))
+    return b / x**2, sa, np.full_like(x, s)
+
+
+def _start(x, y, w, free, theta):
+    """Find a starting point: non-negative linear least squares in ``1/g`` on a grid of H.
+
+    ``1/g`` is linear in ``(b, a, s)`` at fixed ``H``; rows are scaled by ``1/(y w)`` so that
+    the residuals approximate the relative (log) residuals of the fit.
+    """
+    best, best_cost = None, np.inf
+    grid = _H_GRID if free[1] else [theta[1]]
+    scale = 1.0 / (y * w)
+    for H in grid:
+        rhs = y.copy()
+        cols, names = [], []
+        if free[2]:
+            cols.append(x**-2.0)
+            names.append(2)
+        else:
+            rhs -= theta[2] / x**2
+        cols.append(x ** (-2.0 * H))
+        names.append(0)
+        if free[3]:
+            cols.append(np.ones_like(x))
+            names.append(3)
+        else:
+            rhs -= theta[3]
+        A = np.column_stack(cols) * scale[:, None]
+        coef, _ = optimize.nnls(A, rhs * scale)
+        trial = theta.copy()
+        trial[1] = H
+        for k, c in zip(names, coef):
+            trial[k] = c
+        trial[0] = np.log(max(trial[0], 1e-3 * np.min(y)))  # a > 0 (it is fitted in log)
+        cost = np.sum(_residuals(trial, x, y, w) ** 2)
+        if cost < best_cost:
+            best, best_cost = trial, cost
+    return best
+
+
+def _residuals(theta, x, y, w):
+    with np.errstate(over="ignore"):
+        total = sum(_terms(theta, x))
+    return (np.log(y) - np.log(total)) / w  # ln g_model - ln g, with 1/g = y
+
+
+def _jacobian(theta, x, w):
+    tb, tsa, ts = _terms(theta, x)
+    total = tb + tsa + ts
+    # d ln(g_model) / d theta = - (d total / d theta) / total
+    cols = [-tsa, 2.0 * np.log(x) * tsa, -1.0 / x**2, -np.ones_like(x)]
+    return np.column_stack(cols) / (total * w)[:, None]
+
+
+def fit_eq36_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, unit):
+    """Fit eq. 36 to one G (all lengths in one unit); returns the values of ``EQ36_OUTPUTS``."""
+    free, n, p, x, G_sel, G_ref, w = _fit_data(G, se, dr=dr, use=use, dr_ref=dr_ref,
+                                               weighted=weighted, fixed=fixed, unit=unit,
+                                               what="eq. 36")
+    y = G_ref / G_sel  # 1/g with g = G/G_ref
+
+    theta = np.array([0.0, fixed[0], fixed[1] * G_ref / dr_ref**2, fixed[2] * G_ref])
+    theta = _start(x, y, w, free, np.where(free, 0.0, theta))
+    lower = np.array([-np.inf, H_BOUNDS[0], 0.0, 0.0])[free]
+    upper = np.array([np.inf, H_BOUNDS[1], np.inf, np.inf])[free]
+
+    def fun(t):
+        full = theta.copy()
+        full[free] = t
+        return _residuals(full, x, y, w)
+
+    def jac(t):
+        full = theta.copy()
+        full[free] = t
+        return _jacobian(full, x, w)[:, free]
+
+    t0 = np.clip(theta[free], lower, upper)
+    res = optimize.least_squares(fun, t0, jac=jac, bounds=(lower, upper), method="dogbox",
+                                 x_scale="jac", ftol=1e-12, xtol=1e-12, gtol=1e-12,
+                                 max_nfev=2000)
+    theta[free] = res.x
+    # a ballistic or plateau term that ends on its bound, or that nowhere reaches 1e-9 of
+    # the fitted 1/g, is exactly zero
+    active = np.zeros(4, dtype=bool)
+    active[free] = res.active_mask != 0
+    tb, tsa, ts = _terms(theta, x)
+    for k, term in ((2, tb), (3, ts)):
+        if free[k] and (active[k] or np.all(term < 1e-9 * (tb + tsa + ts))):
+            theta[k] = 0.0
+    dof = n - p
+    chi2 = float(np.sum(_residuals(theta, x, y, w) ** 2)) / dof
+    J = _jacobian(theta, x, w)[:, free]
+    cov_free = np.linalg.pinv(J.T @ J)
+    # unweighted: the residual scatter sets the error scale; weighted: the standard errors
+    # do, inflated when the model does not describe the data to within them (chi2 > 1)
+    cov_free *= chi2 if not weighted else max(1.0, chi2)
+    cov = np.zeros((4, 4))
+    cov[np.ix_(free, free)] = cov_free
+    var = np.diag(cov)
+
+    ln_a, H, b, s = theta
+    G_sa = G_ref * np.exp(-ln_a)
+    C_b = b * dr_ref**2 / G_ref
+    if s > 0:
+        sigma_h = np.sqrt(G_ref / s)
+        sigma_std = sigma_h * np.sqrt(var[3]) / (2.0 * s)
+        # lambda_r = 2 pi dr_x / kappa(H), dr_x = dr_ref (a/s)^(1/(2H))
+        kappa = rolloff_crossover(H, rolloff=rolloff)
+        lam = 2.0 * np.pi * dr_ref * np.exp((ln_a - np.log(s)) / (2.0 * H)) / kappa
+        dH = 1e-6
+        dlnk = (np.log(rolloff_crossover(min(H + dH, 0.999999), rolloff=rolloff))
+                - np.log(rolloff_crossover(max(H - dH, 1e-6), rolloff=rolloff))) / (2 * dH)
+        grad = np.array([1.0 / (2 * H), -(ln_a - np.log(s)) / (2 * H * H) - dlnk, 0.0,
+                         -1.0 / (2 * H * s)])
+        lam_std = lam * np.sqrt(max(grad @ cov @ grad, 0.0))
+    else:
+        sigma_h, sigma_std, lam, lam_std = np.inf, np.nan, np.inf, np.nan
+    values = [sigma_h, G_sa, H, C_b, lam]
+    stds = [sigma_std, G_sa * np.sqrt(var[0]), np.sqrt(var[1]),
+            np.sqrt(var[2]) * dr_ref**2 / G_ref, lam_std]
+    return np.array([*values, *stds, chi2, n], dtype=float)
+
+
+# --------------------------------------------------------------------------------------
+# the exact G of the model spectrum and its fit
+# --------------------------------------------------------------------------------------
+def _rolloff_coefficient(H: float, rolloff: str) -> float:
+    """Return ``A = int_0^inf x^3 [C(x)/C_r - x^(-2-2H)] dx`` (``q_r = 1``), roll-off term.
+
+    At fixed self-affine amplitude, ``G`` moves by ``A c q_r^(2-2H) dr^2 / (8 pi)`` when a
+    roll-off at ``q_r << 1/dr`` is switched on (``c = C_r q_r^(2+2H)``).
+    """
+    return 0.25 - 1.0 / (2.0 - 2.0 * H) if rolloff == "sharp" else -1.0 / (2 * H * (1 - H))
+
+
+def _acf_shape(x, H, lam_r, lam_s, lam_0, rolloff):
+    """G (eq. 9) of the model spectrum whose self-affine asymptote is ``x^(2H)``.
+
+    All lengths in one unit; ``lam_r = inf`` (no roll-off; only without ``lam_0``),
+    ``lam_s = 0`` (no short cutoff) and ``lam_0 = inf`` (no lower cutoff) are allowed.
+    A cutoff far beyond the lags (``_FAR_S``, ``_FAR_R``) is evaluated nearer and moved to its
+    value with the leading term, which is linear in ``q_s^(-2H)`` (a constant shift of G)
+    resp. ``q_r^(2-2H)`` (a term in ``dr^2``); the next terms are smaller by
+    ``(q_s dr)^(-3/2)`` resp. ``(q_r dr)^(2H)`` or ``(q_r dr)^2``.
+    """
+    kernel_I = float(self_affine_constant(H))
+    lo, hi = float(np.min(x)), float(np.max(x))
+    lr = min(lam_r, _FAR_R * hi) if np.isinf(lam_0) else min(lam_r, lam_0)
+    ls = min(max(lam_s, lo / _FAR_S), lr / (1.0 + 1e-6))
+    q_r, q_s = 2 * np.pi / lr, 2 * np.pi / ls
+    q_0 = 0.0 if np.isinf(lam_0) else 2 * np.pi / lam_0
+    model = SpectrumModel(hurst=H, q_r=q_r, q_s=q_s, q_0=q_0, rolloff=rolloff,
+                          C_r=2 * np.pi / (kernel_I * q_r ** (2 + 2 * H)))
+    G = acf_from_spectrum_kernel(x, model, model.breakpoints,
+                                 knots_per_decade=_KNOTS[rolloff], **_QUADRATURE)
+    if lam_s < ls:
+        G = G + ((ls / (2 * np.pi)) ** (2 * H) - (lam_s / (2 * np.pi)) ** (2 * H)) / (
+            2 * H * kernel_I)
+    if lam_r > lr and np.isinf(lam_0):
+        G = G + _rolloff_coefficient(H, rolloff) * x**2 / (4 * kernel_I) * (
+            (2 * np.pi / lam_r) ** (2 - 2 * H) - q_r ** (2 - 2 * H))
+    return G
+
+
+def _spectrum_moments(c, H, q_r, q_s, q_0, rolloff):
+    """``sigma_h^2`` and ``C_r`` of the model with ``c = C_r q_r^(2+2H)`` (``q_r`` may be 0)."""
+    if q_r == 0.0:
+        return np.inf, np.inf
+    C_r = c / q_r ** (2 + 2 * H)
+    s0, ss = (q_0 / q_r) ** 2, (q_s / q_r) ** 2
+    if rolloff == "sharp":
+        m0 = (1 - s0) / 2 + (1 - (q_r / q_s) ** (2 * H)) / (2 * H)
+    else:
+        m0 = ((1 + s0) ** -H - (1 + ss) ** -H) / (2 * H)
+    return C_r * q_r**2 * m0 / (2 * np.pi), C_r
+
+
+def _spectrum_start(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, unit, G_ref, x_lo,
+                    x_hi):
+    """Start ``[ln(G_sa/G_ref), H, ln eta, ln eps]`` from the fit of eq. 36."""
+    try:
+        out = fit_eq36_kernel(G, se, dr=dr, use=use, dr_ref=dr_ref, weighted=weighted,
+                              fixed=np.array([fixed[0], np.nan, np.nan]), rolloff=rolloff,
+                              unit=unit)
+    except ValueError:  # too few bins for eq. 36 (the spectrum has fixed cutoffs)
+        H = 0.5 if np.isnan(fixed[0]) else fixed[0]
+        out = [np.nan, G_ref, H, 0.0, np.inf]
+    _, G_sa, H, C_b, lam = out[:5]
+    H = float(np.clip(H, 0.05, 0.95))
+    ln_eta = (2 - 2 * H) * np.log(x_hi * dr_ref / lam) if np.isfinite(lam) else -5.0
+    ln_eps = -5.0
+    if C_b > 0:  # gbar^2(0) = 4/C_b = (K/I) q_s^(2-2H)/(2-2H) for q_s >> q_r
+        K = G_sa / dr_ref ** (2 * H)
+        q_s = (4.0 / C_b * self_affine_constant(H) * (2 - 2 * H) / K) ** (1 / (2 - 2 * H))
+        ln_eps = 2 * H * np.log(2 * np.pi / q_s / dr_ref / x_lo)
+    return np.array([np.log(G_sa / G_ref), H, ln_eta, ln_eps])
+
+
+def _gradients(physical, pvec, values, free, sd, grad):
+    """Fill ``grad`` with d physical / d pvec by central differences (one-sided at 0)."""
+    for k in np.flatnonzero(free):
+        h = 1e-6 if k < 2 else 1e-5 * pvec[k]
+        if h > 0:
+            hi_p, lo_p = pvec.copy(), pvec.copy()
+            hi_p[k] += h
+            lo_p[k] -= h
+            grad[:, k] = (physical(hi_p) - physical(lo_p)) / (2 * h)
+        elif sd[k] > 0:  # a cutoff set to none: one-sided
+            h = 1e-4 * sd[k]
+            hi_p = pvec.copy()
+            hi_p[k] += h
+            grad[:, k] = (physical(hi_p) - values) / h
+
+
+def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lambda_0, unit):
+    """Fit the model spectrum to one G (one length unit); the values of ``SPECTRUM_OUTPUTS``.
+
+    Optimiser parameters ``theta = [ln(G_sa/G_ref), H, ln eta, ln eps]`` with
+    ``eta = (dr_max/lambda_r)^(2-2H)`` and ``eps = (lambda_s/dr_min)^(2H)``: each of
+    ``eta``, ``eps`` is, to leading order, the relative change of G at the end of the fitted
+    range that its cutoff causes, linear in it once the cutoff lies outside the lags, and 0
+    when there is no cutoff.  ``fixed = [H, lambda_r, lambda_s]`` (NaN: free).
+    """
+    free, n, p, x, G_sel, G_ref, w = _fit_data(G, se, dr=dr, use=use, dr_ref=dr_ref,
+                                               weighted=weighted, fixed=fixed, unit=unit,
+                                               what="the model spectrum")
+    ly = np.log(G_sel / G_ref)
+    x_lo, x_hi = float(x.min()), float(x.max())
+    lam_0 = lambda_0 / dr_ref
+    fix_r, fix_s = fixed[1] / dr_ref, fixed[2] / dr_ref
+
+    def cutoffs(t):
+        with np.errstate(over="ignore", divide="ignore"):
+            lr = x_hi * np.exp(-t[2] / (2 - 2 * t[1])) if free[2] else fix_r
+            ls = x_lo * np.exp(t[3] / (2 * t[1])) if free[3] else fix_s
+        return min(lr, lam_0), ls
+
+    def residuals(t):
+        lr, ls = cutoffs(t)
+        return (t[0] + np.log(_acf_shape(x, t[1], lr, ls, lam_0, rolloff)) - ly) / w
+
+    theta = _spectrum_start(G, se, dr=dr, use=use, dr_ref=dr_ref, weighted=weighted,
+                            fixed=fixed, rolloff=rolloff, unit=unit, G_ref=G_ref,
+                            x_lo=x_lo, x_hi=x_hi)
+    if not free[1]:
+        theta[1] = fixed[0]
+    span = 2 * np.log(10 * x_hi / x_lo)
+    lower = np.array([-np.inf, H_BOUNDS[0], _LN_FLOOR, _LN_FLOOR])
+    upper = np.array([np.inf, H_BOUNDS[1], span, span])
+    theta = np.clip(theta, lower + 1e-3, upper - 1e-3)
+    steps = np.array([0.0, 1e-5, 1e-5, 1e-5])
+
+    def optimise(theta, active):
+        cache = {}
+
+        def full(t):
+            out = theta.copy()
+            out[active] = t
+            return out
+
+        def fun(t):
+            cache["t"], cache["r"] = t.copy(), residuals(full(t))
+            return cache["r"]
+
+        def jac(t):
+            r0 = cache["r"] if np.array_equal(cache.get("t"), t) else residuals(full(t))
+            cols = []
+            for k in np.flatnonzero(active):
+                if k == 0:
+                    cols.append(1.0 / w)
+                    continue
+                h = steps[k] if full(t)[k] + steps[k] <= upper[k] else -steps[k]
+                tt = full(t)
+                tt[k] += h
+                cols.append((residuals(tt) - r0) / h)
+            return np.column_stack(cols)
+
+        res = optimize.least_squares(fun, theta[active], jac=jac,
+                                     bounds=(lower[active], upper[active]), method="trf",
+                                     x_scale="jac", ftol=1e-10, xtol=1e-10, gtol=1e-10,
+                                     max_nfev=200)
+        return full(res.x)
+
+    def linear_jacobian(t):
+        """Jacobian in ``[ln(G_sa/G_ref), H, eta, eps]`` over the free parameters."""
+        r0 = residuals(t)
+        cols = []
+        for k in np.flatnonzero(free):
+            tt = t.copy()
+            if k == 0:
+                cols.append(1.0 / w)
+                continue
+            if k == 1:
+                h = 1e-6 if t[1] + 1e-6 <= upper[1] else -1e-6
+                tt[1] += h
+            else:
+                v = np.exp(t[k])
+                h = 1e-6 * max(v, 1e-3)
+                tt[k] = np.log(v + h)
+            cols.append((residuals(tt) - r0) / h)
+        return np.column_stack(cols), r0
+
+    dof = n - p
+    index = {k: i for i, k in enumerate(np.flatnonzero(free))}
+    active = free.copy()
+    moved = True
+    for _ in range(3):  # refit after dropping cutoffs that the data do not resolve
+        if moved:
+            theta = optimise(theta, active)
+        J, r = linear_jacobian(theta)
+        chi2 = float(np.sum(r**2)) / dof
+        # unweighted: the residual scatter sets the error scale; weighted: the standard
+        # errors do, inflated when the model does not describe the data within them
+        cov_free = np.linalg.pinv(J.T @ J) * (max(1.0, chi2) if weighted else chi2)
+        moved = False
+        for k in (2, 3):
+            if not active[k] or (k == 2 and np.isfinite(lam_0)):
+                continue
+            v, s = np.exp(theta[k]), np.sqrt(max(cov_free[index[k], index[k]], 0.0))
+            if not v > max(_SIGNIFICANCE * s, _MIN_EFFECT):
+                moved |= theta[k] > _LN_FLOOR + 1e-9
+                theta[k], active[k] = _LN_FLOOR, False
+        if not moved:
+            break
+
+    cov = np.zeros((4, 4))
+    cov[np.ix_(free, free)] = cov_free
+    lr_fit, _ = cutoffs(theta)
+    resolved_r = bool(active[2] and lr_fit < lam_0 * (1 - 1e-9)) or not free[2]
+    resolved_s = bool(active[3]) or not free[3]
+    pvec = np.array([theta[0], theta[1],
+                     np.exp(theta[2]) if resolved_r else 0.0,
+                     np.exp(theta[3]) if resolved_s else 0.0])
+    sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
+
+    def physical(pv):
+        """``[ln sigma_h, ln G_sa, H, ln lambda_r, ln lambda_s, ln C_r]`` (lateral unit)."""
+        a, H, eta, eps = pv
+        with np.errstate(divide="ignore", over="ignore"):
+            lr, ls = cutoffs([a, H, np.log(eta), np.log(eps)])
+            lr, ls = lr * dr_ref, ls * dr_ref
+            c = 2 * np.pi * G_ref * np.exp(a) / dr_ref ** (2 * H) / self_affine_constant(H)
+            q_0 = 0.0 if np.isinf(lambda_0) else 2 * np.pi / lambda_0
+            sigma2, C_r = _spectrum_moments(c, H, 2 * np.pi / lr, 2 * np.pi / ls, q_0,
+                                            rolloff)
+            return np.array([0.5 * np.log(sigma2), a + np.log(G_ref), H, np.log(lr),
+                             np.log(ls), np.log(C_r)])
+
+    values = physical(pvec)
+    grad = np.zeros((6, 4))
+    with np.errstate(invalid="ignore"):  # inf - inf where there is no roll-off: NaN
+        _gradients(physical, pvec, values, free, sd, grad)
+    with np.errstate(invalid="ignore"):
+        rel = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", grad, cov, grad), 0.0))
+    out = np.exp(values)
+    out[2] = values[2]
+    with np.errstate(invalid="ignore"):
+        std = np.where(np.isfinite(out), out * rel, np.nan)
+    std[2] = sd[1]
+    if free[2] and not resolved_r:
+        std[3] = np.nan
+    if free[3] and not resolved_s:  # 2-sigma upper bound of lambda_s (< lambda_r)
+        with np.errstate(over="ignore"):
+            bound = x_lo * dr_ref * (_SIGNIFICANCE * sd[3]) ** (1 / (2 * theta[1]))
+        out[4], std[4] = min(bound, out[3]), np.nan
+    if free[2] and not resolved_r:
+        out[3] = lambda_0
+    if not free[2]:
+        out[3], std[3] = fixed[1], 0.0
+    if not free[3]:
+        out[4], std[4] = fixed[2], 0.0
+    return np.array([*out, *std, chi2, n, resolved_r, resolved_s], dtype=float)
+
+
+# --------------------------------------------------------------------------------------
+# a fitted spectrum
+# --------------------------------------------------------------------------------------
+def _fitted_cutoffs(lam_r, lam_s, r_ok, s_ok, lam_0):
+    """Cutoffs of the fitted spectrum: none where the data did not resolve them."""
+    lr = lam_r if r_ok else lam_0
+    ls = lam_s if s_ok else 0.0
+    return lr, ls
+
+
+def fitted_spectrum_acf(H, G_sa, lam_r, lam_s, r_ok, s_ok, *, dr, dr_ref, lam_0, rolloff):
+    """G (eq. 9) at lags ``dr`` of one fitted spectrum (NaN where the fit failed)."""
+    if not (np.isfinite(H) and np.isfinite(G_sa)):
+        return np.full(dr.shape, np.nan)
+    lr, ls = _fitted_cutoffs(lam_r, lam_s, r_ok, s_ok, lam_0)
+    return G_sa * _acf_shape(dr / dr_ref, H, lr / dr_ref, ls / dr_ref, lam_0 / dr_ref,
+                             rolloff)
+
+
+def fitted_spectrum_gradient(H, G_sa, lam_r, lam_s, r_ok, s_ok, *, dr, dr_ref, lam_0, rolloff,
+                             g_factor):
+    """Gbar (eq. 26, closed form) at lags ``dr`` of one fitted spectrum (NaN if it failed).
+
+    ``g_factor`` converts ``G_sa`` to the lateral unit squared.
+    """
+    if not (np.isfinite(H) and np.isfinite(G_sa)):
+        return np.full(dr.shape, np.nan)
+    lr, ls = _fitted_cutoffs(lam_r, lam_s, r_ok, s_ok, lam_0)
+    c = 2 * np.pi * G_sa * g_factor / dr_ref ** (2 * H) / self_affine_constant(H)
+    with np.errstate(divide="ignore"):
+        q_r, q_s, q_0 = 2 * np.pi / np.array([lr, ls, lam_0], dtype=float)
+    return np.sqrt(model_gradient2(2 * np.pi / dr, c=c, hurst=H, q_r=q_r, q_s=q_s,
+                                   q_0=q_0, rolloff=rolloff))
