@@ -321,3 +321,26 @@ def test_quick_stress_estimates_follow_the_gradient():
                                limit=200)[0] / (2 * np.pi)
         assert got == pytest.approx(E_STAR * np.sqrt(gbar2), rel=0.1), dr
     assert ds.sigma_quick.attrs["units"] == "Pa"
+
+
+@pytest.mark.parametrize("hurst", [0.05, 0.5, 0.95])
+@pytest.mark.parametrize("noise", [0.0, 0.05])
+def test_stability_with_the_default_exact_gradient(hurst, noise):
+    """The default chain (exact gbar from the spectrum of G, spectrum fit) stays finite.
+
+    q_s/q_r = 1e6, 5 % multiplicative noise, p0 from 1e-6 E* gbar to 10 E* gbar.
+    """
+    C = xrough.model_spectrum(hurst=hurst, lambda_r="1 um", lambda_s="1 pm",
+                              rms_gradient=0.5, unit="nm")
+    G = xrough.acf_from_spectrum(C, points_per_decade=10)
+    if noise:
+        G = (G * np.random.default_rng(0).lognormal(0, noise, G.shape)).assign_attrs(G.attrs)
+    ds = G.rough.persson(E_star=E_STAR, p0=[1e-6 * E_STAR * 0.5, 10 * E_STAR * 0.5])
+    assert ds.sizes["dr"] > 10
+    for name in ds.data_vars:
+        assert np.all(np.isfinite(ds[name].values)), name
+    assert np.all((ds.a_r >= 0) & (ds.a_r <= 1))
+    C_back = G.rough.spectrum()
+    assert np.all(np.isfinite(C_back.values))
+    fit = G.rough.fit()
+    assert 0 < float(fit.hurst) < 1

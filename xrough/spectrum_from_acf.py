@@ -456,6 +456,14 @@ def rms_gradient_exact(
     values = spectrum_from_acf_kernel(q, acf.dr, g, interpolation=interpolation)
     gbar2 = values[0] * q[0] ** 4 / (8.0 * np.pi) + power_law_moment_kernel(
         2 * np.pi / dr_arr, q, values, 2, nonpositive="linear")
+    positive = gbar2 > 0  # noise can drive the cumulative sum negative at a few lags
+    if not positive.all():
+        if dr is not None or not positive.any():
+            raise ValueError(
+                f"gbar^2 from the spectrum of G is not positive at dr = "
+                f"{dr_arr[~positive][:3]} {acf.unit_str} (noise in G); pass smooth=<decades> "
+                "or use rms_gradient(G, method='fit')")
+        dr_arr, gbar2 = dr_arr[positive], gbar2[positive]
     attrs = {
         "estimator": "eq. 26 with C from G by eq. 10/11",
         "dr_min_supported": float(dr_lo),
