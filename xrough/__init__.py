@@ -24,6 +24,7 @@ from . import (  # noqa: E402
     plot,
     units,
 )
+from .archive import open_analysis, save_analysis  # noqa: E402
 from .contact import (  # noqa: E402
     elastic_energy,
     patch_radius,
@@ -55,10 +56,12 @@ __all__ = [
     "height_difference_acf",
     "model_acf",
     "model_spectrum",
+    "open_analysis",
     "patch_radius",
     "persson",
     "rms_gradient",
     "rms_gradient_exact",
+    "save_analysis",
     "plot",
     "self_affine_model",
     "self_affine_surface",
