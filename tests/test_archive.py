@@ -9,7 +9,7 @@ import xrough
 
 def _analysis():
     topo = xrough.self_affine_surface(hurst=0.8, lambda_r="2 um", lambda_s="100 nm",
-                                      size="8 um", n=128, rms_gradient=0.5, seed=1,
+                                      size="8 um", n=256, rms_gradient=0.5, seed=1,
                                       unit="nm")
     G = topo.rough.acf()
     return {
