@@ -1,4 +1,4 @@
-"""Command line: ``xrough demo`` (more subcommands come with the file readers).
+"""Command line: ``xrough demo | info | acf | report``.
 
 ``xrough demo`` generates a synthetic self-affine surface, computes its G(dr) with both
 estimators, compares them with the exact G of the model spectrum (eq. 9), fits G, runs the
@@ -96,6 +96,125 @@ def _demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def _open(path: str, args: argparse.Namespace):
+    from .io import open_topography
+
+    size = None
+    if args.size:
+        parts = [p.strip() for p in args.size.split(",")]
+        size = parts[0] if len(parts) == 1 else tuple(parts)
+    options = {"channel": args.channel} if getattr(args, "channel", None) else {}
+    topo = open_topography(path, size=size, unit=args.unit, height_scale=args.height_scale,
+                           periodic=True if args.periodic else None, **options)
+    if getattr(args, "detrend", None) and args.detrend != "none":
+        from .preprocess import detrend
+
+        topo = detrend(topo, mode=args.detrend)
+    return topo
+
+
+def _info(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    for path in args.files:
+        topo = _open(path, args)
+        valid = np.isfinite(topo.values)
+        size = " x ".join(f"{float(topo[d][-1] - topo[d][0]) + float(topo[d][1] - topo[d][0]):.4g}"
+                          for d in topo.dims if d in ("y", "x"))
+        print(f"{path}: {topo.attrs.get('format', '?')}, "
+              f"{' x '.join(str(n) for n in topo.shape)} points, "
+              f"{size} {topo['x'].attrs['units']}, heights in {topo.attrs['units']}, "
+              f"rms {float(np.nanstd(topo.values)):.4g} {topo.attrs['units']}, "
+              f"{1 - valid.mean():.1%} missing, periodic={bool(topo.attrs.get('periodic'))}")
+        for key, value in topo.attrs.items():
+            if key not in ("units", "long_name", "periodic", "format"):
+                print(f"    {key}: {value}")
+    return 0
+
+
+def _acfs(args: argparse.Namespace) -> dict:
+    from tqdm.auto import tqdm
+
+    results = {}
+    for path in tqdm(args.files, desc="G(dr)", disable=None, leave=False):
+        topo = _open(path, args)
+        G = topo.rough.acf(direction=args.direction, points_per_decade=args.points_per_decade)
+        results[Path(path).stem.replace("/", "_") or "measurement"] = {"topography": topo,
+                                                                       "G": G}
+    return results
+
+
+def _acf(args: argparse.Namespace) -> int:
+    from .archive import save_analysis
+
+    results = _acfs(args)
+    tree = {name: {"G": r["G"]} for name, r in results.items()}
+    save_analysis(args.output, tree, history="xrough acf " + " ".join(args.files))
+    for name, r in results.items():
+        G = r["G"]
+        print(f"{name}: {G.sizes['dr']} bins, dr {float(G.dr[0]):.4g}..{float(G.dr[-1]):.4g} "
+              f"{G.dr.attrs['units']}, G {float(G.min()):.4g}..{float(G.max()):.4g} "
+              f"{G.attrs['units']}")
+    print(f"wrote {args.output}")
+    return 0
+
+
+def _report(args: argparse.Namespace) -> int:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from . import units as u
+    from .archive import save_analysis
+
+    E_star = u.to_si(args.E_star, "[pressure]", what="--E-star")
+    p0 = u.to_si(args.p0, "[pressure]", what="--p0")
+    results = _acfs(args)
+    out = Path(args.output)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    rows = []
+    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(12, 4.5))
+    for name, r in results.items():
+        G = r["G"]
+        fit = G.rough.fit()
+        gbar = G.rough.gradient()
+        contact = G.rough.persson(E_star=E_star, p0=p0, gradient=gbar, fit=fit)
+        energy = G.rough.energy(E_star=E_star)
+        r.update(fit=fit, gradient=gbar, persson=contact, energy=energy)
+        if args.gamma:
+            r["patch"] = G.rough.patch_radius(E_star=E_star, gamma=args.gamma)
+        del r["topography"]  # the archive refers to the file (name, SHA-256 in G's attrs)
+        unit = G.dr.attrs["units"]
+        finest = contact.isel(dr=0)
+        rows.append((name, f"{float(fit.sigma_h):.4g} {unit}",
+                     f"{float(fit.hurst):.3f}+-{float(fit.hurst_std):.3f}",
+                     f"{float(fit.lambda_r):.4g} {unit}", f"{float(gbar[0]):.3g}",
+                     f"{float(energy.v_el):.3g}", f"{float(finest.a_r):.3g}",
+                     f"{float(finest.sigma_c) / 1e6:.3g}",
+                     f"{float(r['patch'].a_c):.3g} {unit}" if args.gamma else "-"))
+        G.rough.plot(ax=ax0, label=name)
+        ax1.semilogx(contact.dr, contact.a_r, label=name)
+    ax1.set_xlabel("resolution dr")
+    ax1.set_ylabel(f"relative contact area at p0 = {args.p0}")
+    ax1.legend()
+    fig.tight_layout()
+    png = out.with_suffix(".png")
+    fig.savefig(png, dpi=120)
+    parameters = f"E_star={args.E_star}, p0={args.p0}, gamma={args.gamma}"
+    save_analysis(out, results, history=f"xrough report {' '.join(args.files)} "
+                  f"({parameters})")
+    head = ("measurement", "sigma_h", "H", "lambda_r", "rms grad", "v_el J/m2", "a_r",
+            "sigma_c MPa", "patch radius")
+    widths = [max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(head)]
+    print("  ".join(h.ljust(w) for h, w in zip(head, widths)))
+    for row in rows:
+        print("  ".join(c.ljust(w) for c, w in zip(row, widths)))
+    print(f"a_r, sigma_c and rms gradient at the finest resolution; {parameters}")
+    print(f"wrote {out} and {png}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``xrough`` command."""
     from . import __version__
@@ -112,11 +231,42 @@ def main(argv: list[str] | None = None) -> int:
     demo.add_argument("--pairs", type=int, default=400_000, help="random-pair budget")
     demo.add_argument("--seed", type=int, default=1, help="random seed of the surface")
     demo.set_defaults(func=_demo)
+
+    def file_options(p, detrend=True):
+        p.add_argument("files", nargs="+", help="topography files (any supported format)")
+        p.add_argument("--size", help="physical size replacing the file's, e.g. '100 nm' or "
+                       "'10 um,20 um' (y, x)")
+        p.add_argument("--unit", help="length unit replacing the file's (relabels)")
+        p.add_argument("--height-scale", type=float, help="factor applied to the heights")
+        p.add_argument("--periodic", action="store_true", help="the maps are periodic")
+        p.add_argument("--channel", help="channel of multi-channel AFM files")
+        if detrend:
+            p.add_argument("--detrend", default="none",
+                           choices=["none", "mean", "plane", "curvature"],
+                           help="detrending before G (default none)")
+
+    info = sub.add_parser("info", help="what is in a topography file")
+    file_options(info, detrend=False)
+    info.set_defaults(func=_info)
+    for name, func, helptext in (("acf", _acf, "G(dr) of files, archived to NetCDF"),
+                                 ("report", _report, "contact mechanics report of files")):
+        p = sub.add_parser(name, help=helptext)
+        file_options(p)
+        p.add_argument("-o", "--output", default=f"xrough-{name}.nc", help="NetCDF output")
+        p.add_argument("--direction", default="radial", choices=["radial", "x", "y"])
+        p.add_argument("--points-per-decade", type=float, default=10)
+        if name == "report":
+            p.add_argument("--E-star", required=True, dest="E_star",
+                           help="contact modulus, e.g. 25MPa")
+            p.add_argument("--p0", required=True, help="mean pressure, e.g. 0.1MPa")
+            p.add_argument("--gamma", help="work of adhesion, e.g. 50mJ/m^2")
+        p.set_defaults(func=func)
     args = parser.parse_args(argv)
     try:
         return args.func(args)
-    except (ValueError, TypeError, OSError) as err:
-        print(f"xrough: error: {err}", file=sys.stderr)
+    except (ValueError, TypeError, OSError, KeyError, ImportError) as err:
+        message = str(err).splitlines()[0] if str(err) else type(err).__name__
+        print(f"xrough: error: {message}", file=sys.stderr)
         return 1
 
 

@@ -421,6 +421,10 @@ def height_difference_acf(
         "source": str(topography.attrs.get("source", topography.name or "")),
         "xrough_version": __version__,
     }
+    for key in ("source_file", "source_sha256", "format", "overrides", "detrend",
+                "reliable_dr_min", "reliable_dr_max"):  # provenance of the topography
+        if key in topography.attrs:
+            attrs[key] = topography.attrs[key]
     if isinstance(bins, str) and bins == "log":
         attrs["points_per_decade"] = float(points_per_decade)
     if estimator == "random":
