@@ -1,0 +1,274 @@
+"""ISO 25178-71 SDF (surface data file): read.
+
+An SDF file starts with the magic ``aISO-1.0`` (text) or ``bISO-1.0`` (binary), then a
+header (``NumPoints`` per profile, ``NumProfiles``, the scales ``Xscale``, ``Yscale``,
+``Zscale`` in metres, ``Zresolution``, ``Compression``, ``DataType``...), the data (profile
+after profile, ``NumPoints`` values each) and an optional free-text trailer::
+
+    aISO-1.0
+    ManufacID = ISOTC213
+    NumPoints = 3
+    NumProfiles = 2
+    Xscale = 1.0E-6
+    ...
+    *
+    1.0 2.0 3.0
+    4.0 BAD 6.0
+    *
+    <OperatorName> Tom Jones </OperatorName>
+    *
+
+Heights are ``value * Zscale`` metres, the grid spacings ``Xscale`` and ``Yscale`` metres.
+Missing points are ``BAD`` in text files and, for 16- and 32-bit integer data types, the
+reserved extreme value (the minimum of signed and the maximum of unsigned types); they
+become NaN. Not read: compressed data (``Compression`` other than 0) and the data
+checksum (``CheckType``), whose algorithm the header does not identify.
+"""
+
+from __future__ import annotations
+
+import re
+import struct
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["sniff", "read"]
+
+_TEXT_MAGIC = b"aISO-1.0"
+_BINARY_MAGIC = b"bISO-1.0"
+_BOM = b"\xef\xbb\xbf"
+#: ``DataType`` codes of ISO 25178-71: numpy type and the marker of missing points.
+_DATA_TYPES = {
+    0: ("UINT8", np.dtype("u1"), None),
+    1: ("UINT16", np.dtype("<u2"), 2**16 - 1),
+    2: ("UINT32", np.dtype("<u4"), 2**32 - 1),
+    3: ("FLOAT", np.dtype("<f4"), None),
+    4: ("INT8", np.dtype("i1"), None),
+    5: ("INT16", np.dtype("<i2"), -(2**15)),
+    6: ("INT32", np.dtype("<i4"), -(2**31)),
+    7: ("DOUBLE", np.dtype("<f8"), None),
+}
+_REQUIRED = ("NumPoints", "NumProfiles", "Xscale", "Yscale", "Zscale", "DataType")
+# binary header after the magic: ManufacID, CreateDate, ModDate, NumPoints, NumProfiles,
+# Xscale, Yscale, Zscale, Zresolution, Compression, DataType, CheckType
+_BINARY_HEADER = struct.Struct("<10s12s12sHHddddBBB")
+_ATTR_NAMES = {"ManufacID": "manufacturer_id", "CreateDate": "create_date",
+               "ModDate": "modification_date", "Zresolution": "z_resolution",
+               "Compression": "compression", "DataType": "data_type",
+               "CheckType": "check_type"}
+_RESERVED = {"units", "long_name", "periodic", "name", "sampling", "format", "overrides",
+             "source", "source_file", "source_sha256"}
+
+
+def sniff(head: bytes, path: Path | None = None) -> bool:
+    """Tell whether the file starts with the SDF magic ``aISO-1.0`` or ``bISO-1.0``."""
+    head = head.removeprefix(_BOM)
+    return head.startswith((_TEXT_MAGIC, _BINARY_MAGIC))
+
+
+def _snake(name: str) -> str:
+    name = re.sub(r"(?<=[a-z0-9])(?=[A-Z])", "_", name.strip())
+    return re.sub(r"\W+", "_", name).strip("_").lower()
+
+
+def _number(text: str, key: str, path: Path, kind=float):
+    try:
+        value = float(text)
+        if kind is int:
+            if not value.is_integer():
+                raise ValueError
+            return int(value)
+        return value
+    except ValueError:
+        raise ValueError(f"{path.name}: header field {key} = {text!r} is not "
+                         f"{'an integer' if kind is int else 'a number'}") from None
+
+
+def _parse_text(raw: bytes, path: Path):
+    text = raw.decode("latin-1")
+    lines = text.splitlines()
+    try:
+        end = next(i for i, line in enumerate(lines) if line.strip() == "*")
+    except StopIteration:
+        raise ValueError(f"{path.name}: the SDF header is not terminated by a line '*' "
+                         "(truncated or not an SDF file)") from None
+    header: dict[str, str] = {}
+    for line in lines[1:end]:
+        if not line.strip():
+            continue
+        key, sep, value = line.partition("=")
+        if not sep:
+            raise ValueError(f"{path.name}: malformed SDF header line {line.strip()!r} "
+                             "(expected 'Key = value')")
+        header[key.strip()] = value.strip()
+    rest = lines[end + 1:]
+    stop = next((i for i, line in enumerate(rest) if line.strip() == "*"), len(rest))
+    tokens = " ".join(rest[:stop]).split()
+    trailer_lines = rest[stop + 1:]
+    if trailer_lines and trailer_lines[-1].strip() == "*":
+        trailer_lines = trailer_lines[:-1]
+    return header, tokens, "\n".join(trailer_lines).strip()
+
+
+def _parse_binary(raw: bytes, path: Path):
+    start = len(_BINARY_MAGIC)
+    if len(raw) < start + _BINARY_HEADER.size:
+        raise ValueError(f"{path.name}: the binary SDF header is truncated ({len(raw)} "
+                         f"bytes, the header alone needs {start + _BINARY_HEADER.size})")
+    fields = _BINARY_HEADER.unpack_from(raw, start)
+    names = ("ManufacID", "CreateDate", "ModDate", "NumPoints", "NumProfiles", "Xscale",
+             "Yscale", "Zscale", "Zresolution", "Compression", "DataType", "CheckType")
+    header = {}
+    for name, value in zip(names, fields):
+        if isinstance(value, bytes):
+            value = value.split(b"\0", 1)[0].decode("latin-1").strip()
+        header[name] = str(value) if not isinstance(value, float) else repr(value)
+    return header, raw[start + _BINARY_HEADER.size:]
+
+
+def read(path: str | Path):
+    """Read an ISO 25178-71 SDF file (text ``aISO-1.0`` or binary ``bISO-1.0``).
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.sdf`` file.
+
+    Returns
+    -------
+    xarray.DataArray
+        Heights ``value * Zscale`` in metres on dims ``("y", "x")`` (one row per
+        profile) or ``("x",)`` when the file has a single profile; spacings ``Xscale``
+        and ``Yscale`` in metres. Attributes: ``manufacturer_id``, ``create_date``,
+        ``modification_date`` (as written, ``DDMMYYYYHHMM``), ``z_resolution`` (metres;
+        negative: unknown), ``compression``, ``data_type`` (code), ``check_type``, other
+        header fields in snake case, and the text trailer as ``trailer`` with its
+        ``<Tag>value</Tag>`` pairs as snake-case attributes (``operator_name``...).
+
+    Raises
+    ------
+    ValueError
+        Bad magic, missing or malformed header fields, compressed or too little data;
+        the message names the file and the problem.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from xrough.io import sdf
+    >>> text = '''aISO-1.0
+    ... ManufacID = Example
+    ... NumPoints = 3
+    ... NumProfiles = 2
+    ... Xscale = 1.0E-6
+    ... Yscale = 2.0E-6
+    ... Zscale = 1.0E-9
+    ... Zresolution = -1
+    ... Compression = 0
+    ... DataType = 5
+    ... CheckType = 0
+    ... *
+    ... 10 20 30
+    ... 40 BAD 60
+    ... *
+    ... '''
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = os.path.join(tmp, "map.sdf")
+    ...     with open(path, "w") as fh:
+    ...         _ = fh.write(text)
+    ...     topo = sdf.read(path)
+    >>> topo.shape, topo.attrs["units"], float(topo.x[1]), float(topo.y[1])
+    ((2, 3), 'm', 1e-06, 2e-06)
+    >>> topo.values * 1e9
+    array([[10., 20., 30.],
+           [40., nan, 60.]])
+    """
+    from ..topography import topography
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no such file: {path}")
+    raw = path.read_bytes().removeprefix(_BOM)
+    binary = raw.startswith(_BINARY_MAGIC)
+    if not (binary or raw.startswith(_TEXT_MAGIC)):
+        raise ValueError(f"{path.name}: not an SDF file (it does not start with "
+                         f"'aISO-1.0' or 'bISO-1.0' but with {raw[:8]!r})")
+    if binary:
+        header, payload = _parse_binary(raw, path)
+        tokens, trailer = None, ""
+    else:
+        header, tokens, trailer = _parse_text(raw, path)
+    lower = {k.lower(): k for k in header}
+    missing = [k for k in _REQUIRED if k.lower() not in lower]
+    if missing:
+        raise ValueError(f"{path.name}: the SDF header lacks {', '.join(missing)}")
+
+    def field(key, kind=float):
+        return _number(header[lower[key.lower()]], key, path, kind)
+
+    nx, ny = field("NumPoints", int), field("NumProfiles", int)
+    if nx < 1 or ny < 1:
+        raise ValueError(f"{path.name}: NumPoints = {nx} and NumProfiles = {ny} must be "
+                         "positive")
+    dx, dy, dz = field("Xscale"), field("Yscale"), field("Zscale")
+    code = field("DataType", int)
+    if code not in _DATA_TYPES:
+        raise ValueError(f"{path.name}: unknown DataType {code} (known: 0-7)")
+    if "compression" in lower and field("Compression", int) != 0:
+        raise ValueError(f"{path.name}: compressed SDF data (Compression = "
+                         f"{field('Compression', int)}) is not supported")
+    _, dtype, marker = _DATA_TYPES[code]
+    n = nx * ny
+    if binary:
+        if len(payload) < n * dtype.itemsize:
+            raise ValueError(f"{path.name}: the file holds {len(payload)} bytes of data, "
+                             f"{nx} x {ny} points of type {_DATA_TYPES[code][0]} need "
+                             f"{n * dtype.itemsize} (truncated)")
+        values = np.frombuffer(payload, dtype=dtype, count=n).astype(float)
+    else:
+        if len(tokens) != n:
+            raise ValueError(f"{path.name}: the data section holds {len(tokens)} values, "
+                             f"NumPoints x NumProfiles = {nx} x {ny} = {n} (truncated or "
+                             "corrupted)")
+        values = np.empty(n)
+        for i, tok in enumerate(tokens):
+            if tok.upper() == "BAD":
+                values[i] = np.nan
+                continue
+            try:
+                values[i] = float(tok)
+            except ValueError:
+                raise ValueError(f"{path.name}: data value {i} is not a number: "
+                                 f"{tok!r}") from None
+    if marker is not None:
+        values[values == marker] = np.nan
+    heights = values * dz
+
+    attrs: dict = {}
+    for key, value in header.items():
+        if key in _REQUIRED and key != "DataType":
+            continue
+        name = _ATTR_NAMES.get(key, _snake(key))
+        if name in _RESERVED or not name:
+            name = f"sdf_{name}"
+        if key in ("Zresolution", "Xscale", "Yscale", "Zscale"):
+            attrs[name] = _number(value, key, path)
+        elif key in ("Compression", "DataType", "CheckType"):
+            attrs[name] = _number(value, key, path, int)
+        else:
+            attrs[name] = value
+    if trailer:
+        attrs["trailer"] = trailer
+        for tag, value in re.findall(r"<\s*([A-Za-z_][\w.-]*)\s*>(.*?)<\s*/\s*\1\s*>",
+                                     trailer, flags=re.S):
+            name = _snake(tag)
+            if name in _RESERVED or name in attrs:
+                name = f"trailer_{name}"
+            attrs.setdefault(name, value.strip())
+    try:
+        if ny == 1:
+            return topography(heights, spacing=dx, unit="m", attrs=attrs)
+        return topography(heights.reshape(ny, nx), spacing=(dy, dx), unit="m",
+                          attrs=attrs)
+    except ValueError as err:
+        raise ValueError(f"{path.name}: {err}") from None

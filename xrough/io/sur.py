@@ -1,0 +1,310 @@
+"""Digital Surf SUR (MountainsMap studiables): read.
+
+A SUR file is a sequence of objects, each a 512-byte little-endian header followed by a
+comment, a private zone and the points: 16- or 32-bit integers, stored plainly (signature
+``DIGITAL SURF``) or zlib-compressed in streams (``DSCOMPRESSED``). The header states the
+object type (profile, surface, series...), the numbers of points per line and of lines,
+the axis spacings with their unit strings, the Z spacing and offset, and whether
+non-measured points are present (marked by the value ``Zmin - 2``).
+
+Heights are ``raw * Zspacing + Zoffset`` in the Z step unit, the lateral spacings are in
+the X (and Y) step units; an inverted object (``inversion`` 1, 2, 3) has its heights
+negated and, for 2 and 3, is mirrored left-right or upside-down, as MountainsMap shows it.
+The header's float32 values are taken at their shortest decimal form (a Z spacing stored
+as the float32 nearest to ``1e-7`` is 1e-07, not 1.0000000116860974e-07).
+
+Not read: the private zone, the client zone, intensity/RGB/binary images, spectra and
+force curves (only height objects: profiles, surfaces and series or layers of them).
+"""
+
+from __future__ import annotations
+
+import datetime
+import struct
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["sniff", "read", "OBJECT_TYPES"]
+
+_MAGICS = (b"DIGITAL SURF", b"DSCOMPRESSED")
+_HEADER_SIZE = 512
+#: Object ("studiable") types of MountainsMap.
+OBJECT_TYPES = {
+    0: "unknown", 1: "profile", 2: "surface", 3: "binary image", 4: "series of profiles",
+    5: "series of surfaces", 6: "meridian disc", 7: "multilayer profile",
+    8: "multilayer surface", 9: "parallel disc", 10: "intensity image",
+    11: "intensity surface", 12: "RGB image", 13: "RGB surface", 14: "force curve",
+    15: "series of force curves", 16: "RGB intensity surface", 17: "contour profile",
+    18: "series of RGB images", 20: "spectrum", 21: "hyperspectral cube",
+}
+_HEIGHT_TYPES = {0, 1, 2, 4, 5, 7, 8, 11, 13, 16}
+_ACQUISITION = {
+    1: "contact stylus", 2: "scanning optical gauge", 3: "thermocouple",
+    5: "contact stylus with skid", 6: "AFM", 7: "STM", 8: "video", 9: "interferometer",
+    10: "structured light projection",
+}
+# (name, struct format, offset) of the header fields read
+_FIELDS = (
+    ("signature", "12s", 0), ("format", "H", 12), ("n_objects", "H", 14),
+    ("version", "H", 16), ("object_type", "H", 18), ("object_name", "30s", 20),
+    ("operator_name", "30s", 50), ("material_code", "H", 80), ("acquisition", "H", 82),
+    ("range", "H", 84), ("special_points", "H", 86), ("absolute", "H", 88),
+    ("w_size", "i", 94), ("point_size", "H", 98), ("z_min", "i", 100),
+    ("z_max", "i", 104), ("nx", "i", 108), ("ny", "i", 112), ("n_points", "i", 116),
+    ("dx", "f", 120), ("dy", "f", 124), ("dz", "f", 128), ("x_name", "16s", 132),
+    ("y_name", "16s", 148), ("z_name", "16s", 164), ("dx_unit", "16s", 180),
+    ("dy_unit", "16s", 196), ("dz_unit", "16s", 212), ("x_unit", "16s", 228),
+    ("y_unit", "16s", 244), ("z_unit", "16s", 260), ("x_ratio", "f", 276),
+    ("y_ratio", "f", 280), ("z_ratio", "f", 284), ("imprint", "H", 288),
+    ("inversion", "H", 290), ("leveling", "H", 292), ("second", "H", 306),
+    ("minute", "H", 308), ("hour", "H", 310), ("day", "H", 312), ("month", "H", 314),
+    ("year", "H", 316), ("compressed_size", "I", 324), ("comment_size", "H", 334),
+    ("private_size", "H", 336), ("x_offset", "f", 466), ("y_offset", "f", 470),
+    ("z_offset", "f", 474),
+)
+
+
+def sniff(head: bytes, path: Path | None = None) -> bool:
+    """Tell whether the file starts with ``DIGITAL SURF`` or ``DSCOMPRESSED``."""
+    return head[:12] in _MAGICS
+
+
+def _f32(value: float) -> float:
+    """Return a float32 header value at its shortest decimal representation."""
+    return float(str(np.float32(value)))
+
+
+def _string(raw: bytes) -> str:
+    return raw.split(b"\0", 1)[0].decode("latin-1").strip()
+
+
+def _unit(text: str, path: Path, what: str) -> str:
+    from .. import units as u
+
+    # the micro sign appears as latin-1 0xB5, Greek mu, or 0xE6 (an MS-DOS code page)
+    clean = text.replace("\xb5", "u").replace("\u03bc", "u").replace("\xe6", "u")
+    if not clean:
+        raise ValueError(f"{path.name}: the {what} unit is empty; the file states no unit")
+    try:
+        return u.format_units(u.as_length_unit(clean, what=f"{what} unit"))
+    except ValueError as err:
+        raise ValueError(f"{path.name}: {err}") from None
+
+
+def _header(raw: bytes, pos: int, path: Path, index: int) -> dict:
+    if len(raw) < pos + _HEADER_SIZE:
+        raise ValueError(f"{path.name}: object {index} is truncated: its 512-byte header "
+                         f"ends at byte {pos + _HEADER_SIZE}, the file has {len(raw)}")
+    h = {name: struct.unpack_from("<" + fmt, raw, pos + offset)[0]
+         for name, fmt, offset in _FIELDS}
+    if h["signature"] not in _MAGICS:
+        raise ValueError(f"{path.name}: object {index} does not start with 'DIGITAL SURF' "
+                         f"or 'DSCOMPRESSED' but with {h['signature']!r} (corrupted file)")
+    if h["format"] not in (0, 1):
+        raise ValueError(f"{path.name}: object {index} has format code {h['format']}; "
+                         "only the PC (little-endian) layout is supported")
+    for key in ("object_name", "operator_name", "x_name", "y_name", "z_name", "dx_unit",
+                "dy_unit", "dz_unit", "x_unit", "y_unit", "z_unit"):
+        h[key] = _string(h[key])
+    if h["point_size"] not in (16, 32):
+        raise ValueError(f"{path.name}: object {index} has {h['point_size']} bits per "
+                         "point; SUR points have 16 or 32 (garbage header?)")
+    if h["nx"] < 1 or h["ny"] < 1 or h["n_points"] != h["nx"] * h["ny"]:
+        raise ValueError(f"{path.name}: object {index} states {h['nx']} points per line, "
+                         f"{h['ny']} lines and {h['n_points']} points in total, which is "
+                         "inconsistent (garbage header?)")
+    h["data_start"] = pos + _HEADER_SIZE + h["comment_size"] + h["private_size"]
+    return h
+
+
+def _points(raw: bytes, h: dict, path: Path, index: int, decode: bool):
+    """Return the object's raw points (if ``decode``) and the position after them."""
+    dtype = np.dtype("<i2" if h["point_size"] == 16 else "<i4")
+    start = h["data_start"]
+    count = h["n_points"] * (max(h["w_size"], 1) if h["object_type"] in (20, 21) else 1)
+    if h["signature"] == b"DIGITAL SURF":
+        end = start + count * dtype.itemsize
+        if len(raw) < end:
+            raise ValueError(f"{path.name}: object {index} is truncated: {count} points of "
+                             f"{h['point_size']} bits need {end - start} bytes after the "
+                             f"header, the file has {max(len(raw) - start, 0)}")
+        return (np.frombuffer(raw, dtype, count, start) if decode else None), end
+    # DSCOMPRESSED: stream count, (raw size, zipped size) per stream, then the streams
+    try:
+        (n_streams,) = struct.unpack_from("<I", raw, start)
+        sizes = struct.unpack_from(f"<{2 * n_streams}I", raw, start + 4)
+    except struct.error:
+        raise ValueError(f"{path.name}: object {index} is truncated in its compressed "
+                         "data directory") from None
+    pos = start + 4 + 8 * n_streams
+    chunks = []
+    for raw_size, zip_size in zip(sizes[::2], sizes[1::2]):
+        if len(raw) < pos + zip_size:
+            raise ValueError(f"{path.name}: object {index} is truncated in its compressed "
+                             "data")
+        if decode:
+            try:
+                chunk = zlib.decompress(raw[pos:pos + zip_size])
+            except zlib.error as err:
+                raise ValueError(f"{path.name}: object {index} has corrupted compressed "
+                                 f"data ({err})") from None
+            if len(chunk) != raw_size:
+                raise ValueError(f"{path.name}: object {index}: a compressed stream "
+                                 f"expands to {len(chunk)} bytes, the directory states "
+                                 f"{raw_size}")
+            chunks.append(chunk)
+        pos += zip_size
+    if not decode:
+        return None, pos
+    data = b"".join(chunks)
+    if len(data) != count * dtype.itemsize:
+        raise ValueError(f"{path.name}: object {index} decompresses to {len(data)} bytes, "
+                         f"{count} points of {h['point_size']} bits need "
+                         f"{count * dtype.itemsize}")
+    return np.frombuffer(data, dtype, count), pos
+
+
+def read(path: str | Path, *, index: int = 0):
+    """Read one object of a Digital Surf SUR file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.sur`` file.
+    index : int, default 0
+        Which object of a multi-object file (series, layers, surface with images) to
+        read, counting from 0.
+
+    Returns
+    -------
+    xarray.DataArray
+        Heights in the file's Z step unit on dims ``("y", "x")`` (lines, points per line)
+        or ``("x",)`` for a one-line object, lateral coordinates in the X step unit
+        (the Y spacing converted to it if Y has another unit), non-measured points NaN.
+        Attributes: ``object_type``, ``object_name``, ``operator_name``,
+        ``acquisition``, ``date`` (ISO 8601), ``comment``, ``x_offset`` / ``y_offset``
+        (lateral unit), ``inversion``, ``n_objects`` and ``object_index`` (files with
+        several objects) where the file states them.
+
+    Raises
+    ------
+    ValueError
+        Bad signature, inconsistent header, truncated or corrupted data, an object that
+        holds no heights, or ``index`` out of range; the message names the file and the
+        problem.
+
+    Examples
+    --------
+    A one-object file of 2 lines of 3 points, 16-bit, packed by hand:
+
+    >>> import os, struct, tempfile
+    >>> import numpy as np
+    >>> from xrough.io import sur
+    >>> header = bytearray(512)
+    >>> header[:12] = b"DIGITAL SURF"
+    >>> struct.pack_into("<4H", header, 12, 0, 1, 1, 2)  # PC layout, 1 object, surface
+    >>> struct.pack_into("<H5i", header, 98, 16, 0, 6, 3, 2, 6)  # bits, Zmin, Zmax, sizes
+    >>> struct.pack_into("<3f", header, 120, 0.5, 0.25, 0.01)  # dx, dy, dz
+    >>> for offset in (180, 196, 212):  # units of dx, dy, dz
+    ...     header[offset:offset + 2] = b"um"
+    >>> points = np.array([[1, 2, 3], [4, 5, 6]], dtype="<i2")
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = os.path.join(tmp, "map.sur")
+    ...     with open(path, "wb") as fh:
+    ...         _ = fh.write(bytes(header) + points.tobytes())
+    ...     topo = sur.read(path)
+    >>> topo.shape, topo.attrs["units"], float(topo.x[1]), float(topo.y[1])
+    ((2, 3), 'um', 0.5, 0.25)
+    >>> topo.values
+    array([[0.01, 0.02, 0.03],
+           [0.04, 0.05, 0.06]])
+    """
+    from .. import units as u
+    from ..topography import topography
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no such file: {path}")
+    raw = path.read_bytes()
+    if raw[:12] not in _MAGICS:
+        raise ValueError(f"{path.name}: not a SUR file (it starts with {raw[:12]!r}, not "
+                         "'DIGITAL SURF' or 'DSCOMPRESSED')")
+    first = _header(raw, 0, path, 0)
+    n_objects = max(first["n_objects"], 1)
+    index = int(index)
+    if not 0 <= index < n_objects:
+        raise ValueError(f"{path.name}: index={index} but the file has {n_objects} "
+                         f"object{'s' if n_objects > 1 else ''} (0 to {n_objects - 1})")
+    pos = 0
+    for k in range(index + 1):
+        h = first if k == 0 else _header(raw, pos, path, k)
+        if k < index:
+            _, pos = _points(raw, h, path, k, decode=False)
+    kind = OBJECT_TYPES.get(h["object_type"], f"type {h['object_type']}")
+    if h["object_type"] not in _HEIGHT_TYPES:
+        raise ValueError(f"{path.name}: object {index} is a {kind}, not heights; choose "
+                         "another object with index=")
+    points, _ = _points(raw, h, path, index, decode=True)
+
+    dz = _f32(h["dz"])
+    heights = points.astype(float) * dz
+    if h["z_offset"]:
+        heights += _f32(h["z_offset"])
+    if h["special_points"] == 1:
+        heights[points == h["z_min"] - 2] = np.nan
+    nx, ny = h["nx"], h["ny"]
+    heights = heights.reshape(ny, nx)
+    if h["inversion"] in (1, 2, 3):
+        heights = -heights
+        if h["inversion"] == 2:
+            heights = heights[:, ::-1]
+        elif h["inversion"] == 3:
+            heights = heights[::-1, :]
+    height_unit = _unit(h["dz_unit"], path, "Z")
+    lateral_unit = _unit(h["dx_unit"], path, "X")
+    dx = _f32(h["dx"])
+    if not dx > 0:
+        raise ValueError(f"{path.name}: the X spacing must be positive, got {dx}")
+
+    attrs: dict = {"object_type": kind}
+    for key in ("object_name", "operator_name"):
+        if h[key]:
+            attrs[key] = h[key]
+    if h["acquisition"] in _ACQUISITION:
+        attrs["acquisition"] = _ACQUISITION[h["acquisition"]]
+    if h["year"] > 0:
+        try:
+            attrs["date"] = datetime.datetime(h["year"], h["month"], h["day"], h["hour"],
+                                              h["minute"], h["second"]).isoformat()
+        except ValueError:
+            pass
+    start = h["data_start"] - h["comment_size"] - h["private_size"]
+    comment = raw[start:start + h["comment_size"]].split(b"\0", 1)[0]
+    comment = comment.decode("latin-1").strip()
+    if comment:
+        attrs["comment"] = comment
+    if h["x_offset"]:
+        attrs["x_offset"] = _f32(h["x_offset"])
+    if h["inversion"]:
+        attrs["inversion"] = int(h["inversion"])
+    if n_objects > 1:
+        attrs.update(n_objects=n_objects, object_index=index)
+    try:
+        if ny == 1:
+            return topography(heights[0], spacing=dx, unit=lateral_unit,
+                              height_unit=height_unit, attrs=attrs)
+        dy = _f32(h["dy"])
+        y_unit = _unit(h["dy_unit"], path, "Y")
+        if y_unit != lateral_unit:
+            dy *= u.conversion_factor(y_unit, lateral_unit)
+        if h["y_offset"]:
+            attrs["y_offset"] = _f32(h["y_offset"]) * u.conversion_factor(y_unit,
+                                                                          lateral_unit)
+        if not dy > 0:
+            raise ValueError(f"the Y spacing must be positive, got {dy}")
+        return topography(heights, spacing=(dy, dx), unit=lateral_unit,
+                          height_unit=height_unit, attrs=attrs)
+    except ValueError as err:
+        raise ValueError(f"{path.name}: {err}") from None

@@ -1,0 +1,543 @@
+"""ISO 25178-72 X3P (XML 3D surface profile): read and write.
+
+An X3P file is a zip archive holding ``main.xml`` (geometry, data types, metadata and MD5
+checksums) and, usually, the heights as little-endian binary ``bindata/data.bin`` with an
+optional validity bit mask ``bindata/valid.bin``. Lengths are in metres by the standard.
+
+Reading
+    Areal maps (``FeatureType`` ``SUR``) and line profiles (``PRF``, or one line of a map)
+    on incremental lateral axes (``AxisType`` ``I``: position = offset + index *
+    increment); heights of type ``D`` (float64), ``F`` (float32), ``L`` (int32) or ``I``
+    (int16) as ``raw * Increment + Offset`` of the Z axis; points stored in the binary
+    member or inline as ``<DataList>``; invalid points (NaN, a cleared bit of the validity
+    mask, an empty ``<Datum>``) become NaN. Every MD5 checksum the file carries (of
+    ``main.xml``, of the point data, of the validity mask) is verified.
+    The coordinates of the returned topography start at zero; non-zero axis offsets (the
+    position of the first point on the instrument's stage) are kept in
+    ``attrs["x_offset"]`` and ``attrs["y_offset"]`` (metres).
+Not read
+    Point clouds (``PCL``, ``ListDimension``), absolute lateral axes (coordinates stored per
+    point), several layers (``SizeZ > 1``) and the optional rotation matrix.
+Writing
+    :func:`write` stores a map or a profile as float64 (or float32) in metres with all
+    checksums, so that :func:`read` gives back an identical DataArray.
+"""
+
+from __future__ import annotations
+
+import datetime
+import hashlib
+import re
+import zipfile
+import zlib
+from pathlib import Path
+from xml.etree import ElementTree
+
+import numpy as np
+
+__all__ = ["sniff", "read", "write", "NAMESPACE"]
+
+#: XML namespace of ``main.xml``.
+NAMESPACE = "http://www.opengps.eu/2008/ISO5436_2"
+_XSI = "http://www.w3.org/2001/XMLSchema-instance"
+_REVISION = "ISO5436 - 2000"
+_DTYPES = {"I": np.dtype("<i2"), "L": np.dtype("<i4"), "F": np.dtype("<f4"),
+           "D": np.dtype("<f8")}
+_MAIN = "main.xml"
+_DATA_MEMBER = "bindata/data.bin"
+_VALID_MEMBER = "bindata/valid.bin"
+_CHECKSUM_MEMBER = "md5checksum.hex"
+
+#: Record2 metadata: attribute name and element path below ``Record2``, in schema order.
+_RECORD2 = (
+    ("date", ("Date",)),
+    ("creator", ("Creator",)),
+    ("instrument_manufacturer", ("Instrument", "Manufacturer")),
+    ("instrument_model", ("Instrument", "Model")),
+    ("instrument_serial", ("Instrument", "Serial")),
+    ("instrument_version", ("Instrument", "Version")),
+    ("calibration_date", ("CalibrationDate",)),
+    ("probing_system_type", ("ProbingSystem", "Type")),
+    ("probing_system_identification", ("ProbingSystem", "Identification")),
+    ("comment", ("Comment",)),
+)
+_PLACEHOLDERS = {"", "unknown", "not available", "n/a", "none"}
+
+
+def sniff(head: bytes, path: Path | None = None) -> bool:
+    """Tell whether the file is a zip archive whose ``main.xml`` is an ISO 5436-2 document.
+
+    Parameters
+    ----------
+    head : bytes
+        The first bytes of the file.
+    path : Path, optional
+        The file, opened to look for ``main.xml`` (which is not necessarily the first
+        member of the archive).
+
+    Returns
+    -------
+    bool
+    """
+    if not head.startswith(b"PK\x03\x04"):
+        return False
+    if path is None:
+        return b"main.xml" in head
+    try:
+        with zipfile.ZipFile(path) as zf:
+            if _MAIN not in zf.namelist():
+                return False
+            with zf.open(_MAIN) as fh:
+                start = fh.read(2048)
+    except (OSError, zipfile.BadZipFile, zlib.error, RuntimeError, ValueError):
+        return False
+    return b"ISO5436_2" in start
+
+
+# ---------------------------------------------------------------------------- reading
+
+
+def _local(tag: str) -> str:
+    return tag.rsplit("}", 1)[-1]
+
+
+def _child(elem, *names):
+    """Descendant of ``elem`` along local tag ``names`` (namespaces ignored), or None."""
+    for name in names:
+        if elem is None:
+            return None
+        elem = next((c for c in elem if _local(c.tag) == name), None)
+    return elem
+
+
+def _text(elem, *names) -> str | None:
+    node = _child(elem, *names)
+    if node is None or node.text is None:
+        return None
+    return node.text.strip()
+
+
+def _member(zf: zipfile.ZipFile, name: str, path: Path, what: str) -> bytes:
+    if name not in zf.namelist():
+        raise ValueError(f"{path.name}: the {what} {name!r} named in main.xml is missing "
+                         "from the archive")
+    try:
+        return zf.read(name)
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, RuntimeError) as err:
+        raise ValueError(f"{path.name}: cannot extract {name!r} from the archive "
+                         f"(corrupted or truncated file: {err})") from None
+
+
+def _check_md5(data: bytes, expected: str | None, path: Path, what: str) -> None:
+    if expected is None:
+        return
+    expected = expected.strip().lower()
+    actual = hashlib.md5(data).hexdigest()
+    if actual != expected:
+        raise ValueError(f"{path.name}: MD5 checksum mismatch for {what}: the file states "
+                         f"{expected}, the content has {actual} (corrupted file)")
+
+
+def _float(text: str | None, path: Path, what: str, default=None) -> float | None:
+    if text is None or text == "":
+        return default
+    try:
+        return float(text)
+    except ValueError:
+        raise ValueError(f"{path.name}: {what} is not a number: {text!r}") from None
+
+
+def _int(text: str | None, path: Path, what: str) -> int:
+    try:
+        value = int(text)
+    except (TypeError, ValueError):
+        raise ValueError(f"{path.name}: {what} must be an integer, got {text!r}") from None
+    if value < 1:
+        raise ValueError(f"{path.name}: {what} must be positive, got {value}")
+    return value
+
+
+def _axis(axes, name: str, path: Path) -> dict:
+    node = _child(axes, name)
+    if node is None:
+        raise ValueError(f"{path.name}: main.xml has no axis {name} in Record1/Axes")
+    return {
+        "type": (_text(node, "AxisType") or "").upper(),
+        "dtype": (_text(node, "DataType") or "").upper(),
+        "increment": _float(_text(node, "Increment"), path, f"{name} Increment"),
+        "offset": _float(_text(node, "Offset"), path, f"{name} Offset", default=0.0),
+    }
+
+
+def _read_datalist(datalist, n: int, path: Path) -> np.ndarray:
+    """Heights stored inline in ``<DataList>``: one ``<Datum>`` per point, empty = invalid."""
+    values = np.full(n, np.nan)
+    data = [d for d in datalist if _local(d.tag) == "Datum"]
+    if len(data) != n:
+        raise ValueError(f"{path.name}: <DataList> holds {len(data)} points, the matrix "
+                         f"dimensions ask for {n}")
+    for i, datum in enumerate(data):
+        text = (datum.text or "").strip()
+        if text:
+            values[i] = _float(text.split(";")[-1], path, f"Datum {i}")
+    return values
+
+
+def read(path: str | Path, *, verify_checksums: bool = True):
+    """Read an ISO 25178-72 X3P file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.x3p`` file.
+    verify_checksums : bool, default True
+        Check the MD5 checksums of ``main.xml``, of the point data and of the validity
+        mask where the file states them.
+
+    Returns
+    -------
+    xarray.DataArray
+        Heights in metres on dims ``("y", "x")`` (map) or ``("x",)`` (profile), lateral
+        coordinates in metres starting at zero (spacing = the axis increments). Attributes
+        hold the file's metadata when present: ``date``, ``creator``,
+        ``instrument_manufacturer``, ``instrument_model``, ``instrument_serial``,
+        ``instrument_version``, ``instrument`` (manufacturer and model),
+        ``calibration_date``, ``probing_system_type``, ``probing_system_identification``,
+        ``comment``, and the non-zero axis offsets ``x_offset``, ``y_offset`` (metres).
+
+    Raises
+    ------
+    ValueError
+        Not a zip archive, no or malformed ``main.xml``, unsupported layout (point cloud,
+        absolute lateral axes, several layers), a data member of the wrong size, or a
+        checksum mismatch; the message names the file and the problem.
+
+    Examples
+    --------
+    See :func:`write` for a round trip through a file.
+    """
+    from ..topography import topography
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no such file: {path}")
+    try:
+        zf = zipfile.ZipFile(path)
+    except (zipfile.BadZipFile, OSError) as err:
+        raise ValueError(f"{path.name}: not a valid X3P file, the zip archive cannot be "
+                         f"opened ({err})") from None
+    with zf:
+        if _MAIN not in zf.namelist():
+            raise ValueError(f"{path.name}: not an X3P file, the zip archive has no "
+                             f"main.xml (members: {', '.join(zf.namelist()[:5])})")
+        xml = _member(zf, _MAIN, path, "document")
+        try:
+            root = ElementTree.fromstring(xml)
+        except ElementTree.ParseError as err:
+            raise ValueError(f"{path.name}: main.xml is not well-formed XML ({err})") from None
+        if _local(root.tag) != "ISO5436_2":
+            raise ValueError(f"{path.name}: main.xml is not an ISO 5436-2 document (root "
+                             f"element <{_local(root.tag)}>)")
+        record1, record3 = _child(root, "Record1"), _child(root, "Record3")
+        if record1 is None or record3 is None:
+            raise ValueError(f"{path.name}: main.xml lacks Record1 or Record3")
+
+        checksum_name = _text(root, "Record4", "ChecksumFile")
+        if verify_checksums and checksum_name:
+            listed = _member(zf, checksum_name, path, "checksum file").decode("ascii",
+                                                                              "replace")
+            match = re.match(r"\s*([0-9a-fA-F]{32})", listed)
+            if match is None:
+                raise ValueError(f"{path.name}: the checksum file {checksum_name!r} holds "
+                                 "no MD5 checksum")
+            _check_md5(xml, match.group(1), path, "main.xml")
+
+        feature = (_text(record1, "FeatureType") or "SUR").upper()
+        if feature == "PCL":
+            raise ValueError(f"{path.name}: point clouds (FeatureType PCL) are not "
+                             "supported, only maps (SUR) and profiles (PRF)")
+        axes = _child(record1, "Axes")
+        if axes is None:
+            raise ValueError(f"{path.name}: main.xml has no Record1/Axes")
+        cx, cy, cz = (_axis(axes, n, path) for n in ("CX", "CY", "CZ"))
+        for name, ax in (("CX", cx), ("CY", cy)):
+            if ax["type"] != "I":
+                raise ValueError(
+                    f"{path.name}: lateral axis {name} has AxisType {ax['type']!r}; only "
+                    "incremental axes ('I') are supported, not coordinates stored per point")
+        if cz["type"] != "A":
+            raise ValueError(f"{path.name}: the Z axis has AxisType {cz['type']!r}, the "
+                             "standard requires 'A' (absolute)")
+        if cz["dtype"] not in _DTYPES:
+            raise ValueError(f"{path.name}: unknown Z data type {cz['dtype']!r} (known: "
+                             f"{', '.join(_DTYPES)})")
+        if _child(record3, "ListDimension") is not None:
+            raise ValueError(f"{path.name}: unordered point lists (ListDimension) are not "
+                             "supported, only matrices")
+        matrix = _child(record3, "MatrixDimension")
+        if matrix is None:
+            raise ValueError(f"{path.name}: main.xml has no Record3/MatrixDimension")
+        nx = _int(_text(matrix, "SizeX"), path, "SizeX")
+        ny = _int(_text(matrix, "SizeY"), path, "SizeY")
+        nz = _int(_text(matrix, "SizeZ") or "1", path, "SizeZ")
+        if nz != 1:
+            raise ValueError(f"{path.name}: SizeZ = {nz}; several layers per point are not "
+                             "supported")
+        n = nx * ny
+
+        link, datalist = _child(record3, "DataLink"), _child(record3, "DataList")
+        if link is not None:
+            name = _text(link, "PointDataLink") or _DATA_MEMBER
+            raw = _member(zf, name, path, "point data")
+            if verify_checksums:
+                _check_md5(raw, _text(link, "MD5ChecksumPointData"), path, name)
+            dtype = _DTYPES[cz["dtype"]]
+            if len(raw) != n * dtype.itemsize:
+                raise ValueError(
+                    f"{path.name}: {name} has {len(raw)} bytes, but {nx} x {ny} points of "
+                    f"type {cz['dtype']} need {n * dtype.itemsize} (truncated or corrupted)")
+            values = np.frombuffer(raw, dtype=dtype).astype(float)
+            valid_name = _text(link, "ValidPointsLink")
+            if valid_name:
+                bits = _member(zf, valid_name, path, "validity mask")
+                if verify_checksums:
+                    _check_md5(bits, _text(link, "MD5ChecksumValidPoints"), path,
+                               valid_name)
+                if len(bits) < (n + 7) // 8:
+                    raise ValueError(f"{path.name}: the validity mask {valid_name!r} has "
+                                     f"{len(bits)} bytes, {n} points need {(n + 7) // 8}")
+                valid = np.unpackbits(np.frombuffer(bits, np.uint8), count=n,
+                                      bitorder="little").astype(bool)
+                values[~valid] = np.nan
+        elif datalist is not None:
+            values = _read_datalist(datalist, n, path)
+        else:
+            raise ValueError(f"{path.name}: main.xml has neither DataLink nor DataList")
+
+    if cz["increment"] is not None:
+        values = values * cz["increment"]
+    if cz["offset"]:
+        values = values + cz["offset"]
+    attrs = _metadata(root)
+    profile = ny == 1 or feature == "PRF"
+    if profile and ny != 1:
+        raise ValueError(f"{path.name}: FeatureType PRF with SizeY = {ny}; a profile has "
+                         "one line")
+    for name, ax, dim in (("CX", cx, "x"), ("CY", cy, "y")):
+        if dim == "y" and profile:
+            continue
+        if ax["increment"] is None or not ax["increment"] > 0:
+            raise ValueError(f"{path.name}: axis {name} needs a positive Increment, got "
+                             f"{ax['increment']!r}")
+        if ax["offset"]:
+            attrs[f"{dim}_offset"] = ax["offset"]
+    try:
+        if profile:
+            return topography(values, spacing=cx["increment"], unit="m", attrs=attrs)
+        return topography(values.reshape(ny, nx), spacing=(cy["increment"], cx["increment"]),
+                          unit="m", attrs=attrs)
+    except ValueError as err:
+        raise ValueError(f"{path.name}: {err}") from None
+
+
+def _metadata(root) -> dict:
+    record2 = _child(root, "Record2")
+    attrs: dict = {}
+    if record2 is None:
+        return attrs
+    for key, names in _RECORD2:
+        value = _text(record2, *names)
+        if value:
+            attrs[key] = value
+    parts = [attrs.get(k) for k in ("instrument_manufacturer", "instrument_model")]
+    parts = [p for p in parts if p and p.lower() not in _PLACEHOLDERS]
+    if parts:
+        attrs["instrument"] = " ".join(parts)
+    return attrs
+
+
+# ---------------------------------------------------------------------------- writing
+
+
+def _exact_step(values: np.ndarray) -> float:
+    """Find ``d`` with ``values == values[0] + arange(n) * d`` exactly, if there is one."""
+    n = values.size
+    mean = (values[-1] - values[0]) / (n - 1)
+    candidates = [values[1] - values[0], mean, float(f"{mean:.15g}"), float(f"{mean:.12g}")]
+    rel = values - values[0]
+    for step in candidates:
+        if np.array_equal(np.arange(n) * step, rel):
+            return float(step)
+    return float(mean)
+
+
+def write(topography, path: str | Path, *, dtype: str = "D",
+          metadata: dict | None = None) -> None:
+    """Write a map or profile to an ISO 25178-72 X3P file.
+
+    Heights and lateral lengths are converted to metres. Missing points (NaN) are stored
+    as NaN and flagged in a validity mask. The file carries MD5 checksums of ``main.xml``
+    and of the binary members.
+
+    Parameters
+    ----------
+    topography : xarray.DataArray
+        A map ``("y", "x")`` or profile ``("x",)`` (see :func:`xrough.topography`).
+    path : str or Path
+        Output file (usually ``.x3p``); overwritten if it exists.
+    dtype : {"D", "F"}, default "D"
+        Height data type: float64 (lossless) or float32.
+    metadata : dict, optional
+        Record2 fields by attribute name (``date``, ``creator``,
+        ``instrument_manufacturer``, ``instrument_model``, ``instrument_serial``,
+        ``instrument_version``, ``calibration_date``, ``probing_system_type``,
+        ``probing_system_identification``, ``comment``), overriding the topography's attrs
+        of the same name. Record2 is written only when at least one of them is given;
+        required fields left out are written as ``"unknown"`` (dates: the current time).
+
+    Notes
+    -----
+    The axis offsets are ``attrs["x_offset"]`` / ``attrs["y_offset"]`` (in the unit of
+    the coordinate) plus the first coordinate value. Periodicity, other attributes and the
+    DataArray's name are not stored. :func:`read` returns the written topography
+    identically when its units are metres, its coordinates start at zero and its attrs are
+    among those above.
+
+    Raises
+    ------
+    ValueError
+        Not a valid topography, a stack of several maps, decreasing coordinates, or an
+        unknown ``dtype`` or metadata field.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> import numpy as np, xarray as xr, xrough
+    >>> from xrough.io import x3p
+    >>> h = np.random.default_rng(0).normal(scale=1e-7, size=(3, 4))
+    >>> h[1, 2] = np.nan
+    >>> topo = xrough.topography(h, spacing=(2e-6, 1e-6), unit="m")
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = os.path.join(tmp, "map.x3p")
+    ...     x3p.write(topo, path)
+    ...     back = x3p.read(path)
+    >>> xr.testing.assert_identical(back, topo)
+    >>> back.sizes["y"], back.sizes["x"], back.attrs["units"], float(back.x[1])
+    (3, 4, 'm', 1e-06)
+    """
+    from .. import units as u
+    from ..topography import grid_of
+
+    path = Path(path)
+    dtype = str(dtype).upper()
+    if dtype not in ("D", "F"):
+        raise ValueError(f"dtype must be 'D' (float64) or 'F' (float32), got {dtype!r}")
+    grid = grid_of(topography)
+    extra = [d for d in topography.dims if d not in grid.dims]
+    if extra:
+        raise ValueError(f"an X3P file holds one map or profile; select one along {extra} "
+                         "first")
+    da = topography.transpose(*grid.dims)
+    hfac = u.conversion_factor(grid.height_unit, "m")
+    heights = np.asarray(da.values, dtype=float)
+    if hfac != 1.0:
+        heights = heights * hfac
+    increments, offsets = {}, {}
+    for dim in grid.dims:
+        coord = np.asarray(da[dim].values, dtype=float)
+        fac = u.conversion_factor(da[dim].attrs["units"], "m")
+        step = _exact_step(coord)
+        if not step > 0:
+            raise ValueError(f"coordinate {dim!r} decreases; X3P axes increase, sort the "
+                             f"topography first (topography.sortby({dim!r}))")
+        increments[dim] = step * fac if fac != 1.0 else step
+        offset = float(topography.attrs.get(f"{dim}_offset", 0.0)) + coord[0]
+        offsets[dim] = offset * fac if fac != 1.0 else offset
+    profile = grid.dims == ("x",)
+    ny, nx = (1, heights.size) if profile else heights.shape
+
+    data = heights.astype(_DTYPES[dtype]).tobytes()
+    invalid = np.isnan(heights).ravel()
+    valid = None
+    if invalid.any():
+        # one bit per point, least significant first, 1 = valid; the unused bits are set
+        bits = np.ones(8 * ((invalid.size + 7) // 8), dtype=bool)
+        bits[: invalid.size] = ~invalid
+        valid = np.packbits(bits, bitorder="little").tobytes()
+
+    ElementTree.register_namespace("p", NAMESPACE)
+    ElementTree.register_namespace("xsi", _XSI)
+    root = ElementTree.Element(f"{{{NAMESPACE}}}ISO5436_2", {
+        f"{{{_XSI}}}schemaLocation": f"{NAMESPACE} {NAMESPACE}/ISO5436_2.xsd"})
+
+    def sub(parent, tag, text=None):
+        el = ElementTree.SubElement(parent, tag)
+        if text is not None:
+            el.text = text
+        return el
+
+    record1 = sub(root, "Record1")
+    sub(record1, "Revision", _REVISION)
+    sub(record1, "FeatureType", "PRF" if profile else "SUR")
+    axes = sub(record1, "Axes")
+    for name, dim in (("CX", "x"), ("CY", "y")):
+        ax = sub(axes, name)
+        sub(ax, "AxisType", "I")
+        sub(ax, "DataType", "D")
+        # a profile has one line; its CY increment is a placeholder equal to CX's
+        sub(ax, "Increment", repr(float(increments.get(dim, increments["x"]))))
+        sub(ax, "Offset", repr(float(offsets.get(dim, 0.0))))
+    cz = sub(axes, "CZ")
+    sub(cz, "AxisType", "A")
+    sub(cz, "DataType", dtype)
+
+    fields = {k: topography.attrs[k] for k, _ in _RECORD2 if k in topography.attrs}
+    if "instrument_model" not in fields and "instrument" in topography.attrs and (
+            "instrument_manufacturer" not in fields):
+        fields["instrument_model"] = topography.attrs["instrument"]
+    fields.update(metadata or {})
+    unknown = set(fields) - {k for k, _ in _RECORD2}
+    if unknown:
+        raise ValueError(f"unknown X3P metadata fields: {sorted(unknown)}; known: "
+                         f"{[k for k, _ in _RECORD2]}")
+    if fields:
+        now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+        defaults = {"date": now, "calibration_date": fields.get("date", now),
+                    "probing_system_type": "Software"}
+        record2 = sub(root, "Record2")
+        for key, names in _RECORD2:
+            value = fields.get(key)
+            if value is None and key in ("creator", "comment"):
+                if key == "comment":
+                    sub(record2, "Comment")
+                continue
+            value = str(value) if value is not None else defaults.get(key, "unknown")
+            parent = record2
+            for name in names[:-1]:
+                found = _child(parent, name)
+                parent = found if found is not None else sub(parent, name)
+            sub(parent, names[-1], value)
+
+    record3 = sub(root, "Record3")
+    matrix = sub(record3, "MatrixDimension")
+    sub(matrix, "SizeX", str(nx))
+    sub(matrix, "SizeY", str(ny))
+    sub(matrix, "SizeZ", "1")
+    link = sub(record3, "DataLink")
+    sub(link, "PointDataLink", _DATA_MEMBER)
+    sub(link, "MD5ChecksumPointData", hashlib.md5(data).hexdigest().upper())
+    if valid is not None:
+        sub(link, "ValidPointsLink", _VALID_MEMBER)
+        sub(link, "MD5ChecksumValidPoints", hashlib.md5(valid).hexdigest().upper())
+    record4 = sub(root, "Record4")
+    sub(record4, "ChecksumFile", _CHECKSUM_MEMBER)
+
+    ElementTree.indent(root)
+    xml = ElementTree.tostring(root, encoding="UTF-8", xml_declaration=True)
+    checksum = f"{hashlib.md5(xml).hexdigest()} *{_MAIN}\n".encode("ascii")
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+        zf.writestr(_MAIN, xml)
+        zf.writestr(_DATA_MEMBER, data)
+        if valid is not None:
+            zf.writestr(_VALID_MEMBER, valid)
+        zf.writestr(_CHECKSUM_MEMBER, checksum)
