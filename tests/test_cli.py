@@ -62,7 +62,7 @@ def test_report_table_figure_and_archive(files):
     (("info", "missing.nc"), "no such file"),
     (("info", "broken.nc"), "broken.nc"),
     (("info", "noise.xyz"), "noise.xyz"),
-    (("report", "afm.nc", "--E-star", "-1MPa", "--p0", "1MPa"), "E_star"),
+    (("report", "afm.nc", "--E-star=-1MPa", "--p0", "1MPa"), "E_star"),
     (("report", "afm.nc", "--E-star", "25 nm", "--p0", "1MPa"), "not a pressure"),
 ])
 def test_bad_input_exits_1_with_a_one_line_reason(files, args, message):

@@ -17,10 +17,12 @@ from __future__ import annotations
 
 import hashlib
 import importlib
+import importlib.util
+import inspect
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["FORMATS", "detect_format", "open_topography", "file_sha256"]
+__all__ = ["FORMATS", "BRIDGE", "detect_format", "open_topography", "file_sha256"]
 
 
 @dataclass(frozen=True)
@@ -48,6 +50,13 @@ FORMATS: dict[str, Format] = {
 }
 
 
+#: Name of the fallback format: any file SurfaceTopography reads (optional dependency,
+#: ``pip install xrough[formats]``), tried when no native format recognises the file.
+BRIDGE = "surfacetopography"
+_BRIDGE_MODULE = "xrough.io.bridge"
+_BRIDGE_DESCRIPTION = "a format read by SurfaceTopography"
+
+
 def file_sha256(path: str | Path) -> str:
     """SHA-256 of a file's bytes (hex)."""
     digest = hashlib.sha256()
@@ -58,7 +67,24 @@ def file_sha256(path: str | Path) -> str:
 
 
 def _module(name: str):
+    if name == BRIDGE:
+        return importlib.import_module(_BRIDGE_MODULE)
     return importlib.import_module(FORMATS[name].module)
+
+
+def _has_module(name: str) -> bool:
+    try:
+        return importlib.util.find_spec(FORMATS[name].module) is not None
+    except (ImportError, ValueError):
+        return False
+
+
+def _bridge_reads(head: bytes, path: Path) -> bool:
+    try:
+        bridge = _module(BRIDGE)
+    except ImportError:
+        return False
+    return bridge.available() and bridge.sniff(head, path)
 
 
 def detect_format(path: str | Path) -> str:
@@ -70,6 +96,11 @@ def detect_format(path: str | Path) -> str:
         If the file does not exist.
     ValueError
         If no format recognises the file (the message names the file).
+
+    Notes
+    -----
+    When no native format recognises the file, by content or by extension, and
+    SurfaceTopography is installed, returns :data:`BRIDGE` if SurfaceTopography reads it.
     """
     path = Path(path)
     if not path.is_file():
@@ -78,7 +109,8 @@ def detect_format(path: str | Path) -> str:
         head = fh.read(4096)
     if not head:
         raise ValueError(f"{path.name}: the file is empty")
-    by_extension = [n for n, f in FORMATS.items() if path.suffix.lower() in f.extensions]
+    by_extension = [n for n, f in FORMATS.items()
+                    if path.suffix.lower() in f.extensions and _has_module(n)]
     for name in list(FORMATS):
         try:
             if _module(name).sniff(head, path):
@@ -87,6 +119,8 @@ def detect_format(path: str | Path) -> str:
             continue
     if by_extension:
         return by_extension[0]
+    if _bridge_reads(head, path):
+        return BRIDGE
     raise ValueError(f"{path.name}: unknown file format (known: {', '.join(FORMATS)})")
 
 
@@ -108,7 +142,7 @@ def open_topography(
     path : str or Path
         The file.
     format : str, optional
-        One of :data:`FORMATS` (default: detected from the content).
+        One of :data:`FORMATS` or :data:`BRIDGE` (default: detected from the content).
     size : float, str, Quantity or pair, optional
         Physical size ``(Ly, Lx)`` (or ``Lx`` of a profile) replacing the file's (which is
         often missing or wrong); numbers are in ``unit`` or the file's lateral unit.
@@ -141,14 +175,23 @@ def open_topography(
 
     path = Path(path)
     name = format or detect_format(path)
-    if name not in FORMATS:
-        raise ValueError(f"unknown format {name!r}; known: {', '.join(FORMATS)}")
+    if name not in FORMATS and name != BRIDGE:
+        raise ValueError(f"unknown format {name!r}; known: {', '.join(FORMATS)}, {BRIDGE}")
+    description = FORMATS[name].description if name in FORMATS else _BRIDGE_DESCRIPTION
     try:
-        da = _module(name).read(path, **options)
+        read = _module(name).read
+        # readers of files that may lack sizes or units (text, npy...) take them directly
+        accepted = _keyword_parameters(read)
+        for key, value in (("size", size), ("unit", unit), ("height_unit", height_unit)):
+            if value is not None and key in accepted:
+                options.setdefault(key, value)
+        da = read(path, **options)
     except (ValueError, FileNotFoundError):
         raise
+    except ImportError as err:  # optional reader dependency (e.g. SurfaceTopography)
+        raise ValueError(f"{path.name}: cannot read as {description}: {err}") from err
     except Exception as err:  # a reader choking on a corrupted file
-        raise ValueError(f"{path.name}: cannot read as {FORMATS[name].description} "
+        raise ValueError(f"{path.name}: cannot read as {description} "
                          f"({type(err).__name__}: {err})") from err
     applied = []
     if unit is not None or height_unit is not None:
@@ -169,7 +212,7 @@ def open_topography(
     if size is not None:
         dims = tuple(d for d in ("y", "x") if d in da.dims)
         da = topography(da.drop_vars(list(dims)), size=size,
-                        unit=unit or da["x"].attrs["units"])
+                        unit=unit or da["x"].attrs["units"], height_unit=da.attrs["units"])
         applied.append(f"size={size!r}")
     if periodic is not None:
         da = da.assign_attrs(periodic=int(bool(periodic)))
@@ -180,3 +223,13 @@ def open_topography(
     if da.attrs.get("sampling") == "non-uniform":  # kept as measured, on request only
         return da
     return topography(da)
+
+
+def _keyword_parameters(func) -> set[str]:
+    """Names of the keyword parameters ``func`` declares explicitly (not via ``**``)."""
+    try:
+        params = inspect.signature(func).parameters.values()
+    except (TypeError, ValueError):
+        return set()
+    return {p.name for p in params
+            if p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)}

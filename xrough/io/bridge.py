@@ -1,0 +1,362 @@
+"""Optional bridge to SurfaceTopography's readers for the long tail of instrument formats.
+
+SurfaceTopography (``pip install xrough[formats]``) reads many formats xrough has no
+native reader for: Keyence (``.vk4``, ``.vk6``), Zygo (``.dat``, ``.datx``), Sensofar
+(``.plu``, ``.plux``), Olympus (``.lext``, ``.oir``), Wyko (``.opd``), Alicona
+(``.al3d``), Agilent/Keysight (``.mi``), Nanosurf (``.nid``, ``.ezd``), NT-MDT
+(``.mdt``), Mitutoyo, ... :func:`read_with_surfacetopography` converts what it returns
+into an xrough topography: heights as a ``(y, x)`` map or ``(x,)`` profile, the physical
+size and unit the file states, and the file's metadata (the items that are numbers or
+text, flattened) in ``attrs``.
+
+SurfaceTopography follows Gwyddion's orientation: its row 0 is the *top* of the image.
+xrough's row 0 is at ``y = 0`` and plots at the bottom, so rows are reversed (as xrough's
+native Gwyddion, Nanoscope and Igor readers do): the picture is the same in every program.
+
+:func:`xrough.io.open_topography` falls back to this bridge when no native reader
+recognises a file and SurfaceTopography is installed.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from .. import units as u
+from ..topography import topography
+
+__all__ = ["available", "sniff", "read", "read_with_surfacetopography", "channels", "info_attrs"]
+
+_INSTALL_HINT = ("reading this format needs SurfaceTopography: pip install xrough[formats] "
+                 "(or pip install SurfaceTopography)")
+_RESERVED = {"units", "long_name", "periodic", "sampling", "source", "source_file",
+             "source_sha256", "format", "overrides", "name"}
+_MAX_RAW_ITEMS = 500
+_MAX_TEXT = 2000
+
+
+def _import():
+    """Import SurfaceTopography quietly (it warns about optional MPI support)."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            import SurfaceTopography
+            import SurfaceTopography.IO
+    except ImportError as err:
+        raise ImportError(_INSTALL_HINT) from err
+    return SurfaceTopography
+
+
+def available() -> bool:
+    """Whether SurfaceTopography can be imported.
+
+    Returns
+    -------
+    bool
+    """
+    try:
+        _import()
+    except ImportError:
+        return False
+    return True
+
+
+def sniff(head: bytes, path: Path | None = None) -> bool:
+    """Whether SurfaceTopography recognises the file (False when it is not installed).
+
+    This opens the file with SurfaceTopography's format detection, so it is slower than the
+    native readers' checks; :func:`xrough.io.detect_format` calls it last.
+
+    Parameters
+    ----------
+    head : bytes
+        The first bytes of the file (unused: detection needs the whole file).
+    path : pathlib.Path
+        The file.
+
+    Returns
+    -------
+    bool
+    """
+    if path is None:
+        return False
+    try:
+        st = _import()
+    except ImportError:
+        return False
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            st.IO.detect_format(str(path))
+    except Exception:  # noqa: BLE001 - any failure means "not recognised"
+        return False
+    return True
+
+
+def _attr_key(key: str) -> str:
+    name = re.sub(r"[^0-9A-Za-z_]+", "_", key).strip("_")
+    if name and not name[0].isalpha():
+        name = "k_" + name
+    if name.lower() in _RESERVED:
+        name = "file_" + name
+    return name
+
+
+def _legal(value):
+    """Convert a metadata value to str, int or float; None if it has no such form."""
+    if isinstance(value, (bool, np.bool_)):
+        return int(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value) if abs(int(value)) < 2**63 else str(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value)
+    if isinstance(value, (_dt.datetime, _dt.date, _dt.time)):
+        return value.isoformat()
+    if isinstance(value, bytes):
+        value = value.decode("utf-8", errors="replace")
+    if isinstance(value, str):
+        printable = "".join(c for c in value if c.isprintable() or c in "\t\n")
+        if len(printable) < 0.9 * len(value):  # binary bytes read as text: not metadata
+            return None
+        printable = printable.strip()
+        return printable[:_MAX_TEXT] if printable else None
+    if isinstance(value, np.ndarray) and value.size == 1:
+        return _legal(value.reshape(()).item())
+    if isinstance(value, (list, tuple, np.ndarray)) and 0 < len(value) <= 16:
+        items = [_legal(v) for v in value]
+        if all(isinstance(v, (int, float, str)) for v in items):
+            return " ".join(str(v) for v in items)
+    if hasattr(value, "value") and hasattr(value, "unit"):  # a value with its unit
+        return _legal(f"{value.value} {value.unit}")
+    return None
+
+
+def _flatten(info, prefix: str = "", out: dict | None = None, depth: int = 0) -> dict:
+    out = {} if out is None else out
+    for key, value in info.items():
+        name = _attr_key(f"{prefix}_{key}" if prefix else str(key))
+        if not name or len(out) >= _MAX_RAW_ITEMS:
+            continue
+        if isinstance(value, dict):
+            if {"value", "unit"} <= set(value) and len(value) == 2:
+                legal = _legal(f"{value['value']} {value['unit']}")
+            elif depth < 4:
+                _flatten(value, name, out, depth + 1)
+                continue
+            else:
+                continue
+        else:
+            legal = _legal(value)
+        if legal is not None and name not in out:
+            out[name] = legal
+    return out
+
+
+def info_attrs(info: dict) -> dict:
+    """NetCDF-legal attributes from a SurfaceTopography ``info`` dictionary.
+
+    Nested dictionaries are flattened with ``_`` (``instrument_name``), datetimes become
+    ISO strings, short lists space-separated strings; other items are left out. The
+    file's raw header (``raw_metadata``) is kept with the prefix ``raw_``.
+
+    Parameters
+    ----------
+    info : dict
+
+    Returns
+    -------
+    dict
+        Attribute names (letters, digits, ``_``) to str, int or float.
+
+    Examples
+    --------
+    >>> import datetime
+    >>> info_attrs({"instrument": {"name": "PLu neox", "vendor": "Sensofar"},
+    ...             "acquisition_time": datetime.datetime(2023, 3, 10, 16, 35, 59)})
+    {'instrument_name': 'PLu neox', 'instrument_vendor': 'Sensofar', 'acquisition_time': '2023-03-10T16:35:59'}
+    """  # noqa: E501
+    info = dict(info or {})
+    raw = info.pop("raw_metadata", None)
+    out = _flatten(info)
+    if isinstance(raw, dict):
+        out.update({k: v for k, v in _flatten(raw, "raw").items() if k not in out})
+    return out
+
+
+def _st_unit(unit) -> str | None:
+    if isinstance(unit, (tuple, list)):
+        unit = unit[0] if unit else None
+    if unit is None or unit == "":
+        return None
+    return u.format_units(u.as_length_unit(str(unit), what="SurfaceTopography unit"))
+
+
+def channels(path) -> list[dict]:
+    """List the data channels SurfaceTopography finds in a file.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    list of dict
+        ``index``, ``name``, ``unit`` (lateral), ``data_unit`` and ``is_height``.
+    """
+    st = _import()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        reader = st.open_topography(str(path))
+    try:
+        return [{"index": c.index, "name": c.name, "unit": c.unit, "data_unit": c.data_unit,
+                 "is_height": bool(getattr(c, "is_height_channel", True))}
+                for c in reader.channels]
+    finally:
+        _close(reader)
+
+
+def _close(reader) -> None:
+    close = getattr(reader, "close", None)
+    if close is not None:
+        try:
+            close()
+        except Exception:  # noqa: BLE001, S110 - closing must not hide the result
+            pass
+
+
+def _select(reader, channel, name: str):
+    chans = list(reader.channels)
+    if channel is None:
+        return reader.default_channel
+    if isinstance(channel, str):
+        for c in chans:
+            if c.name == channel or getattr(c, "channel_id", None) == channel:
+                return c
+        raise ValueError(f"{name}: no channel {channel!r} (channels: "
+                         f"{', '.join(repr(c.name) for c in chans)})")
+    index = int(channel)
+    if not 0 <= index < len(chans):
+        raise ValueError(f"{name}: channel index {index} out of range (0..{len(chans) - 1})")
+    return chans[index]
+
+
+def read_with_surfacetopography(path, *, channel: int | str | None = None, size=None,
+                                unit: str | None = None, height_unit: str | None = None,
+                                resample: bool = False) -> xr.DataArray:
+    """Read a topography with SurfaceTopography and convert it to an xrough topography.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file, in any format SurfaceTopography reads.
+    channel : int or str, optional
+        Channel index or name (default: the file's default channel).
+    size : float, str, Quantity or pair, optional
+        Physical size ``(Ly, Lx)`` (or ``Lx``), replacing the file's or for files without.
+    unit : str, optional
+        Lateral unit (and height unit unless ``height_unit``), replacing the file's or for
+        files without (relabels, does not convert).
+    height_unit : str, optional
+        Height unit replacing the file's.
+    resample : bool
+        For a non-uniformly sampled profile: interpolate linearly onto a uniform grid with
+        the same number of points over the same range; by default it is returned as
+        measured with ``attrs["sampling"] = "non-uniform"``.
+
+    Returns
+    -------
+    xarray.DataArray
+        Heights ``(y, x)`` or ``(x,)`` in the unit SurfaceTopography reports (it gives
+        heights and lateral sizes in one unit), the file's metadata in attrs, and
+        ``attrs["reader"]`` naming SurfaceTopography's reader.
+
+    Raises
+    ------
+    ImportError
+        SurfaceTopography is not installed (the message says what to install).
+    ValueError
+        Unrecognised or corrupted file, unknown channel, non-height channel, missing size
+        or unit.
+    """
+    st = _import()
+    path = Path(path)
+    name = path.name
+    if not path.is_file():
+        raise FileNotFoundError(f"no such file: {path}")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            reader = st.open_topography(str(path))
+        except Exception as err:  # noqa: BLE001 - ST raises its own exception types
+            raise ValueError(f"{name}: SurfaceTopography cannot read the file "
+                             f"({type(err).__name__}: {str(err).strip()[:300]})") from None
+        try:
+            chan = _select(reader, channel, name)
+            if not getattr(chan, "is_height_channel", True):
+                raise ValueError(f"{name}: channel {chan.name!r} holds {chan.data_unit} data, "
+                                 "not heights")
+            kwargs = {"channel_index": chan.index}
+            nb = tuple(chan.nb_grid_pts)
+            if chan.physical_sizes is None:  # the file has none: a placeholder, then size=
+                if size is None:
+                    raise ValueError(f"{name}: the file states no physical size: pass size=")
+                kwargs["physical_sizes"] = tuple(float(n) for n in nb)
+            if _st_unit(chan.unit) is None:
+                if unit is None:
+                    raise ValueError(f"{name}: the file states no unit: pass unit= "
+                                     "(e.g. unit='um')")
+                kwargs["unit"] = "m"  # placeholder label; relabelled below
+            topo = reader.topography(**kwargs)
+            heights = np.ma.filled(np.ma.asarray(topo.heights(), dtype=float), np.nan)
+            positions = topo.positions() if topo.dim == 1 and not topo.is_uniform else None
+            st_unit = topo.unit
+            sizes = tuple(float(s) for s in topo.physical_sizes)
+            periodic = bool(topo.is_periodic)
+            attrs = info_attrs(topo.info)
+        except ValueError:
+            raise
+        except Exception as err:  # noqa: BLE001
+            raise ValueError(f"{name}: SurfaceTopography failed to read the data "
+                             f"({type(err).__name__}: {str(err).strip()[:300]})") from None
+        finally:
+            _close(reader)
+    notes = sorted({str(w.message).strip() for w in caught
+                    if not issubclass(w.category, ImportWarning)})
+    if notes:
+        attrs["reader_warnings"] = " | ".join(notes)[:_MAX_TEXT]
+    lunit = unit or _st_unit(st_unit)
+    hunit = height_unit or unit or _st_unit(st_unit)
+    attrs.update(reader=type(reader).__name__, channel=str(chan.name),
+                 channel_index=int(chan.index))
+    if positions is not None:  # non-uniform line scan
+        return _nonuniform(name, np.asarray(positions, dtype=float), heights, lunit, hunit,
+                           attrs, resample, size)
+    if heights.ndim == 2:  # SurfaceTopography indexes [x, y], row y = 0 at the top
+        values = heights.T[::-1]
+        spacing = (sizes[1] / nb[1], sizes[0] / nb[0])
+    else:
+        values = heights
+        spacing = sizes[0] / nb[0]
+    topo = topography(values, spacing=spacing, unit=lunit, height_unit=hunit,
+                      periodic=periodic, attrs=attrs)
+    if size is not None:
+        topo = topography(topo.drop_vars([d for d in ("y", "x") if d in topo.dims]),
+                          size=size, unit=lunit, height_unit=hunit)
+    return topo
+
+
+def _nonuniform(name, x, h, lunit, hunit, attrs, resample, size):
+    from .text import _nonuniform as build
+
+    if x.size > 1 and x[0] > x[-1]:
+        x, h = x[::-1], h[::-1]
+    return build(name, x, h, lunit, hunit, attrs, resample, size, None)
+
+
+#: Module protocol of :mod:`xrough.io`: ``read(path, **options)``.
+read = read_with_surfacetopography

@@ -1,0 +1,766 @@
+"""Plain-text topographies: height matrices, x-y profiles, x-y-z point lists, CSV exports.
+
+The reader finds the block of numeric lines in the file (whitespace, comma or semicolon
+separated), takes everything before it as a header, and decides the layout from the number
+of columns:
+
+- one column: heights of a profile (the lateral scale must be given: ``spacing=``/``size=``);
+- two columns: a profile ``x, h``;
+- three columns: ``x, y, z`` points, reshaped into a map when they lie on a regular grid;
+- four or more columns: a height matrix, one line per ``y``, one column per ``x``.
+
+A matrix is written in image order: its first line is the *top* row of the image (as
+Gwyddion, SPIP or MountainsMap export it, and as SurfaceTopography reads it). xrough's row
+0 is at ``y = 0`` and plots at the bottom, so the lines are reversed on read (and on
+:func:`write`): the picture is the same in every program.
+
+Header lines (with or without ``#``/``%`` comment markers) of the forms ``key: value``,
+``key = value`` or ``key,value`` (CSV exports such as Bruker Dektak) become attributes, and
+the usual keys give sizes and units: ``Width``/``Height`` and ``Value units`` (Gwyddion
+ASCII export), ``x-length``/``y-length``, ``x-unit``/``z-unit``, ``unit``, ``pixel size``...
+A line of column names just above the data (``Lateral um,Raw Micrometer`` or
+``x [mm]  h [nm]``) gives the unit of each column.
+
+Profiles whose ``x`` column is uniform within the precision it is printed with are read on
+a uniform grid (the spacing from a least-squares fit of the positions). Others are
+**non-uniformly sampled** and never resampled silently: they are returned on their
+measured ``x`` with ``attrs["sampling"] = "non-uniform"`` unless ``resample=True`` asks for
+linear interpolation onto a uniform grid.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from .. import units as u
+from ..topography import grid_of, topography
+
+__all__ = ["sniff", "read", "write"]
+
+_NUM = r"[-+]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|nan|inf|infinity)"
+_NUM_RE = re.compile(rf"^{_NUM}$", re.IGNORECASE)
+_DATA_LINE = re.compile(rf"^\s*{_NUM}(?:(?:\s*[,;]\s*|\s+){_NUM})*[\s,;]*$", re.IGNORECASE)
+_COMMENT = ("#", "%", "//", "!", ";")
+_TOKEN_PARTS = re.compile(r"^[-+]?(\d*)(?:\.(\d*))?(?:[eE]([-+]?\d+))?$")
+# Magic strings of text-based formats that have their own reader.
+_OTHER_TEXT_FORMATS = (b"aISO-1.0", b"aBCR-1.0", b"bISO-1.0", b"bBCR-1.0", b"\\*File list",
+                       b"?*File list")
+_RESERVED_ATTRS = {"units", "long_name", "periodic", "sampling", "source", "source_file",
+                   "source_sha256", "format", "overrides", "name", "standard_name"}
+
+# Spellings of length units found in headers and column names -> CF strings.
+_UNIT_SYMBOLS = {"m": "m", "cm": "cm", "mm": "mm", "um": "um", "µm": "um", "μm": "um",
+                 "nm": "nm", "pm": "pm", "Å": "angstrom"}
+_UNIT_NAMES = {
+    "meter": "m", "meters": "m", "metre": "m", "metres": "m",
+    "centimeter": "cm", "centimeters": "cm", "centimetre": "cm", "centimetres": "cm",
+    "millimeter": "mm", "millimeters": "mm", "millimetre": "mm", "millimetres": "mm",
+    "micrometer": "um", "micrometers": "um", "micrometre": "um", "micrometres": "um",
+    "micron": "um", "microns": "um",
+    "nanometer": "nm", "nanometers": "nm", "nanometre": "nm", "nanometres": "nm",
+    "picometer": "pm", "picometers": "pm", "picometre": "pm", "picometres": "pm",
+    "angstrom": "angstrom", "angstroms": "angstrom", "ångström": "angstrom",
+}
+
+# Normalised header keys (lower case, without spaces, '-', '_', '.') and what they mean.
+_X_SIZE = {"width", "xlength", "lengthx", "xrange", "rangex", "xscansize", "scansizex",
+           "sizex", "xscanrange", "fastscansize"}
+_Y_SIZE = {"height", "ylength", "lengthy", "yrange", "rangey", "yscansize", "scansizey",
+           "sizey", "yscanrange", "slowscansize"}
+_XY_SIZE = {"scansize", "scanrange", "imagesize", "size"}
+_PROFILE_SIZE = {"length", "scanlength", "profilelength", "evaluationlength"}
+_X_SPACING = {"pixelsize", "xspacing", "spacingx", "dx", "xstep", "stepx", "stepsize",
+              "spacing", "scalex", "xpixelsize", "samplingdistance", "resolution"}
+_Y_SPACING = {"yspacing", "spacingy", "dy", "ystep", "stepy", "scaley", "ypixelsize"}
+_X_UNIT = {"xunit", "xunits", "unitx", "lateralunit", "lateralunits", "xyunit",
+           "xyunits", "unitxy"}
+_Y_UNIT = {"yunit", "yunits", "unity"}
+_Z_UNIT = {"zunit", "zunits", "unitz", "valueunits", "valueunit", "heightunit",
+           "heightunits", "unitdata", "dataunit", "dataunits", "zscaleunit"}
+_ANY_UNIT = {"unit", "units", "lengthunit"}
+# Keys too common to mean a size or spacing unless the value carries a length unit.
+_NEEDS_UNIT = {"width", "height", "size", "length", "resolution", "spacing", "range"}
+_X_COUNT = {"xpixels", "nx", "pointsperline", "samplesperline", "xres", "npointsx"}
+_Y_COUNT = {"ypixels", "ny", "lines", "numberoflines", "yres", "npointsy"}
+
+
+# ---------------------------------------------------------------------------------------
+# decoding and line classification
+
+
+def _decode(data: bytes) -> str:
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        return data.decode("utf-16", errors="replace")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return data.decode("latin-1")  # never fails; instrument exports use it (µ = 0xB5)
+
+
+def _looks_binary(data: bytes) -> bool:
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        return False
+    if b"\x00" in data:
+        return True
+    control = sum(1 for b in data[:4096] if b < 32 and b not in (9, 10, 12, 13))
+    return control > 0.01 * max(1, min(len(data), 4096))
+
+
+def _is_comment(line: str) -> bool:
+    return line.lstrip().startswith(_COMMENT)
+
+
+def _strip_comment(line: str) -> str:
+    text = line.strip()
+    for marker in _COMMENT:
+        if text.startswith(marker):
+            return text.lstrip(marker[0]).strip()
+    return text
+
+
+def sniff(head: bytes, path: Path) -> bool:
+    """Whether ``head`` looks like plain text with lines of numbers.
+
+    Parameters
+    ----------
+    head : bytes
+        The first bytes of the file (up to 4 kB).
+    path : pathlib.Path
+        The file (unused: plain text is recognised by content only).
+
+    Returns
+    -------
+    bool
+    """
+    if not head or _looks_binary(head) or head.lstrip().startswith(_OTHER_TEXT_FORMATS):
+        return False
+    lines = _decode(head).splitlines()
+    if len(head) >= 4096 and len(lines) > 1:
+        lines = lines[:-1]  # the last line may be cut
+    elif len(head) >= 4096 and lines:  # one very long line: drop its cut last number
+        lines = [re.sub(r"[\s,;]*[^\s,;]*$", "", lines[0])]
+    return any(_DATA_LINE.match(line) for line in lines if line.strip()
+               and not _is_comment(line))
+
+
+# ---------------------------------------------------------------------------------------
+# header parsing
+
+
+def _norm_key(key: str) -> str:
+    return re.sub(r"[\s\-_.()\[\]/]+", "", key).lower()
+
+
+def _attr_name(key: str) -> str:
+    name = re.sub(r"[^0-9A-Za-z_]+", "_", key.strip()).strip("_")
+    if not name:
+        return ""
+    if not name[0].isalpha():
+        name = "k_" + name
+    if name.lower() in _RESERVED_ATTRS:
+        name = "file_" + name
+    return name
+
+
+def _attr_value(text: str):
+    text = text.strip()
+    if re.fullmatch(r"[-+]?\d+", text):
+        try:
+            value = int(text)
+        except ValueError:  # pragma: no cover - regex guarantees digits
+            return text
+        return value if abs(value) < 2**63 else text
+    if _NUM_RE.match(text) and text.lower() not in ("nan", "inf", "infinity"):
+        return float(text)
+    return text
+
+
+def _length_unit(word: str) -> str | None:
+    """CF string of a length unit written as ``word``, or None."""
+    word = word.strip().strip(".:,;")
+    if not word:
+        return None
+    if word in _UNIT_SYMBOLS:
+        return _UNIT_SYMBOLS[word]
+    if word.isupper() and word.lower() in _UNIT_SYMBOLS and word.lower() != "m":
+        return _UNIT_SYMBOLS[word.lower()]
+    return _UNIT_NAMES.get(word.lower())
+
+
+def _unit_in(text: str) -> str | None:
+    """Find the length unit named in a column title or header value (None if none)."""
+    for inner in re.findall(r"[\[(]\s*([^\])]+?)\s*[\])]", text):
+        found = _length_unit(inner)
+        if found:
+            return found
+    m = re.search(r"(?:/|\bin\b)\s*(\S+)\s*$", text)
+    if m and _length_unit(m.group(1)):
+        return _length_unit(m.group(1))
+    for word in reversed(re.split(r"[\s_:=/\[\]()]+", text)):
+        found = _length_unit(word)
+        if found:
+            return found
+    return None
+
+
+def _quantity_in(text: str) -> tuple[float, str | None] | None:
+    """``(value, unit)`` of a header value such as ``10.00 µm`` or ``0.156 um/sample``."""
+    m = re.match(rf"^\s*({_NUM})\s*(.*?)\s*$", text, re.IGNORECASE)
+    if not m:
+        return None
+    value = float(m.group(1))
+    rest = re.sub(r"\s*/\s*(sample|samples|pt|pts|point|points|pixel|pixels|px|line|"
+                  r"lines)\s*$", "", m.group(2), flags=re.IGNORECASE)
+    if not rest:
+        return value, None
+    unit = _length_unit(rest)
+    return (value, unit) if unit else None
+
+
+def _split_key_value(line: str) -> tuple[str, str] | None:
+    text = _strip_comment(line)
+    if not text:
+        return None
+    head = text.split(",", 1)[0]
+    if "," in text and not re.search(r"[:=：]", head):
+        fields = [f.strip() for f in text.split(",")]
+        while fields and not fields[-1]:
+            fields.pop()
+        if len(fields) >= 2 and fields[0]:
+            return fields[0], ", ".join(fields[1:])
+        return None
+    m = re.match(r"^([^:=：]+?)\s*[:=：]\s*(.*)$", text)
+    if m:
+        return m.group(1).strip(), m.group(2).strip()
+    if "\t" in text:
+        key, value = text.split("\t", 1)
+        return key.strip(), value.strip()
+    return None
+
+
+class _Header:
+    """Metadata found before the data: raw attributes plus the recognised geometry."""
+
+    def __init__(self):
+        self.attrs: dict[str, str | int | float] = {}
+        self.size = {"x": None, "y": None, "xy": None, "profile": None}
+        self.spacing = {"x": None, "y": None}
+        self.unit = {"x": None, "y": None, "z": None, "any": None}
+        self.count = {"x": None, "y": None}
+
+    def add(self, key: str, value: str) -> None:
+        name = _attr_name(key)
+        if name and value:
+            while name in self.attrs:
+                name += "_"
+            self.attrs[name] = _attr_value(value)
+        k = _norm_key(key)
+        q = _quantity_in(value) if value else None
+        if q is not None and q[1] is None and k in _NEEDS_UNIT:
+            q = None
+        for keys, slot in ((_X_SIZE, "x"), (_Y_SIZE, "y"), (_XY_SIZE, "xy"),
+                           (_PROFILE_SIZE, "profile")):
+            if k in keys and q is not None and self.size[slot] is None:
+                self.size[slot] = q
+        for keys, slot in ((_X_SPACING, "x"), (_Y_SPACING, "y")):
+            if k in keys and q is not None and self.spacing[slot] is None:
+                self.spacing[slot] = q
+        for keys, slot in ((_X_UNIT, "x"), (_Y_UNIT, "y"), (_Z_UNIT, "z"), (_ANY_UNIT, "any")):
+            if k in keys and self.unit[slot] is None:
+                self.unit[slot] = _length_unit(value) or _unit_in(value)
+        for keys, slot in ((_X_COUNT, "x"), (_Y_COUNT, "y")):
+            if k in keys and re.fullmatch(r"\d+", value.strip()):
+                self.count[slot] = int(value)
+
+    def lateral_unit(self) -> str | None:
+        for q in (self.size["x"], self.size["xy"], self.size["profile"], self.spacing["x"]):
+            if q is not None and q[1]:
+                return q[1]
+        return self.unit["x"] or self.unit["any"]
+
+    def height_unit(self) -> str | None:
+        return self.unit["z"] or self.unit["any"]
+
+
+def _column_names(line: str, ncols: int, delimiter: str | None) -> list[str] | None:
+    text = _strip_comment(line)
+    if not text or _DATA_LINE.match(text) or re.search(r"[:=：]", text):
+        return None
+    candidates = []
+    if delimiter:
+        candidates.append(text.split(delimiter))
+    candidates += [text.split("\t"), re.split(r"\s{2,}", text),
+                   re.findall(r"[^\s\[(]+(?:\s*[\[(][^\])]*[\])])?", text), text.split()]
+    for names in candidates:
+        names = [n.strip() for n in names]
+        while names and not names[-1]:
+            names.pop()
+        if len(names) == ncols and all(names):
+            return names
+    return None
+
+
+# ---------------------------------------------------------------------------------------
+# the data block
+
+
+def _tokens(line: str, delimiter: str | None, decimal_comma: bool) -> list[str]:
+    text = line.strip().rstrip(",;").strip()
+    if delimiter:
+        fields = [f.strip() for f in text.split(delimiter)]
+    else:
+        fields = text.split()
+    if decimal_comma:
+        fields = [f.replace(",", ".") for f in fields]
+    return fields
+
+
+def _quanta(tokens: list[str]) -> np.ndarray:
+    """Value of one unit in the last printed digit of each number (its rounding step)."""
+    out = np.empty(len(tokens))
+    for i, tok in enumerate(tokens):
+        m = _TOKEN_PARTS.match(tok)
+        if not m:  # nan, inf
+            out[i] = np.nan
+            continue
+        decimals = len(m.group(2) or "")
+        exponent = int(m.group(3) or 0)
+        out[i] = 10.0 ** (exponent - decimals)
+    return out
+
+
+def _uniform_fit(x: np.ndarray, quanta: np.ndarray):
+    """Least-squares uniform grid through ``x`` and whether ``x`` lies on it.
+
+    ``x`` is accepted as uniform when every position is within one rounding step of its
+    printed value from the fitted grid (the rounding of the file, not of the sampling).
+
+    Returns
+    -------
+    uniform : bool
+    step, origin, max_deviation : float
+    """
+    n = x.size
+    i = np.arange(n, dtype=float)
+    scale = np.max(np.abs(x))
+    step, origin = (x[-1] - x[0]) / (n - 1), x[0]
+    dev = np.abs(x - (origin + step * i))
+    if dev.max() > 1e-12 * scale:  # not exactly uniform: fit through the rounded values
+        step, origin = np.polyfit(i, x, 1)
+        dev = np.abs(x - (origin + step * i))
+        finest = np.nanmin(quanta) if np.any(np.isfinite(quanta)) else 0.0
+        if abs(origin) < 0.5 * finest:  # the fit's offset is below the printed precision
+            origin = 0.0
+    tol = np.where(np.isfinite(quanta), quanta, 0.0) * (1 + 1e-9) + 1e-12 * scale
+    uniform = bool(step > 0 and np.all(dev <= tol))
+    return uniform, float(step), float(origin), float(dev.max())
+
+
+def _data_block(name: str, lines: list[str]):
+    """Locate the numeric block: ``(start, stop, numeric line indices)``."""
+    runs: list[list[int]] = []
+    current: list[int] = []
+    breaks: dict[int, int] = {}  # run index -> the text line that ended it
+    for i, line in enumerate(lines):
+        if not line.strip() or _is_comment(line):
+            continue
+        if _DATA_LINE.match(line):
+            current.append(i)
+        else:
+            if current:
+                breaks[len(runs)] = i
+                runs.append(current)
+                current = []
+    if current:
+        runs.append(current)
+    if not runs:
+        raise ValueError(f"{name}: no lines of numbers found: not a text topography "
+                         "(matrix, x-y profile, x-y-z points or CSV export)")
+    main = max(range(len(runs)), key=lambda k: (len(runs[k]), k))
+    ncols = len(re.split(r"(?:\s*[,;]\s*|\s+)", lines[runs[main][0]].strip().strip(",;")))
+    for k, run in enumerate(runs):
+        if k == main:
+            continue
+        width = len(re.split(r"(?:\s*[,;]\s*|\s+)", lines[run[0]].strip().strip(",;")))
+        if len(run) > 2 or width == ncols:
+            bad = breaks.get(min(k, main))
+            where = (f"line {bad + 1}: cannot read {lines[bad].strip()[:60]!r} as numbers"
+                     if bad is not None else "several blocks of numbers")
+            raise ValueError(f"{name}: {where} (the block of numbers is interrupted; "
+                             "the file looks corrupted)")
+    return runs[main]
+
+
+def _parse(path: Path, encoding: str | None):
+    name = path.name
+    data = path.read_bytes()
+    if not data.strip():
+        raise ValueError(f"{name}: the file is empty")
+    if encoding is None and _looks_binary(data[:65536]):
+        raise ValueError(f"{name}: binary content, not a text file")
+    text = data.decode(encoding) if encoding else _decode(data)
+    lines = text.splitlines()
+    rows = _data_block(name, lines)
+    sample = [lines[i] for i in rows[:50]]
+    decimal_comma = False
+    if any(";" in s for s in sample):
+        delimiter = ";"
+        decimal_comma = any("," in s for s in sample)
+    elif any("," in s for s in sample):
+        delimiter = ","
+    else:
+        delimiter = None
+    tokens = [_tokens(lines[i], delimiter, decimal_comma) for i in rows]
+    ncols = len(tokens[0])
+    for i, tok in zip(rows, tokens):
+        if len(tok) != ncols:
+            raise ValueError(f"{name}: line {i + 1} has {len(tok)} values where the lines "
+                             f"before have {ncols}")
+    try:
+        values = np.array(tokens, dtype=float)
+    except ValueError as err:
+        raise ValueError(f"{name}: cannot read the numbers ({err})") from None
+    header = _Header()
+    first = rows[0]
+    names = None
+    before = [i for i in range(first) if lines[i].strip()]
+    if before:
+        names = _column_names(lines[before[-1]], ncols, delimiter)
+    for i in before:
+        if names is not None and i == before[-1]:
+            continue
+        kv = _split_key_value(lines[i])
+        if kv:
+            header.add(*kv)
+    for i in range(first, len(lines)):  # comments between and after the data lines
+        if _is_comment(lines[i]):
+            kv = _split_key_value(lines[i])
+            if kv:
+                header.add(*kv)
+    return values, tokens, names, header
+
+
+# ---------------------------------------------------------------------------------------
+# building the topography
+
+
+def _lateral_pair(name, qx, qy, unit, fallback):
+    """``((y, x), unit)`` from header quantities along x and y (y converted to x's unit)."""
+    ux = qx[1] or qy[1] or fallback
+    if ux is None:
+        raise _need_unit(name, "lateral size", "unit=")
+    factor = u.conversion_factor(qy[1], ux) if qy[1] else 1.0
+    return (qy[0] * factor, qx[0]), unit or ux
+
+
+def _need_unit(name: str, what: str, option: str) -> ValueError:
+    return ValueError(f"{name}: the file states no unit for the {what}: pass {option} "
+                      "(e.g. unit='nm'); no unit is guessed")
+
+
+def _nonuniform(name, x, h, lunit, hunit, attrs, resample, size, spacing):
+    if resample:
+        xu = np.linspace(x[0], x[-1], x.size)
+        hu = np.interp(xu, x, h)
+        dx = (x[-1] - x[0]) / (x.size - 1)
+        attrs = dict(attrs, sampling="resampled",
+                     resampling=(f"linear interpolation of {x.size} non-uniformly sampled "
+                                 f"points onto {x.size} uniform points over "
+                                 f"[{x[0]:.10g}, {x[-1]:.10g}] {lunit}"),
+                     x_offset=float(x[0]))
+        topo = topography(hu, spacing=dx, unit=lunit, height_unit=hunit, attrs=attrs)
+        if size is not None or spacing is not None:
+            topo = topography(topo.drop_vars("x"), size=size, spacing=spacing, unit=lunit,
+                              height_unit=hunit)
+        return topo
+    if size is not None or spacing is not None:
+        raise ValueError(f"{name}: the profile is sampled non-uniformly; size=/spacing= cannot "
+                         "replace its measured positions (pass resample=True to "
+                         "interpolate it onto a uniform grid first)")
+    da = xr.DataArray(
+        h, dims=("x",), name="height",
+        coords={"x": ("x", x, {"units": u.format_units(lunit), "long_name": "x position"})},
+        attrs={"units": u.format_units(hunit), "long_name": "height", "periodic": 0,
+               **attrs, "sampling": "non-uniform"},
+    )
+    return da
+
+
+def _profile(name, x, h, xtok, lunit, hunit, attrs, resample, size, spacing):
+    if x.size < 2:
+        raise ValueError(f"{name}: a profile needs at least 2 points")
+    if not np.all(np.isfinite(x)):
+        raise ValueError(f"{name}: the x column has missing (NaN) or infinite positions")
+    q = _quanta(xtok)
+    if np.all(np.diff(x) < 0):
+        x, h, q = x[::-1], h[::-1], q[::-1]
+        attrs["x_reversed"] = 1
+    if not np.all(np.diff(x) > 0):
+        bad = int(np.argmax(np.diff(x) <= 0))
+        raise ValueError(f"{name}: the x column is not monotonic (point {bad + 1} at "
+                         f"{x[bad]:g}, the next at {x[bad + 1]:g}): a re-entrant or "
+                         "unsorted profile cannot be read")
+    uniform, step, origin, dev = _uniform_fit(x, q)
+    if not uniform:
+        return _nonuniform(name, x, h, lunit, hunit, attrs, resample, size, spacing)
+    if spacing is not None or size is not None:
+        attrs.update(sampling="uniform", x_offset=float(origin))
+        return topography(h, spacing=spacing, size=size, unit=lunit, height_unit=hunit,
+                          attrs=attrs)
+    attrs.update(sampling="uniform", x_offset=float(origin), x_max_deviation=dev)
+    return topography(h, spacing=step, unit=lunit, height_unit=hunit, attrs=attrs)
+
+
+def _grid_axis(name, values, tokens, what):
+    uniq, first = np.unique(values, return_index=True)
+    if uniq.size < 2:
+        raise ValueError(f"{name}: the {what} column takes a single value: not a map")
+    uniform, step, origin, _ = _uniform_fit(uniq, _quanta([tokens[i] for i in first]))
+    if not uniform:
+        raise ValueError(f"{name}: the x-y-z points are not on a regular grid (the {what} "
+                         "values are not uniformly spaced); interpolate them onto a "
+                         "uniform grid first (e.g. scipy.interpolate.griddata)")
+    return uniq, step, origin
+
+
+def _xyz(name, values, tokens, lunit, hunit, attrs):
+    x, y, z = values.T
+    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
+        raise ValueError(f"{name}: some x-y-z points have no x or y position")
+    ux, dx, x0 = _grid_axis(name, x, [t[0] for t in tokens], "x")
+    uy, dy, y0 = _grid_axis(name, y, [t[1] for t in tokens], "y")
+    ix = np.searchsorted(ux, x)
+    iy = np.searchsorted(uy, y)
+    flat = iy * ux.size + ix
+    if np.unique(flat).size != flat.size:
+        raise ValueError(f"{name}: some x-y positions appear more than once: not a map")
+    if flat.size < 0.5 * ux.size * uy.size:
+        raise ValueError(f"{name}: the x-y-z points are not on a regular grid ({flat.size} "
+                         f"points for a {uy.size} x {ux.size} grid); interpolate them onto "
+                         "a uniform grid first")
+    grid = np.full((uy.size, ux.size), np.nan)
+    grid[iy, ix] = z
+    if flat.size < grid.size:
+        attrs["missing_points"] = int(grid.size - flat.size)
+    if not np.isclose(dx, dy, rtol=1e-6):
+        spacing = (dy, dx)
+    else:
+        spacing = dx
+    attrs.update(x_offset=float(x0), y_offset=float(y0), sampling="uniform")
+    return topography(grid, spacing=spacing, unit=lunit, height_unit=hunit, attrs=attrs)
+
+
+def read(path, *, unit: str | None = None, height_unit: str | None = None, spacing=None,
+         size=None, resample: bool = False, layout: str | None = None,
+         column: int | str | None = None, encoding: str | None = None) -> xr.DataArray:
+    r"""Read a topography from a plain-text file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    unit : str, optional
+        Lateral unit, and the height unit unless ``height_unit`` is given. Replaces what
+        the file states (relabels); required when the file states no unit.
+    height_unit : str, optional
+        Unit of the heights (replaces the file's).
+    spacing : float, str, Quantity or pair, optional
+        Grid spacing ``(dy, dx)`` or ``dx``, for files without lateral information (a bare
+        matrix or column of heights); replaces the file's otherwise.
+    size : float, str, Quantity or pair, optional
+        Physical size ``(Ly, Lx)`` or ``Lx`` (alternative to ``spacing``).
+    resample : bool
+        For a non-uniformly sampled profile: interpolate linearly onto a uniform grid with
+        the same number of points over the same range. By default (False) such a profile
+        is returned as measured, on its non-uniform ``x``.
+    layout : {"matrix", "profile", "xyz", "column"}, optional
+        Force the layout instead of deciding it from the number of columns.
+    column : int or str, optional
+        For a table with several height columns (``x, h1, h2...``): the column (index or
+        name) holding the heights; ``x`` is the first column.
+    encoding : str, optional
+        Text encoding (default: UTF-8, falling back to Latin-1).
+
+    Returns
+    -------
+    xarray.DataArray
+        A topography (:func:`xrough.topography`), or for a non-uniformly sampled profile
+        read without ``resample`` a profile on its measured ``x`` with
+        ``attrs["sampling"] = "non-uniform"``. Header entries are in ``attrs``; lateral
+        offsets of the file's coordinates in ``attrs["x_offset"]`` (``y_offset``).
+
+    Raises
+    ------
+    ValueError
+        Garbage or corrupted text, irregular x-y-z points, missing size or units (the
+        message names the file and says what to pass).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     p = pathlib.Path(tmp) / "m.txt"
+    ...     _ = p.write_text("# Width: 4 um\n# Height: 2 um\n# Value units: nm\n"
+    ...                      "1 2 3 4\n5 6 7 8\n")
+    ...     t = read(p)
+    >>> t.dims, t.shape, t.x.attrs["units"], t.attrs["units"], float(t.x[1])
+    (('y', 'x'), (2, 4), 'um', 'nm', 1.0)
+    >>> t.isel(y=0).values.tolist()  # the last line of the file is the bottom row, y = 0
+    [5.0, 6.0, 7.0, 8.0]
+    """
+    path = Path(path)
+    name = path.name
+    if layout not in (None, "matrix", "profile", "xyz", "column"):
+        raise ValueError(f"layout must be 'matrix', 'profile', 'xyz' or 'column', got "
+                         f"{layout!r}")
+    values, tokens, names, header = _parse(path, encoding)
+    nrows, ncols = values.shape
+    attrs = dict(header.attrs)
+    if names:
+        attrs["columns"] = ", ".join(names)
+    if layout is None:
+        if column is not None:
+            layout = "profile"
+        else:
+            layout = {1: "column", 2: "profile", 3: "xyz"}.get(ncols, "matrix")
+    attrs["text_layout"] = layout
+    col_units = [_unit_in(n) for n in names] if names else [None] * ncols
+
+    if layout == "matrix":
+        if nrows < 2 or ncols < 2:
+            raise ValueError(f"{name}: a height matrix needs at least 2 rows and 2 columns, "
+                             f"got {nrows} x {ncols}")
+        for dim, n in (("x", ncols), ("y", nrows)):
+            if header.count[dim] is not None and header.count[dim] != n:
+                raise ValueError(f"{name}: the header states {header.count[dim]} points "
+                                 f"along {dim} but the matrix has {n} (truncated file?)")
+        hunit = height_unit or unit or header.height_unit()
+        if hunit is None:
+            raise _need_unit(name, "heights", "unit= or height_unit=")
+        lunit = unit or header.lateral_unit()
+        if spacing is None and size is None:
+            sx = header.size["x"] or header.size["xy"]
+            sy = header.size["y"] or header.size["xy"]
+            dx = header.spacing["x"]
+            dy = header.spacing["y"] or dx
+            if sx is not None and sy is not None:
+                size, lunit = _lateral_pair(name, sx, sy, unit, header.lateral_unit())
+            elif dx is not None:
+                spacing, lunit = _lateral_pair(name, dx, dy, unit, header.lateral_unit())
+            else:
+                raise ValueError(
+                    f"{name}: a height matrix without lateral size: pass size=(Ly, Lx) or "
+                    "spacing=(dy, dx) (numbers in unit=, or strings such as '10 um')")
+        return topography(values[::-1], spacing=spacing, size=size, unit=lunit,
+                          height_unit=hunit, attrs=attrs)
+
+    if layout == "column":
+        hunit = height_unit or unit or (col_units[0] if ncols == 1 else None) \
+            or header.height_unit()
+        if hunit is None:
+            raise _need_unit(name, "heights", "unit= or height_unit=")
+        h = values[:, 0] if ncols == 1 else values.ravel()
+        if spacing is None and size is None:
+            prof = header.size["profile"] or header.size["x"]
+            if header.spacing["x"] is not None:
+                spacing = header.spacing["x"][0]
+                lunit = unit or header.spacing["x"][1] or header.lateral_unit()
+            elif prof is not None:
+                size = prof[0]
+                lunit = unit or prof[1] or header.lateral_unit()
+            else:
+                raise ValueError(f"{name}: a column of heights without lateral size: pass "
+                                 "size= (the profile length) or spacing=")
+        else:
+            lunit = unit or header.lateral_unit()
+        if lunit is None and not any(isinstance(v, str) for v in (spacing, size)):
+            raise _need_unit(name, "lateral size", "unit=")
+        return topography(h, spacing=spacing, size=size, unit=lunit, height_unit=hunit,
+                          attrs=attrs)
+
+    if layout == "profile":
+        if ncols < 2:
+            raise ValueError(f"{name}: a profile needs two columns (x, h), found {ncols}")
+        hcol = 1
+        if column is not None:
+            if isinstance(column, str):
+                if not names or column not in names:
+                    raise ValueError(f"{name}: no column named {column!r} (columns: "
+                                     f"{', '.join(names) if names else 'no names'})")
+                hcol = names.index(column)
+            else:
+                hcol = int(column)
+            if not 0 < hcol < ncols:
+                raise ValueError(f"{name}: column must name a height column 1..{ncols - 1}")
+        elif ncols > 2:
+            raise ValueError(f"{name}: {ncols} columns; pass column= to choose the height "
+                             "column of a profile table, or layout='matrix'/'xyz'")
+        lunit = unit or col_units[0] or header.unit["x"] or header.unit["any"] \
+            or header.lateral_unit()
+        hunit = height_unit or unit or col_units[hcol] or header.height_unit()
+        if lunit is None:
+            raise _need_unit(name, "x positions", "unit=")
+        if hunit is None:
+            raise _need_unit(name, "heights", "unit= or height_unit=")
+        if column is not None and names:
+            attrs["height_column"] = names[hcol]
+        return _profile(name, values[:, 0], values[:, hcol], [t[0] for t in tokens],
+                        lunit, hunit, attrs, resample, size, spacing)
+
+    # x-y-z points
+    if ncols != 3:
+        raise ValueError(f"{name}: x-y-z points need three columns, found {ncols}")
+    lunit = unit or col_units[0] or col_units[1] or header.lateral_unit()
+    hunit = height_unit or unit or col_units[2] or header.height_unit()
+    if lunit is None:
+        raise _need_unit(name, "x-y positions", "unit=")
+    if hunit is None:
+        raise _need_unit(name, "heights", "unit= or height_unit=")
+    try:
+        topo = _xyz(name, values, tokens, lunit, hunit, attrs)
+    except ValueError as err:
+        raise ValueError(f"{err} (if the three columns are x and two height columns, pass "
+                         "column=; if they are a height matrix, layout='matrix')") from None
+    if spacing is not None or size is not None:
+        topo = topography(topo.drop_vars(["y", "x"]), spacing=spacing, size=size,
+                          unit=lunit, height_unit=hunit)
+    return topo
+
+
+def write(topo: xr.DataArray, path, *, fmt: str = "%.17g") -> None:
+    """Write a topography as text that :func:`read` reads back.
+
+    A map is written as a matrix (one line per ``y``, the top row first) under a
+    Gwyddion-style header
+    (``# Width``, ``# Height``, ``# Value units``); a profile as two columns ``x`` and
+    height under a line of column names with units.
+
+    Parameters
+    ----------
+    topo : xarray.DataArray
+        A topography (no extra dims).
+    path : str or Path
+        The output file.
+    fmt : str
+        Number format (default: enough digits to read back the same floats).
+    """
+    grid = grid_of(topo)
+    if topo.ndim != len(grid.dims):
+        raise ValueError("only a single map or profile can be written as text; select "
+                         "one scan of the stack first")
+    lu, hu = grid.lateral_unit, grid.height_unit
+    if grid.dims == ("y", "x"):
+        header = (f"Channel: {topo.name or 'height'}\n"
+                  f"Width: {grid.size[1]:.17g} {lu}\n"
+                  f"Height: {grid.size[0]:.17g} {lu}\n"
+                  f"Value units: {hu}")
+        np.savetxt(path, topo.transpose("y", "x").values[::-1], fmt=fmt, delimiter="\t",
+                   header=header, comments="# ")
+    else:
+        data = np.column_stack([topo["x"].values, topo.values])
+        np.savetxt(path, data, fmt=fmt, delimiter="\t", header=f"x [{lu}]\theight [{hu}]",
+                   comments="# ")
