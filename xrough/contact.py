@@ -173,7 +173,7 @@ def _p0_values(p0):
 
 def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "persson",
                gradient: xr.DataArray | None = None, kappa: float = KAPPA_PERSSON,
-               gradient_method: str = "exact") -> xr.DataArray:
+               gradient_method: str = "auto") -> xr.DataArray:
     r"""Stress autocorrelation function in full (eq. 24) or partial contact (eq. 30/48).
 
     Full contact (exact within linear elasticity, the ``p0^2`` offset left out):
@@ -205,8 +205,9 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
         computing it again.
     kappa : float
         Slope of ``a_r`` at small pressure (eq. 29; Persson: ``sqrt(8/pi)``).
-    gradient_method : {'exact', 'simple', 'fit'}
-        How ``gbar`` is obtained when ``gradient`` is not given.
+    gradient_method : {'auto', 'exact', 'simple', 'fit'}
+        How ``gbar`` is obtained when ``gradient`` is not given
+        (see :func:`xrough.rms_gradient`).
 
     Returns
     -------
@@ -356,7 +357,7 @@ def _quick_stress(G: xr.DataArray, fit: xr.Dataset, E: float, p0s: np.ndarray) -
 
 def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
             kappa: float = KAPPA_PERSSON, gradient: xr.DataArray | None = None,
-            gradient_method: str = "exact", variables: tuple[str, ...] | None = None,
+            gradient_method: str = "auto", variables: tuple[str, ...] | None = None,
             fit: xr.Dataset | None = None) -> xr.Dataset:
     r"""Real-space Persson theory of partial contact as a function of resolution ``dr``.
 
@@ -391,9 +392,10 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
         Small-pressure slope of the contact area (simulations suggest about 2).
     gradient : xarray.DataArray, optional
         Precomputed ``gbar(dr)`` on the same ``dr``; computed once otherwise.
-    gradient_method : {'exact', 'simple', 'fit'}
+    gradient_method : {'auto', 'exact', 'simple', 'fit'}
         See :func:`xrough.rms_gradient`. The exact gradient exists only on the lags where G
-        supports the spectrum; the result then covers those lags only.
+        supports the spectrum; the result then covers those lags only. ``'auto'`` falls
+        back to the fit where G does not support it.
     variables : tuple of str, optional
         Only these outputs (others are not computed); default all of
         ``p_star, a_r, a_ri, sigma_c, sigma_quick, G_sigma, Gamma_sigma, G_du``.

@@ -9,6 +9,8 @@ needs at resolution ``dr``. Three ways to get it from G:
 ``"simple"``
     ``gbar^2 = 4 G(dr) / dr^2``, exact only in the ballistic regime (``q_s dr << 1``) and an
     overestimate elsewhere.
+``"auto"``
+    the first of these that G supports.
 ``"fit"``
     from the fit of G (:func:`xrough.fit_acf`): eq. 26 of the fitted model spectrum, or
     eq. 37/38 for a fit of eq. 36.
@@ -23,7 +25,7 @@ from .curves import check_acf
 
 __all__ = ["rms_gradient", "GRADIENT_METHODS"]
 
-GRADIENT_METHODS = ("exact", "simple", "fit")
+GRADIENT_METHODS = ("auto", "exact", "simple", "fit")
 
 
 def _simple(G: xr.DataArray) -> xr.DataArray:
@@ -32,16 +34,18 @@ def _simple(G: xr.DataArray) -> xr.DataArray:
     return np.sqrt(4.0 * G * gf / dr**2)
 
 
-def rms_gradient(G: xr.DataArray, *, method: str = "exact") -> xr.DataArray:
+def rms_gradient(G: xr.DataArray, *, method: str = "auto") -> xr.DataArray:
     r"""Scale-dependent rms gradient ``gbar(dr)`` (eq. 26 or its approximations).
 
     Parameters
     ----------
     G : xarray.DataArray
         Height-difference ACF on dim ``dr`` (length^2, ``dr`` in length).
-    method : {'exact', 'simple', 'fit'}
+    method : {'auto', 'exact', 'simple', 'fit'}
         Eq. 26 via the spectrum from eq. 10/11; ``sqrt(4 G / dr^2)``; or from the fit of G
-        (eq. 26 of the fitted spectrum, or eq. 37/38 for eq. 36).
+        (eq. 26 of the fitted spectrum, or eq. 37/38 for eq. 36). ``'auto'`` (default)
+        takes ``'exact'`` where G supports it, else ``'fit'``, else ``'simple'``, and says
+        which in ``attrs["method"]`` (with ``attrs["fallback_reason"]``).
 
     Returns
     -------
@@ -71,6 +75,20 @@ def rms_gradient(G: xr.DataArray, *, method: str = "exact") -> xr.DataArray:
     """
     if method not in GRADIENT_METHODS:
         raise ValueError(f"method must be one of {GRADIENT_METHODS}, got {method!r}")
+    if method == "auto":
+        reasons = []
+        for candidate in ("exact", "fit"):
+            try:
+                out = rms_gradient(G, method=candidate)
+            except ValueError as err:
+                reasons.append(f"{candidate}: {str(err).splitlines()[0]}")
+                continue
+            if reasons:
+                out.attrs["fallback_reason"] = "; ".join(reasons)
+            return out
+        out = rms_gradient(G, method="simple")
+        out.attrs["fallback_reason"] = "; ".join(reasons)
+        return out
     if method == "simple":
         out = _simple(G)
         equation = "gbar^2 ~ 4 G(dr) / dr^2 (ballistic approximation of eq. 26)"
