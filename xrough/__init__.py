@@ -35,6 +35,14 @@ from .contact import (  # noqa: E402
 from .correlation import height_difference_acf  # noqa: E402
 from .fitting import fit_acf, gradient_from_fit, model_acf  # noqa: E402
 from .gradient import rms_gradient  # noqa: E402
+from .io import open_topography  # noqa: E402
+from .preprocess import (  # noqa: E402
+    detrend,
+    fit_trend,
+    mask_outliers,
+    reliability_window,
+    reliable,
+)
 from .models import self_affine_model  # noqa: E402
 from .spectra import (  # noqa: E402
     acf_from_spectrum,
@@ -49,20 +57,26 @@ from .topography import topography  # noqa: E402
 __all__ = [
     "__version__",
     "acf_from_spectrum",
+    "detrend",
     "elastic_energy",
     "fit_acf",
+    "fit_trend",
     "gradient_from_fit",
     "gradient_from_spectrum",
     "height_difference_acf",
+    "mask_outliers",
     "model_acf",
     "model_spectrum",
     "open_analysis",
+    "open_topography",
     "patch_radius",
     "persson",
     "rms_gradient",
     "rms_gradient_exact",
     "save_analysis",
     "plot",
+    "reliability_window",
+    "reliable",
     "self_affine_model",
     "self_affine_surface",
     "spectrum",

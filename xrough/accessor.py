@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import xarray as xr
 
-from . import contact, correlation, fitting, gradient, plot, spectra
+from . import contact, correlation, fitting, gradient, plot, preprocess, spectra
 
 __all__ = ["RoughDataArrayAccessor"]
 
@@ -23,6 +23,26 @@ class RoughDataArrayAccessor:
     def acf(self, **kwargs) -> xr.DataArray:
         """G(dr) of a topography; see :func:`xrough.height_difference_acf`."""
         return correlation.height_difference_acf(self._obj, **kwargs)
+
+    def detrend(self, **kwargs) -> xr.DataArray:
+        """Remove a mean, plane or quadratic trend; see :func:`xrough.detrend`."""
+        return preprocess.detrend(self._obj, **kwargs)
+
+    def fit_trend(self, **kwargs) -> xr.Dataset:
+        """Coefficients of the least-squares trend; see :func:`xrough.fit_trend`."""
+        return preprocess.fit_trend(self._obj, **kwargs)
+
+    def mask_outliers(self, **kwargs) -> xr.DataArray:
+        """Spikes and dimples to NaN; see :func:`xrough.mask_outliers`."""
+        return preprocess.mask_outliers(self._obj, **kwargs)
+
+    def reliable(self, **kwargs) -> xr.DataArray:
+        """Record the reliable lag range; see :func:`xrough.reliable`."""
+        return preprocess.reliable(self._obj, **kwargs)
+
+    def reliability_window(self) -> tuple:
+        """Reliable (dr_min, dr_max); see :func:`xrough.reliability_window`."""
+        return preprocess.reliability_window(self._obj)
 
     def spectrum(self, **kwargs) -> xr.DataArray:
         """Spectrum C(q) from G (eq. 10/11); see :func:`xrough.spectrum`."""

@@ -1,0 +1,672 @@
+"""Preprocessing of measured topographies: detrending, outlier masking, reliability window.
+
+The steps the field applies before any roughness statistics:
+
+:func:`detrend`
+    Remove the mean, a least-squares plane (tilt) or a quadratic surface (curvature of the
+    sample or of the scanner), fitted to the valid points in physical coordinates, for the
+    whole map or for each scan line (rows along ``x``: the usual remedy for the line-to-line
+    offsets and tilts of AFM images). :func:`fit_trend` returns the fitted coefficients.
+:func:`mask_outliers`
+    Turn spikes and dimples into NaN, so that the mask-aware ``G(dr)`` simply leaves them out
+    (paper, section 3.2, point 3), using robust z-scores based on the median absolute
+    deviation, optionally of the residual from a local reference that follows large-scale
+    roughness.
+:func:`reliable`
+    Record the lag range ``[reliable_dr_min, reliable_dr_max]`` that the instrument resolves
+    (tip radius, lateral resolution, pixel size; scan size) in the attrs, for the steps that
+    need it (:func:`reliability_window`).
+
+A robust order is ``detrend -> mask_outliers -> detrend`` again: the first fit is slightly
+pulled by the outliers, the second ignores them because they are NaN by then. Level offset
+scan lines (``per_line=True``) before masking with a ``window``, and record the reliable
+lag range last, on the cleaned map.
+
+>>> import xrough
+>>> from xrough import preprocess
+>>> topo = xrough.self_affine_surface(hurst=0.8, lambda_r="1 um", lambda_s="100 nm",
+...                                   size="4 um", n=128, rms_height="2 nm", seed=1,
+...                                   unit="nm")
+>>> tilted = topo + 0.01 * topo.x  # a tilt of 10 nm per um
+>>> clean = preprocess.detrend(tilted, mode="plane")
+>>> clean.attrs["detrend"], clean.attrs["units"]
+('plane', 'nm')
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from . import units as u
+from ._kernels import detrend as k
+from .topography import Grid, grid_of
+
+__all__ = [
+    "DETREND_MODES",
+    "OUTLIER_METHODS",
+    "detrend",
+    "fit_trend",
+    "mask_outliers",
+    "reliable",
+    "reliability_window",
+]
+
+DETREND_MODES = tuple(k.DEGREES)
+OUTLIER_METHODS = ("mad", "std")
+#: Default ``safety_factor`` of the tip-radius rule (Sanner et al. 2022, see :func:`reliable`).
+TIP_SAFETY_FACTOR = 0.5
+
+
+# ------------------------------------------------------------------------------- helpers
+
+
+def _validated(topography: xr.DataArray) -> Grid:
+    grid = grid_of(topography)
+    if topography.chunks is not None:
+        for d in grid.dims:
+            if len(topography.chunksizes[d]) > 1:
+                whole = ", ".join(f"{c!r}: -1" for c in grid.dims)
+                raise ValueError(
+                    f"dim {d!r} is split into several dask chunks; preprocessing needs each "
+                    f"map whole: use topography.chunk({{{whole}}}) (parallelism comes from "
+                    f"extra dims such as 'scan')"
+                )
+    return grid
+
+
+def _coords(topography: xr.DataArray, grid: Grid) -> tuple[np.ndarray, ...]:
+    """Core coordinates as float arrays in the lateral unit of the grid."""
+    out = []
+    for d in grid.dims:
+        coord = topography.coords[d]
+        factor = u.conversion_factor(u.units_of(coord, what=f"coordinate {d!r}"),
+                                     grid.lateral_unit)
+        out.append(np.asarray(coord.values, dtype=float) * factor)
+    return tuple(out)
+
+
+def _check_mode(mode: str, per_line: Any, grid: Grid) -> int:
+    if mode not in DETREND_MODES:
+        raise ValueError(f"mode must be one of {DETREND_MODES}, got {mode!r}")
+    if not isinstance(per_line, (bool, np.bool_)):
+        raise ValueError(f"per_line must be True or False, got {per_line!r}")
+    if per_line and len(grid.dims) != 2:
+        raise ValueError("per_line=True detrends each scan line (row along 'x') of a map "
+                         "with dims ('y', 'x'); this topography is a profile: use "
+                         "per_line=False")
+    return k.DEGREES[mode]
+
+
+def _like(topography: xr.DataArray, result: xr.DataArray, attrs: dict) -> xr.DataArray:
+    """Put ``result`` in the dims order, coords (with attrs) and name of the input."""
+    out = topography.copy(data=result.transpose(*topography.dims).data)
+    out.attrs = attrs
+    return out
+
+
+def _label(mode: str, per_line: bool) -> str:
+    return f"{mode} per line" if per_line else mode
+
+
+# ------------------------------------------------------------------------------ detrend
+
+
+def _detrend_kernel(h, *, coords, degree, per_line):
+    if per_line:
+        return k.detrend(h, coords[-1:], degree, strict=False)
+    return k.detrend(h, coords, degree, strict=True)
+
+
+def detrend(topography: xr.DataArray, *, mode: str = "plane",
+            per_line: bool = False) -> xr.DataArray:
+    r"""Remove a least-squares polynomial trend: mean, plane (tilt) or curvature.
+
+    Parameters
+    ----------
+    topography : xarray.DataArray with dims (..., "y", "x") or (..., "x")
+        Heights with length units on data and coordinates; NaN marks missing points.
+        Extra dims (``scan``...) are independent maps; dask-backed stacks are fine if
+        each map is one chunk.
+    mode : {'mean', 'plane', 'curvature'}
+        Subtract the mean height, the least-squares plane ``a + b x + c y`` (a line for a
+        profile or per line), or the quadratic surface ``a + b x + c y + d x^2 + e x y +
+        f y^2`` (a parabola for a profile or per line).
+    per_line : bool
+        Fit each scan line (row along ``x``) of a map separately: removes the offsets
+        (``'mean'``), offsets and tilts (``'plane'``) or parabolas (``'curvature'``) that
+        differ from line to line, as AFM images have. It also removes real roughness:
+        the profile of the line means along ``y`` (on a surface whose roll-off is a fifth
+        of the scan, G along ``y`` drops by 3-8 % at all lags; G along ``x`` is
+        untouched by ``'mean'``). Use it only when line artefacts are present.
+
+    Returns
+    -------
+    xarray.DataArray
+        The residual heights, same dims, coords, units and attrs as the input, with
+        ``attrs["detrend"]`` recording the mode (``"plane"``, ``"curvature per line"``;
+        successive calls are joined by ``"; "``). A plane or curvature is not periodic,
+        so removing one sets ``attrs["periodic"] = 0``; ``'mean'`` keeps it.
+
+    Raises
+    ------
+    ValueError
+        Unknown ``mode``, ``per_line`` on a profile, invalid topography (dims, units,
+        spacing), core dims split into dask chunks, or a map with fewer valid points than
+        the fit has coefficients.
+
+    See Also
+    --------
+    fit_trend : the fitted coefficients.
+    mask_outliers : outliers pull least-squares fits; mask them, then detrend again.
+
+    Notes
+    -----
+    The fit minimises :math:`\sum_{\text{valid}} [h(\mathbf r) - P(\mathbf r)]^2` over the
+    valid points only, in the physical coordinates of the grid (centred and scaled to
+    ``[-1, 1]`` internally for conditioning), so the result does not depend on the units
+    or on the values hidden by NaN. Removing a least-squares fit is a projection: adding
+    any polynomial of the mode's degree to the input leaves the output unchanged (to
+    round-off). Lines with fewer valid points than coefficients (``per_line``) get the
+    minimum-norm fit (a line with one valid point becomes 0); all-NaN lines stay NaN.
+
+    Examples
+    --------
+    >>> import numpy as np, xrough
+    >>> from xrough.preprocess import detrend
+    >>> x = np.arange(8.0)
+    >>> h = 5.0 + 0.2 * x + 0.1 * (-1) ** np.arange(8)  # tilt on a zigzag, in nm
+    >>> topo = xrough.topography(h, spacing=1.0, unit="nm")
+    >>> out = detrend(topo, mode="plane")
+    >>> np.round(out.values, 3)
+    array([ 0.067, -0.124,  0.086, -0.105,  0.105, -0.086,  0.124, -0.067])
+    >>> out.attrs["detrend"], out.attrs["units"], out.x.attrs["units"]
+    ('plane', 'nm', 'nm')
+    """
+    grid = _validated(topography)
+    degree = _check_mode(mode, per_line, grid)
+    result = xr.apply_ufunc(
+        _detrend_kernel, topography, input_core_dims=[list(grid.dims)],
+        output_core_dims=[list(grid.dims)], dask="parallelized", output_dtypes=[float],
+        kwargs={"coords": _coords(topography, grid), "degree": degree,
+                "per_line": bool(per_line)}, keep_attrs=False)
+    attrs = dict(topography.attrs)
+    label = _label(mode, bool(per_line))
+    attrs["detrend"] = f"{attrs['detrend']}; {label}" if attrs.get("detrend") else label
+    if degree > 0:
+        attrs["periodic"] = 0
+    return _like(topography, result, attrs)
+
+
+def _fit_kernel(h, *, coords, degree, per_line):
+    if per_line:
+        return k.fit_polynomial(h, coords[-1:], degree, strict=False)[0]
+    return k.fit_polynomial(h, coords, degree, strict=True)[0]
+
+
+def _term_name(e: tuple[int, ...]) -> tuple[str, float, int, str]:
+    """Variable name, factor from monomial coefficient to derivative, order, long name."""
+    ey, ex = (0, e[0]) if len(e) == 1 else e
+    names = {(0, 0): ("offset", 1.0, "height of the trend at the centre of the grid"),
+             (0, 1): ("slope_x", 1.0, "slope dh/dx of the trend"),
+             (1, 0): ("slope_y", 1.0, "slope dh/dy of the trend"),
+             (0, 2): ("curvature_x", 2.0, "second derivative d2h/dx2 of the trend"),
+             (1, 1): ("curvature_xy", 1.0, "mixed derivative d2h/dxdy of the trend"),
+             (2, 0): ("curvature_y", 2.0, "second derivative d2h/dy2 of the trend")}
+    name, factor, long_name = names[(ey, ex)]
+    return name, factor, ey + ex, long_name
+
+
+def fit_trend(topography: xr.DataArray, *, mode: str = "plane",
+              per_line: bool = False) -> xr.Dataset:
+    """Coefficients of the least-squares trend that :func:`detrend` removes.
+
+    Parameters
+    ----------
+    topography : xarray.DataArray with dims (..., "y", "x") or (..., "x")
+        As for :func:`detrend`.
+    mode : {'mean', 'plane', 'curvature'}
+    per_line : bool
+        One fit per row along ``x`` (the coefficients then have a ``y`` dim).
+
+    Returns
+    -------
+    xarray.Dataset
+        The trend as a Taylor expansion about the centre of the grid ``(x_c, y_c)``
+        (``attrs["x_centre"]``, ``attrs["y_centre"]``, in the lateral unit):
+        ``offset`` (height at the centre), ``slope_x``, ``slope_y`` (height per lateral
+        unit), ``curvature_x``, ``curvature_xy``, ``curvature_y`` (second derivatives,
+        height per lateral unit squared), as far as the mode and dims have them. Each
+        variable carries its ``units``; extra dims (and ``y`` per line) are kept.
+
+    Raises
+    ------
+    ValueError
+        As :func:`detrend`.
+
+    Examples
+    --------
+    >>> import numpy as np, xrough
+    >>> from xrough.preprocess import fit_trend
+    >>> x = np.arange(11.0)  # um
+    >>> topo = xrough.topography(3.0 + 0.5 * x - 0.1 * x**2, spacing="1 um",
+    ...                          height_unit="nm")
+    >>> c = fit_trend(topo, mode="curvature")
+    >>> [round(float(c[v]), 6) for v in ("offset", "slope_x", "curvature_x")]
+    [3.0, -0.5, -0.2]
+    >>> c["slope_x"].attrs["units"], c["curvature_x"].attrs["units"], c.attrs["x_centre"]
+    ('nm um-1', 'nm um-2', 5.0)
+    """
+    grid = _validated(topography)
+    degree = _check_mode(mode, per_line, grid)
+    coords = _coords(topography, grid)
+    terms = k.polynomial_terms(1 if per_line else len(grid.dims), degree)
+    out_dims = ["y", "term"] if per_line else ["term"]
+    coef = xr.apply_ufunc(
+        _fit_kernel, topography, input_core_dims=[list(grid.dims)],
+        output_core_dims=[out_dims], dask="parallelized", output_dtypes=[float],
+        dask_gufunc_kwargs={"output_sizes": {"term": len(terms)}},
+        kwargs={"coords": coords, "degree": degree, "per_line": bool(per_line)},
+        keep_attrs=False)
+    hunit = u.parse_units(grid.height_unit)
+    lunit = u.parse_units(grid.lateral_unit)
+    variables = {}
+    for j, e in enumerate(terms):
+        name, factor, order, long_name = _term_name(e)
+        var = coef.isel(term=j, drop=True) * factor
+        var.attrs = {"units": u.format_units(hunit / lunit**order), "long_name": long_name}
+        variables[name] = var
+    ds = xr.Dataset(variables)
+    if per_line:
+        ds = ds.assign_coords(y=topography.coords["y"])
+    attrs = {"mode": _label(mode, bool(per_line)), "lateral_units": grid.lateral_unit}
+    for d, c in zip(grid.dims, coords):
+        attrs[f"{d}_centre"] = float(0.5 * (c[0] + c[-1]))
+    ds.attrs = attrs
+    return ds
+
+
+# ------------------------------------------------------------------------------ outliers
+
+
+def _window_pixels(window: Any, grid: Grid) -> tuple[int, ...]:
+    length = u.length_in(window, grid.lateral_unit, what="window")
+    size = []
+    for d, n, step in zip(grid.dims, grid.shape, grid.spacing):
+        w = max(3, 2 * int(np.floor((length / step - 1) / 2 + 0.5)) + 1)
+        if w > n:
+            raise ValueError(f"window = {length:g} {grid.lateral_unit} is {w} pixels along "
+                             f"{d!r}, more than the {n} points of the map; use a smaller "
+                             "window")
+        size.append(w)
+    return tuple(size)
+
+
+def _mask_kernel(h, *, nd, threshold, method, size, periodic):
+    bad = k.outlier_mask(h, nd=nd, threshold=threshold, method=method, size=size,
+                         periodic=periodic)
+    return np.where(bad, np.nan, h)
+
+
+def mask_outliers(topography: xr.DataArray, *, threshold: float = 5.0, method: str = "mad",
+                  window: Any = None) -> xr.DataArray:
+    r"""Mark spikes and dimples as missing (NaN) by robust z-scores.
+
+    A point is an outlier when its height (or, with a ``window``, its residual from a local
+    reference) lies more than ``threshold`` standard deviations from the median of its
+    map, the standard deviation being estimated robustly from the median absolute
+    deviation (MAD). The mask-aware ``G(dr)`` then averages over the remaining pairs, which
+    leaves its large-lag statistics intact (paper, section 3.2).
+
+    Parameters
+    ----------
+    topography : xarray.DataArray with dims (..., "y", "x") or (..., "x")
+        Heights with length units; NaN marks missing points (left as they are). Each
+        map of a stack gets its own statistics.
+    threshold : float
+        Positive number of standard deviations. The default 5 flags a point of Gaussian
+        data with probability 5.7e-7 (0.6 false positives per million points); 3.5
+        (4.7e-4) is the classical choice for small maps.
+    method : {'mad', 'std'}
+        Scale ``1.4826 * MAD`` (robust: a few percent of outliers do not inflate it), or
+        the plain standard deviation (classical sigma clipping; outliers inflate it and
+        can hide each other).
+    window : float, str or Quantity, optional
+        Width (numbers in the lateral unit) of the neighbourhood each point is judged
+        against, instead of the whole height distribution: needed for spikes riding on
+        large-scale roughness, tilts or curvature, or smaller than the height range. It
+        spans the odd number of pixels nearest to it along each axis (at least 3; use 7
+        or more on profiles, where a window has fewer points). It should be several
+        times wider than a cluster of outliers and need not be small: the reference is
+        a local plane, exact on tilts whatever the width. ``None`` (default) judges the
+        heights themselves: detrend first. Line-to-line offsets look like outliers to a
+        window that spans several lines: level the lines first (``detrend(...,
+        per_line=True)``).
+
+    Returns
+    -------
+    xarray.DataArray
+        The topography with outliers set to NaN, same coords and units. ``attrs`` gain
+        ``outlier_method`` (a description), ``outlier_threshold`` and, when the data are
+        in memory (not dask), ``outliers_masked`` (points masked over the whole stack)
+        and ``outlier_fraction`` (their fraction of the valid points).
+
+    Raises
+    ------
+    ValueError
+        Non-positive or non-finite ``threshold``, unknown ``method``, a window that is
+        not a positive length or exceeds the map, invalid topography or chunking.
+
+    See Also
+    --------
+    detrend : mask outliers before the final detrending (they pull least-squares fits).
+
+    Notes
+    -----
+    With ``r`` the heights or their residual from the local reference,
+
+    .. math:: z = \frac{|r - \operatorname{med} r|}{1.4826\,\operatorname{med}
+              |r - \operatorname{med} r|}
+
+    and points with ``z > threshold`` are masked. The factor 1.4826 makes the scale the
+    standard deviation of Gaussian data; where the MAD is 0 (more than half of the points
+    at one height, as on coarsely quantised data) the central 95 % range divided by 3.92
+    is used, and where that is 0 too, the standard deviation.
+
+    The local reference is built in two stages (see
+    ``xrough._kernels.detrend.robust_zscore``). First a median, NaN-aware and exact on
+    planes: the median over the window of the means ``(h(p + d) + h(p - d)) / 2`` of the
+    point pairs placed symmetrically about ``p`` (a spike spoils only its own pair).
+    Points above the threshold on it are candidates. A median residual is not Gaussian on
+    a Gaussian surface, though (a plain 3 x 3 running median flags up to 14 % of the
+    points of a smooth surface), so the final residual is from the least-squares plane
+    through the valid neighbours without the candidates: linear in the heights, hence
+    Gaussian on Gaussian data with a known false-positive rate, exact on tilts and
+    unbiased at edges and around missing points; candidates that this stage clears are
+    put back until the set is stable. On
+    periodic maps the window wraps; on open maps it is cut at the edges.
+
+    Examples
+    --------
+    >>> import numpy as np, xrough
+    >>> from xrough.preprocess import mask_outliers
+    >>> h = np.random.default_rng(0).normal(size=(64, 64))
+    >>> h[10, 20], h[40, 5] = 25.0, -30.0  # a spike and a dimple, in nm
+    >>> topo = xrough.topography(h, spacing="5 nm", unit="nm")
+    >>> out = mask_outliers(topo)
+    >>> out.attrs["outliers_masked"], bool(np.isnan(out[10, 20])), bool(np.isnan(out[40, 5]))
+    (2, True, True)
+    >>> out = mask_outliers(topo, window="25 nm")  # against 5 x 5 neighbourhoods
+    >>> out.attrs["outlier_method"]
+    'mad, residual from a local reference over 5 x 5 pixels (y, x)'
+    """
+    grid = _validated(topography)
+    if isinstance(threshold, (bool, np.bool_)) or not isinstance(
+            threshold, (int, float, np.integer, np.floating)) or not (
+            np.isfinite(threshold) and threshold > 0):
+        raise ValueError(f"threshold must be a positive number of standard deviations, got "
+                         f"{threshold!r}")
+    if method not in OUTLIER_METHODS:
+        raise ValueError(f"method must be one of {OUTLIER_METHODS}, got {method!r}")
+    size = None if window is None else _window_pixels(window, grid)
+    result = xr.apply_ufunc(
+        _mask_kernel, topography, input_core_dims=[list(grid.dims)],
+        output_core_dims=[list(grid.dims)], dask="parallelized", output_dtypes=[float],
+        kwargs={"nd": len(grid.dims), "threshold": float(threshold), "method": method,
+                "size": size, "periodic": grid.periodic}, keep_attrs=False)
+    attrs = dict(topography.attrs)
+    desc = method
+    if size is not None:
+        desc += (f", residual from a local reference over {' x '.join(map(str, size))} "
+                 f"pixels ({', '.join(grid.dims)})")
+    attrs["outlier_method"] = desc
+    attrs["outlier_threshold"] = float(threshold)
+    attrs.pop("outliers_masked", None)
+    attrs.pop("outlier_fraction", None)
+    if result.chunks is None:
+        before = int(np.isfinite(topography.values).sum())
+        masked = before - int(np.isfinite(result.values).sum())
+        attrs["outliers_masked"] = masked
+        attrs["outlier_fraction"] = masked / before if before else 0.0
+    return _like(topography, result, attrs)
+
+
+# --------------------------------------------------------------------------- reliability
+
+
+def _stencil_steps(n: int) -> np.ndarray:
+    """Half-widths ``k`` (pixels) at which the scale-dependent curvature is evaluated."""
+    kmax = max(1, n // 4)
+    steps = np.unique(np.concatenate([np.arange(1, min(kmax, 16) + 1),
+                                      np.geomspace(1, kmax, 40).round().astype(int)]))
+    return steps[steps <= kmax]
+
+
+def _tip_cutoff(topography: xr.DataArray, grid: Grid, tip_radius: float,
+                safety_factor: float) -> tuple[float | None, str]:
+    """Stencil length below which tips of radius R cannot follow the curvature."""
+    nd = len(grid.dims)
+    hfactor = u.conversion_factor(grid.height_unit, grid.lateral_unit)
+    target = -safety_factor / tip_radius
+    extra = [d for d in topography.dims if d not in grid.dims]
+    cutoffs = []
+    for axis, (n, step) in enumerate(zip(grid.shape, grid.spacing)):
+        steps = _stencil_steps(n)
+        low = xr.apply_ufunc(
+            k.min_curvature, topography, input_core_dims=[list(grid.dims)],
+            output_core_dims=[["stencil"]], dask="parallelized", output_dtypes=[float],
+            dask_gufunc_kwargs={"output_sizes": {"stencil": len(steps)}},
+            kwargs={"nd": nd, "axis": axis, "steps": steps, "spacing": step,
+                    "periodic": grid.periodic}, keep_attrs=False)
+        if extra:
+            low = low.min(extra, skipna=True)
+        kappa = np.asarray(low.values, dtype=float) * hfactor  # 1 / lateral unit
+        dist = steps * step
+        too_curved = np.isfinite(kappa) & (kappa < target)
+        if not too_curved.any():
+            continue  # the tip follows the topography at every scale along this axis
+        j = int(np.flatnonzero(too_curved)[-1])
+        if j + 1 >= len(steps):
+            cutoffs.append(2 * dist[-1])  # nothing reliable up to n/4: reported as is
+            continue
+        k1, k2 = kappa[j], kappa[j + 1]
+        if np.isfinite(k2) and k2 < 0:  # power law between the bracketing distances
+            t = np.log(target / k1) / np.log(k2 / k1)
+            cross = dist[j] * (dist[j + 1] / dist[j]) ** t
+        else:
+            cross = dist[j + 1]
+        cutoffs.append(2 * cross)  # the stencil spans 2 d
+    if not cutoffs:
+        return None, (f"tip radius {tip_radius:g} {grid.lateral_unit}: no scale curved "
+                      "beyond it")
+    return max(cutoffs), (f"tip radius {tip_radius:g} {grid.lateral_unit} (scale-dependent "
+                          f"curvature above -{safety_factor:g}/R)")
+
+
+def reliable(
+    topography: xr.DataArray,
+    *,
+    short_cutoff: Any = None,
+    long_cutoff: Any = None,
+    tip_radius: Any = None,
+    lateral_resolution: Any = None,
+    safety_factor: float = TIP_SAFETY_FACTOR,
+    min_pixels: float = 1.0,
+    long_fraction: float = 0.5,
+) -> xr.DataArray:
+    r"""Record the lag range the measurement resolves: ``reliable_dr_min/max`` in attrs.
+
+    Every given criterion is a limit and the window is their intersection:
+
+    ``dr_min = max(short_cutoff or min_pixels * pixel, lateral_resolution, tip cutoff)``
+
+    ``dr_max = long_cutoff or long_fraction * scan size``
+
+    Parameters
+    ----------
+    topography : xarray.DataArray with dims (..., "y", "x") or (..., "x")
+        Heights with length units (ideally detrended and with outliers masked: spikes
+        look infinitely curved to the tip rule). A stack gets one window for all maps.
+    short_cutoff, long_cutoff : float, str or Quantity, optional
+        Explicit limits (numbers in the lateral unit); replace the pixel and scan-size
+        defaults.
+    tip_radius : float, str or Quantity, optional
+        Radius ``R`` of a scanning-probe tip (numbers in the lateral unit): the short
+        cutoff is the scale below which the topography is curved more sharply than the
+        tip can follow (see Notes). The data are read to find it (dask input is
+        computed).
+    lateral_resolution : float, str or Quantity, optional
+        Resolution of the instrument (optical, beam or stylus size), a lower limit of
+        ``dr`` (numbers in the lateral unit).
+    safety_factor : float
+        The tip rule flags curvatures below ``-safety_factor / R`` (default 1/2).
+    min_pixels : float
+        Default short cutoff in pixels (of the coarser spacing); 1 keeps every lag of G.
+    long_fraction : float
+        Default long cutoff as a fraction ``0 < f <= 1`` of the scan size (the shorter
+        side of a map): 1/2 by default, where an open map still has a quarter of its pairs
+        in 2D and a periodic map reaches its largest distinct lag.
+
+    Returns
+    -------
+    xarray.DataArray
+        The same topography (data untouched, dask stays lazy without ``tip_radius``) with
+        attrs ``reliable_dr_min``, ``reliable_dr_max`` (in the lateral unit),
+        ``reliable_dr_units`` (that unit) and ``reliable_rule`` (how they were found).
+
+    Raises
+    ------
+    ValueError
+        Non-positive lengths or factors, ``long_fraction`` outside ``(0, 1]``, or an empty
+        window (``dr_min >= dr_max``, e.g. a tip too blunt for the scan).
+
+    See Also
+    --------
+    reliability_window : read the window back, in the current lateral unit.
+
+    Notes
+    -----
+    Tip rule (Sanner et al. [1]_, as in contact.engineering): a tip of radius :math:`R`
+    cannot enter valleys curved more sharply than :math:`-1/R`. The scale-dependent
+    curvature at scale ``d``,
+
+    .. math:: \kappa_d(x) = \frac{h(x + d) - 2 h(x) + h(x - d)}{d^2},
+
+    is evaluated along ``x`` (and ``y``) at lattice distances ``d`` up to a quarter of the
+    scan; the cutoff is where its minimum over all points (and maps) rises above
+    :math:`-\text{safety\_factor}/R` for good (the last crossing, interpolated as a power
+    law), reported as the stencil length ``2 d``. On a Gaussian surface the minimum is a
+    few times the rms curvature :math:`\sqrt{8 G(d) - 2 G(2d)} / d^2` (G along the
+    stencil). If the tip follows every scale, only the other limits apply. Masked
+    outliers matter here: a spike is an extreme curvature at every scale.
+
+    References
+    ----------
+    .. [1] A. Sanner, W. G. Nöhring, L. A. Thimons, T. D. B. Jacobs, L. Pastewka,
+       "Scale-dependent roughness parameters for topography analysis", Appl. Surf. Sci.
+       Adv. 7, 100190 (2022), doi:10.1016/j.apsadv.2021.100190. The safety factor 1/2 is
+       their estimate from simulated tip scans.
+
+    Examples
+    --------
+    >>> import numpy as np, xrough
+    >>> from xrough.preprocess import reliable, reliability_window
+    >>> topo = xrough.topography(np.zeros((32, 64)), spacing="2 nm", unit="nm")
+    >>> out = reliable(topo, lateral_resolution="10 nm")
+    >>> reliability_window(out)  # 10 nm, and half of the 64 nm side
+    (10.0, 32.0)
+    >>> out.attrs["reliable_dr_units"], out.attrs["reliable_rule"]
+    ('nm', 'dr_min: lateral resolution 10 nm; dr_max: 0.5 x scan size 64 nm')
+    """
+    grid = _validated(topography)
+    lunit = grid.lateral_unit
+    for name, value in (("safety_factor", safety_factor), ("min_pixels", min_pixels),
+                        ("long_fraction", long_fraction)):
+        if isinstance(value, (bool, np.bool_)) or not isinstance(
+                value, (int, float, np.integer, np.floating)) or not (
+                np.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be a positive number, got {value!r}")
+    if long_fraction > 1:
+        raise ValueError(f"long_fraction must be in (0, 1], got {long_fraction!r}")
+    pixel = max(grid.spacing)
+    if short_cutoff is not None:
+        base = u.length_in(short_cutoff, lunit, what="short_cutoff")
+        limits = [(base, f"short cutoff {base:g} {lunit}")]
+    else:
+        limits = [(min_pixels * pixel,
+                   f"{min_pixels:g} pixel{'s' if min_pixels != 1 else ''} of {pixel:g} "
+                   f"{lunit}")]
+    if lateral_resolution is not None:
+        res = u.length_in(lateral_resolution, lunit, what="lateral_resolution")
+        limits.append((res, f"lateral resolution {res:g} {lunit}"))
+    notes = []
+    if tip_radius is not None:
+        radius = u.length_in(tip_radius, lunit, what="tip_radius")
+        cut, text = _tip_cutoff(topography, grid, radius, float(safety_factor))
+        if cut is None:
+            notes.append(text)
+        else:
+            limits.append((cut, text))
+    lo, lo_text = max(limits, key=lambda item: item[0])
+    lo_rule = [lo_text, *notes]
+    if long_cutoff is not None:
+        hi = u.length_in(long_cutoff, lunit, what="long_cutoff")
+        hi_rule = f"long cutoff {hi:g} {lunit}"
+    else:
+        side = min(grid.size)
+        hi = long_fraction * side
+        hi_rule = f"{long_fraction:g} x scan size {side:g} {lunit}"
+    if not lo < hi:
+        raise ValueError(
+            f"no reliable lag range: dr_min = {lo:g} {lunit} ({'; '.join(lo_rule)}) is not "
+            f"below dr_max = {hi:g} {lunit} ({hi_rule})"
+        )
+    attrs = dict(topography.attrs)
+    attrs.update(reliable_dr_min=float(lo), reliable_dr_max=float(hi),
+                 reliable_dr_units=lunit,
+                 reliable_rule=f"dr_min: {'; '.join(lo_rule)}; dr_max: {hi_rule}")
+    out = topography.copy(deep=False)
+    out.attrs = attrs
+    return out
+
+
+def reliability_window(obj: xr.DataArray) -> tuple[float | None, float | None]:
+    """Reliable lag range ``(dr_min, dr_max)`` recorded by :func:`reliable`.
+
+    Parameters
+    ----------
+    obj : xarray.DataArray
+        A topography (or any DataArray with ``x`` or ``dr`` coordinates) whose attrs hold
+        ``reliable_dr_min`` / ``reliable_dr_max``.
+
+    Returns
+    -------
+    (float or None, float or None)
+        The limits in the current unit of the ``x`` (else ``dr``) coordinate, converted
+        from ``reliable_dr_units`` if the coordinates were converted since; ``None`` for
+        a limit that is not recorded (then use the default of the next step).
+
+    Examples
+    --------
+    >>> import numpy as np, xrough
+    >>> from xrough.preprocess import reliable, reliability_window
+    >>> topo = xrough.topography(np.zeros(100), spacing="10 nm", unit="nm")
+    >>> reliability_window(topo)
+    (None, None)
+    >>> reliability_window(reliable(topo, short_cutoff="30 nm", long_cutoff="0.2 um"))
+    (30.0, 200.0)
+    """
+    if not isinstance(obj, xr.DataArray):
+        raise TypeError(f"expected an xarray.DataArray, got {type(obj).__name__}")
+    lo = obj.attrs.get("reliable_dr_min")
+    hi = obj.attrs.get("reliable_dr_max")
+    stored = obj.attrs.get("reliable_dr_units")
+    current = next((obj.coords[c].attrs["units"] for c in ("x", "dr")
+                    if c in obj.coords and "units" in obj.coords[c].attrs), None)
+    factor = 1.0
+    if stored is not None and current is not None:
+        factor = u.conversion_factor(stored, current)
+    return (None if lo is None else float(lo) * factor,
+            None if hi is None else float(hi) * factor)
