@@ -36,6 +36,7 @@ from .correlation import height_difference_acf  # noqa: E402
 from .fitting import fit_acf, gradient_from_fit, model_acf  # noqa: E402
 from .gradient import rms_gradient  # noqa: E402
 from .io import open_topography  # noqa: E402
+from .models import self_affine_model  # noqa: E402
 from .preprocess import (  # noqa: E402
     detrend,
     fit_trend,
@@ -43,7 +44,6 @@ from .preprocess import (  # noqa: E402
     reliability_window,
     reliable,
 )
-from .models import self_affine_model  # noqa: E402
 from .spectra import (  # noqa: E402
     acf_from_spectrum,
     gradient_from_spectrum,
