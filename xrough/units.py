@@ -26,6 +26,7 @@ __all__ = [
     "quantity",
     "to_si",
     "as_length_unit",
+    "is_length",
     "length_in",
     "conversion_factor",
     "multiply_units",
@@ -251,6 +252,21 @@ def as_length_unit(units: str | pint.Unit, *, what: str) -> pint.Unit:
         raise ValueError(f"{what} must be a length, but its units are {format_units(unit)!r} "
                          f"(dimensions {unit.dimensionality})")
     return unit
+
+
+def is_length(units: str | pint.Unit) -> bool:
+    """Whether ``units`` is a length unit (``False`` also for one that does not parse).
+
+    Examples
+    --------
+    >>> is_length("nm"), is_length("V"), is_length("no such unit")
+    (True, False, False)
+    """
+    try:
+        as_length_unit(units, what="unit")
+    except (ValueError, TypeError):
+        return False
+    return True
 
 
 def conversion_factor(from_units: str | pint.Unit, to_units: str | pint.Unit) -> float:

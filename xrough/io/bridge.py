@@ -202,6 +202,7 @@ def channels(path) -> list[dict]:
     Parameters
     ----------
     path : str or Path
+        The file, in any format SurfaceTopography reads.
 
     Returns
     -------

@@ -32,6 +32,7 @@ import numpy as np
 
 from .. import units as u
 from ..topography import grid_of, topography
+from ._common import fail
 
 __all__ = ["sniff", "read", "write", "channels"]
 
@@ -64,30 +65,26 @@ def _gwyfile():
     return gwyfile
 
 
-def _fail(path: Path, message: str) -> ValueError:
-    return ValueError(f"{path.name}: {message}")
-
-
 def _load(path: Path):
     """Load the top-level container after checking the magic and the declared size."""
     with open(path, "rb") as fh:
         blob = fh.read()
     if blob[:4] != MAGIC:
-        raise _fail(path, "not a Gwyddion file (no 'GWYP' magic)")
+        raise fail(path, "not a Gwyddion file (no 'GWYP' magic)")
     name_end = blob.find(b"\0", 4, 4 + 256)
     if name_end < 0 or len(blob) < name_end + 5:
-        raise _fail(path, "truncated file: the top-level object header is incomplete")
+        raise fail(path, "truncated file: the top-level object header is incomplete")
     (size,) = struct.unpack("<I", blob[name_end + 1:name_end + 5])
     if name_end + 5 + size > len(blob):
-        raise _fail(path, f"truncated file: the container declares {size} bytes but only "
-                          f"{len(blob) - name_end - 5} follow")
+        raise fail(path, f"truncated file: the container declares {size} bytes but only "
+                         f"{len(blob) - name_end - 5} follow")
     gwyfile = _gwyfile()
     try:
         obj = gwyfile.objects.GwyObject.frombuffer(blob[4:])
     except Exception as err:  # noqa: BLE001 - a corrupted stream fails in many ways
-        raise _fail(path, f"corrupted Gwyddion file ({type(err).__name__}: {err})") from None
+        raise fail(path, f"corrupted Gwyddion file ({type(err).__name__}: {err})") from None
     if not isinstance(obj, dict) or getattr(obj, "name", None) != "GwyContainer":
-        raise _fail(path, "the top-level object is not a GwyContainer")
+        raise fail(path, "the top-level object is not a GwyContainer")
     return obj
 
 
@@ -101,14 +98,6 @@ def _unit_of(field, key: str) -> str:
         return ""
 
 
-def _is_length(unit: str) -> bool:
-    try:
-        u.as_length_unit(unit, what="unit")
-    except (ValueError, TypeError):
-        return False
-    return True
-
-
 def _fields(container) -> list[dict]:
     out = []
     for key, value in container.items():
@@ -120,7 +109,7 @@ def _fields(container) -> list[dict]:
         out.append({"index": index, "field": value,
                     "name": str(container.get(f"/{index}/data/title", f"channel {index}")),
                     "lateral_unit": xy, "unit": z,
-                    "is_height": bool(xy and z and _is_length(xy) and _is_length(z))})
+                    "is_height": bool(xy and z and u.is_length(xy) and u.is_length(z))})
     return sorted(out, key=lambda c: c["index"])
 
 
@@ -192,42 +181,42 @@ def read(path: str | Path, *, channel: str | int | None = None, mask: bool = Tru
     fields = _fields(container)
     listing = "; ".join(_describe(c) for c in fields) or "none"
     if not fields:
-        raise _fail(path, "the file holds no data fields (/N/data)")
+        raise fail(path, "the file holds no data fields (/N/data)")
     if channel is None:
         chosen = next((c for c in fields if c["is_height"]), None)
         if chosen is None:
-            raise _fail(path, f"no data field has length units for values and sizes; "
-                              f"channels: {listing}")
+            raise fail(path, f"no data field has length units for values and sizes; "
+                             f"channels: {listing}")
     elif isinstance(channel, (int, np.integer)) and not isinstance(channel, bool):
         chosen = next((c for c in fields if c["index"] == int(channel)), None)
         if chosen is None:
-            raise _fail(path, f"no channel with id {channel}; channels: {listing}")
+            raise fail(path, f"no channel with id {channel}; channels: {listing}")
     elif isinstance(channel, str):
         chosen = next((c for c in fields if c["name"].lower() == channel.strip().lower()),
                       None)
         if chosen is None:
-            raise _fail(path, f"no channel named {channel!r}; channels: {listing}")
+            raise fail(path, f"no channel named {channel!r}; channels: {listing}")
     else:
         raise TypeError(f"channel must be a title (str) or an id (int), got {channel!r}")
     name = chosen["name"]
     if not chosen["is_height"]:
-        raise _fail(path, f"channel {_describe(chosen)} has values in "
-                          f"{chosen['unit'] or 'no unit'!r} and sizes in "
-                          f"{chosen['lateral_unit'] or 'no unit'!r}; a topography needs "
-                          f"lengths for both")
+        raise fail(path, f"channel {_describe(chosen)} has values in "
+                         f"{chosen['unit'] or 'no unit'!r} and sizes in "
+                         f"{chosen['lateral_unit'] or 'no unit'!r}; a topography needs "
+                         f"lengths for both")
     field = chosen["field"]
     try:
         xres, yres = int(field["xres"]), int(field["yres"])
         xreal, yreal = float(field["xreal"]), float(field["yreal"])
         values = np.asarray(field["data"], dtype=float)
     except (KeyError, TypeError, ValueError) as err:
-        raise _fail(path, f"channel {name!r}: incomplete data field ({err})") from None
+        raise fail(path, f"channel {name!r}: incomplete data field ({err})") from None
     if xres < 2 or yres < 2 or values.size != xres * yres:
-        raise _fail(path, f"channel {name!r}: {values.size} values do not fill "
-                          f"{xres} x {yres} points")
+        raise fail(path, f"channel {name!r}: {values.size} values do not fill "
+                         f"{xres} x {yres} points")
     if not (xreal > 0 and yreal > 0 and np.isfinite(xreal) and np.isfinite(yreal)):
-        raise _fail(path, f"channel {name!r}: sizes xreal={xreal!r}, yreal={yreal!r} are "
-                          "not positive")
+        raise fail(path, f"channel {name!r}: sizes xreal={xreal!r}, yreal={yreal!r} are "
+                         "not positive")
     values = values.reshape(yres, xres).copy()
     attrs: dict = {}
     meta = container.get(f"/{chosen['index']}/meta")
@@ -244,8 +233,8 @@ def read(path: str | Path, *, channel: str | int | None = None, mask: bool = Tru
     if mask and mask_field is not None and getattr(mask_field, "name", "") == "GwyDataField":
         marked = np.asarray(mask_field.get("data", ()), dtype=float)
         if marked.size != values.size:
-            raise _fail(path, f"channel {name!r}: the mask has {marked.size} points, the "
-                              f"data {values.size}")
+            raise fail(path, f"channel {name!r}: the mask has {marked.size} points, the "
+                             f"data {values.size}")
         marked = marked.reshape(yres, xres) > 0.5
         values[marked] = np.nan
         attrs["masked_points"] = int(marked.sum())

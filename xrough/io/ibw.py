@@ -33,6 +33,7 @@ import numpy as np
 
 from .. import units as u
 from ..topography import topography
+from ._common import fail, select_channel
 
 __all__ = ["sniff", "read", "channels"]
 
@@ -77,10 +78,6 @@ def sniff(head: bytes, path: Path | None = None) -> bool:
     return _checksum_ok(head)
 
 
-def _fail(path: Path, message: str) -> ValueError:
-    return ValueError(f"{path.name}: {message}")
-
-
 def _bin_header5(blob: bytes, order: str) -> dict:
     names = ("version", "checksum", "wfmSize", "formulaSize", "noteSize", "dataEUnitsSize")
     values = struct.unpack(order + "hhiiii", blob[:20])
@@ -94,27 +91,27 @@ def _bin_header5(blob: bytes, order: str) -> dict:
 def _check(path: Path, blob: bytes) -> tuple[str, dict]:
     found = _byte_order(blob)
     if found is None or found[1] not in _CHECKSUM_BYTES:
-        raise _fail(path, "not an Igor binary wave (unknown version in the first two bytes)")
+        raise fail(path, "not an Igor binary wave (unknown version in the first two bytes)")
     order, version = found
     if version != 5:
-        raise _fail(path, f"Igor binary wave version {version}: only version 5 (Igor Pro 3+, "
-                          "multidimensional waves as written by AFMs) is supported")
+        raise fail(path, f"Igor binary wave version {version}: only version 5 (Igor Pro 3+, "
+                         "multidimensional waves as written by AFMs) is supported")
     if len(blob) < 384:
-        raise _fail(path, f"truncated file: {len(blob)} bytes, shorter than the 384-byte "
-                          "headers")
+        raise fail(path, f"truncated file: {len(blob)} bytes, shorter than the 384-byte "
+                         "headers")
     if not _checksum_ok(blob):
-        raise _fail(path, "corrupted Igor binary wave: the header checksum is wrong")
+        raise fail(path, "corrupted Igor binary wave: the header checksum is wrong")
     header = _bin_header5(blob, order)
     sizes = [header["wfmSize"], header["formulaSize"], header["noteSize"],
              header["dataEUnitsSize"], *header["dimEUnitsSize"], *header["dimLabelsSize"],
              header["sIndicesSize"]]
     if min(sizes) < 0 or header["wfmSize"] < 320:
-        raise _fail(path, f"corrupted Igor binary wave: negative or too small section sizes "
-                          f"{sizes}")
+        raise fail(path, f"corrupted Igor binary wave: negative or too small section sizes "
+                         f"{sizes}")
     needed = 64 + sum(sizes)
     if len(blob) < needed:
-        raise _fail(path, f"truncated file: the headers declare {needed} bytes but the file "
-                          f"has {len(blob)}")
+        raise fail(path, f"truncated file: the headers declare {needed} bytes but the file "
+                         f"has {len(blob)}")
     return order, header
 
 
@@ -141,14 +138,6 @@ def _extended_units(blob: bytes, header: dict) -> tuple[str, list[str]]:
 def _unit(text: str) -> str:
     """Igor unit spelling to a pint-readable one (SI symbols: ``A`` is the ampere)."""
     return text.strip().replace("\xb5", "u").replace("\u03bc", "u")
-
-
-def _is_length(unit: str) -> bool:
-    try:
-        u.as_length_unit(unit, what="unit")
-    except (ValueError, TypeError):
-        return False
-    return True
 
 
 def _parse_note(note: str) -> dict[str, str]:
@@ -201,7 +190,7 @@ def _load(path: Path):
     try:
         wave = binarywave.load(io.BytesIO(blob))["wave"]
     except Exception as err:  # noqa: BLE001 - a corrupted stream fails in many ways
-        raise _fail(path, f"corrupted Igor binary wave ({type(err).__name__}: {err})") from None
+        raise fail(path, f"corrupted Igor binary wave ({type(err).__name__}: {err})") from None
     return blob, header, wave
 
 
@@ -210,13 +199,13 @@ def _layout(path: Path, blob: bytes, header: dict, wave) -> dict:
     data = wave["wData"]
     if not isinstance(data, np.ndarray) or data.dtype.kind not in "iuf":
         kind = "complex" if isinstance(data, np.ndarray) and data.dtype.kind == "c" else "text"
-        raise _fail(path, f"the wave holds {kind} data, not real numbers")
+        raise fail(path, f"the wave holds {kind} data, not real numbers")
     ndim = [int(n) for n in wh["nDim"]]
     if ndim[3]:
-        raise _fail(path, "4D waves are not supported")
+        raise fail(path, "4D waves are not supported")
     shape = tuple(n for n in ndim if n)
     if data.shape != shape:
-        raise _fail(path, f"the wave data has shape {data.shape}, the header says {shape}")
+        raise fail(path, f"the wave data has shape {data.shape}, the header says {shape}")
     ext_data, ext_dims = _extended_units(blob, header)
     data_unit = _unit(ext_data or _text(wh["dataUnits"]))
     dim_units = [_unit(ext_dims[d] or _text(wh["dimUnits"][d])) for d in range(4)]
@@ -235,7 +224,7 @@ def _layout(path: Path, blob: bytes, header: dict, wave) -> dict:
               "unit": _channel_unit(n, data_unit, note, labelled)}
              for k, n in enumerate(names)]
     for c in chans:
-        c["is_height"] = bool(c["unit"]) and _is_length(c["unit"])
+        c["is_height"] = bool(c["unit"]) and u.is_length(c["unit"])
     return {"data": data, "wave_header": wh, "shape": shape, "dim_units": dim_units,
             "note": note, "note_text": note_text, "channels": chans}
 
@@ -259,8 +248,7 @@ def _describe(c: dict) -> str:
 
 
 def _choose(path: Path, chans: list[dict], channel) -> dict:
-    listing = "; ".join(_describe(c) for c in chans)
-    if channel is None:
+    def default(listing: str) -> dict:
         heights = [c for c in chans if c["is_height"]]
         for prefix in ("Height", "ZSensor"):
             named = [c for c in heights if _base_name(c["name"]).startswith(prefix)]
@@ -268,17 +256,9 @@ def _choose(path: Path, chans: list[dict], channel) -> dict:
                 return named[0]
         if heights:
             return heights[0]
-        raise _fail(path, f"no height channel (with a length unit); channels: {listing}")
-    if isinstance(channel, (int, np.integer)) and not isinstance(channel, bool):
-        if not -len(chans) <= channel < len(chans):
-            raise _fail(path, f"channel index {channel} out of range; channels: {listing}")
-        return chans[channel]
-    if isinstance(channel, str):
-        for c in chans:
-            if c["name"].lower() == channel.strip().lower():
-                return c
-        raise _fail(path, f"no channel named {channel!r}; channels: {listing}")
-    raise TypeError(f"channel must be a name (str) or an index (int), got {channel!r}")
+        raise fail(path, f"no height channel (with a length unit); channels: {listing}")
+
+    return select_channel(path, chans, channel, default=default, describe=_describe)
 
 
 def _date(note: dict[str, str]) -> str | None:
@@ -335,31 +315,31 @@ def read(path: str | Path, *, channel: str | int | None = None):
     chosen = _choose(path, layout["channels"], channel)
     if not chosen["is_height"]:
         heights = "; ".join(_describe(c) for c in layout["channels"] if c["is_height"])
-        raise _fail(path, f"channel {_describe(chosen)} is not a height (a topography needs "
-                          f"a length unit); height channels: {heights or 'none'}")
+        raise fail(path, f"channel {_describe(chosen)} is not a height (a topography needs "
+                         f"a length unit); height channels: {heights or 'none'}")
     data = layout["data"]
     if len(shape) == 3:
         data = data[:, :, chosen["index"]]
     ndim = data.ndim
     if ndim not in (1, 2):
-        raise _fail(path, f"a {len(shape)}D wave of shape {shape} is not a map or profile")
+        raise fail(path, f"a {len(shape)}D wave of shape {shape} is not a map or profile")
     sfa = [float(v) for v in wh["sfA"][:ndim]]
     sfb = [float(v) for v in wh["sfB"][:ndim]]
     values = np.asarray(data, dtype=float)
     for d in range(ndim):
         if not (np.isfinite(sfa[d]) and sfa[d] != 0):
-            raise _fail(path, f"the wave scaling of dimension {d} is {sfa[d]!r}")
+            raise fail(path, f"the wave scaling of dimension {d} is {sfa[d]!r}")
         if sfa[d] < 0:  # a reversed axis: flip so that coordinates increase
             values = np.flip(values, axis=d)
             sfb[d] += sfa[d] * (values.shape[d] - 1)
             sfa[d] = -sfa[d]
     lateral = dim_units[0]
-    if not _is_length(lateral):
-        raise _fail(path, f"the x dimension unit {lateral!r} is not a length")
+    if not u.is_length(lateral):
+        raise fail(path, f"the x dimension unit {lateral!r} is not a length")
     spacing = [sfa[0]]
     if ndim == 2:
-        if not _is_length(dim_units[1]):
-            raise _fail(path, f"the y dimension unit {dim_units[1]!r} is not a length")
+        if not u.is_length(dim_units[1]):
+            raise fail(path, f"the y dimension unit {dim_units[1]!r} is not a length")
         spacing.append(sfa[1] * u.conversion_factor(dim_units[1], lateral))
         values = values.T  # Igor (x, y) -> (y, x)
     note = layout["note"]

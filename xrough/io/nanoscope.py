@@ -56,6 +56,7 @@ import numpy as np
 
 from .. import units as u
 from ..topography import topography
+from ._common import fail, select_channel
 
 __all__ = ["sniff", "read", "channels", "parse_value"]
 
@@ -83,10 +84,6 @@ def sniff(head: bytes, path: Path | None = None) -> bool:
     return head.lstrip(b"\r\n\t ").startswith(_MAGICS)
 
 
-def _fail(path: Path, message: str) -> ValueError:
-    return ValueError(f"{path.name}: {message}")
-
-
 def _read_header(path: Path) -> tuple[str, bool]:
     r"""Read the header text up to ``\*File list end``; and whether the data is text."""
     raw = b""
@@ -97,14 +94,14 @@ def _read_header(path: Path) -> tuple[str, bool]:
                 break
             raw += block
             if not sniff(raw[:64]):
-                raise _fail(path, "not a Nanoscope file (no '\\*File list' header)")
+                raise fail(path, "not a Nanoscope file (no '\\*File list' header)")
             if b"file list end" in raw[-len(block) - 16:].lower():
                 break
     if not raw:
-        raise _fail(path, "the file is empty")
+        raise fail(path, "the file is empty")
     end = raw.lower().find(b"file list end")
     if end < 0:
-        raise _fail(path, "the header ends before '\\*File list end' (truncated file?)")
+        raise fail(path, "the header ends before '\\*File list end' (truncated file?)")
     text = raw[: end + len(b"file list end")].decode("latin-1")
     return text, raw.lstrip().startswith(b"?")
 
@@ -119,7 +116,7 @@ def _parse_header(path: Path, text: str) -> list[tuple[str, dict[str, str]]]:
         if line.startswith("?"):  # text-data files mark lines with '?'
             line = "\\" + line[1:]
         if not line.startswith("\\"):
-            raise _fail(path, f"header line {number} does not start with '\\': {line[:60]!r}")
+            raise fail(path, f"header line {number} does not start with '\\': {line[:60]!r}")
         line = line.lstrip("\\")
         if line.startswith("*"):
             name = line[1:].strip()
@@ -128,13 +125,13 @@ def _parse_header(path: Path, text: str) -> list[tuple[str, dict[str, str]]]:
             sections.append((name, {}))
             continue
         if not sections:
-            raise _fail(path, f"header line {number} comes before any '\\*' section")
+            raise fail(path, f"header line {number} comes before any '\\*' section")
         key, sep, value = line.partition(": ")
         if not sep:
             key, value = line.rstrip(":"), ""
         sections[-1][1][key.strip()] = value.strip()
     if not sections or sections[0][0].lower() not in ("file list", "ec file list"):
-        raise _fail(path, "the header does not start with a '\\*File list' section")
+        raise fail(path, "the header does not start with a '\\*File list' section")
     return sections
 
 
@@ -200,14 +197,6 @@ def _unit(text: str) -> str:
     return {"\xba": "deg", "\xb0": "deg"}.get(text, text)
 
 
-def _is_length(unit: str) -> bool:
-    try:
-        u.as_length_unit(unit, what="unit")
-    except (ValueError, TypeError):
-        return False
-    return True
-
-
 def _lookup(sections, key: str) -> str | None:
     key = key.lower()
     for _, entries in sections:
@@ -225,6 +214,16 @@ def _section_value(entries: dict[str, str], *keys: str) -> str | None:
     return None
 
 
+def _scale_entry(path: Path, raw: str, what: str) -> tuple[str | None, float, str]:
+    r"""Soft scale name, number and unit of a ``\@`` value (a Z scale or a sensitivity)."""
+    try:
+        _, soft_name, _, text = parse_value(raw)
+        number, unit = _number_unit(text, what)
+    except ValueError as err:
+        raise fail(path, str(err)) from None
+    return soft_name, number, _unit(unit)
+
+
 def _z_scale(path, sections, entries, name) -> tuple[float, str, str, str]:
     """Height per LSB (before the 2**(8 b) division), its unit, and a formula text."""
     raw = None
@@ -235,27 +234,17 @@ def _z_scale(path, sections, entries, name) -> tuple[float, str, str, str]:
                 break
     if raw is None:
         if _section_value(entries, "Z scale") is not None:
-            raise _fail(path, f"channel {name!r}: old-style 'Z scale' without '@' (Nanoscope "
-                              "software before version 5) is not supported")
-        raise _fail(path, f"channel {name!r} has no '@2:Z scale' entry")
-    try:
-        _, soft_name, _, hard_text = parse_value(raw)
-        hard, hard_unit = _number_unit(hard_text, f"channel {name!r} Z scale")
-    except ValueError as err:
-        raise _fail(path, str(err)) from None
-    hard_unit = _unit(hard_unit)
+            raise fail(path, f"channel {name!r}: old-style 'Z scale' without '@' (Nanoscope "
+                             "software before version 5) is not supported")
+        raise fail(path, f"channel {name!r} has no '@2:Z scale' entry")
+    soft_name, hard, hard_unit = _scale_entry(path, raw, f"channel {name!r} Z scale")
     if soft_name is None:
         return hard, hard_unit, f"{hard!r} {hard_unit}", raw
     soft_raw = _lookup(sections, "@" + soft_name)
     if soft_raw is None:
-        raise _fail(path, f"channel {name!r}: the soft scale '@{soft_name}' named by its Z "
-                          "scale is missing from the header")
-    try:
-        _, _, _, soft_text = parse_value(soft_raw)
-        soft, soft_unit = _number_unit(soft_text, f"soft scale '@{soft_name}'")
-    except ValueError as err:
-        raise _fail(path, str(err)) from None
-    soft_unit = _unit(soft_unit)
+        raise fail(path, f"channel {name!r}: the soft scale '@{soft_name}' named by its Z "
+                         "scale is missing from the header")
+    _, soft, soft_unit = _scale_entry(path, soft_raw, f"soft scale '@{soft_name}'")
     if "/" not in soft_unit:  # a dimensionless sensitivity: heights stay in the hard unit
         unit = hard_unit if not soft_unit else f"{hard_unit}*{soft_unit}"
         return hard * soft, unit, f"{hard!r} {hard_unit} * {soft!r} {soft_unit}", raw
@@ -263,8 +252,8 @@ def _z_scale(path, sections, entries, name) -> tuple[float, str, str, str]:
     try:
         factor = u.conversion_factor(hard_unit, denominator)
     except Exception:  # noqa: BLE001 - pint raises several error types here
-        raise _fail(path, f"channel {name!r}: the Z scale unit {hard_unit!r} does not match "
-                          f"the sensitivity unit {soft_unit!r}") from None
+        raise fail(path, f"channel {name!r}: the Z scale unit {hard_unit!r} does not match "
+                         f"the sensitivity unit {soft_unit!r}") from None
     formula = f"{hard!r} {hard_unit} * {soft!r} {soft_unit}"
     if factor != 1:
         formula += f" * {factor!r} {denominator}/{hard_unit}"
@@ -276,15 +265,15 @@ def _scan_size(path, text: str, name: str) -> tuple[float, float, str]:
     try:
         sx = float(parts[0])
     except (IndexError, ValueError):
-        raise _fail(path, f"channel {name!r}: cannot read 'Scan Size: {text}'") from None
+        raise fail(path, f"channel {name!r}: cannot read 'Scan Size: {text}'") from None
     try:
         sy = float(parts[1])
         unit = " ".join(parts[2:])
     except (IndexError, ValueError):
         sy, unit = sx, " ".join(parts[1:])
     unit = _unit(unit)
-    if not _is_length(unit) or not (sx > 0 and sy > 0):
-        raise _fail(path, f"channel {name!r}: 'Scan Size: {text}' is not a positive length")
+    if not u.is_length(unit) or not (sx > 0 and sy > 0):
+        raise fail(path, f"channel {name!r}: 'Scan Size: {text}' is not a positive length")
     return sx, sy, unit
 
 
@@ -293,11 +282,11 @@ def _int(path, entries, key, name, default=None) -> int:
     if value is None:
         if default is not None:
             return default
-        raise _fail(path, f"channel {name!r} has no '{key}' entry")
+        raise fail(path, f"channel {name!r} has no '{key}' entry")
     try:
         return int(float(value.split()[0]))
     except (IndexError, ValueError):
-        raise _fail(path, f"channel {name!r}: '{key}: {value}' is not an integer") from None
+        raise fail(path, f"channel {name!r}: '{key}: {value}' is not an integer") from None
 
 
 def _image_name(entries: dict[str, str], index: int) -> str:
@@ -346,7 +335,7 @@ def _channels(path: Path):
                                    _section_value(scan, "Scan Size") or "", name)
         info.update(sx=sx, sy=sy, lateral_unit=lunit)
         if info["bpp"] not in (2, 4):
-            raise _fail(path, f"channel {name!r}: Bytes/pixel {info['bpp']} is not 2 or 4")
+            raise fail(path, f"channel {name!r}: Bytes/pixel {info['bpp']} is not 2 or 4")
         elsize = info["bpp"]
         if version >= _VERSION_32BIT and info["length"] == 4 * info["nx"] * info["ny"]:
             elsize = 4
@@ -358,8 +347,8 @@ def _channels(path: Path):
             info["sy"] *= gy / info["ny"]
             info["nx"], info["ny"] = gx, gy
         if info["nx"] < 1 or info["ny"] < 1 or info["length"] < elsize * info["nx"] * info["ny"]:
-            raise _fail(path, f"channel {name!r}: Data length {info['length']} is smaller than "
-                              f"{info['nx']} x {info['ny']} points of {elsize} bytes")
+            raise fail(path, f"channel {name!r}: Data length {info['length']} is smaller than "
+                             f"{info['nx']} x {info['ny']} points of {elsize} bytes")
         info["elsize"] = elsize
     return text, is_text, sections, version, out
 
@@ -388,36 +377,28 @@ def channels(path: str | Path) -> list[dict]:
     path = Path(path)
     *_, infos = _channels(path)
     return [{"index": c["index"], "name": c["name"], "unit": c["unit"],
-             "is_height": bool(c["unit"] and _is_length(c["unit"])),
+             "is_height": bool(c["unit"] and u.is_length(c["unit"])),
              "scan_line": _section_value(c["entries"], "Scan Line") or "",
              "line_direction": _section_value(c["entries"], "Line Direction") or ""}
             for c in infos]
 
 
 def _choose(path: Path, infos: list[dict], channel) -> dict:
-    listing = "; ".join(_describe(c) for c in infos) or "none"
     if not infos:
-        raise _fail(path, "the file holds no image sections ('\\*Ciao image list')")
-    if channel is None:
-        heights = [c for c in infos if c["unit"] and _is_length(c["unit"])]
+        raise fail(path, "the file holds no image sections ('\\*Ciao image list')")
+
+    def default(listing: str) -> dict:
+        heights = [c for c in infos if c["unit"] and u.is_length(c["unit"])]
         named = sorted((c for c in heights if c["name"].lower() in _HEIGHT_NAMES),
                        key=lambda c: _HEIGHT_NAMES.index(c["name"].lower()))
         if not heights:
             broken = [c["error"] for c in infos if c.get("error")]
             if broken:  # e.g. a height channel whose scale cannot be worked out
                 raise ValueError(f"{broken[0]}; channels: {listing}")
-            raise _fail(path, f"no height channel (with a length unit); channels: {listing}")
+            raise fail(path, f"no height channel (with a length unit); channels: {listing}")
         return (named or heights)[0]
-    if isinstance(channel, (int, np.integer)) and not isinstance(channel, bool):
-        if not -len(infos) <= channel < len(infos):
-            raise _fail(path, f"channel index {channel} out of range; channels: {listing}")
-        return infos[channel]
-    if isinstance(channel, str):
-        for c in infos:
-            if c["name"].lower() == channel.strip().lower():
-                return c
-        raise _fail(path, f"no channel named {channel!r}; channels: {listing}")
-    raise TypeError(f"channel must be a name (str) or an index (int), got {channel!r}")
+
+    return select_channel(path, infos, channel, default=default, describe=_describe)
 
 
 def _date(text: str | None) -> str | None:
@@ -465,27 +446,27 @@ def read(path: str | Path, *, channel: str | int | None = None):
     path = Path(path)
     text, is_text, sections, version, infos = _channels(path)
     if is_text:
-        raise _fail(path, "Nanoscope files with the data stored as text ('?*File list') are "
-                          "not supported; export a binary file")
+        raise fail(path, "Nanoscope files with the data stored as text ('?*File list') are "
+                         "not supported; export a binary file")
     info = _choose(path, infos, channel)
-    listing = "; ".join(_describe(c) for c in infos if c["unit"] and _is_length(c["unit"]))
+    listing = "; ".join(_describe(c) for c in infos if c["unit"] and u.is_length(c["unit"]))
     if info["unit"] is None:
         raise ValueError(info.get("error") or f"{path.name}: channel {info['name']!r} has "
                                               "no height scale")
-    if not _is_length(info["unit"]):
-        raise _fail(path, f"channel {info['index']} {info['name']!r} holds "
-                          f"{info['unit']!r}, not heights (a topography needs a length unit); "
-                          f"height channels: {listing or 'none'}")
+    if not u.is_length(info["unit"]):
+        raise fail(path, f"channel {info['index']} {info['name']!r} holds "
+                         f"{info['unit']!r}, not heights (a topography needs a length unit); "
+                         f"height channels: {listing or 'none'}")
     nx, ny, elsize = info["nx"], info["ny"], info["elsize"]
     count = nx * ny
     file_size = path.stat().st_size
     end = info["offset"] + elsize * count
     if info["offset"] < 0 or end > file_size:
-        raise _fail(path, f"truncated file: channel {info['name']!r} needs bytes "
-                          f"{info['offset']}..{end} but the file has {file_size} bytes")
+        raise fail(path, f"truncated file: channel {info['name']!r} needs bytes "
+                         f"{info['offset']}..{end} but the file has {file_size} bytes")
     raw = np.fromfile(path, dtype=f"<i{elsize}", count=count, offset=info["offset"])
     if raw.size != count:  # pragma: no cover - guarded by the size check above
-        raise _fail(path, f"truncated file: read {raw.size} of {count} values")
+        raise fail(path, f"truncated file: read {raw.size} of {count} values")
     scale = info["per_lsb"] / 2.0 ** (8 * info["bpp"])
     heights = raw.reshape(ny, nx).astype(float) * scale
 
