@@ -344,3 +344,17 @@ def test_stability_with_the_default_exact_gradient(hurst, noise):
     assert np.all(np.isfinite(C_back.values))
     fit = G.rough.fit()
     assert 0 < float(fit.hurst) < 1
+
+
+def test_every_result_plots():
+    C = xrough.model_spectrum(hurst=0.8, lambda_r="1 um", lambda_s="10 nm",
+                              rms_gradient=0.5, unit="nm")
+    G = xrough.acf_from_spectrum(C, dr_min="1 nm", dr_max="100 um")
+    axes = G.rough.persson(E_star=E_STAR, p0=[1e5, 1e6]).rough.plot()
+    assert [a.get_title() for a in axes][:3] == ["p_star", "a_r", "a_ri"]
+    assert G.rough.energy(E_star=E_STAR).rough.plot()[0].get_xscale() == "log"
+    ax = G.rough.stress_acf(E_star=E_STAR).rough.plot()
+    assert ax.get_yscale() == "linear"  # the stress ACF crosses zero
+    assert G.rough.gradient().rough.plot().get_yscale() == "log"
+    with pytest.raises(ValueError, match="nothing to plot"):
+        G.rough.patch_radius(E_star=E_STAR, gamma=0.05).rough.plot()

@@ -10,7 +10,7 @@ import xarray as xr
 
 from . import contact, correlation, fitting, gradient, plot, preprocess, spectra
 
-__all__ = ["RoughDataArrayAccessor"]
+__all__ = ["RoughDataArrayAccessor", "RoughDatasetAccessor"]
 
 
 @xr.register_dataarray_accessor("rough")
@@ -75,3 +75,15 @@ class RoughDataArrayAccessor:
     def plot(self, **kwargs):
         """Plot a topography or a correlation function; see :func:`xrough.plot.plot`."""
         return plot.plot(self._obj, **kwargs)
+
+
+@xr.register_dataset_accessor("rough")
+class RoughDatasetAccessor:
+    """``Dataset.rough``: plots of result Datasets (Persson theory, energy, fits)."""
+
+    def __init__(self, obj: xr.Dataset) -> None:
+        self._obj = obj
+
+    def plot(self, **kwargs):
+        """One panel per variable; see :func:`xrough.plot.plot_dataset`."""
+        return plot.plot_dataset(self._obj, **kwargs)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-__all__ = ["plot", "plot_topography", "plot_loglog"]
+__all__ = ["plot", "plot_topography", "plot_loglog", "plot_dataset"]
 
 
 def _label(da: xr.DataArray, default: str) -> str:
@@ -77,7 +77,7 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
     ('log', 'log')
     """
     ax = _axes(ax)
-    dim = "dr" if "dr" in da.dims else "q"
+    dim = next(d for d in ("dr", "q", "a_c") if d in da.dims)
     extra = [d for d in da.dims if d != dim]
     stacked = da.stack(_line=extra) if extra else da.expand_dims("_line")
     user_label = kwargs.pop("label", None)
@@ -95,12 +95,49 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
             lo = np.where(y - se > 0, y - se, np.nan)
             ax.fill_between(x, lo, y + se, color=ln.get_color(), alpha=0.25, linewidth=0)
     ax.set_xscale("log")
-    ax.set_yscale("log")
+    values = np.asarray(da.values, dtype=float)
+    positive = bool(np.all(values[np.isfinite(values)] > 0))
+    ax.set_yscale("log" if positive else "linear")  # stress ACFs cross zero
     ax.set_xlabel(_label(da[dim], dim))
     ax.set_ylabel(_label(da, da.name or ""))
     if extra or user_label:
         ax.legend()
     return ax
+
+
+def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None):
+    """One panel per variable of a result Dataset (Persson theory, energy, ...).
+
+    Variables on ``dr``, ``q`` or ``a_c`` are drawn against it (log axes); scalars are
+    skipped. Returns the array of Axes.
+
+    Examples
+    --------
+    >>> C = xrough.model_spectrum(hurst=0.8, lambda_r="1 um", lambda_s="10 nm",
+    ...                           rms_gradient=0.5, unit="nm")
+    >>> G = xrough.acf_from_spectrum(C, dr_min="1 nm", dr_max="100 um")
+    >>> axes = G.rough.persson(E_star="25 MPa", p0="0.1 MPa").rough.plot()
+    >>> len(axes)
+    8
+    """
+    import matplotlib.pyplot as plt
+
+    names = [n for n in (variables or ds.data_vars)
+             if any(d in ds[n].dims for d in ("dr", "q", "a_c"))]
+    if not names:
+        raise ValueError("nothing to plot: no variable depends on dr, q or a_c")
+    if axes is None:
+        ncol = min(3, len(names))
+        nrow = -(-len(names) // ncol)
+        _, axes = plt.subplots(nrow, ncol, figsize=(4.5 * ncol, 3.6 * nrow), squeeze=False)
+    flat = np.ravel(axes)
+    for name, ax in zip(names, flat):
+        plot_loglog(ds[name], ax=ax)
+        ax.set_title(name)
+    for ax in flat[len(names):]:
+        ax.set_visible(False)
+    ax.figure.tight_layout()
+    return flat[: len(names)]
 
 
 def plot(da: xr.DataArray, *, ax=None, **kwargs):
@@ -119,7 +156,9 @@ def plot(da: xr.DataArray, *, ax=None, **kwargs):
     -------
     matplotlib.axes.Axes
     """
-    if "dr" in da.dims or "q" in da.dims:
+    if isinstance(da, xr.Dataset):
+        return plot_dataset(da, **kwargs)
+    if "dr" in da.dims or "q" in da.dims or "a_c" in da.dims:
         return plot_loglog(da, ax=ax, **kwargs)
     if "x" in da.dims:
         return plot_topography(da, ax=ax, **kwargs)
