@@ -51,6 +51,12 @@ from .spectra import (  # noqa: E402
     rms_gradient_exact,
     spectrum,
 )
+from .stitching import (  # noqa: E402
+    StitchingMismatchWarning,
+    stitch,
+    stitch_curves,
+    stitch_mismatch,
+)
 from .synthetic import self_affine_surface  # noqa: E402
 from .topography import topography  # noqa: E402
 
@@ -80,6 +86,10 @@ __all__ = [
     "self_affine_model",
     "self_affine_surface",
     "spectrum",
+    "stitch",
+    "stitch_curves",
+    "stitch_mismatch",
+    "StitchingMismatchWarning",
     "stress_acf",
     "stress_acf_from_spectrum",
     "topography",

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import xarray as xr
 
-from . import contact, correlation, fitting, gradient, plot, preprocess, spectra
+from . import contact, correlation, fitting, gradient, plot, preprocess, spectra, stitching
 
 __all__ = ["RoughDataArrayAccessor", "RoughDatasetAccessor"]
 
@@ -79,10 +79,18 @@ class RoughDataArrayAccessor:
 
 @xr.register_dataset_accessor("rough")
 class RoughDatasetAccessor:
-    """``Dataset.rough``: plots of result Datasets (Persson theory, energy, fits)."""
+    """``Dataset.rough``: stitching several measurements, plots of result Datasets."""
 
     def __init__(self, obj: xr.Dataset) -> None:
         self._obj = obj
+
+    def acf(self, **kwargs) -> xr.DataArray:
+        """One G(dr) stitched from the measurements; see :func:`xrough.stitch`."""
+        return stitching.stitch(self._obj, **kwargs)
+
+    def stitch_curves(self, **kwargs) -> xr.Dataset:
+        """Each measurement's G on the common grid; see :func:`xrough.stitch_curves`."""
+        return stitching.stitch_curves(self._obj, **kwargs)
 
     def plot(self, **kwargs):
         """One panel per variable; see :func:`xrough.plot.plot_dataset`."""

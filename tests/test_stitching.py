@@ -1,0 +1,228 @@
+"""Stitching G(dr) of several instruments into one curve (xrough.stitching)."""
+
+import warnings
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import xrough
+from conftest import data_path
+from xrough.stitching import (
+    StitchingMismatchWarning,
+    stitch,
+    stitch_curves,
+    stitch_mismatch,
+)
+
+N = 2**18  # points of the periodic model profile (pixel 1 nm)
+
+
+@pytest.fixture(scope="module")
+def surface():
+    # H = 0.7 self-affine from lambda_s = 4 nm to lambda_r = N / 16: 4 decades of scales
+    return xrough.self_affine_surface(hurst=0.7, lambda_r=N / 16, lambda_s=4.0,
+                                      size=float(N), n=N, rms_height=1.0, profile=True,
+                                      seed=11, unit="nm")
+
+
+def _instrument(heights, spacing, *, noise, rng, unit="nm", scale=1.0, periodic=False):
+    """Heights (scan, x) or (x,) on a grid of `spacing` nm, plus white noise of
+    `noise` x the rms one-pixel height difference, converted to `unit`."""
+    h = heights + noise * np.std(np.diff(heights, axis=-1)) * rng.normal(size=heights.shape)
+    f = xrough.units.conversion_factor("nm", unit)
+    dims = ("scan", "x") if h.ndim == 2 else ("x",)
+    return xr.DataArray(scale * h * f, dims=dims,
+                        coords={"x": ("x", np.arange(h.shape[-1]) * spacing * f,
+                                      {"units": unit})},
+                        attrs={"units": unit, "periodic": int(periodic)})
+
+
+def _three(surface, *, scale_medium=1.0):
+    """A fine small-scan instrument (32 scans of 2048 px of 1 nm), a medium one (8 scans
+    of 4096 px, block-averaged to 4 nm, in um) and a coarse one (the whole periodic
+    profile block-averaged to 16 nm)."""
+    rng = np.random.default_rng(5)
+    h = surface.values
+    fine = np.stack([h[s:s + 2048] for s in range(0, N, N // 32)])
+    medium = np.stack([h[s:s + 16384].reshape(-1, 4).mean(-1) for s in range(0, N, N // 8)])
+    coarse = h.reshape(-1, 16).mean(-1)
+    return {"fine": _instrument(fine, 1.0, noise=0.1, rng=rng),
+            "medium": _instrument(medium, 4.0, noise=0.1, rng=rng, unit="um",
+                                  scale=scale_medium),
+            "coarse": _instrument(coarse, 16.0, noise=0.1, rng=rng, periodic=True)}
+
+
+@pytest.fixture(scope="module")
+def three(surface):
+    return _three(surface)
+
+
+@pytest.fixture(scope="module")
+def curves(three):
+    return stitch_curves(three)
+
+
+def _reference(surface, dr):
+    G = surface.rough.acf()
+    return np.exp(np.interp(np.log(dr), np.log(G.dr.values), np.log(G.values)))
+
+
+def test_recovers_true_G_over_union_of_windows(surface, curves):
+    G = stitch(curves)
+    assert G.name == "G" and G.dims == ("dr",)
+    # windows: 4 px .. scan / 4 of each instrument, in the first instrument's unit (nm)
+    np.testing.assert_allclose(curves.dr_min.values, [4.0, 16.0, 64.0])
+    np.testing.assert_allclose(curves.dr_max.values, [512.0, 4096.0, N / 4])
+    assert G.dr.attrs["units"] == "nm" and G.attrs["units"] == "nm2"
+    # the bins whose centre lies in a window: from the first centre >= 4 nm to the last
+    # one <= N / 4 (10 per decade)
+    assert G.dr.values[0] == pytest.approx(10**0.7)
+    assert G.dr.values[-1] == pytest.approx(10**4.8)
+    assert int(G.n_measurements.max()) == 3 and int(G.n_measurements.min()) == 1
+    # 5 %: the statistical error of the fine/medium scans is 1-10 %, the reference
+    # is the G of the very profile they sample (same realisation), so only the
+    # scan-to-surface sampling error and noise remain
+    rel = G.values / _reference(surface, G.dr.values) - 1
+    assert np.abs(rel).max() < 0.05, rel
+    # and the true G of the model, over the range a single realisation pins down
+    # (its own finite-size scatter grows towards lambda_r)
+    C = xrough.model_spectrum(hurst=0.7, lambda_r=N / 16, lambda_s=4.0, lambda_0=float(N),
+                              rms_height=1.0, unit="nm")
+    exact = xrough.acf_from_spectrum(C, G.dr.values)
+    model = G.values / exact.values - 1
+    # within 5 % up to lambda_r / 2; near lambda_r one realisation scatters by ~15 %
+    small = G.dr.values < N / 32
+    assert np.abs(model[small]).max() < 0.05, model
+
+
+def test_curves_are_nan_outside_windows(curves):
+    for m in curves.measurement.values:
+        c = curves.sel(measurement=m)
+        inside = (c.dr >= c.dr_min) & (c.dr <= c.dr_max)
+        assert bool(c.G.where(~inside).isnull().all())
+        assert bool((c.pair_count.where(~inside, 0) == 0).all())
+        assert int(np.isfinite(c.G).sum()) >= 8
+
+
+def test_weighting_rule(curves):
+    G = stitch(curves)
+    g = curves.G.sel(dr=G.dr)
+    w = (g / curves.standard_error.sel(dr=G.dr)) ** 2
+    expected = np.exp((w * np.log(g)).sum("measurement") / w.sum("measurement"))
+    np.testing.assert_allclose(G.values, expected.values, rtol=1e-12)
+    np.testing.assert_allclose(G.standard_error.values,
+                               (expected / np.sqrt(w.sum("measurement"))).values, rtol=1e-12)
+    np.testing.assert_array_equal(G.pair_count.values,
+                                  curves.pair_count.sel(dr=G.dr).sum("measurement").values)
+    # the combination beats each instrument where they overlap
+    best = (curves.standard_error / curves.G).min("measurement").sel(dr=G.dr)
+    assert bool((G.standard_error / G <= best * (1 + 1e-12)).all())
+
+
+def test_consistent_instruments_do_not_warn(curves):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", StitchingMismatchWarning)
+        mm = stitch_mismatch(curves)
+    assert set(mm.pair.values) == {"fine/medium", "fine/coarse", "medium/coarse"}
+    assert not bool(mm.significant.any())
+    # the scans differ from each other within their errors (a few %)
+    assert bool((abs(mm.log_ratio) < 2 * mm.log_ratio_error).all())
+    np.testing.assert_allclose(mm.ratio.values, 1.0, atol=0.1)
+
+
+def test_miscalibrated_instrument_warns(surface, curves):
+    bad = _three(surface, scale_medium=1.3)  # heights x 1.3 -> G x 1.69
+    with pytest.warns(StitchingMismatchWarning) as record:
+        G = stitch(bad)
+    messages = [str(w.message) for w in record]
+    assert any("'fine' and 'medium'" in m for m in messages), messages
+    assert not any("'fine' and 'coarse'" in m for m in messages), messages
+    ratio = dict(zip(G.attrs["mismatch_pairs"].split(", "), G.attrs["mismatch_ratio"]))
+    good = stitch_mismatch(curves).set_index(pair="pair").ratio
+    # noise scaled with the heights: G of 'medium' is exactly 1.69 x the consistent one
+    assert ratio["fine/medium"] == pytest.approx(float(good.sel(pair="fine/medium")) / 1.69,
+                                                 rel=1e-9)
+    assert ratio["medium/coarse"] == pytest.approx(
+        float(good.sel(pair="medium/coarse")) * 1.69, rel=1e-9)
+    assert 1.5 < ratio["medium/coarse"] < 1.9
+
+
+def test_precomputed_G_and_dataset_input(three, curves):
+    Gs = {k: v.rough.acf(pool="scan" if v.ndim == 2 else None) for k, v in three.items()}
+    # precomputed G carry no window: give the topographies' defaults
+    win = {k: (float(curves.dr_min.sel(measurement=k)) * (1e-3 if k == "medium" else 1),
+               float(curves.dr_max.sel(measurement=k)) * (1e-3 if k == "medium" else 1))
+           for k in three}
+    other = stitch_curves(Gs, windows=win)
+    both = np.isfinite(other.G) & np.isfinite(curves.G)
+    assert int(both.sum()) > 40
+    # re-binned fine bins vs G computed on the common edges: the same pairs
+    np.testing.assert_allclose(other.G.where(both), curves.G.where(both), rtol=0.05)
+    assert (three["fine"].attrs, three["fine"].dims) == ({"units": "nm", "periodic": 0},
+                                                          ("scan", "x"))
+    ds = xr.Dataset({"coarse": three["coarse"]})
+    one = stitch_curves(ds)
+    assert list(one.measurement.values) == ["coarse"]
+
+
+@pytest.mark.skipif(not hasattr(xr, "DataTree"), reason="xarray without DataTree")
+def test_datatree_input(three, curves):
+    tree = xr.DataTree.from_dict({k: xr.Dataset({"h": v}) for k, v in three.items()})
+    other = stitch_curves(tree)
+    assert sorted(other.measurement.values) == ["coarse/h", "fine/h", "medium/h"]
+    np.testing.assert_allclose(other.G.sel(measurement="fine/h"),
+                               curves.G.sel(measurement="fine"), rtol=1e-12)
+
+
+def test_windows_override_and_reliable_attrs(three):
+    t = dict(three)
+    t["fine"] = xrough.reliable(t["fine"], short_cutoff="10 nm", long_cutoff="100 nm")
+    c = stitch_curves(t, windows={"coarse": ("1 um", None)}, parallel=False)
+    np.testing.assert_allclose(c.dr_min.values, [10.0, 16.0, 1000.0])
+    np.testing.assert_allclose(c.dr_max.values, [100.0, 4096.0, N / 4])
+    assert "windows= override" in c.attrs["window_rules"]
+    with pytest.raises(ValueError, match="unknown measurements"):
+        stitch_curves(three, windows={"nope": (1, 2)})
+    with pytest.raises(ValueError, match="empty window"):
+        stitch_curves(three, windows={"fine": (100, 10)})
+    with pytest.raises(ValueError, match="set by stitching"):
+        stitch_curves(three, dr_min=3)
+    with pytest.raises(TypeError):
+        stitch_curves([three["fine"]])
+
+
+def test_stitched_G_feeds_fit_and_persson(curves):
+    G = stitch(curves)
+    assert G.attrs["stitched"] == 1 and G.attrs["stitched_from"] == "fine, medium, coarse"
+    fit = G.rough.fit()
+    assert 0.6 < float(fit.hurst) < 0.8
+    ds = G.rough.persson(E_star="25 MPa", p0="1 MPa")
+    assert "a_r" in ds and np.isfinite(ds.a_r).any()
+
+
+@pytest.mark.data
+def test_uncd_stitched():
+    folder = data_path("uncd")
+    tem = xrough.open_topography(folder / "80_Scale10.472_FIXEDv2p1_D7eHXiT.asc",
+                                 resample=True, unit="nm")
+    afm = xrough.open_topography(folder / "gain_control_uncd_35_z03tr3R.001")
+    sty = xrough.open_topography(folder / "uncd_stylus_300um_5mar_3_k0HpKJt.txt", unit="mm")
+    # detrend modes of meta.yml: height = mean / plane, curvature for the stylus
+    meas = {"TEM": tem.rough.detrend(mode="mean"), "AFM": afm.rough.detrend(mode="plane"),
+            "stylus": sty.rough.detrend(mode="curvature")}
+    curves = stitch_curves(meas, unit="nm")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StitchingMismatchWarning)
+        mm = stitch_mismatch(curves)
+        G = stitch(curves)
+    assert G.dr.attrs["units"] == "nm" and G.attrs["units"] == "nm2"
+    assert G.dr.values[0] < 10 and G.dr.values[-1] > 5e4  # > 4 decades
+    assert np.isfinite(G.values).all() and (np.diff(G.values) > -0.5 * G.values[1:]).all()
+    assert mm.sizes["pair"] >= 1 and np.isfinite(mm.ratio).all()
+    # continuous: between neighbouring bins G changes no faster than dr^2 (the steepest
+    # G of a smooth surface), also across the gap the windows leave (TEM/stylus)
+    slope = np.diff(np.log(G.values)) / np.diff(np.log(G.dr.values))
+    assert np.abs(slope).max() < 2.0, slope
+    fit = G.rough.fit()
+    assert 0 < float(fit.hurst) < 1

@@ -1,0 +1,571 @@
+r"""One G(dr) over many decades from several instruments (stitching).
+
+Each instrument resolves G only inside its reliability window: above a few pixels (or its
+lateral resolution, tip cutoff) and below a fraction of its scan size. Measurements of one
+surface by several instruments (TEM profiles, AFM maps, stylus profiles...) cover
+different windows; stitching brings their G to one length unit and one log grid of lag
+bins and combines them where they overlap.
+
+:func:`stitch_curves`
+    G of every measurement (in parallel threads), restricted to its window, re-binned onto
+    the common log grid: a :class:`xarray.Dataset` on ``(measurement, dr)``, NaN outside
+    each window.
+:func:`stitch_mismatch`
+    For every pair of measurements that overlap, the ratio of their G over the overlap and
+    its significance; :class:`StitchingMismatchWarning` flags a significant disagreement
+    (calibration, tip convolution, detrending).
+:func:`stitch`
+    The stitched G: inverse-variance weighted combination of the curves, a ``G``
+    DataArray that feeds :func:`xrough.fit_acf` and :func:`xrough.persson` directly.
+
+>>> import xrough
+>>> topo = xrough.self_affine_surface(hurst=0.7, lambda_r="2 um", lambda_s="20 nm",
+...                                   size="8 um", n=1024, rms_height="10 nm",
+...                                   profile=True, seed=3, unit="nm")
+>>> fine = topo.isel(x=slice(0, 256)).assign_attrs(periodic=0)  # a crop is not periodic
+>>> coarse = topo.isel(x=slice(None, None, 4))
+>>> from xrough.stitching import stitch
+>>> G = stitch({"fine": fine, "coarse": coarse}, points_per_decade=5)
+>>> G.name, G.attrs["units"], G.attrs["stitched_from"]
+('G', 'nm2', 'fine, coarse')
+>>> int(G.n_measurements.max())
+2
+"""
+
+from __future__ import annotations
+
+import itertools
+import warnings
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from . import __version__
+from . import units as u
+from .correlation import height_difference_acf
+from .preprocess import reliability_window
+from .topography import grid_of
+
+__all__ = [
+    "StitchingMismatchWarning",
+    "stitch",
+    "stitch_curves",
+    "stitch_mismatch",
+]
+
+#: Default short cutoff of a measurement without a recorded window, in pixels.
+DEFAULT_MIN_PIXELS = 4.0
+#: Default long cutoff of a measurement without a recorded window, as a fraction of the
+#: scan size (a quarter: G of an open, detrended scan is biased low near its size).
+DEFAULT_LONG_FRACTION = 0.25
+
+
+class StitchingMismatchWarning(UserWarning):
+    """Two measurements give significantly different G where their windows overlap."""
+
+
+# ------------------------------------------------------------------------------- inputs
+
+
+def _as_mapping(measurements: Any) -> dict[str, xr.DataArray]:
+    if isinstance(measurements, xr.Dataset):
+        items = {str(k): v for k, v in measurements.data_vars.items()}
+    elif hasattr(xr, "DataTree") and isinstance(measurements, xr.DataTree):
+        items = {}
+        for node in measurements.subtree:
+            for name, var in node.dataset.data_vars.items():
+                items[f"{node.path.strip('/')}/{name}".strip("/")] = var
+    elif isinstance(measurements, Mapping):
+        items = {str(k): v for k, v in measurements.items()}
+    else:
+        raise TypeError("measurements must be a mapping name -> DataArray, an xarray.Dataset "
+                        f"or an xarray.DataTree, got {type(measurements).__name__}")
+    if not items:
+        raise ValueError("no measurements to stitch")
+    for name, da in items.items():
+        if not isinstance(da, xr.DataArray):
+            raise TypeError(f"measurement {name!r} is a {type(da).__name__}, not a DataArray")
+    return items
+
+
+def _is_acf(da: xr.DataArray) -> bool:
+    return "dr" in da.dims
+
+
+def _lateral_unit(da: xr.DataArray) -> str:
+    dim = "dr" if _is_acf(da) else da.dims[-1]
+    return u.format_units(u.as_length_unit(u.units_of(da.coords[dim], what=f"coordinate {dim!r}"),
+                                           what=f"coordinate {dim!r}"))
+
+
+def _height_unit(da: xr.DataArray) -> str:
+    unit = u.units_of(da, what="heights")
+    if _is_acf(da):
+        unit = unit**0.5
+    return u.format_units(u.as_length_unit(unit, what="heights"))
+
+
+def _window_of(name: str, da: xr.DataArray, override, lunit: str, min_pixels: float,
+               long_fraction: float) -> tuple[float, float, str]:
+    """Window of one measurement in its own lateral unit, with the rule that set it."""
+    lo, hi = reliability_window(da) if ("x" in da.coords or "dr" in da.coords) else (None,
+                                                                                    None)
+    rule_lo = rule_hi = "reliable_dr (recorded)"
+    if _is_acf(da):
+        pixel = da.attrs.get("pixel_size", float(da.dr.min()))
+        scan = da.attrs.get("scan_size")
+    else:
+        grid = grid_of(da, what=f"measurement {name!r}")
+        pixel = max(grid.spacing)
+        scan = min(n * d for n, d in zip(grid.shape, grid.spacing))
+    if lo is None:
+        lo, rule_lo = min_pixels * pixel, f"{min_pixels:g} pixels of {pixel:g} {lunit}"
+    if hi is None:
+        if scan is None:
+            hi, rule_hi = float(da.dr.max()), "largest lag of G"
+        else:
+            hi, rule_hi = long_fraction * scan, f"{long_fraction:g} x scan size {scan:g} {lunit}"
+    if override is not None:
+        if not isinstance(override, (tuple, list)) or len(override) != 2:
+            raise ValueError(f"windows[{name!r}] must be a pair (dr_min, dr_max), got "
+                             f"{override!r}")
+        if override[0] is not None:
+            lo = u.length_in(override[0], lunit, what=f"windows[{name!r}][0]")
+            rule_lo = "windows= override"
+        if override[1] is not None:
+            hi = u.length_in(override[1], lunit, what=f"windows[{name!r}][1]")
+            rule_hi = "windows= override"
+    if not 0 < lo < hi:
+        raise ValueError(f"measurement {name!r}: empty window dr_min={lo:g} >= dr_max={hi:g} "
+                         f"{lunit} ({rule_lo}; {rule_hi})")
+    return float(lo), float(hi), f"dr_min: {rule_lo}; dr_max: {rule_hi}"
+
+
+def _common_edges(lo: float, hi: float, ppd: float) -> tuple[np.ndarray, np.ndarray]:
+    """Log bin centres ``10**(k/ppd)`` covering [lo, hi] and their edges."""
+    k0 = int(np.floor(np.log10(lo) * ppd + 0.5))
+    k1 = int(np.ceil(np.log10(hi) * ppd - 0.5))
+    k = np.arange(k0, k1 + 1)
+    return 10.0 ** (k / ppd), 10.0 ** ((np.append(k, k1 + 1) - 0.5) / ppd)
+
+
+# ------------------------------------------------------------------------------ re-bin
+
+
+def _rebin(dr, g, se, n, centres, edges, lo, hi):
+    """Re-bin one G onto the common bins: pair-weighted, then moved to the bin centres.
+
+    Bins of the measurement whose lag falls into a common bin are combined with pair-count
+    weights (G, lag and standard error alike: the errors of neighbouring bins of one
+    measurement are strongly correlated, so the error is averaged, not reduced). The value
+    at the pair-weighted lag is moved to the bin centre along the local log-log slope of
+    the measurement's own curve. Bins whose centre lies outside ``[lo, hi]`` are NaN.
+    """
+    nb = len(centres)
+    ok = np.isfinite(g) & (n > 0) & (dr >= lo) & (dr <= hi)
+    se = np.where(np.isfinite(se) & (se > 0), se, np.abs(g) / np.sqrt(np.maximum(n, 1)))
+    idx = np.searchsorted(edges, dr[ok], side="right") - 1
+    inside = (idx >= 0) & (idx < nb)
+    idx, w = idx[inside], n[ok][inside]
+    W = np.bincount(idx, w, nb)
+    has = W > 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        gb = np.bincount(idx, w * g[ok][inside], nb) / W
+        drb = np.bincount(idx, w * dr[ok][inside], nb) / W
+        seb = np.bincount(idx, w * se[ok][inside], nb) / W
+    has &= gb > 0
+    out_g = np.full(nb, np.nan)
+    out_se = np.full(nb, np.nan)
+    if has.sum() >= 1:
+        x, y = np.log(drb[has]), np.log(gb[has])
+        slope = np.gradient(y, x) if has.sum() >= 2 else np.zeros(1)
+        shift = np.exp(slope * (np.log(centres[has]) - x))
+        out_g[has], out_se[has] = gb[has] * shift, seb[has] * shift
+    keep = has & (centres >= lo) & (centres <= hi)
+    out_g[~keep] = np.nan
+    out_se[~keep] = np.nan
+    return out_g, out_se, np.where(keep, W, 0.0)
+
+
+def _measure(name, da, *, lo, hi, edges_own, acf_kwargs):
+    """G of one topography (pooled over extra dims) on the given edges, as numpy."""
+    grid = grid_of(da, what=f"measurement {name!r}")
+    extra = tuple(d for d in da.dims if d not in grid.dims)
+    G = height_difference_acf(da, bins=edges_own, pool=extra or None, **acf_kwargs)
+    G = G.compute()
+    return (G.dr.values, G.values, G.standard_error.values,
+            G.pair_count.values.astype(float), dict(G.attrs))
+
+
+def stitch_curves(
+    measurements: Any,
+    *,
+    points_per_decade: float = 10,
+    windows: Mapping[str, tuple] | None = None,
+    unit: str | None = None,
+    height_unit: str | None = None,
+    min_pixels: float = DEFAULT_MIN_PIXELS,
+    long_fraction: float = DEFAULT_LONG_FRACTION,
+    parallel: bool = True,
+    **acf_kwargs,
+) -> xr.Dataset:
+    r"""Per-measurement G on a common log grid of lags, each inside its reliable window.
+
+    Parameters
+    ----------
+    measurements : mapping of str to xarray.DataArray, xarray.Dataset or xarray.DataTree
+        Topographies (maps and profiles mixed, each on its own grid and in its own units;
+        extra dims such as ``scan`` are pooled into one G) or already computed G (dim
+        ``dr``, from :func:`xrough.height_difference_acf`). A Dataset aligns its members
+        on shared dims, so measurements on different grids go in a DataTree (one node
+        each) or a dict; every data variable of a DataTree is a measurement, named by
+        its path.
+    points_per_decade : float
+        Common log bins, centred on ``10**(k / points_per_decade)`` in ``unit``.
+    windows : mapping of str to (dr_min, dr_max), optional
+        Per-measurement window overriding the recorded or default one (numbers in the
+        measurement's lateral unit, or strings/Quantities; ``None`` keeps a limit).
+    unit, height_unit : str, optional
+        Common lateral and height units (default: those of the first measurement).
+    min_pixels : float
+        Default short cutoff, in pixels, for measurements without ``reliable_dr_min``.
+    long_fraction : float
+        Default long cutoff, as a fraction of the (shorter) scan size, for measurements
+        without ``reliable_dr_max``.
+    parallel : bool
+        Compute the G of several topographies in parallel threads (dask.delayed).
+    **acf_kwargs
+        Passed to :func:`xrough.height_difference_acf` (e.g. ``direction``,
+        ``estimator``); not ``bins``, ``dr_min``, ``dr_max`` or ``pool``.
+
+    Returns
+    -------
+    xarray.Dataset
+        On dims ``(measurement, dr)``: ``G``, ``standard_error`` (height unit squared) and
+        ``pair_count``; NaN (count 0) outside each window. Coords ``dr_min``, ``dr_max``
+        (windows in the common unit) per measurement, and attrs naming the window rules.
+
+    Raises
+    ------
+    ValueError
+        An empty window, windows for unknown measurements, disallowed ``acf_kwargs``.
+    TypeError
+        Measurements that are not DataArrays.
+
+    See Also
+    --------
+    stitch : combine these curves into one G.
+    stitch_mismatch : their disagreement where they overlap.
+
+    Notes
+    -----
+    G of a topography is computed directly on the common bin edges (converted to its
+    lateral unit and clipped to its window). A precomputed G is re-binned: its bins that
+    fall into one common bin are averaged with pair-count weights. Either way the value at
+    the pair-weighted mean lag of the bin is then moved to the bin centre along the local
+    log-log slope of the measurement's own curve, so that all curves refer to the same lag.
+    """
+    items = _as_mapping(measurements)
+    windows = dict(windows or {})
+    unknown = set(windows) - set(items)
+    if unknown:
+        raise ValueError(f"windows given for unknown measurements {sorted(unknown)}; "
+                         f"known: {list(items)}")
+    for key in ("bins", "dr_min", "dr_max", "pool", "points_per_decade"):
+        if key in acf_kwargs:
+            raise ValueError(f"{key!r} is set by stitching; use windows= to restrict lags")
+    first = next(iter(items.values()))
+    lunit = unit or _lateral_unit(first)
+    hunit = height_unit or _height_unit(first)
+    u.as_length_unit(lunit, what="unit")
+    u.as_length_unit(hunit, what="height_unit")
+    ppd = float(points_per_decade)
+    if not ppd > 0:
+        raise ValueError(f"points_per_decade must be positive, got {points_per_decade!r}")
+
+    info = {}
+    for name, da in items.items():
+        own = _lateral_unit(da)
+        lo, hi, rule = _window_of(name, da, windows.get(name), own, min_pixels, long_fraction)
+        f = u.conversion_factor(own, lunit)
+        info[name] = dict(own=own, f=f, lo=lo * f, hi=hi * f, rule=rule,
+                          g_factor=u.conversion_factor(_height_unit(da), hunit) ** 2)
+    centres, edges = _common_edges(min(v["lo"] for v in info.values()),
+                                   max(v["hi"] for v in info.values()), ppd)
+
+    def task(name):
+        da, i = items[name], info[name]
+        if _is_acf(da):
+            a = da.attrs
+            return (da.dr.values * 1.0, da.values * 1.0,
+                    da.coords["standard_error"].values * 1.0 if "standard_error" in da.coords
+                    else np.full(da.shape, np.nan),
+                    da.coords["pair_count"].values * 1.0 if "pair_count" in da.coords
+                    else np.ones(da.shape), dict(a))
+        inner = edges[(edges > i["lo"]) & (edges < i["hi"])] / i["f"]
+        own_edges = np.concatenate([[i["lo"] / i["f"]], inner, [i["hi"] / i["f"]]])
+        return _measure(name, da, lo=i["lo"], hi=i["hi"], edges_own=own_edges,
+                        acf_kwargs=acf_kwargs)
+
+    names = list(items)
+    topo_names = [n for n in names if not _is_acf(items[n])]
+    if parallel and len(topo_names) > 1:
+        import dask
+
+        done = dict(zip(topo_names, dask.compute(
+            *[dask.delayed(task)(n) for n in topo_names], scheduler="threads")))
+    else:
+        done = {n: task(n) for n in topo_names}
+    nb = len(centres)
+    g = np.full((len(names), nb), np.nan)
+    se = np.full_like(g, np.nan)
+    cnt = np.zeros_like(g)
+    sources, pixel, scan, kinds = [], [], [], []
+    for m, name in enumerate(names):
+        i = info[name]
+        dr, gm, sem, nm, attrs = done[name] if name in done else task(name)
+        if gm.ndim != 1:
+            raise ValueError(f"measurement {name!r}: G has dims beyond 'dr'; select or pool "
+                             "them first")
+        g[m], se[m], cnt[m] = _rebin(dr * i["f"], gm * i["g_factor"], sem * i["g_factor"],
+                                     nm, centres, edges, i["lo"], i["hi"])
+        sources.append(str(attrs.get("source_file", attrs.get("source", "")) or name))
+        pixel.append(float(attrs.get("pixel_size", np.nan)) * i["f"])
+        scan.append(float(attrs.get("scan_size", np.nan)) * i["f"])
+        kinds.append("G" if _is_acf(items[name]) else
+                     f"{'map' if len(grid_of(items[name]).dims) == 2 else 'profile'}")
+    gunits = u.power_units(hunit, 2)
+    dims = ("measurement", "dr")
+    ds = xr.Dataset(
+        {"G": (dims, g, {"units": gunits, "long_name": "height-difference ACF",
+                         "symbol": "G"}),
+         "standard_error": (dims, se, {"units": gunits, "long_name": "standard error of G"}),
+         "pair_count": (dims, cnt.astype(np.int64), {"units": "1",
+                                                     "long_name": "number of point pairs"})},
+        coords={"measurement": ("measurement", names),
+                "dr": ("dr", centres, {"units": lunit, "long_name": "lag distance"}),
+                "dr_min": ("measurement", [info[n]["lo"] for n in names],
+                           {"units": lunit, "long_name": "short end of the reliable window"}),
+                "dr_max": ("measurement", [info[n]["hi"] for n in names],
+                           {"units": lunit, "long_name": "long end of the reliable window"}),
+                "pixel_size": ("measurement", pixel, {"units": lunit}),
+                "scan_size": ("measurement", scan, {"units": lunit}),
+                "kind": ("measurement", kinds),
+                "source": ("measurement", sources)},
+        attrs={"points_per_decade": ppd,
+               "window_rules": "; ".join(f"{n}: {info[n]['rule']}" for n in names),
+               "xrough_version": __version__})
+    return ds
+
+
+# ---------------------------------------------------------------------------- mismatch
+
+
+def stitch_mismatch(curves: xr.Dataset, *, threshold: float = 3.0,
+                    warn: bool = True) -> xr.Dataset:
+    r"""Ratio of G between every pair of overlapping measurements, and its significance.
+
+    Parameters
+    ----------
+    curves : xarray.Dataset
+        Output of :func:`stitch_curves`.
+    threshold : float
+        ``|z|`` above which the two measurements are said to disagree.
+    warn : bool
+        Issue a :class:`StitchingMismatchWarning` for each disagreeing pair.
+
+    Returns
+    -------
+    xarray.Dataset
+        On dim ``pair`` (``"a/b"``, only pairs with overlapping bins), coords ``first``,
+        ``second``, and variables ``n_bins`` (overlapping bins), ``log_ratio`` (weighted
+        mean of ``ln(G_a / G_b)``), ``ratio`` (its exponential), ``log_ratio_error``,
+        ``z`` (``log_ratio / log_ratio_error``), ``chi2`` (reduced chi^2 of the log-ratios
+        against 0), ``significant`` (``|z| > threshold``) and ``dr_lo``, ``dr_hi``.
+
+    Notes
+    -----
+    Per overlapping bin ``k``, :math:`r_k = \ln G_a - \ln G_b` with
+    :math:`\sigma_k^2 = (s_a/G_a)^2 + (s_b/G_b)^2` from the standard errors. The mean is
+    weighted by :math:`1/\sigma_k^2`. Its error assumes that the errors of one
+    measurement are fully correlated across the overlap (for H > 1/2 they are dominated
+    by the largest scales), :math:`\sigma_{\bar r}^2 = n / \sum_k \sigma_k^{-2}`: an
+    overall factor between instruments, such as a height calibration error, shows up in
+    ``ratio`` and ``z``; a changing ratio (tip convolution at the short end, detrending
+    at the long end) also raises ``chi2``.
+    """
+    names = [str(n) for n in curves.measurement.values]
+    g = curves.G.values
+    rel = curves.standard_error.values / g
+    dr = curves.dr.values
+    rows = []
+    for a, b in itertools.combinations(range(len(names)), 2):
+        ok = np.isfinite(g[a]) & np.isfinite(g[b]) & (g[a] > 0) & (g[b] > 0)
+        if not ok.any():
+            continue
+        r = np.log(g[a][ok] / g[b][ok])
+        var = rel[a][ok] ** 2 + rel[b][ok] ** 2
+        w = 1.0 / var
+        mean = float(np.sum(w * r) / np.sum(w))
+        err = float(np.sqrt(ok.sum() / np.sum(w)))
+        chi2 = float(np.mean(r**2 * w))
+        rows.append((f"{names[a]}/{names[b]}", names[a], names[b], int(ok.sum()), mean,
+                     err, mean / err, chi2, float(dr[ok].min()), float(dr[ok].max())))
+    cols = list(zip(*rows)) if rows else [[]] * 10
+    lunit = curves.dr.attrs.get("units", "")
+    ds = xr.Dataset(
+        {"n_bins": ("pair", np.asarray(cols[3], dtype=np.int64)),
+         "log_ratio": ("pair", np.asarray(cols[4], dtype=float),
+                       {"long_name": "weighted mean of ln(G_first / G_second)"}),
+         "log_ratio_error": ("pair", np.asarray(cols[5], dtype=float)),
+         "z": ("pair", np.asarray(cols[6], dtype=float)),
+         "chi2": ("pair", np.asarray(cols[7], dtype=float),
+                  {"long_name": "reduced chi^2 of the log-ratios against 0"}),
+         "dr_lo": ("pair", np.asarray(cols[8], dtype=float), {"units": lunit}),
+         "dr_hi": ("pair", np.asarray(cols[9], dtype=float), {"units": lunit})},
+        coords={"pair": ("pair", list(cols[0])), "first": ("pair", list(cols[1])),
+                "second": ("pair", list(cols[2]))},
+        attrs={"threshold": float(threshold)})
+    ds["ratio"] = np.exp(ds.log_ratio).assign_attrs(long_name="G_first / G_second")
+    ds["significant"] = abs(ds.z) > threshold
+    if warn:
+        for p in ds.pair.values[ds.significant.values]:
+            row = ds.sel(pair=p)
+            warnings.warn(
+                f"measurements {str(row.first.values)!r} and {str(row.second.values)!r} "
+                f"disagree over dr = {float(row.dr_lo):.3g}-{float(row.dr_hi):.3g} {lunit}: "
+                f"G ratio {float(row.ratio):.3g} (z = {float(row.z):.1f}, chi2 = "
+                f"{float(row.chi2):.2g}); check height calibration, tip convolution or "
+                "detrending, or narrow their windows", StitchingMismatchWarning, stacklevel=3)
+    return ds
+
+
+# ------------------------------------------------------------------------------ stitch
+
+
+def stitch(
+    measurements: Any,
+    *,
+    points_per_decade: float = 10,
+    windows: Mapping[str, tuple] | None = None,
+    threshold: float = 3.0,
+    warn: bool = True,
+    **kwargs,
+) -> xr.DataArray:
+    r"""One G(dr) over many decades from several measurements of a surface.
+
+    Parameters
+    ----------
+    measurements : mapping, xarray.Dataset or xarray.DataTree
+        Topographies or precomputed G by name (see :func:`stitch_curves`), or the Dataset
+        :func:`stitch_curves` returned (then ``points_per_decade``, ``windows`` and
+        ``kwargs`` do not apply).
+    points_per_decade : float
+        Common log bins per decade.
+    windows : mapping of str to (dr_min, dr_max), optional
+        Per-measurement reliable windows overriding the recorded/default ones.
+    threshold : float
+        ``|z|`` of the mismatch diagnostic above which a pair disagrees.
+    warn : bool
+        Warn (:class:`StitchingMismatchWarning`) when instruments disagree.
+    **kwargs
+        Passed to :func:`stitch_curves` (``unit``, ``height_unit``, ``min_pixels``,
+        ``long_fraction``, ``parallel``, options of :func:`xrough.height_difference_acf`).
+
+    Returns
+    -------
+    xarray.DataArray
+        ``G`` on the common ``dr`` (bins covered by no window dropped) with coords
+        ``standard_error``, ``pair_count`` (sum over measurements), ``n_measurements``;
+        attrs ``stitched`` (1), ``stitched_from`` (names), ``sources``, the windows, the
+        weighting rule, ``pixel_size`` and ``scan_size`` (finest pixel, largest scan),
+        the mismatch summary (``mismatch_pairs``, ``mismatch_ratio``, ``mismatch_z``) and
+        ``reliable_dr_min/max`` (the union of the windows).
+
+    Raises
+    ------
+    ValueError, TypeError
+        See :func:`stitch_curves`.
+
+    Warns
+    -----
+    StitchingMismatchWarning
+        Two measurements disagree significantly over their overlap.
+
+    See Also
+    --------
+    stitch_curves, stitch_mismatch, xrough.fit_acf, xrough.persson
+
+    Notes
+    -----
+    In each common bin the measurements ``i`` that cover it are combined by
+    inverse-variance weighting of :math:`\ln G_i`, whose variance is
+    :math:`(s_i / G_i)^2` from the per-bin standard error :math:`s_i`:
+
+    .. math::
+
+        \ln G = \frac{\sum_i w_i \ln G_i}{\sum_i w_i}, \qquad w_i = (G_i / s_i)^2,
+        \qquad s = G \Big/ \sqrt{\textstyle\sum_i w_i}.
+
+    Weighting the logarithm by relative errors, rather than G by :math:`1/s_i^2`, avoids
+    the bias of weights that grow where a noisy estimate of G happens to be low. The
+    combined error assumes independent measurements (different areas of the sample).
+    """
+    if isinstance(measurements, xr.Dataset) and "measurement" in measurements.dims:
+        curves = measurements
+    else:
+        curves = stitch_curves(measurements, points_per_decade=points_per_decade,
+                               windows=windows, **kwargs)
+    mism = stitch_mismatch(curves, threshold=threshold, warn=warn)
+    g = curves.G.values
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = (g / curves.standard_error.values) ** 2
+        ok = np.isfinite(w) & (w > 0) & (g > 0)
+        w = np.where(ok, w, 0.0)
+        W = w.sum(axis=0)
+        lng = np.where(ok, np.log(np.where(ok, g, 1.0)), 0.0)
+        G = np.exp((w * lng).sum(axis=0) / W)
+        se = G / np.sqrt(W)
+    n_meas = ok.sum(axis=0)
+    keep = n_meas > 0
+    names = [str(n) for n in curves.measurement.values]
+    lunit = curves.dr.attrs["units"]
+    gunits = curves.G.attrs["units"]
+    out = xr.DataArray(
+        G[keep], dims=("dr",), name="G",
+        coords={"dr": ("dr", curves.dr.values[keep], dict(curves.dr.attrs)),
+                "pair_count": ("dr", curves.pair_count.values.sum(axis=0)[keep],
+                               {"units": "1", "long_name": "number of point pairs averaged"}),
+                "standard_error": ("dr", se[keep], {"units": gunits,
+                                                    "long_name": "standard error of G"}),
+                "n_measurements": ("dr", n_meas[keep].astype(np.int64),
+                                   {"units": "1",
+                                    "long_name": "measurements combined in the bin"})})
+    out.attrs = {
+        "units": gunits,
+        "long_name": "height-difference autocorrelation function",
+        "symbol": "G",
+        "equation": "eq. 1: G(dr) = 1/2 <(h(r) - h(r + dr))^2>",
+        "stitched": 1,
+        "stitched_from": ", ".join(names),
+        "sources": ", ".join(str(s) for s in curves.source.values),
+        "windows": "; ".join(f"{n}: {lo:.4g}-{hi:.4g} {lunit}" for n, lo, hi in
+                             zip(names, curves.dr_min.values, curves.dr_max.values)),
+        "window_rules": curves.attrs.get("window_rules", ""),
+        "weighting": "inverse-variance mean of ln G, weights (G_i / standard_error_i)^2",
+        "points_per_decade": float(curves.attrs.get("points_per_decade", np.nan)),
+        "pixel_size": float(np.nanmin(curves.pixel_size.values)) if np.isfinite(
+            curves.pixel_size.values).any() else float(curves.dr_min.min()),
+        "scan_size": float(np.nanmax(curves.scan_size.values)) if np.isfinite(
+            curves.scan_size.values).any() else float(curves.dr_max.max()),
+        "reliable_dr_min": float(curves.dr_min.min()),
+        "reliable_dr_max": float(curves.dr_max.max()),
+        "reliable_dr_units": lunit,
+        "mismatch_pairs": ", ".join(str(p) for p in mism.pair.values),
+        "mismatch_ratio": mism.ratio.values.astype(float),
+        "mismatch_z": mism.z.values.astype(float),
+        "xrough_version": __version__,
+    }
+    return out
