@@ -34,7 +34,7 @@ from .topography import Grid, grid_of
 
 __all__ = ["height_difference_acf"]
 
-ESTIMATORS = ("fft", "random")
+ESTIMATORS = ("auto", "fft", "random", "tiled")
 _DEFAULT_PAIRS = 1_000_000
 DIRECTIONS = ("radial", "x", "y")
 
@@ -230,11 +230,37 @@ def _area_variance(g, pairs, valid, *, dr, pixel_area, geometry):
     return out
 
 
+def _available_memory() -> float:
+    try:
+        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_AVPHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - not POSIX
+        return 8e9
+
+
+def _choose_estimator(da: xr.DataArray, grid: Grid, direction: str, pool) -> str:
+    """``'fft'`` unless one open map is chunked in y/x or too large for its padded FFT.
+
+    The all-pairs FFT of an open map needs about six arrays of the padded size
+    ``(2 ny)(2 nx)`` float64 at once; beyond a quarter of the available memory, or when
+    the map is split into dask chunks, the tiled estimator (exact up to its halo, block
+    levels beyond; see :mod:`xrough.large`) keeps memory flat.
+    """
+    single_open_map = (len(grid.dims) == 2 and da.ndim == 2 and not grid.periodic
+                       and direction == "radial" and not pool)
+    if not single_open_map:
+        return "fft"
+    chunked = da.chunks is not None and any(len(da.chunksizes[d]) > 1 for d in grid.dims)
+    padded_bytes = 6 * 8 * (2 * grid.shape[0]) * (2 * grid.shape[1])
+    if chunked or padded_bytes > 0.25 * _available_memory():
+        return "tiled"
+    return "fft"
+
+
 def height_difference_acf(
     topography: xr.DataArray,
     *,
     direction: str = "radial",
-    estimator: str = "fft",
+    estimator: str = "auto",
     bins: Any = "log",
     points_per_decade: float = 10,
     bin_width: Any = None,
@@ -262,8 +288,12 @@ def height_difference_acf(
     direction : {'radial', 'x', 'y'}
         Average over all orientations of the lag (the full lag plane, all four quadrants),
         or only lags along one axis.
-    estimator : {'fft', 'random'}
-        All pairs by FFT (exact), or the random-pair estimator of section 3.1.
+    estimator : {'auto', 'fft', 'random', 'tiled'}
+        All pairs by FFT (exact); the random-pair estimator of section 3.1; or tile by tile
+        for maps larger than memory (exact up to a halo, block levels beyond; see
+        :func:`xrough.large.height_difference_acf_tiled`). ``'auto'`` (default) takes
+        ``'fft'`` unless one open map is split into dask chunks in y/x or its padded FFT
+        would not fit in a quarter of the available memory (then ``'tiled'``).
     bins : {'log', 'linear'} or array_like
         Log-spaced bins centred on ``10**(k/points_per_decade)`` (in the lateral unit),
         linear bins of ``bin_width`` (default: one pixel), or explicit edges in the lateral
@@ -331,11 +361,22 @@ def height_difference_acf(
     """
     if estimator not in ESTIMATORS:
         raise ValueError(f"estimator must be one of {ESTIMATORS}, got {estimator!r}")
-    if estimator == "fft" and (seed is not None or n_pairs != _DEFAULT_PAIRS):
+    if estimator != "random" and (seed is not None or n_pairs != _DEFAULT_PAIRS):
         raise ValueError("n_pairs and seed apply to estimator='random' only")
     if bin_width is not None and not (isinstance(bins, str) and bins == "linear"):
         raise ValueError("bin_width applies to bins='linear' only")
     grid = grid_of(topography)
+    if estimator == "auto":
+        estimator = _choose_estimator(topography, grid, direction, pool)
+    if estimator == "tiled":
+        from .large import height_difference_acf_tiled
+
+        if direction != "radial" or pool or len(grid.dims) != 2 or topography.ndim != 2:
+            raise ValueError("estimator='tiled' computes the radial G of one map (no "
+                             "extra dims, direction='radial')")
+        return height_difference_acf_tiled(topography, bins=bins,
+                                           points_per_decade=points_per_decade,
+                                           bin_width=bin_width, dr_min=dr_min, dr_max=dr_max)
     plan = _plan(grid, direction=direction, bins=bins, points_per_decade=points_per_decade,
                  bin_width=bin_width, dr_min=dr_min, dr_max=dr_max)
     da = topography

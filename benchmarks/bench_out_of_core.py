@@ -1,0 +1,157 @@
+"""G(dr) of a map larger than memory with the tiled estimator, read from a chunked NetCDF file.
+
+Steps, each in a fresh subprocess so that peak resident memory (``ru_maxrss``) is its own:
+
+1. write an ``n x n`` float64 map (default 16384^2, 2 GiB) to a chunked NetCDF file in a
+   temporary folder, tile by tile (a sum of plane waves plus white noise, 5 % missing
+   points), so that generation stays within a tile's memory;
+2. open it lazily (``xr.open_dataarray(..., chunks=...)``) and compute G with
+   :func:`xrough.large.height_difference_acf_tiled`; print time and peak memory
+   (target: < 3 GiB for 16384^2);
+3. on a small map (default 2048^2) compare time and error against the exact in-memory
+   FFT estimator.
+
+Usage::
+
+    python benchmarks/bench_out_of_core.py                  # 16384^2 and 2048^2
+    python benchmarks/bench_out_of_core.py --size 8192 --small 1024
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import textwrap
+from pathlib import Path
+
+COMMON = textwrap.dedent(
+    r"""
+    import json, resource, sys, time
+    import numpy as np
+
+    def rss():
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+
+    def waves(seed=0, k=12):
+        rng = np.random.default_rng(seed)
+        lam = np.logspace(1, 3.5, k)  # wavelengths 10 to ~3000 pixels
+        ang = rng.uniform(0, 2 * np.pi, k)
+        amp = lam ** 0.8 / 100
+        phase = rng.uniform(0, 2 * np.pi, k)
+        return [(2 * np.pi / l * np.cos(a), 2 * np.pi / l * np.sin(a), A, p)
+                for l, a, A, p in zip(lam, ang, amp, phase)]
+
+    def block(r0, r1, c0, c1, seed):
+        y = np.arange(r0, r1, dtype=float)[:, None]
+        x = np.arange(c0, c1, dtype=float)[None, :]
+        h = np.zeros((r1 - r0, c1 - c0))
+        for kx, ky, A, p in waves():
+            h += A * np.cos(kx * x + ky * y + p)
+        rng = np.random.default_rng([seed, r0, c0])
+        h += 0.05 * rng.standard_normal(h.shape)
+        h[rng.random(h.shape) < 0.05] = np.nan
+        return h
+    """
+)
+
+WRITE = COMMON + textwrap.dedent(
+    r"""
+    import netCDF4
+    path, n, chunk = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+    t0 = time.perf_counter()
+    with netCDF4.Dataset(path, "w") as ds:
+        ds.createDimension("y", n); ds.createDimension("x", n)
+        for d in ("y", "x"):
+            v = ds.createVariable(d, "f8", (d,)); v[:] = np.arange(n) * 1.0; v.units = "nm"
+        v = ds.createVariable("height", "f8", ("y", "x"), chunksizes=(chunk, chunk),
+                              fill_value=np.nan)
+        v.units = "nm"; v.periodic = 0
+        for r0 in range(0, n, chunk):
+            for c0 in range(0, n, chunk):
+                r1, c1 = min(n, r0 + chunk), min(n, c0 + chunk)
+                v[r0:r1, c0:c1] = block(r0, r1, c0, c1, 0)
+    print(json.dumps({"t": time.perf_counter() - t0, "peak": rss()}))
+    """
+)
+
+TILED = COMMON + textwrap.dedent(
+    r"""
+    import dask, xarray as xr, xrough
+    from xrough.large import height_difference_acf_tiled
+    path, chunk, tile, halo, threads = (sys.argv[1], int(sys.argv[2]), int(sys.argv[3]),
+                                        int(sys.argv[4]), int(sys.argv[5]))
+    topo = xr.open_dataarray(path, chunks={"y": chunk, "x": chunk})
+    base = rss()
+    t0 = time.perf_counter()
+    with dask.config.set(scheduler="threads", num_workers=threads):
+        G = height_difference_acf_tiled(topo, tile=tile, halo=halo).compute()
+    t = time.perf_counter() - t0
+    print(json.dumps({"t": t, "peak": rss(), "base": base, "nbins": G.sizes["dr"],
+                      "exact_bins": int((G.block == 1).sum()),
+                      "blocks": sorted(set(int(b) for b in G.block.values))}))
+    """
+)
+
+SMALL = COMMON + textwrap.dedent(
+    r"""
+    import xrough
+    from xrough.large import height_difference_acf_tiled
+    n, tile, halo = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
+    topo = xrough.topography(block(0, n, 0, n, 1), spacing=1.0, unit="nm")
+    t0 = time.perf_counter(); ref = topo.rough.acf(); t_fft = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    G = height_difference_acf_tiled(topo, tile=tile, halo=halo)
+    t_tiled = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    R = topo.rough.acf(estimator="random", n_pairs=1_000_000, seed=0)
+    t_rand = time.perf_counter() - t0
+    rel = np.abs(G.values / ref.values - 1)
+    ex = G.block.values == 1
+    rr = np.abs(R.values / ref.values - 1)
+    print(json.dumps({"t_fft": t_fft, "t_tiled": t_tiled, "t_random": t_rand,
+                      "err_exact": float(rel[ex].max()),
+                      "err_coarse": float(rel[~ex].max()) if (~ex).any() else 0.0,
+                      "err_random": float(np.nanmax(rr))}))
+    """
+)
+
+
+def run(script: str, *args) -> dict:
+    proc = subprocess.run([sys.executable, "-c", script, *map(str, args)],
+                          capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise RuntimeError(proc.stderr)
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--size", type=int, default=16384)
+    parser.add_argument("--small", type=int, default=2048)
+    parser.add_argument("--chunk", type=int, default=1024, help="NetCDF and dask chunks")
+    parser.add_argument("--tile", type=int, default=1024)
+    parser.add_argument("--halo", type=int, default=256)
+    parser.add_argument("--threads", type=int, default=2)
+    args = parser.parse_args(argv)
+    gib = 2.0**30
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "map.nc"
+        w = run(WRITE, path, args.size, args.chunk)
+        print(f"write {args.size}^2 ({args.size**2 * 8 / gib:.2f} GiB): {w['t']:.1f} s, "
+              f"peak {w['peak'] / gib:.2f} GiB", flush=True)
+        r = run(TILED, path, args.chunk, args.tile, args.halo, args.threads)
+        print(f"tiled G {args.size}^2: {r['t']:.1f} s, peak {r['peak'] / gib:.2f} GiB "
+              f"(after imports {r['base'] / gib:.2f} GiB), {r['nbins']} bins, "
+              f"{r['exact_bins']} exact, block sizes {r['blocks']}", flush=True)
+    s = run(SMALL, args.small, args.tile, args.halo)
+    print(f"{args.small}^2 in memory: fft {s['t_fft']:.2f} s, tiled {s['t_tiled']:.2f} s, "
+          f"random (1e6 pairs) {s['t_random']:.2f} s; max relative error of tiled: "
+          f"{s['err_exact']:.1e} (exact bins), {s['err_coarse']:.1e} (block levels); "
+          f"random: {s['err_random']:.1e}")
+
+
+if __name__ == "__main__":
+    main()
