@@ -376,7 +376,8 @@ def height_difference_acf(
                              "extra dims, direction='radial')")
         return height_difference_acf_tiled(topography, bins=bins,
                                            points_per_decade=points_per_decade,
-                                           bin_width=bin_width, dr_min=dr_min, dr_max=dr_max)
+                                           bin_width=bin_width, dr_min=dr_min, dr_max=dr_max,
+                                           progress=progress)
     plan = _plan(grid, direction=direction, bins=bins, points_per_decade=points_per_decade,
                  bin_width=bin_width, dr_min=dr_min, dr_max=dr_max)
     da = topography

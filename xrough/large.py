@@ -178,6 +178,7 @@ def height_difference_acf_tiled(
     bin_width: Any = None,
     dr_min: Any = None,
     dr_max: Any = None,
+    progress: bool | None = None,
 ) -> xr.DataArray:
     r"""Radial ``G(dr)`` of a map too large for one FFT, tile by tile (out of core).
 
@@ -201,6 +202,10 @@ def height_difference_acf_tiled(
     bins, points_per_decade, bin_width, dr_min, dr_max
         As for :func:`xrough.height_difference_acf`; the bins and the ``dr`` coordinate
         are the same, so results compare bin by bin.
+    progress : bool, optional
+        Show dask's progress bar while computing numpy input (default: in a terminal).
+        Lazy (dask) results show it when computed under
+        ``dask.diagnostics.ProgressBar()``.
 
     Returns
     -------
@@ -313,7 +318,16 @@ def height_difference_acf_tiled(
                                   pixel_area=grid.pixel_area)
     res = dsa.from_delayed(out, shape=(3, int(keep.sum())), dtype=float)
     if not lazy:
-        res = res.compute()
+        import sys
+
+        from dask.diagnostics import ProgressBar
+
+        show = progress if progress is not None else sys.stderr.isatty()
+        if show:
+            with ProgressBar(minimum=1.0):
+                res = res.compute()
+        else:
+            res = res.compute()
     hunit = grid.height_unit
     h2 = u.power_units(hunit, 2)
     G = xr.DataArray(
