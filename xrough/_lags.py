@@ -18,22 +18,7 @@ from . import units as _units
 
 def _lag_values(dr: Any, length_unit: pint.Unit) -> np.ndarray:
     """1-D lags ``>= 0`` in ``length_unit`` (plain numbers are in it already)."""
-    if isinstance(dr, xr.DataArray):
-        u = dr.attrs.get("units")
-        factor = 1.0 if u is None else _units.conversion_factor(
-            _units.as_length_unit(u, what="dr"), length_unit)
-        values = np.asarray(dr.values, dtype=float) * factor
-    elif isinstance(dr, pint.Quantity):
-        qty = _units.quantity(dr, what="dr")
-        if not qty.check("[length]"):
-            raise ValueError(f"dr must be a length, got {dr!r}")
-        values = np.asarray(qty.to(length_unit).magnitude, dtype=float)
-    else:
-        values = np.asarray(dr, dtype=float)
-    values = np.atleast_1d(values)
-    if values.ndim != 1 or not np.all(np.isfinite(values)) or np.any(values < 0):
-        raise ValueError("dr must be a 1-D array of finite distances >= 0")
-    return values
+    return _units.array_in(dr, length_unit, what="dr", noun="distances")
 
 
 def _log_range(lo: float, hi: float, points_per_decade: float) -> np.ndarray:

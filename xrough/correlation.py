@@ -30,7 +30,7 @@ from ._kernels import binning
 from ._kernels.pairs import folded_geometric_counts, folded_pair_sums
 from ._kernels.random_pairs import random_pair_sums
 from ._kernels.uncertainty import g_variance
-from .topography import Grid, grid_of
+from .topography import Grid, grid_of, require_whole_maps
 
 __all__ = ["height_difference_acf"]
 
@@ -381,15 +381,7 @@ def height_difference_acf(
     plan = _plan(grid, direction=direction, bins=bins, points_per_decade=points_per_decade,
                  bin_width=bin_width, dr_min=dr_min, dr_max=dr_max)
     da = topography
-    if da.chunks is not None:
-        for d in grid.dims:
-            if len(da.chunksizes[d]) > 1:
-                whole = ", ".join(f"{c!r}: -1" for c in grid.dims)
-                raise ValueError(
-                    f"dim {d!r} is split into several dask chunks; G needs each map whole: "
-                    f"use topography.chunk({{{whole}}}) (parallelism comes from extra dims "
-                    f"such as 'scan')"
-                )
+    require_whole_maps(da, grid, purpose="G")
     pool_dims = (pool,) if isinstance(pool, str) else tuple(pool or ())
     for d in pool_dims:
         if d not in da.dims or d in grid.dims:

@@ -42,7 +42,7 @@ import xarray as xr
 
 from . import units as u
 from ._kernels import detrend as k
-from .topography import Grid, grid_of
+from .topography import Grid, grid_of, require_whole_maps
 
 __all__ = [
     "DETREND_MODES",
@@ -65,15 +65,7 @@ TIP_SAFETY_FACTOR = 0.5
 
 def _validated(topography: xr.DataArray) -> Grid:
     grid = grid_of(topography)
-    if topography.chunks is not None:
-        for d in grid.dims:
-            if len(topography.chunksizes[d]) > 1:
-                whole = ", ".join(f"{c!r}: -1" for c in grid.dims)
-                raise ValueError(
-                    f"dim {d!r} is split into several dask chunks; preprocessing needs each "
-                    f"map whole: use topography.chunk({{{whole}}}) (parallelism comes from "
-                    f"extra dims such as 'scan')"
-                )
+    require_whole_maps(topography, grid, purpose="preprocessing")
     return grid
 
 

@@ -108,23 +108,7 @@ def _acf_input(G: Any, noise: Any) -> _AcfInput:
 
 def _wavenumbers(q: Any, length_unit: pint.Unit) -> np.ndarray:
     """Wavenumbers in ``1/length_unit`` from numbers, a Quantity or a DataArray."""
-    inverse = length_unit**-1
-    if isinstance(q, xr.DataArray):
-        u = q.attrs.get("units")
-        factor = 1.0 if u is None else _units.conversion_factor(
-            _units.parse_units(u, what="q"), inverse)
-        values = np.asarray(q.values, dtype=float) * factor
-    elif isinstance(q, pint.Quantity):
-        qty = _units.quantity(q, what="q")
-        if not qty.check("1 / [length]"):
-            raise ValueError(f"q must be an inverse length, got {q!r}")
-        values = np.asarray(qty.to(inverse).magnitude, dtype=float)
-    else:
-        values = np.asarray(q, dtype=float)
-    values = np.atleast_1d(values)
-    if values.ndim != 1 or not np.all(np.isfinite(values)) or np.any(values < 0):
-        raise ValueError("q must be a 1-D array of finite wavenumbers >= 0")
-    return values
+    return _units.array_in(q, length_unit**-1, what="q", noun="wavenumbers")
 
 
 def _check_options(smooth, support_rtol, interpolation, points_per_decade) -> None:

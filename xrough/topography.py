@@ -141,6 +141,20 @@ def grid_of(da: xr.DataArray, *, what: str = "topography") -> Grid:
                 periodic=periodic)
 
 
+def require_whole_maps(da: xr.DataArray, grid: Grid, *, purpose: str) -> None:
+    """Refuse dask chunks along the core dims, with the ``.chunk(...)`` that fixes it."""
+    if da.chunks is None:
+        return
+    for d in grid.dims:
+        if len(da.chunksizes[d]) > 1:
+            whole = ", ".join(f"{c!r}: -1" for c in grid.dims)
+            raise ValueError(
+                f"dim {d!r} is split into several dask chunks; {purpose} needs each map "
+                f"whole: use topography.chunk({{{whole}}}) (parallelism comes from extra "
+                f"dims such as 'scan')"
+            )
+
+
 def check_valid_points(values: np.ndarray, *, what: str = "topography", ndim: int = 2) -> None:
     """Raise if any map in ``values`` (core dims last) has inf or fewer than 2 valid points."""
     values = np.asarray(values)

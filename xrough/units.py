@@ -25,6 +25,7 @@ __all__ = [
     "units_of",
     "quantity",
     "to_si",
+    "array_in",
     "as_length_unit",
     "is_length",
     "length_in",
@@ -237,6 +238,38 @@ def length_in(value: Any, unit: str | pint.Unit, *, what: str, positive: bool = 
         raise ValueError(f"{what} must be a {'positive' if positive else 'finite'} length, "
                          f"got {value!r}")
     return mag
+
+
+def array_in(value: Any, unit: str | pint.Unit, *, what: str,
+             noun: str = "values") -> np.ndarray:
+    """Convert to a 1-D array of finite values ``>= 0`` in ``unit``.
+
+    ``value`` may be numbers (already in ``unit``), a pint Quantity, or a DataArray whose
+    ``units`` attribute (if any) is converted.
+
+    Examples
+    --------
+    >>> array_in(ureg.Quantity([1.0, 2.0], "um"), "nm", what="dr")
+    array([1000., 2000.])
+    """
+    target = parse_units(unit, what=what) if isinstance(unit, str) else unit
+    if hasattr(value, "attrs") and hasattr(value, "values"):  # a DataArray
+        given = value.attrs.get("units")
+        factor = 1.0 if given is None else conversion_factor(parse_units(given, what=what),
+                                                             target)
+        values = np.asarray(value.values, dtype=float) * factor
+    elif isinstance(value, pint.Quantity):
+        q = quantity(value, what=what)
+        if q.dimensionality != ureg.Quantity(1, target).dimensionality:
+            raise ValueError(f"{what} must have units like {format_units(target)!r}, got "
+                             f"{value!r}")
+        values = np.asarray(q.to(target).magnitude, dtype=float)
+    else:
+        values = np.asarray(value, dtype=float)
+    values = np.atleast_1d(values)
+    if values.ndim != 1 or not np.all(np.isfinite(values)) or np.any(values < 0):
+        raise ValueError(f"{what} must be a 1-D array of finite {noun} >= 0")
+    return values
 
 
 def as_length_unit(units: str | pint.Unit, *, what: str) -> pint.Unit:
