@@ -44,6 +44,7 @@ from .preprocess import (  # noqa: E402
     reliability_window,
     reliable,
 )
+from .solver import ConvergenceWarning, solve_contact  # noqa: E402
 from .spectra import (  # noqa: E402
     acf_from_spectrum,
     gradient_from_spectrum,
@@ -63,6 +64,7 @@ from .topography import topography  # noqa: E402
 __all__ = [
     "__version__",
     "acf_from_spectrum",
+    "ConvergenceWarning",
     "detrend",
     "elastic_energy",
     "fit_acf",
@@ -80,6 +82,7 @@ __all__ = [
     "rms_gradient",
     "rms_gradient_exact",
     "save_analysis",
+    "solve_contact",
     "plot",
     "reliability_window",
     "reliable",

@@ -8,7 +8,17 @@ from __future__ import annotations
 
 import xarray as xr
 
-from . import contact, correlation, fitting, gradient, plot, preprocess, spectra, stitching
+from . import (
+    contact,
+    correlation,
+    fitting,
+    gradient,
+    plot,
+    preprocess,
+    solver,
+    spectra,
+    stitching,
+)
 
 __all__ = ["RoughDataArrayAccessor", "RoughDatasetAccessor"]
 
@@ -43,6 +53,10 @@ class RoughDataArrayAccessor:
     def reliability_window(self) -> tuple:
         """Reliable (dr_min, dr_max); see :func:`xrough.reliability_window`."""
         return preprocess.reliability_window(self._obj)
+
+    def solve_contact(self, **kwargs) -> xr.Dataset:
+        """Boundary-element contact solution; see :func:`xrough.solve_contact`."""
+        return solver.solve_contact(self._obj, **kwargs)
 
     def spectrum(self, **kwargs) -> xr.DataArray:
         """Spectrum C(q) from G (eq. 10/11); see :func:`xrough.spectrum`."""

@@ -1,0 +1,239 @@
+"""Reference contact solver: analytic solutions (Westergaard, Hertz) and contracts."""
+
+import time
+
+import numpy as np
+import pytest
+import xarray as xr
+from scipy import integrate
+
+import xrough
+from xrough._kernels.solver import _pixel_influence
+from xrough.solver import ConvergenceWarning, solve_contact
+
+E_STAR = 1e6  # Pa
+LAM = 1.0  # um, wavelength
+H0 = 0.01  # um, amplitude
+P_STAR = np.pi * E_STAR * H0 / LAM  # Westergaard's full-contact pressure
+
+
+def sinusoid(nx, ny=2):
+    x = np.arange(nx) * LAM / nx
+    h = np.tile(H0 * np.cos(2 * np.pi * x / LAM), (ny, 1))
+    return xrough.topography(h, spacing=LAM / nx, unit="um", periodic=True)
+
+
+def paraboloid(n, R, L):
+    c = (np.arange(n) - n // 2) * L / n
+    r2 = c[None, :] ** 2 + c[:, None] ** 2
+    return xrough.topography(-r2 / (2 * R), spacing=L / n, unit="um", periodic=False)
+
+
+def test_pixel_influence_is_love_solution():
+    # The non-periodic kernel is 1/(pi r) integrated over a dx x dy pixel; compare with
+    # adaptive quadrature away from the singularity (atol: quadrature accuracy) and with
+    # the closed form at the centre of a square pixel, (4/pi) asinh(1) dx.
+    dx, dy = 1.0, 0.7
+    for x, y in [(1.0, 0.0), (0.0, 0.7), (3.0, -2.1), (-5.0, 4.2)]:
+        ref = integrate.dblquad(lambda yy, xx, x=x, y=y: 1 / np.hypot(x - xx, y - yy) / np.pi,
+                                -dx / 2, dx / 2, -dy / 2, dy / 2, epsabs=1e-12)[0]
+        got = _pixel_influence(np.array(x), np.array(y), dx, dy)
+        np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(_pixel_influence(np.array(0.0), np.array(0.0), 2.0, 2.0),
+                               8 / np.pi * np.arcsinh(1), rtol=1e-14)
+
+
+def test_westergaard_contact_width():
+    # 2048 points per wavelength: the contact edge is located to +-1 pixel on each side,
+    # i.e. a to +-dx/2 = 2.4e-4 lambda, 0.7 % of the smallest a (0.072 lambda at 0.05 p*).
+    # The discretisation error itself is smaller; the tolerance is 1 % as stated.
+    nx = 2048
+    loads = np.array([0.05, 0.1, 0.2, 0.35, 0.5, 0.65, 0.8, 0.95])
+    res = solve_contact(sinusoid(nx), E_star=E_STAR, p0=loads * P_STAR, progress=False)
+    a = res.contact.isel(y=0).sum("x").values * (LAM / nx) / 2
+    a_ref = LAM / np.pi * np.arcsin(np.sqrt(loads))
+    np.testing.assert_allclose(a, a_ref, rtol=0.01, atol=0)
+    assert res.converged.all()
+    # the solution is uniform along y
+    np.testing.assert_allclose(res.pressure.isel(y=0), res.pressure.isel(y=1), rtol=1e-12)
+    np.testing.assert_allclose(res.mean_pressure, loads * P_STAR, rtol=1e-12)
+
+
+@pytest.mark.parametrize("factor", [1.2, 3.0])
+def test_full_contact_pressure_is_exact(factor):
+    # Beyond p* the whole surface is in contact and p = p0 + (E*/2)|q| h~(q); with the
+    # periodic Green's function this holds exactly, so only the tolerance (1e-8 on the
+    # relative residual) limits agreement: 1e-6 relative to p0 is a wide margin.
+    topo = sinusoid(256)
+    p0 = factor * P_STAR
+    res = solve_contact(topo, E_star=E_STAR, p0=p0, progress=False)
+    assert res.attrs["relative_contact_area"] == 1.0
+    x = topo.x.values  # um
+    expected = p0 + E_STAR / 2 * (2 * np.pi / LAM) * H0 * np.cos(2 * np.pi * x / LAM)
+    np.testing.assert_allclose(res.pressure.isel(y=0), expected, rtol=0, atol=1e-6 * p0)
+    np.testing.assert_allclose(res.gap, 0, atol=1e-9 * H0)
+
+
+def test_full_contact_random_surface():
+    # a random periodic surface pressed beyond full contact: p - p0 = (E*/2)|q| h~(q)
+    topo = xrough.self_affine_surface(hurst=0.8, lambda_r="0.5 um", lambda_s="0.08 um",
+                                      size="2 um", n=64, rms_gradient=0.1, seed=3,
+                                      unit="um")
+    h = topo.values
+    qy = 2 * np.pi * np.fft.fftfreq(64, d=2 / 64)
+    q = np.hypot(qy[:, None], qy[None, :])
+    dp = np.fft.ifft2(np.fft.fft2(h) * q).real * E_STAR / 2
+    p0 = 1.5 * -dp.min()
+    res = solve_contact(topo, E_star=E_STAR, p0=p0, progress=False)
+    assert float(res.contact_area) == 1.0
+    np.testing.assert_allclose(res.pressure, p0 + dp, rtol=0, atol=1e-6 * p0)
+
+
+def test_convergence_history_reaches_tol():
+    topo = sinusoid(512)
+    for tol in (1e-6, 1e-10):
+        res = solve_contact(topo, E_star=E_STAR, p0=0.3 * P_STAR, tol=tol, progress=False)
+        hist = res.residual.values
+        assert res.attrs["iterations"] == hist.size == int(res.iterations)
+        assert hist[-1] < tol <= hist[:-1].min()  # stops at the first residual below tol
+        assert hist[0] > 1e3 * hist[-1]  # and it did go down from a poor start
+        assert int(res.converged) == 1 and res.attrs["tol"] == tol
+
+
+def test_not_converged_warns():
+    with pytest.warns(ConvergenceWarning, match="max_iter=3"):
+        res = solve_contact(sinusoid(256), E_star=E_STAR, p0=0.3 * P_STAR, max_iter=3,
+                            progress=False)
+    assert int(res.converged) == 0 and int(res.iterations) == 3
+
+
+def test_several_p0_equal_separate_calls():
+    # warm starts change the path, not the solution: agreement to a few tol
+    topo = xrough.self_affine_surface(hurst=0.7, lambda_r="0.5 um", lambda_s="0.08 um",
+                                      size="2 um", n=64, rms_gradient=0.2, seed=7,
+                                      unit="um")
+    loads = [2e3, 5e3, 1e4]
+    many = solve_contact(topo, E_star=E_STAR, p0=loads, tol=1e-10, progress=False)
+    assert many.pressure.dims == ("p0", "y", "x") and many.residual.dims == ("p0", "iteration")
+    for i, p0 in enumerate(loads):
+        one = solve_contact(topo, E_star=E_STAR, p0=p0, tol=1e-10, progress=False)
+        sel = many.isel(p0=i)
+        np.testing.assert_allclose(sel.pressure, one.pressure, rtol=0, atol=1e-6 * p0)
+        np.testing.assert_array_equal(sel.contact, one.contact)
+        assert float(sel.contact_area) == one.attrs["relative_contact_area"]
+    # later loads start from the previous solution: fewer iterations than a cold start
+    assert int(many.iterations[-1]) < int(one.iterations)
+    # NaN padding of the histories
+    n = many.iterations.values
+    assert np.isnan(many.residual.values[np.argmin(n), n.min():]).all()
+
+
+def test_hertz_nonperiodic():
+    # Paraboloid R = 10 um on a 128^2 map of 4 um (dx = 31 nm); a = 0.8 um = 26 pixels, so
+    # the area-equivalent radius is resolved to ~1/26 of a pixel rim: 3 % is generous.
+    n, R, L = 128, 10.0, 4.0
+    topo = paraboloid(n, R, L)
+    a_target = 0.8e-6  # m
+    P = 4 * E_STAR * a_target**3 / (3 * R * 1e-6)  # N
+    p0 = P / (L * 1e-6) ** 2
+    res = solve_contact(topo, E_star=E_STAR, p0=p0, progress=False)
+    assert res.attrs["periodic"] == 0 and "zero-padded" in res.attrs["green_function"]
+    a = np.sqrt(float(res.contact.sum()) * (L / n) ** 2 / np.pi)  # um
+    np.testing.assert_allclose(a, a_target * 1e6, rtol=0.03)
+    # Hertz peak pressure 3P / (2 pi a^2) and approach a^2 / R (a few % on this grid)
+    p_max = 3 * P / (2 * np.pi * a_target**2)
+    np.testing.assert_allclose(float(res.pressure.max()), p_max, rtol=0.05)
+    np.testing.assert_allclose(float(res.approach), 0.8**2 / R, rtol=0.03)
+    assert float(res.gap.min()) > -1e-6 * 0.8**2 / R
+
+
+def test_prescribed_displacement_matches_load():
+    # the approach found at p0 is prescribed back: the same mean pressure and field
+    n, R, L = 64, 10.0, 4.0
+    topo = paraboloid(n, R, L)
+    ref = solve_contact(topo, E_star=E_STAR, p0=2e3, progress=False)
+    res = solve_contact(topo, E_star=E_STAR, displacement=float(ref.approach),
+                        progress=False)
+    np.testing.assert_allclose(float(res.mean_pressure), 2e3, rtol=1e-6)
+    np.testing.assert_allclose(res.pressure, ref.pressure, rtol=0, atol=1e-5 * 2e3)
+    # periodic: the displacement is the approach of the mean surface; below full contact
+    wave = sinusoid(256)
+    r2 = solve_contact(wave, E_star=E_STAR, displacement=[0.004, "8 nm"], progress=False)
+    np.testing.assert_allclose(r2.approach, [0.004, 0.008], rtol=1e-6)
+    assert r2.pressure.dims == ("delta", "y", "x") and r2.delta.attrs["units"] == "um"
+    with pytest.raises(ValueError, match="full contact"):
+        solve_contact(wave, E_star=E_STAR, displacement=0.02, progress=False)
+
+
+def test_output_units_and_netcdf_legal_attrs():
+    topo = sinusoid(64)
+    topo_nm = topo.copy(data=topo.values * 1000)
+    topo_nm.attrs["units"] = "nm"  # heights in nm on an um grid
+    res = solve_contact(topo, E_star="1 MPa", p0="0.01 MPa", progress=False)
+    res_nm = solve_contact(topo_nm, E_star=E_STAR, p0=1e4, progress=False)
+    assert res.pressure.attrs["units"] == "Pa" and res.gap.attrs["units"] == "um"
+    assert res_nm.gap.attrs["units"] == "nm" and res.x.attrs["units"] == "um"
+    np.testing.assert_allclose(res_nm.pressure, res.pressure, rtol=1e-9)
+    np.testing.assert_allclose(res_nm.displacement, 1000 * res.displacement, rtol=1e-9,
+                               atol=1e-9)
+    assert res.contact.dtype == np.int8 and res.attrs["E_star"] == 1e6
+    for v in res.attrs.values():
+        assert isinstance(v, (str, int, float))
+    xr.Dataset.from_dict(res.to_dict())  # plain types only
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"E_star": 0, "p0": 1.0}, "E_star must be positive"),
+    ({"E_star": -1e6, "p0": 1.0}, "E_star must be positive"),
+    ({"E_star": "1 m", "p0": 1.0}, "not a pressure"),
+    ({"E_star": 1e6, "p0": 0.0}, "p0 must be positive"),
+    ({"E_star": 1e6, "p0": [1.0, -1.0]}, "p0 must be positive"),
+    ({"E_star": 1e6}, "exactly one of p0"),
+    ({"E_star": 1e6, "p0": 1.0, "displacement": 1.0}, "exactly one of p0"),
+    ({"E_star": 1e6, "displacement": -1.0}, "displacement must be a positive"),
+    ({"E_star": 1e6, "p0": 1.0, "tol": 0}, "tol"),
+])
+def test_bad_parameters(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        solve_contact(sinusoid(16), progress=False, **kwargs)
+
+
+def test_bad_topography():
+    topo = sinusoid(16)
+    nan = topo.copy()
+    nan[0, 3] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        solve_contact(nan, E_star=E_STAR, p0=1.0)
+    uneven = topo.assign_coords(x=("x", np.r_[0, np.cumsum(np.linspace(1, 2, 15))] * 0.01,
+                                   {"units": "um"}))
+    with pytest.raises(ValueError, match="not uniformly spaced"):
+        solve_contact(uneven, E_star=E_STAR, p0=1.0)
+    with pytest.raises(ValueError, match="profile"):
+        solve_contact(topo.isel(y=0), E_star=E_STAR, p0=1.0)
+    with pytest.raises(ValueError, match="one map at a time"):
+        solve_contact(xr.concat([topo, topo], "scan"), E_star=E_STAR, p0=1.0)
+
+
+def test_progress_bar_runs(capsys):
+    res = solve_contact(sinusoid(64), E_star=E_STAR, p0=0.5 * P_STAR, progress=True)
+    assert int(res.converged) == 1
+    assert "contact" in capsys.readouterr().err
+
+
+def test_dask_input_is_computed():
+    topo = sinusoid(64)
+    res = solve_contact(topo.chunk(), E_star=E_STAR, p0=0.5 * P_STAR, progress=False)
+    ref = solve_contact(topo, E_star=E_STAR, p0=0.5 * P_STAR, progress=False)
+    xr.testing.assert_identical(res, ref)
+    assert res.pressure.chunks is None
+
+
+def test_timing_budget():
+    # a 256^2 self-affine surface at p0 = 0.01 E* gbar solves in well under 10 s
+    topo = xrough.self_affine_surface(hurst=0.8, lambda_r="2 um", lambda_s="0.08 um",
+                                      size="8 um", n=256, rms_gradient=0.5, seed=1,
+                                      unit="um")
+    t = time.perf_counter()
+    res = solve_contact(topo, E_star=E_STAR, p0=0.01 * E_STAR * 0.5, progress=False)
+    assert time.perf_counter() - t < 10
+    assert int(res.converged) == 1 and 0 < res.attrs["relative_contact_area"] < 0.1
