@@ -60,10 +60,12 @@ from .stitching import (  # noqa: E402
 )
 from .synthetic import self_affine_surface  # noqa: E402
 from .topography import topography  # noqa: E402
+from .validation import compare_with_simulation  # noqa: E402
 
 __all__ = [
     "__version__",
     "acf_from_spectrum",
+    "compare_with_simulation",
     "ConvergenceWarning",
     "detrend",
     "elastic_energy",

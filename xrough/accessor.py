@@ -18,6 +18,7 @@ from . import (
     solver,
     spectra,
     stitching,
+    validation,
 )
 
 __all__ = ["RoughDataArrayAccessor", "RoughDatasetAccessor"]
@@ -57,6 +58,10 @@ class RoughDataArrayAccessor:
     def solve_contact(self, **kwargs) -> xr.Dataset:
         """Boundary-element contact solution; see :func:`xrough.solve_contact`."""
         return solver.solve_contact(self._obj, **kwargs)
+
+    def validate(self, **kwargs) -> xr.Dataset:
+        """Theories against the contact solver; see :func:`xrough.compare_with_simulation`."""
+        return validation.compare_with_simulation(self._obj, **kwargs)
 
     def spectrum(self, **kwargs) -> xr.DataArray:
         """Spectrum C(q) from G (eq. 10/11); see :func:`xrough.spectrum`."""

@@ -1,0 +1,405 @@
+r"""Validation of the contact theories against the reference boundary-element solver.
+
+:func:`compare_with_simulation` solves the contact of one map at several mean pressures
+(:func:`xrough.solve_contact`), measures the stress ACF and the relative contact area of
+each pressure field, and sets them beside the predictions made from the map's
+height-difference ACF ``G`` alone: eq. 24 in full contact and real-space Persson theory
+(eq. 29, 30/48-50) in partial contact, with error measures per load.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from scipy import special
+
+from . import units as u
+from .contact import (
+    KAPPA_PERSSON,
+    THEORIES,
+    _contact_area,
+    _full_stress,
+    _improved_area,
+    _positive,
+    persson,
+)
+from .correlation import height_difference_acf
+from .gradient import rms_gradient
+from .solver import _check_topography, solve_contact
+
+__all__ = ["compare_with_simulation", "fit_kappa"]
+
+#: Full-contact load: this factor times the smallest load that closes every gap.
+FULL_CONTACT_MARGIN = 1.05
+
+
+def fit_kappa(contact_area: float, p_star: float) -> float:
+    r"""Slope ``kappa`` of eq. 29 that reproduces one measured contact area.
+
+    Inverts ``a = erf(sqrt(pi) kappa p* / 2)``:
+    ``kappa = 2 erfinv(a) / (sqrt(pi) p*)``, which is ``a / p*`` to leading order in
+    ``p*`` (the two differ by 0.1 % at ``a = 0.05`` and 1 % at ``a = 0.15``).
+
+    Parameters
+    ----------
+    contact_area : float
+        Relative contact area, ``0 < a < 1``.
+    p_star : float
+        Reduced pressure ``p0 / (E* gbar(0))``, > 0.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    ValueError
+        ``a`` outside ``(0, 1)`` or ``p* <= 0``.
+
+    Examples
+    --------
+    >>> round(fit_kappa(0.02, 0.01), 3)
+    2.0
+    """
+    if not (0 < contact_area < 1):
+        raise ValueError(f"the contact area must lie strictly between 0 and 1 to fit kappa, "
+                         f"got {contact_area!r}: choose a smaller (but non-zero) load")
+    if not (np.isfinite(p_star) and p_star > 0):
+        raise ValueError(f"p_star must be positive, got {p_star!r}")
+    return float(2 * special.erfinv(contact_area) / (np.sqrt(np.pi) * p_star))
+
+
+def _theories(theory) -> tuple[str, ...]:
+    names = (theory,) if isinstance(theory, str) else tuple(theory)
+    bad = [t for t in names if t not in THEORIES]
+    if bad or not names or len(set(names)) != len(names):
+        raise ValueError(f"theory must be one or several distinct of {THEORIES}, "
+                         f"got {theory!r}")
+    return names
+
+
+def _full_contact_load(h_lat: np.ndarray, spacing, periodic: bool, E: float, gbar0: float):
+    """Mean pressure just beyond full contact (Pa)."""
+    if not periodic:  # no exact threshold in free space: a generous multiple
+        return 4.0 * E * gbar0
+    ny, nx = h_lat.shape
+    qy = 2 * np.pi * np.fft.fftfreq(ny, spacing[0])
+    qx = 2 * np.pi * np.fft.rfftfreq(nx, spacing[1])
+    q = np.hypot(qy[:, None], qx[None, :])
+    stress = np.fft.irfft2(q * np.fft.rfft2(h_lat), s=(ny, nx)) * E / 2
+    return FULL_CONTACT_MARGIN * float(max(-stress.min(), 1e-3 * E * gbar0))
+
+
+def _gbar0(h_lat: np.ndarray, spacing, periodic: bool, gbar: xr.DataArray) -> float:
+    """Return the map's rms gradient: spectral if periodic, else the largest gbar(dr)."""
+    if not periodic:
+        return float(np.nanmax(gbar.values))
+    ny, nx = h_lat.shape
+    qy = 2 * np.pi * np.fft.fftfreq(ny, spacing[0])
+    qx = 2 * np.pi * np.fft.fftfreq(nx, spacing[1])
+    q2 = qy[:, None] ** 2 + qx[None, :] ** 2
+    return float(np.sqrt((q2 * np.abs(np.fft.fft2(h_lat)) ** 2).sum()) / (nx * ny))
+
+
+def _simulated_stress_acf(pressure: xr.DataArray, lunit: str, periodic: bool,
+                          acf_kwargs: dict) -> xr.DataArray:
+    """``<p(r) p(r + dr)>`` per load from the pressure field's own G (Pa^2)."""
+    field = pressure.copy()
+    field.attrs = {"units": "m", "periodic": int(periodic)}  # Pa stored as "m"
+    G_p = height_difference_acf(field, progress=False, **acf_kwargs)
+    to_pa2 = u.conversion_factor(G_p.attrs["units"], "m2")
+    mean_sq = (pressure**2).mean(("y", "x"))
+    return mean_sq - G_p * to_pa2
+
+
+def _on_lags(da: xr.DataArray, dr: np.ndarray) -> xr.DataArray:
+    keep = np.flatnonzero(np.isin(np.round(da["dr"].values, 12), np.round(dr, 12)))
+    return da.isel(dr=keep)
+
+
+def _errors(diff: xr.DataArray, scale: xr.DataArray | float, sel: np.ndarray):
+    rel = np.abs(diff.isel(dr=np.flatnonzero(sel))) / scale
+    return rel.max("dr", skipna=True), np.sqrt((rel**2).mean("dr", skipna=True))
+
+
+def compare_with_simulation(
+    topography: xr.DataArray,
+    *,
+    E_star: Any,
+    p0: Any,
+    theory: str | tuple[str, ...] = ("persson", "modified"),
+    kappa: float | None = None,
+    full_contact: bool = True,
+    error_range: tuple[Any, Any] | None = None,
+    gradient_method: str = "auto",
+    acf_kwargs: dict | None = None,
+    keep_pressure: bool = False,
+    tol: float = 1e-8,
+    max_iter: int = 10_000,
+    workers: int | None = None,
+) -> xr.Dataset:
+    r"""Compare simulated and predicted contact: stress ACF and contact area on (p0, dr).
+
+    1. ``G`` of the map (:func:`xrough.height_difference_acf`, log bins) and its rms
+       gradient ``gbar(dr)`` (:func:`xrough.rms_gradient`). ``gbar(0)`` is the rms
+       gradient of the map, ``sqrt(sum |q|^2 |h~(q)|^2)`` on a periodic map (the same
+       continuum ``|q|`` as the solver's Green's function), else the largest ``gbar(dr)``;
+       ``p* = p0 / (E* gbar(0))``.
+    2. Boundary-element solutions at all ``p0`` (ascending, warm-started) and, with
+       ``full_contact``, at one load just beyond full contact (on a periodic map 1.05
+       times the largest tensile stress of the full-contact field
+       ``(E*/2) F^-1[|q| h~]``; on an open map ``4 E* gbar(0)``).
+    3. Simulated stress ACF ``<p(r) p(r + dr)> = <p^2> - G_p(dr)``, with ``G_p`` the
+       height-difference ACF of the pressure field on the same lag bins as ``G``
+       (the full-contact one without the ``p0^2`` offset, as eq. 24).
+    4. Predictions from ``G``: eq. 24 in full contact; :func:`xrough.persson` per theory
+       (``G_sigma`` of eq. 30/48 with ``W = a_r`` or ``a_r^2 / a_ri``) and the areas
+       ``a_r(0)`` (eq. 29), ``a_ri(0)`` (eq. 50) at the smallest lag.
+
+    ``kappa=None`` fits the slope of eq. 29 to the simulation at the smallest load:
+    ``kappa = 2 erfinv(a_sim) / (sqrt(pi) p*)`` (:func:`fit_kappa`), which is
+    ``a_sim / p*`` for a small area. Pick the smallest load so that ``a_sim`` is a few
+    percent but covers many pixels (at least ~100 contact points): the fit then measures
+    the physical slope rather than the discretisation. The fitted value enters ``a_r``
+    and the ``persson`` theory; ``a_ri`` (the modified theory) has its own small-load slope
+    2 and depends on ``kappa`` only at order ``p*^2``. Persson's ``a_r`` with
+    ``kappa = sqrt(8/pi)`` is always reported as ``a_r_persson``.
+
+    Errors: ``area_error = a_theory / a_sim - 1`` per load (``a_r`` for "persson",
+    ``a_ri`` for "modified"); ``stress_error`` (``stress_error_rms``) is the largest (rms)
+    ``|G_sigma - G_sigma_sim|`` over ``error_range`` divided by the simulated
+    ``G_sigma(dr -> 0)``, i.e. ``<p^2>`` of the field (the stress variance in full
+    contact).
+
+    Parameters
+    ----------
+    topography : xarray.DataArray with dims ("y", "x")
+        Complete map (no NaN), preferably periodic (``attrs["periodic"]``): the
+        theories describe an infinite surface, and an open map adds edge stresses.
+    E_star : float, str or Quantity
+        Contact modulus ``E*`` (Pa for numbers), > 0.
+    p0 : float, str, Quantity or sequence of them
+        Mean pressures of partial contact (Pa for numbers), > 0.
+    theory : str or tuple of str
+        Any of ``"persson"`` (original weighting, eq. 49) and ``"modified"``.
+    kappa : float, optional
+        Slope of eq. 29; ``None`` fits it (above).
+    full_contact : bool
+        Also solve just beyond full contact and compare with eq. 24.
+    error_range : pair of float, str or Quantity, optional
+        Lags over which the stress-ACF errors are taken (numbers in the lateral unit);
+        default two pixels to an eighth of the map's smaller side.
+    gradient_method : {'auto', 'exact', 'simple', 'fit'}
+        How ``gbar(dr)`` is computed (see :func:`xrough.rms_gradient`).
+    acf_kwargs : dict, optional
+        Passed to :func:`xrough.height_difference_acf` for both ``G`` and ``G_p``
+        (default: log bins, 10 per decade).
+    keep_pressure : bool
+        Include the pressure fields ``pressure`` (p0, y, x) in the result.
+    tol, max_iter, workers
+        Passed to :func:`xrough.solve_contact`.
+
+    Returns
+    -------
+    xarray.Dataset
+        On ``p0`` (Pa), ``dr`` (lateral unit) and ``theory``:
+
+        - ``contact_area`` (p0): simulated relative area; ``p_star`` (p0);
+        - ``a_r``, ``a_r_persson``, ``a_ri`` (p0): predicted areas at ``dr -> 0``;
+        - ``area_error`` (theory, p0);
+        - ``G_sigma_sim`` (p0, dr), ``G_sigma`` (theory, p0, dr) in Pa^2 (NaN on lags
+          where ``gbar`` is not defined, e.g. below the exact gradient's support);
+          ``Gamma_sigma_sim = G_sigma_sim / a_sim`` and ``Gamma_sigma`` (eq. 47);
+        - ``stress_error``, ``stress_error_rms`` (theory, p0);
+        - with ``full_contact``: ``G_sigma_full_sim``, ``G_sigma_full`` (dr, Pa^2),
+          ``full_contact_error``, ``full_contact_error_rms``, ``full_contact_area`` and
+          the load ``p0_full`` (Pa);
+        - ``iterations``, ``converged`` (p0) of the solver.
+
+        Attrs: ``E_star`` (Pa), ``kappa``, ``kappa_fitted`` (1/0), ``kappa_persson``,
+        ``gbar0``, ``error_dr_min``/``error_dr_max`` (lateral unit), ``theories``.
+
+    Raises
+    ------
+    ValueError
+        ``E_star <= 0``, ``p0 <= 0``, ``kappa <= 0``, an unknown theory, an invalid map
+        (see :func:`xrough.solve_contact`), or a zero (or full) simulated contact area at
+        the smallest load when ``kappa`` is to be fitted.
+
+    Examples
+    --------
+    >>> topo = xrough.self_affine_surface(hurst=0.8, lambda_r=32, lambda_s=4, size=64,
+    ...                                   n=64, rms_gradient=0.1, seed=3, unit="nm",
+    ...                                   rolloff="smooth")
+    >>> cmp = compare_with_simulation(topo, E_star="1 MPa", p0=[2e3, 1e4],
+    ...                               theory="modified")
+    >>> cmp.G_sigma.dims, cmp.G_sigma.attrs["units"], cmp.contact_area.attrs["units"]
+    (('theory', 'p0', 'dr'), 'Pa2', '1')
+    >>> 1.0 < cmp.attrs["kappa"] < 3.5, float(cmp.full_contact_area)
+    (True, 1.0)
+    """
+    names = _theories(theory)
+    E = _positive(E_star, "[pressure]", "E_star")
+    p0s = np.sort(np.atleast_1d(_positive(p0, "[pressure]", "p0", allow_many=True)))
+    if kappa is not None and not (np.isfinite(kappa) and kappa > 0):
+        raise ValueError(f"kappa must be positive, got {kappa!r}")
+    grid, h = _check_topography(topography)
+    lunit, hunit = grid.lateral_unit, grid.height_unit
+    acf_kwargs = {"points_per_decade": 10, **(acf_kwargs or {})}
+
+    # --- G, gbar and the reduced pressure ---------------------------------------------
+    G = height_difference_acf(topography, progress=False, **acf_kwargs)
+    gbar = rms_gradient(G, method=gradient_method)
+    gbar0 = _gbar0(h * u.conversion_factor(hunit, lunit), grid.spacing, grid.periodic,
+                   gbar)
+    p_star = p0s / (E * gbar0)
+
+    # --- simulation -----------------------------------------------------------------
+    to_lat = u.conversion_factor(hunit, lunit)
+    loads = list(p0s)
+    p_full = None
+    if full_contact:
+        p_full = _full_contact_load(h * to_lat, grid.spacing, grid.periodic, E, gbar0)
+        loads.append(max(p_full, 1.01 * p0s[-1]))
+        p_full = loads[-1]
+    sim = solve_contact(topography.transpose("y", "x"), E_star=E, p0=loads, tol=tol,
+                        max_iter=max_iter, workers=workers, progress=False)
+    pressure = sim["pressure"].assign_coords(p0=np.arange(len(loads)))
+    S_sim = _simulated_stress_acf(pressure, lunit, grid.periodic, acf_kwargs)
+    S_sim = _on_lags(S_sim, G["dr"].values).assign_coords(dr=G["dr"])
+    area_sim = sim["contact_area"].values
+
+    n = len(p0s)
+    if kappa is None:
+        kappa_used, fitted = fit_kappa(float(area_sim[0]), float(p_star[0])), 1
+    else:
+        kappa_used, fitted = float(kappa), 0
+
+    # --- error range ----------------------------------------------------------------
+    dr = G["dr"].values
+    if error_range is None:
+        lo, hi = 2 * max(grid.spacing), min(grid.size) / 8
+    else:
+        lo, hi = (u.length_in(v, lunit, what="error_range") for v in error_range)
+    sel = (dr >= lo * (1 - 1e-9)) & (dr <= hi * (1 + 1e-9))
+    if not sel.any():
+        raise ValueError(f"no lag of G lies in error_range [{lo:g}, {hi:g}] {lunit}")
+
+    # --- theory ---------------------------------------------------------------------
+    p0_coord = ("p0", p0s, {"units": "Pa", "long_name": "mean pressure"})
+    dr_coord = ("dr", dr, {"units": lunit, "long_name": "lag distance"})
+    S_part = S_sim.isel(p0=slice(0, n)).assign_coords(p0=p0_coord)
+    a_r = _contact_area(p_star, kappa_used)
+    a_ri = _improved_area(p_star, a_r)
+    g_th, gam_th, area_th = [], [], []
+    for name in names:
+        ds = persson(G, E_star=E, p0=p0s, theory=name, kappa=kappa_used, gradient=gbar,
+                     variables=("G_sigma", "Gamma_sigma"))
+        if ds.sizes.get("p0") is None:
+            ds = ds.expand_dims("p0")
+        ds = ds.reindex(dr=G["dr"].values, method="nearest", tolerance=1e-9 * dr[-1])
+        g_th.append(ds["G_sigma"].transpose("p0", "dr").values)  # NaN off gbar's lags
+        gam_th.append(ds["Gamma_sigma"].transpose("p0", "dr").values)
+        area_th.append(a_r if name == "persson" else a_ri)
+    g_th, gam_th, area_th = np.stack(g_th), np.stack(gam_th), np.stack(area_th)
+    coords = {"theory": ("theory", np.array(names, dtype=object),
+                         {"long_name": "weighting of eq. 49"}),
+              "p0": p0_coord, "dr": dr_coord}
+    G_sigma = xr.DataArray(g_th, dims=("theory", "p0", "dr"), coords=coords)
+    mean_sq = (sim["pressure"].values[:n] ** 2).mean(axis=(1, 2))  # G_sigma_sim(0)
+    err_max, err_rms = _errors(G_sigma - S_part.values, mean_sq[None, :, None], sel)
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        area_err = area_th / area_sim[None, :n] - 1
+
+    sim_attrs = "from the boundary-element solution (xrough.solve_contact)"
+    err_attrs = {"units": "1", "error_dr_min": float(lo), "error_dr_max": float(hi)}
+    out = {
+        "p_star": (("p0",), p_star, {"units": "1", "long_name":
+                                     "reduced pressure p0 / (E* gbar(0))"}),
+        "contact_area": (("p0",), area_sim[:n], {
+            "units": "1", "long_name": "simulated relative contact area",
+            "source": sim_attrs}),
+        "a_r": (("p0",), a_r, {"units": "1", "long_name": "predicted relative contact area",
+                               "equation": "eq. 29: erf(sqrt(pi) kappa p* / 2)",
+                               "kappa": kappa_used}),
+        "a_r_persson": (("p0",), _contact_area(p_star, KAPPA_PERSSON), {
+            "units": "1", "long_name": "Persson's relative contact area",
+            "equation": "eq. 29 with kappa = sqrt(8/pi)", "kappa": KAPPA_PERSSON}),
+        "a_ri": (("p0",), a_ri, {"units": "1", "long_name":
+                                 "improved relative contact area", "equation": "eq. 50"}),
+        "area_error": (("theory", "p0"), area_err, {
+            "units": "1", "long_name": "relative error of the predicted contact area",
+            "definition": "a_theory / a_sim - 1, a_theory = a_r (persson) or a_ri "
+            "(modified)"}),
+        "G_sigma_sim": (("p0", "dr"), S_part.values, {
+            "units": "Pa2", "long_name": "simulated stress autocorrelation function",
+            "definition": "<p^2> - G_p(dr), G_p the height-difference ACF of the pressure",
+            "source": sim_attrs}),
+        "G_sigma": (("theory", "p0", "dr"), g_th, {
+            "units": "Pa2", "long_name": "predicted stress autocorrelation function",
+            "equation": "eq. 30/48 with W of eq. 49"}),
+        "Gamma_sigma_sim": (("p0", "dr"), S_part.values / area_sim[:n, None], {
+            "units": "Pa2", "long_name": "simulated reduced stress ACF",
+            "definition": "G_sigma_sim / contact_area"}),
+        "Gamma_sigma": (("theory", "p0", "dr"), gam_th, {
+            "units": "Pa2", "long_name": "predicted reduced stress ACF",
+            "equation": "eq. 47 (divided by a_r(0), modified: a_ri(0))"}),
+        "stress_error": (("theory", "p0"), err_max.values, {
+            **err_attrs, "long_name": "largest stress-ACF error relative to G_sigma_sim(0)",
+            "definition": "max |G_sigma - G_sigma_sim| / G_sigma_sim(dr -> 0) over "
+            "error_dr_min <= dr <= error_dr_max"}),
+        "stress_error_rms": (("theory", "p0"), err_rms.values, {
+            **err_attrs, "long_name": "rms stress-ACF error relative to G_sigma_sim(0)"}),
+        "iterations": (("p0",), sim["iterations"].values[:n], {
+            "long_name": "conjugate-gradient iterations"}),
+        "converged": (("p0",), sim["converged"].values[:n], {
+            "long_name": "1 if the solver reached tol"}),
+    }
+    if full_contact:
+        S_full_sim = S_sim.isel(p0=n).values - float(p_full) ** 2
+        S_full = _full_stress(G, E)
+        var = float(sim["pressure"].values[n].var())  # G_sigma_full_sim(0)
+        diff = xr.DataArray(S_full - S_full_sim, dims="dr")
+        f_max, f_rms = _errors(diff, var, sel)
+        area_full = float(area_sim[n])
+        if area_full < 1:
+            warnings.warn(f"the full-contact load {p_full:.3g} Pa left "
+                          f"{1 - area_full:.2%} of the map out of contact; the full-contact "
+                          "comparison is approximate", RuntimeWarning, stacklevel=2)
+        out.update({
+            "G_sigma_full_sim": (("dr",), S_full_sim, {
+                "units": "Pa2", "long_name": "simulated full-contact stress ACF",
+                "definition": "<p^2> - p0_full^2 - G_p(dr)", "source": sim_attrs}),
+            "G_sigma_full": (("dr",), S_full, {
+                "units": "Pa2", "long_name": "full-contact stress ACF from G",
+                "equation": "eq. 24 (p0^2 offset left out)"}),
+            "full_contact_error": ((), float(f_max), {
+                **err_attrs, "long_name": "largest error of eq. 24 relative to the "
+                "simulated stress variance"}),
+            "full_contact_error_rms": ((), float(f_rms), {
+                **err_attrs, "long_name": "rms error of eq. 24 relative to the simulated "
+                "stress variance"}),
+            "full_contact_area": ((), area_full, {
+                "units": "1", "long_name": "simulated relative contact area at p0_full"}),
+            "p0_full": ((), float(p_full), {"units": "Pa", "long_name":
+                                             "mean pressure of the full-contact solve"}),
+        })
+    if keep_pressure:
+        out["pressure"] = (("p0", "y", "x"), sim["pressure"].values[:n], {
+            "units": "Pa", "long_name": "simulated contact pressure"})
+    ds = xr.Dataset(out, coords={
+        **coords, **({"y": topography["y"], "x": topography["x"]} if keep_pressure else {})})
+    ds.attrs = {
+        "E_star": E, "E_star_units": "Pa", "kappa": kappa_used, "kappa_fitted": fitted,
+        "kappa_persson": KAPPA_PERSSON, "gbar0": gbar0, "gbar0_units": "1",
+        "gradient_method": str(gbar.attrs.get("method", gradient_method)),
+        "error_dr_min": float(lo), "error_dr_max": float(hi), "error_dr_units": lunit,
+        "theories": ", ".join(names), "periodic": int(grid.periodic),
+        "kappa_definition": "fitted: 2 erfinv(a_sim) / (sqrt(pi) p*) at the smallest "
+        "load (about a_sim / p*)" if fitted else "given",
+    }
+    return ds
