@@ -101,7 +101,8 @@ class _ElasticOperator:
     def __call__(self, p: np.ndarray) -> np.ndarray:
         """Displacement field (same shape as ``p``) for the pressure ``p / E*``."""
         ph = sfft.rfft2(p, s=self.fshape, workers=self.workers)
-        u = sfft.irfft2(ph * self.kernel, s=self.fshape, workers=self.workers)
+        ph *= self.kernel  # ph is a fresh array: multiply in place, then let irfft2 reuse it
+        u = sfft.irfft2(ph, s=self.fshape, workers=self.workers, overwrite_x=True)
         if not self.periodic:
             u = u[: self.shape[0], : self.shape[1]]
         return u
@@ -111,6 +112,14 @@ def _gap_scale(h: np.ndarray, p0: float, op: _ElasticOperator) -> float:
     """Length that normalises the gap error: rms height, else the elastic scale."""
     rms = float(np.sqrt(np.mean((h - h.mean()) ** 2)))
     return rms if rms > 0 else float(np.max(np.abs(op(np.full(h.shape, p0))))) or 1.0
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> float:
+    """Sum of ``a * b`` over all elements.
+
+    ``einsum`` runs single-threaded, so no BLAS thread pool competes with the FFT workers.
+    """
+    return float(np.einsum("i,i->", a.ravel(), b.ravel()))
 
 
 def _solve_load(
@@ -152,43 +161,64 @@ def _solve_load(
         p = np.clip(np.asarray(p_init, dtype=float), 0.0, None)
         p *= p0 / p.mean()
     scale = _gap_scale(h, p0, op)
+    # Work arrays reused across iterations. ``t`` is kept exactly zero outside the contact
+    # set ``S`` and ``w`` is the 0/1 indicator of ``S``, so sums over ``S`` become dot
+    # products over the whole array (no boolean-mask copies).
     t = np.zeros_like(p)
+    g = np.empty_like(p)
+    tmp = np.empty_like(p)
+    p_old = np.empty_like(p)
+    w = np.empty_like(p)
+    S = np.empty(h.shape, dtype=bool)
+    mask = np.empty(h.shape, dtype=bool)
     delta = 0.0
     g_old = 1.0
     history: list[float] = []
     converged = False
     it = 0
     for it in range(1, max_iter + 1):  # noqa: B007 - the count is reported
-        g = op(p) - h
-        S = p > 0
-        g -= g[S].mean()
-        G = float(np.sum(g[S] ** 2))
-        outside = ~S & (g < 0)
-        eps_g = np.sqrt((G + float(np.sum(g[outside] ** 2))) / n) / scale
-        t = np.where(S, g + delta * (G / g_old) * t, 0.0)
+        np.subtract(op(p), h, out=g)
+        np.greater(p, 0.0, out=S)
+        np.copyto(w, S)
+        n_s = int(np.count_nonzero(S))
+        g -= _dot(w, g) / n_s if n_s else np.nan
+        np.multiply(g, w, out=tmp)  # g on S, 0 elsewhere
+        G = _dot(tmp, tmp)
+        np.subtract(g, tmp, out=tmp)  # g off S, 0 on S
+        np.minimum(tmp, 0.0, out=tmp)  # g < 0 off S
+        eps_g = np.sqrt((G + _dot(tmp, tmp)) / n) / scale
+        t *= delta * (G / g_old)
+        t += g
+        t *= w
         g_old = G if G > 0 else 1.0
         r = op(t)
-        r -= r[S].mean()
-        denom = float(np.sum(r[S] * t[S]))
-        p_old = p.copy()
+        r -= _dot(w, r) / n_s if n_s else np.nan
+        denom = _dot(r, t)
+        np.copyto(p_old, p)
         if denom > 0:
-            tau = float(np.sum(g[S] * t[S])) / denom
-            p[S] -= tau * t[S]
+            tau = _dot(g, t) / denom
+            np.multiply(t, tau, out=tmp)
+            p -= tmp  # t = 0 off S, so only S changes
             np.maximum(p, 0.0, out=p)
-            overlap = (p == 0) & (g < 0)
-            if overlap.any():
+            np.equal(p, 0.0, out=mask)
+            np.logical_and(mask, np.less(g, 0.0, out=S), out=mask)  # overlap
+            if mask.any():
                 delta = 0.0
-                p[overlap] -= tau * g[overlap]
+                np.multiply(g, tau, out=tmp)
+                np.subtract(p, tmp, out=p, where=mask)
             else:
                 delta = 1.0
             p *= p0 / p.mean()
-        eps_p = float(np.sum(np.abs(p - p_old))) / (n * p0)
+        np.subtract(p, p_old, out=tmp)
+        np.abs(tmp, out=tmp)
+        eps_p = float(np.sum(tmp)) / (n * p0)
         res = max(eps_p, eps_g)
         history.append(res)
         if callback is not None:
             callback(it, res)
         if res < tol or denom <= 0:
-            converged = res < tol or (G == 0 and not outside.any())
+            outside = bool(np.any((p_old <= 0) & (g < 0)))
+            converged = res < tol or (G == 0 and not outside)
             break
     u = op(p)
     S = p > 0
