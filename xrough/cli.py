@@ -104,6 +104,8 @@ def _open(path: str, args: argparse.Namespace):
         parts = [p.strip() for p in args.size.split(",")]
         size = parts[0] if len(parts) == 1 else tuple(parts)
     options = {"channel": args.channel} if getattr(args, "channel", None) else {}
+    if getattr(args, "resample", False):
+        options["resample"] = True
     topo = open_topography(path, size=size, unit=args.unit, height_scale=args.height_scale,
                            periodic=True if args.periodic else None, **options)
     if getattr(args, "detrend", None) and args.detrend != "none":
@@ -159,11 +161,24 @@ def _acf(args: argparse.Namespace) -> int:
     return 0
 
 
+def _length_text(value: float, unit: str, *, none: str = "inf") -> str:
+    """Format a length with a readable prefix (``12.3 nm``, not ``1.23e-08 m``)."""
+    import numpy as np
+
+    from . import units as u
+
+    if not np.isfinite(value):
+        return none
+    q = u.ureg.Quantity(value, u.parse_units(unit)).to_compact()
+    return f"{q.magnitude:.4g} {u.format_units(q.units)}"
+
+
 def _report(args: argparse.Namespace) -> int:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import numpy as np
 
     from . import units as u
     from .archive import save_analysis
@@ -187,15 +202,20 @@ def _report(args: argparse.Namespace) -> int:
         del r["topography"]  # the archive refers to the file (name, SHA-256 in G's attrs)
         unit = G.dr.attrs["units"]
         finest = contact.isel(dr=0)
-        rows.append((name, f"{float(fit.sigma_h):.4g} {unit}",
+        patch = "-"
+        if args.gamma:
+            a_c = float(r["patch"].a_c)
+            patch = _length_text(a_c, unit) if np.isfinite(a_c) else "none: sticks everywhere"
+        rows.append((name, _length_text(float(fit.sigma_h), unit, none="no plateau"),
                      f"{float(fit.hurst):.3f}+-{float(fit.hurst_std):.3f}",
-                     f"{float(fit.lambda_r):.4g} {unit}", f"{float(gbar[0]):.3g}",
+                     _length_text(float(fit.lambda_r), unit, none="no roll-off"),
+                     f"{float(gbar[0]):.3g}",
                      f"{float(energy.v_el):.3g}", f"{float(finest.a_r):.3g}",
                      f"{float(finest.sigma_c) / 1e6:.3g}",
-                     f"{float(r['patch'].a_c):.3g} {unit}" if args.gamma else "-"))
+                     f"{_length_text(float(finest.dr), unit)}", patch))
         G.rough.plot(ax=ax0, label=name)
         ax1.semilogx(contact.dr, contact.a_r, label=name)
-    ax1.set_xlabel("resolution dr")
+    ax1.set_xlabel(f"resolution dr ({G.dr.attrs['units']})")
     ax1.set_ylabel(f"relative contact area at p0 = {args.p0}")
     ax1.legend()
     fig.tight_layout()
@@ -205,12 +225,13 @@ def _report(args: argparse.Namespace) -> int:
     save_analysis(out, results, history=f"xrough report {' '.join(args.files)} "
                   f"({parameters})")
     head = ("measurement", "sigma_h", "H", "lambda_r", "rms grad", "v_el J/m2", "a_r",
-            "sigma_c MPa", "patch radius")
+            "sigma_c MPa", "at dr", "patch radius")
     widths = [max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(head)]
     print("  ".join(h.ljust(w) for h, w in zip(head, widths)))
     for row in rows:
         print("  ".join(c.ljust(w) for c, w in zip(row, widths)))
-    print(f"a_r, sigma_c and rms gradient at the finest resolution; {parameters}")
+    print("rms grad, a_r and sigma_c at the finest resolution where the rms gradient is "
+          f"determined (column 'at dr'); {parameters}")
     print(f"wrote {out} and {png}")
     return 0
 
@@ -240,6 +261,8 @@ def main(argv: list[str] | None = None) -> int:
         p.add_argument("--height-scale", type=float, help="factor applied to the heights")
         p.add_argument("--periodic", action="store_true", help="the maps are periodic")
         p.add_argument("--channel", help="channel of multi-channel AFM files")
+        p.add_argument("--resample", action="store_true",
+                       help="resample non-uniformly sampled profiles onto a uniform grid")
         if detrend:
             p.add_argument("--detrend", default="none",
                            choices=["none", "mean", "plane", "curvature"],

@@ -438,11 +438,17 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     dims = ("p0",) + extra + ("dr",)
     pshape = (-1,) + (1,) * len(G.dims)
     out: dict[str, tuple] = {}
+    restricted = "none"
     if set(wanted) - {"sigma_quick"}:  # everything else needs gbar(dr)
         if gradient is None:
             gradient = rms_gradient(G, method=gradient_method)
+        full_range = (float(G["dr"][0]), float(G["dr"][-1]), G.sizes["dr"])
         G = _restrict_to(G, gradient)
         gbar = _gradient_on(gradient, G)
+        if G.sizes["dr"] < full_range[2]:
+            restricted = (f"{G.sizes['dr']} of {full_range[2]} lags of G, "
+                          f"{float(G['dr'][0]):.4g} to {float(G['dr'][-1]):.4g} "
+                          f"{G['dr'].attrs['units']}: where the rms gradient is determined")
         p_star = p0s.reshape(pshape) / (E * gbar[None])
         a_r = _contact_area(p_star, kappa)
         need_ai = theory == "modified" or "a_ri" in wanted
@@ -496,7 +502,8 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
         "E_star": E, "E_star_units": "Pa", "kappa": float(kappa), "theory": theory,
         "gradient_method": "none" if gradient is None else gradient.attrs.get("method",
                                                                               "given"),
-        "note": "real-space Persson theory: functions of q evaluated at dr = 2 pi / q"})
+        "note": "real-space Persson theory: functions of q evaluated at dr = 2 pi / q",
+        "dr_restricted_to": restricted})
     if not many:
         ds = ds.isel(p0=0)
     return ds
