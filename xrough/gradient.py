@@ -44,8 +44,9 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto") -> xr.DataArray:
     method : {'auto', 'exact', 'simple', 'fit'}
         Eq. 26 via the spectrum from eq. 10/11; ``sqrt(4 G / dr^2)``; or from the fit of G
         (eq. 26 of the fitted spectrum, or eq. 37/38 for eq. 36). ``'auto'`` (default)
-        takes ``'exact'`` where G supports it, else ``'fit'``, else ``'simple'``, and says
-        which in ``attrs["method"]`` (with ``attrs["fallback_reason"]``).
+        takes ``'exact'`` where G supports it on at least half of its lags, else ``'fit'``,
+        else ``'simple'``, and says which in ``attrs["method"]`` (with
+        ``attrs["fallback_reason"]``).
 
     Returns
     -------
@@ -82,6 +83,10 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto") -> xr.DataArray:
                 out = rms_gradient(G, method=candidate)
             except ValueError as err:
                 reasons.append(f"{candidate}: {str(err).splitlines()[0]}")
+                continue
+            if candidate == "exact" and 2 * out.sizes["dr"] < G.sizes["dr"]:
+                reasons.append(f"exact: determined on {out.sizes['dr']} of "
+                               f"{G.sizes['dr']} lags only")
                 continue
             if reasons:
                 out.attrs["fallback_reason"] = "; ".join(reasons)
