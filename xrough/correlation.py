@@ -74,6 +74,41 @@ def _length(value, lateral_unit: str, what: str) -> float | None:
                                                   positive=False)
 
 
+def bin_edges(lag_shape: tuple[int, ...], spacing: tuple[float, ...], periodic: bool,
+              lateral_unit: str, *, bins, points_per_decade, bin_width, dr_min,
+              dr_max) -> np.ndarray:
+    """Lag-bin edges (lateral unit) for the lag axes of a grid, as every estimator uses.
+
+    Defaults: ``dr_min`` one pixel, ``dr_max`` half the period (periodic) or the scan
+    length (open); ``dr_max`` itself is included.
+    """
+    lo = _length(dr_min, lateral_unit, "dr_min")
+    hi = _length(dr_max, lateral_unit, "dr_max")
+    if periodic:
+        longest = min(n * d for n, d in zip(lag_shape, spacing)) / 2
+    else:
+        longest = max((n - 1) * d for n, d in zip(lag_shape, spacing))
+    lo = min(spacing) if lo is None else lo
+    hi = longest if hi is None else min(hi, np.sqrt(sum(((n - 1) * d) ** 2 for n, d in
+                                                         zip(lag_shape, spacing))))
+    if not isinstance(bins, str):
+        edges = np.asarray(bins, dtype=float)
+        if edges.ndim != 1 or edges.size < 2 or np.any(np.diff(edges) <= 0) or edges[0] < 0:
+            raise ValueError("bin edges must be a 1D increasing array of >= 2 lags >= 0")
+        return edges
+    if not (lo > 0 and hi >= lo and (hi > lo or dr_min is None)):
+        raise ValueError(f"need 0 < dr_min < dr_max; got dr_min={lo:g}, dr_max={hi:g} "
+                         f"{lateral_unit} (largest lag on this grid: {longest:g})")
+    hi_edge = hi * (1 + 1e-12)  # include dr_max itself
+    if bins == "log":
+        return binning.log_bin_edges(lo, hi_edge, points_per_decade)
+    if bins == "linear":
+        width = min(spacing) if bin_width is None else _length(bin_width, lateral_unit,
+                                                               "bin_width")
+        return binning.linear_bin_edges(lo, hi_edge, width)
+    raise ValueError(f"bins must be 'log', 'linear' or an array of edges, got {bins!r}")
+
+
 def _plan(grid: Grid, *, direction: str, bins, points_per_decade, bin_width, dr_min,
           dr_max) -> _Plan:
     if direction not in DIRECTIONS:
@@ -94,33 +129,9 @@ def _plan(grid: Grid, *, direction: str, bins, points_per_decade, bin_width, dr_
     lag_dims = core[-lag_axes:]
     spacing = tuple(sp[d] for d in lag_dims)
     lag_shape = shape[-lag_axes:]
-    lo = _length(dr_min, grid.lateral_unit, "dr_min")
-    hi = _length(dr_max, grid.lateral_unit, "dr_max")
-    if grid.periodic:
-        longest = min(n * d for n, d in zip(lag_shape, spacing)) / 2
-    else:
-        longest = max((n - 1) * d for n, d in zip(lag_shape, spacing))
-    lo = min(spacing) if lo is None else lo
-    hi = longest if hi is None else min(hi, np.sqrt(sum(((n - 1) * d) ** 2 for n, d in
-                                                         zip(lag_shape, spacing))))
-    explicit = not isinstance(bins, str)
-    if not explicit and not (lo > 0 and hi >= lo and (hi > lo or dr_min is None)):
-        raise ValueError(f"need 0 < dr_min < dr_max; got dr_min={lo:g}, dr_max={hi:g} "
-                         f"{grid.lateral_unit} (largest lag on this grid: {longest:g})")
-    hi_edge = hi * (1 + 1e-12)  # include dr_max itself
-    if not explicit:
-        if bins == "log":
-            edges = binning.log_bin_edges(lo, hi_edge, points_per_decade)
-        elif bins == "linear":
-            width = min(spacing) if bin_width is None else _length(
-                bin_width, grid.lateral_unit, "bin_width")
-            edges = binning.linear_bin_edges(lo, hi_edge, width)
-        else:
-            raise ValueError(f"bins must be 'log', 'linear' or an array of edges, got {bins!r}")
-    else:
-        edges = np.asarray(bins, dtype=float)
-        if edges.ndim != 1 or edges.size < 2 or np.any(np.diff(edges) <= 0) or edges[0] < 0:
-            raise ValueError("bin edges must be a 1D increasing array of >= 2 lags >= 0")
+    edges = bin_edges(lag_shape, spacing, grid.periodic, grid.lateral_unit, bins=bins,
+                      points_per_decade=points_per_decade, bin_width=bin_width,
+                      dr_min=dr_min, dr_max=dr_max)
     hi_lag = edges[-1]
     ks = binning.max_lags(lag_shape, spacing, grid.periodic, hi_lag)
     idx, counts, rsum = _geometry(lag_shape, spacing, grid.periodic, ks,
@@ -131,7 +142,7 @@ def _plan(grid: Grid, *, direction: str, bins, points_per_decade, bin_width, dr_
     if lag_axes < len(shape):  # one-direction G of a map: every row contributes
         counts = counts * shape[0]
     if not keep.any():
-        raise ValueError(f"no lattice lag between dr_min={lo:g} and dr_max={hi:g} "
+        raise ValueError(f"no lattice lag between {edges[0]:g} and {edges[-1]:g} "
                          f"{grid.lateral_unit}")
     return _Plan(core_dims=core, shape=shape, lag_axes=lag_axes, spacing=spacing,
                  periodic=grid.periodic, ks=ks, edges=edges, keep=keep,

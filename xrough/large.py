@@ -29,41 +29,10 @@ from . import __version__
 from . import units as u
 from ._kernels import binning
 from ._kernels.tiles import coarsen_stats, point_stats, tile_pair_sums
-from .correlation import _area_variance
+from .correlation import _area_variance, bin_edges
 from .topography import grid_of
 
 __all__ = ["height_difference_acf_tiled"]
-
-
-def _length(value, unit: str, what: str) -> float | None:
-    return None if value is None else u.length_in(value, unit, what=what, positive=False)
-
-
-def _edges(grid, bins, points_per_decade, bin_width, dr_min, dr_max) -> np.ndarray:
-    """Bin edges exactly as the in-memory estimator builds them (radial, open map)."""
-    spacing, shape = grid.spacing, grid.shape
-    lo = _length(dr_min, grid.lateral_unit, "dr_min")
-    hi = _length(dr_max, grid.lateral_unit, "dr_max")
-    longest = max((n - 1) * d for n, d in zip(shape, spacing))
-    lo = min(spacing) if lo is None else lo
-    hi = longest if hi is None else min(hi, np.sqrt(sum(((n - 1) * d) ** 2
-                                                        for n, d in zip(shape, spacing))))
-    if isinstance(bins, str):
-        if not (lo > 0 and hi >= lo and (hi > lo or dr_min is None)):
-            raise ValueError(f"need 0 < dr_min < dr_max; got dr_min={lo:g}, dr_max={hi:g} "
-                             f"{grid.lateral_unit} (largest lag on this grid: {longest:g})")
-        hi_edge = hi * (1 + 1e-12)
-        if bins == "log":
-            return binning.log_bin_edges(lo, hi_edge, points_per_decade)
-        if bins == "linear":
-            width = min(spacing) if bin_width is None else _length(
-                bin_width, grid.lateral_unit, "bin_width")
-            return binning.linear_bin_edges(lo, hi_edge, width)
-        raise ValueError(f"bins must be 'log', 'linear' or an array of edges, got {bins!r}")
-    edges = np.asarray(bins, dtype=float)
-    if edges.ndim != 1 or edges.size < 2 or np.any(np.diff(edges) <= 0) or edges[0] < 0:
-        raise ValueError("bin edges must be a 1D increasing array of >= 2 lags >= 0")
-    return edges
 
 
 def _lattice_bins(shape, spacing, ks, edges, rows_per_block: int = 256):
@@ -259,7 +228,9 @@ def height_difference_acf_tiled(
     if bin_width is not None and not (isinstance(bins, str) and bins == "linear"):
         raise ValueError("bin_width applies to bins='linear' only")
     shape, spacing = grid.shape, grid.spacing
-    edges = _edges(grid, bins, points_per_decade, bin_width, dr_min, dr_max)
+    edges = bin_edges(grid.shape, grid.spacing, grid.periodic, grid.lateral_unit,
+                      bins=bins, points_per_decade=points_per_decade, bin_width=bin_width,
+                      dr_min=dr_min, dr_max=dr_max)
     nb = len(edges) - 1
     ks_full = binning.max_lags(shape, spacing, False, edges[-1])
     geo, rsum = _lattice_bins(shape, spacing, ks_full, edges)
