@@ -6,7 +6,7 @@ Steps, each in a fresh subprocess so that peak resident memory (``ru_maxrss``) i
    temporary folder, tile by tile (a sum of plane waves plus white noise, 5 % missing
    points), so that generation stays within a tile's memory;
 2. open it lazily (``xr.open_dataarray(..., chunks=...)``) and compute G with
-   :func:`xrough.large.height_difference_acf_tiled`; print time and peak memory
+   :func:`xrough.correlation.height_difference_acf_tiled`; print time and peak memory
    (target: < 3 GiB for 16384^2);
 3. on a small map (default 2048^2) compare time and error against the exact in-memory
    FFT estimator.
@@ -80,7 +80,7 @@ WRITE = COMMON + textwrap.dedent(
 TILED = COMMON + textwrap.dedent(
     r"""
     import dask, xarray as xr, xrough
-    from xrough.large import height_difference_acf_tiled
+    from xrough.correlation import height_difference_acf_tiled
     path, chunk, tile, halo, threads = (sys.argv[1], int(sys.argv[2]), int(sys.argv[3]),
                                         int(sys.argv[4]), int(sys.argv[5]))
     topo = xr.open_dataarray(path, chunks={"y": chunk, "x": chunk})
@@ -98,7 +98,7 @@ TILED = COMMON + textwrap.dedent(
 SMALL = COMMON + textwrap.dedent(
     r"""
     import xrough
-    from xrough.large import height_difference_acf_tiled
+    from xrough.correlation import height_difference_acf_tiled
     n, tile, halo = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
     topo = xrough.topography(block(0, n, 0, n, 1), spacing=1.0, unit="nm")
     t0 = time.perf_counter(); ref = topo.rough.acf(); t_fft = time.perf_counter() - t0

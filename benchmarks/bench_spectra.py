@@ -33,13 +33,8 @@ import numpy as np
 
 from xrough._kernels.hankel import acf_from_spectrum_kernel, spectrum_from_acf_kernel
 from xrough.models import self_affine_model
-from xrough.spectra import (
-    acf_from_spectrum,
-    gradient_from_spectrum,
-    model_spectrum,
-    rms_gradient_exact,
-    spectrum,
-)
+from xrough.gradient import gradient_from_spectrum, rms_gradient_exact
+from xrough.spectra import acf_from_spectrum, model_spectrum, spectrum
 
 
 def best_time(func, repeat=3):

@@ -5,7 +5,7 @@ import pytest
 import xarray as xr
 
 import xrough
-from xrough.large import height_difference_acf_tiled
+from xrough.correlation import height_difference_acf_tiled
 
 
 def _stack(n_scans=4, shape=(48, 40), seed=0):

@@ -5,6 +5,7 @@ import pytest
 import xarray as xr
 
 import xrough
+from xrough._kernels.contact import contact_area
 from xrough.validation import compare_with_simulation, fit_kappa
 
 E_STAR = 1e6  # Pa
@@ -61,7 +62,7 @@ def test_given_kappa_and_single_theory():
     assert c.attrs["kappa"] == 2.0 and c.attrs["kappa_fitted"] == 0
     assert list(c.theory.values) == ["persson"] and "G_sigma_full" not in c
     assert float(c.a_r[0]) == pytest.approx(
-        float(xrough.contact._contact_area(c.p_star[0], 2.0)))
+        float(contact_area(c.p_star[0], 2.0)))
 
 
 def test_units_and_netcdf_round_trip(comparison, tmp_path):

@@ -12,55 +12,52 @@ physical units on data and coordinates; the ``.rough`` accessor chains the steps
 ('nm2', 'nm')
 """
 
-from importlib.metadata import PackageNotFoundError, version
-
-try:
-    __version__ = version("xrough")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree
-    __version__ = "0.0.0+unknown"
-
-from . import (  # noqa: E402
-    accessor,  # noqa: E402,F401  (registers .rough)
+from . import (
+    accessor,  # noqa: F401  (registers .rough)
     plot,
     units,
 )
-from .archive import open_analysis, save_analysis  # noqa: E402
-from .contact import (  # noqa: E402
+from ._version import __version__
+from .contact import (
     elastic_energy,
     patch_radius,
     persson,
     stress_acf,
     stress_acf_from_spectrum,
 )
-from .correlation import height_difference_acf  # noqa: E402
-from .fitting import fit_acf, gradient_from_fit, model_acf  # noqa: E402
-from .gradient import rms_gradient  # noqa: E402
-from .io import open_topography  # noqa: E402
-from .models import self_affine_model  # noqa: E402
-from .preprocess import (  # noqa: E402
+from .correlation import height_difference_acf
+from .fitting import fit_acf, model_acf
+from .gradient import (
+    gradient_from_fit,
+    gradient_from_spectrum,
+    rms_gradient,
+    rms_gradient_exact,
+)
+from .io import open_topography
+from .io.archive import open_analysis, save_analysis
+from .models import self_affine_model
+from .preprocess import (
     detrend,
     fit_trend,
     mask_outliers,
     reliability_window,
     reliable,
 )
-from .solver import ConvergenceWarning, solve_contact  # noqa: E402
-from .spectra import (  # noqa: E402
+from .solver import ConvergenceWarning, solve_contact
+from .spectra import (
     acf_from_spectrum,
-    gradient_from_spectrum,
     model_spectrum,
-    rms_gradient_exact,
     spectrum,
 )
-from .stitching import (  # noqa: E402
+from .stitching import (
     StitchingMismatchWarning,
     stitch,
     stitch_curves,
     stitch_mismatch,
 )
-from .synthetic import self_affine_surface  # noqa: E402
-from .topography import topography  # noqa: E402
-from .validation import compare_with_simulation  # noqa: E402
+from .synthetic import self_affine_surface
+from .topography import topography
+from .validation import compare_with_simulation
 
 __all__ = [
     "__version__",

@@ -13,24 +13,29 @@ import sys
 import time
 from pathlib import Path
 
+import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+from tqdm.auto import tqdm
+
+from . import units as u
+from ._version import __version__
+from .io import open_topography
+from .io.archive import save_analysis
+from .preprocess import detrend
+from .spectra import acf_from_spectrum, model_spectrum
+from .synthetic import self_affine_surface
+
 __all__ = ["main"]
 
 
 def _demo(args: argparse.Namespace) -> int:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    import xrough
-
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
-    print(f"xrough {xrough.__version__} demo: synthetic self-affine surface, "
+    print(f"xrough {__version__} demo: synthetic self-affine surface, "
           f"{args.n}x{args.n} points, H = {args.hurst}")
     lambda_s = f"{4 * 16 / args.n!r} um"  # the short cutoff at four pixels
-    topo = xrough.self_affine_surface(hurst=args.hurst, lambda_r="2 um", lambda_s=lambda_s,
+    topo = self_affine_surface(hurst=args.hurst, lambda_r="2 um", lambda_s=lambda_s,
                                       size="16 um", n=args.n, rms_gradient=0.5,
                                       seed=args.seed, unit="um")
     t0 = time.perf_counter()
@@ -40,7 +45,7 @@ def _demo(args: argparse.Namespace) -> int:
     Gr = topo.rough.acf(estimator="random", n_pairs=args.pairs, seed=args.seed,
                         points_per_decade=10)
     t_rnd = time.perf_counter() - t0
-    exact = xrough.acf_from_spectrum(xrough.model_spectrum(
+    exact = acf_from_spectrum(model_spectrum(
         hurst=args.hurst, lambda_r="2 um", lambda_s=lambda_s, lambda_0="16 um",
         rms_gradient=0.5, unit="um"), dr=G.dr.values)
     fit = G.rough.fit()
@@ -97,8 +102,6 @@ def _demo(args: argparse.Namespace) -> int:
 
 
 def _open(path: str, args: argparse.Namespace):
-    from .io import open_topography
-
     size = None
     if args.size:
         parts = [p.strip() for p in args.size.split(",")]
@@ -109,15 +112,11 @@ def _open(path: str, args: argparse.Namespace):
     topo = open_topography(path, size=size, unit=args.unit, height_scale=args.height_scale,
                            periodic=True if args.periodic else None, **options)
     if getattr(args, "detrend", None) and args.detrend != "none":
-        from .preprocess import detrend
-
         topo = detrend(topo, mode=args.detrend)
     return topo
 
 
 def _info(args: argparse.Namespace) -> int:
-    import numpy as np
-
     for path in args.files:
         topo = _open(path, args)
         valid = np.isfinite(topo.values)
@@ -135,8 +134,6 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def _acfs(args: argparse.Namespace) -> dict:
-    from tqdm.auto import tqdm
-
     results = {}
     for path in tqdm(args.files, desc="G(dr)", disable=None, leave=False):
         topo = _open(path, args)
@@ -147,8 +144,6 @@ def _acfs(args: argparse.Namespace) -> dict:
 
 
 def _acf(args: argparse.Namespace) -> int:
-    from .archive import save_analysis
-
     results = _acfs(args)
     tree = {name: {"G": r["G"]} for name, r in results.items()}
     save_analysis(args.output, tree, history="xrough acf " + " ".join(args.files))
@@ -163,10 +158,6 @@ def _acf(args: argparse.Namespace) -> int:
 
 def _length_text(value: float, unit: str, *, none: str = "inf") -> str:
     """Format a length with a readable prefix (``12.3 nm``, not ``1.23e-08 m``)."""
-    import numpy as np
-
-    from . import units as u
-
     if not np.isfinite(value):
         return none
     q = u.ureg.Quantity(value, u.parse_units(unit)).to_compact()
@@ -174,15 +165,6 @@ def _length_text(value: float, unit: str, *, none: str = "inf") -> str:
 
 
 def _report(args: argparse.Namespace) -> int:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    from . import units as u
-    from .archive import save_analysis
-
     E_star = u.to_si(args.E_star, "[pressure]", what="--E-star")
     p0 = u.to_si(args.p0, "[pressure]", what="--p0")
     results = _acfs(args)
@@ -238,8 +220,7 @@ def _report(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``xrough`` command."""
-    from . import __version__
-
+    matplotlib.use("Agg")  # figures go to files
     parser = argparse.ArgumentParser(
         prog="xrough", description="Contact mechanics of rough surfaces from the "
         "height-difference autocorrelation function G(dr).")

@@ -1,67 +1,104 @@
 """Contact mechanics from G(dr): energy, stress ACF, Persson theory, patch radius.
 
 Paper sections 2.3-2.6 and 3.4-3.6. Every function takes a height-difference ACF ``G``
-(dim ``dr``, length^2; measured, stitched or from a model spectrum) and physical
-parameters as numbers in SI, strings (``"25 MPa"``) or pint Quantities, and returns
+(dim ``dr``, length^2; measured, stitched or from a model spectrum; checked by
+:func:`xrough.acf.check_acf`) and physical parameters as numbers in SI, strings
+(``"25 MPa"``), pint Quantities or DataArrays with units (:mod:`xrough.units`), and returns
 DataArrays or Datasets in SI units (Pa, Pa^2, J m-2) with lengths in the unit of ``G``'s
-``dr``.
+``dr``. The numpy kernels are in :mod:`xrough._kernels.contact`; here they are applied per
+curve with :func:`xarray.apply_ufunc`, so that on a chunked G every result is a lazy dask
+array and ``.compute()`` runs the graph once.
 """
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import numpy as np
 import xarray as xr
-from scipy import optimize, special
 
 from . import units as u
-from .curves import check_acf, curves_si
+from ._kernels import contact as k
+from ._kernels.contact import KAPPA_PERSSON
+from ._kernels.hankel import acf_from_spectrum_kernel
+from .acf import AcfSpec, check_acf, lag_coord, result_attrs
+from .fitting import fit_acf
 from .gradient import rms_gradient
+from .models import model_from_attrs
 
 __all__ = ["elastic_energy", "stress_acf", "stress_acf_from_spectrum", "persson",
            "patch_radius", "KAPPA_PERSSON"]
 
-#: Persson's small-pressure slope of the contact area, ``a_r ~ kappa p*`` (eq. 29).
-KAPPA_PERSSON = float(np.sqrt(8 / np.pi))
 THEORIES = ("persson", "modified")
 _ENERGY = "[mass] / [time] ** 2"
+_PRESSURE = "[pressure]"
+_DERIVATIVE = ("Laplacian of a GCV smoothing spline of ln G against ln dr, weighted by the "
+               "standard error")
 
 
-def _positive(value: Any, dimension: str, what: str, *, allow_many: bool = False):
-    """SI magnitude(s) of a positive physical parameter (numbers are SI)."""
-    if isinstance(value, (list, tuple)) or (isinstance(value, np.ndarray) and
-                                            value.dtype.kind in "OU"):
-        mag = np.array([u.to_si(v, dimension, what=what) for v in value], dtype=float)
-    else:
-        mag = u.to_si(value, dimension, what=what)
-    arr = np.atleast_1d(np.asarray(mag, dtype=float))
-    if arr.ndim != 1 or (arr.size > 1 and not allow_many):
-        raise ValueError(f"{what} must be a single value, got {value!r}")
-    if not np.all(np.isfinite(arr)) or np.any(arr <= 0):
-        raise ValueError(f"{what} must be positive and finite, got {value!r}")
-    return arr if allow_many and np.ndim(mag) > 0 else float(arr[0])
+# ---------------------------------------------------------------------------------------
+# G as SI lines for the kernels
+# ---------------------------------------------------------------------------------------
+def _strip(da: xr.DataArray) -> xr.DataArray:
+    """``da`` without its per-bin coords (pair counts, errors) and with dr whole per chunk."""
+    da = da.drop_vars([c for c in da.coords if c != "dr" and "dr" in da[c].dims])
+    return da.chunk({"dr": -1}) if da.chunks is not None else da
 
 
-def _apply_lines(G: xr.DataArray, func, out_dims: list[str], out_sizes: dict) -> np.ndarray:
-    """Call ``func(curve)`` for every G line; stack results with the extra dims first."""
-    _, curves, extra = curves_si(G)
-    results = [func(c) for c in curves]
-    return np.stack(results).reshape(extra + tuple(out_sizes[d] for d in out_dims))
+def _si(G: xr.DataArray, spec: AcfSpec) -> tuple[xr.DataArray, xr.DataArray | None]:
+    """G and its standard error (if any) in m^2, extra dims first."""
+    G = G.transpose(..., "dr")
+    error = None
+    if "standard_error" in G.coords:
+        se = G.coords["standard_error"]  # in G's unit unless it says otherwise
+        factor = (spec.to_m2 if "units" not in se.attrs else u.conversion_factor(
+            u.units_of(se, what="coordinate 'standard_error'"), "m**2"))
+        error = _strip(se.broadcast_like(G).transpose(..., "dr")) * factor
+    return _strip(G) * spec.to_m2, error
 
 
-def _extra_coords(G: xr.DataArray) -> dict:
-    return {k: v for k, v in G.coords.items() if "dr" not in v.dims}
+def _per_curve(func, *arrays, out: dict[str, int] | None = None, **kwargs):
+    """Apply ``func`` to each curve (core dim dr); output core dims ``out`` (default dr)."""
+    out_dims = [["dr"]] if out is None else [list(out)]
+    sizes = {} if out is None else dict(out)
+    return xr.apply_ufunc(
+        func, *arrays, input_core_dims=[["dr"]] * len(arrays), output_core_dims=out_dims,
+        vectorize=True, dask="parallelized", output_dtypes=[float],
+        dask_gufunc_kwargs={"output_sizes": sizes} if sizes else {}, kwargs=kwargs,
+        keep_attrs=False)
 
 
-def _lag_coord(G: xr.DataArray, name: str = "dr", values=None, long_name="lag distance"):
-    attrs = {"units": G["dr"].attrs["units"], "long_name": long_name}
-    return (name, G["dr"].values if values is None else values, attrs)
+def _laplacian(G_si: xr.DataArray, error: xr.DataArray | None, spec: AcfSpec) -> xr.DataArray:
+    """Laplacian of G (dimensionless) on its lags, per curve."""
+    if error is None:
+        return _per_curve(lambda g, dr: k.laplacian_curve(g, None, dr=dr), G_si,
+                          dr=spec.dr * spec.to_m)
+    return _per_curve(k.laplacian_curve, G_si, error, dr=spec.dr * spec.to_m)
+
+
+def _lags(G: xr.DataArray, spec: AcfSpec) -> dict:
+    return lag_coord(spec.dr, spec.unit_str)
+
+
+def _own_attrs(func):
+    """Run ``func`` with xarray's attrs propagation off: each result sets its own attrs."""
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        with xr.set_options(keep_attrs=False):
+            return func(*args, **kwargs)
+    return wrapper
+
+
+def _own_coords(G: xr.DataArray) -> dict:
+    """G's coords that are not per bin (extra dims, scalars such as gradient_method)."""
+    return {c: v for c, v in G.coords.items() if "dr" not in v.dims}
 
 
 # ---------------------------------------------------------------------------------------
 # full contact: elastic energy (eq. 16, 44)
 # ---------------------------------------------------------------------------------------
+@_own_attrs
 def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Dataset:
     r"""Areal elastic energy of full contact (eq. 16) and of patches of radius a_c (eq. 44).
 
@@ -80,8 +117,9 @@ def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Datas
         Height-difference ACF on ``dr`` (length^2), extra dims allowed.
     E_star : float, str or Quantity
         Contact modulus ``E*`` (Pa for numbers).
-    a_c : array_like, str or Quantity, optional
-        Patch radii for eq. 44 (numbers in the unit of ``dr``; default: the ``dr`` values).
+    a_c : array_like, str, Quantity or DataArray, optional
+        Patch radii for eq. 44 (numbers in the unit of ``dr``; a DataArray with ``units``
+        is converted; default: the lags of G).
 
     Returns
     -------
@@ -108,69 +146,42 @@ def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Datas
     >>> round(float(v.v_el) / (1e6 * 1e-6 / 8), 3)  # J m-2 against q E* h0^2 / 8
     1.0
     """
-    E = _positive(E_star, "[pressure]", "E_star")
-    lf, _ = check_acf(G)
-    ac = G["dr"].values if a_c is None else np.atleast_1d(np.asarray(
-        [u.length_in(a, G["dr"].attrs["units"], what="a_c") for a in np.atleast_1d(a_c)]
-        if not isinstance(a_c, np.ndarray) else a_c, dtype=float))
-    if np.any(ac <= 0):
-        raise ValueError("a_c must be positive")
-
-    def one(curve):
-        cum, below, above = curve.cumulative_g_over_r2(ac * lf)
-        total = curve.cumulative_g_over_r2(np.array([np.inf]))[0][0]
-        return np.concatenate([[total, below / total, above / total], cum])
-
-    res = _apply_lines(G, one, ["k"], {"k": ac.size + 3})
-    extra = G.transpose(..., "dr").dims[:-1]
+    E = u.positive_si(E_star, _PRESSURE, what="E_star")
+    spec = check_acf(G)
+    positive = spec.dr[spec.dr > 0]
+    ac = (positive if a_c is None else
+          u.array_in(a_c, spec.length_unit, what="a_c", noun="patch radii", positive=True))
+    G_si, _ = _si(G, spec)
+    res = _per_curve(k.energy_curve, G_si, out={"k": ac.size + 3}, dr=spec.dr * spec.to_m,
+                     a_c=ac * spec.to_m)
     quarter = E / 4
-    ds = xr.Dataset(
+    part = {"v_el": quarter * res.isel(k=0), "below": res.isel(k=1), "above": res.isel(k=2),
+            "patch": quarter * res.isel(k=slice(3, None)).rename(k="a_c")}
+    return xr.Dataset(
         {
-            "v_el": (extra, quarter * res[..., 0], {
-                "units": "J m-2", "long_name": "areal elastic energy of full contact",
-                "equation": "eq. 16: v_el = E*/4 int_0^inf G(r) / r^2 dr"}),
-            "v_el_patch": (extra + ("a_c",), quarter * res[..., 3:], {
-                "units": "J m-2", "long_name": "areal elastic energy to flatten patches "
-                "of radius a_c", "equation": "eq. 44: v_el(a_c) = E*/4 int_0^a_c G/r^2 dr"}),
-            "extrapolated_below": (extra, res[..., 1], {
-                "units": "1", "long_name": "share of v_el from below the smallest dr "
-                "(ballistic continuation)"}),
-            "extrapolated_above": (extra, res[..., 2], {
-                "units": "1", "long_name": "share of v_el from beyond the largest dr "
-                "(flat continuation)"}),
+            "v_el": part["v_el"].assign_attrs(
+                units="J m-2", long_name="areal elastic energy of full contact",
+                equation="eq. 16: v_el = E*/4 int_0^inf G(r) / r^2 dr"),
+            "v_el_patch": part["patch"].assign_attrs(
+                units="J m-2", long_name="areal elastic energy to flatten patches of radius "
+                "a_c", equation="eq. 44: v_el(a_c) = E*/4 int_0^a_c G/r^2 dr"),
+            "extrapolated_below": part["below"].assign_attrs(
+                units="1", long_name="share of v_el from below the smallest dr (ballistic "
+                "continuation)"),
+            "extrapolated_above": part["above"].assign_attrs(
+                units="1", long_name="share of v_el from beyond the largest dr (flat "
+                "continuation)"),
         },
-        coords={**_extra_coords(G), "a_c": ("a_c", ac, {
-            "units": G["dr"].attrs["units"], "long_name": "patch radius"})},
-        attrs={"E_star": E, "E_star_units": "Pa"},
+        coords={**_own_coords(G), **lag_coord(ac, spec.unit_str, name="a_c",
+                                               long_name="patch radius")},
+        attrs=result_attrs(G, E_star=E, E_star_units="Pa"),
     )
-    return ds
 
 
 # ---------------------------------------------------------------------------------------
 # stress ACF and Persson theory (eq. 24, 29-30, 34, 39-42, 47-50)
 # ---------------------------------------------------------------------------------------
-def _contact_area(p_star, kappa):
-    """Eq. 29 with slope ``kappa``: ``a_r = erf(sqrt(pi) kappa p* / 2)``."""
-    return special.erf(0.5 * np.sqrt(np.pi) * kappa * p_star)
-
-
-def _improved_area(p_star, a_r):
-    """Eq. 50: ``a_ri = (1 - a_r^2) erf(sqrt(pi) p*) + a_r^3``."""
-    return (1 - a_r**2) * special.erf(np.sqrt(np.pi) * p_star) + a_r**3
-
-
-def _full_stress(G: xr.DataArray, E: float) -> np.ndarray:
-    """Eq. 24 on every line of G, at G's own lags (Pa^2)."""
-    dr, curves, extra = curves_si(G)
-    lap = np.stack([c.laplacian(dr) for c in curves]).reshape(extra + (dr.size,))
-    return (E / 2) ** 2 * lap
-
-
-def _p0_values(p0):
-    values = _positive(p0, "[pressure]", "p0", allow_many=True)
-    return np.atleast_1d(values), np.ndim(values) > 0
-
-
+@_own_attrs
 def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "persson",
                gradient: xr.DataArray | None = None, kappa: float = KAPPA_PERSSON,
                gradient_method: str = "auto") -> xr.DataArray:
@@ -233,20 +244,20 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
     """
     if theory not in THEORIES:
         raise ValueError(f"theory must be one of {THEORIES}, got {theory!r}")
-    E = _positive(E_star, "[pressure]", "E_star")
+    E = u.positive_si(E_star, _PRESSURE, what="E_star")
     if p0 is not None:
         ds = persson(G, E_star=E, p0=p0, theory=theory, gradient=gradient, kappa=kappa,
                      gradient_method=gradient_method, variables=("G_sigma",))
         return ds["G_sigma"]
-    full = _full_stress(G, E)
-    extra = G.transpose(..., "dr").dims[:-1]
-    attrs = {"units": "Pa2", "long_name": "stress autocorrelation function",
-             "derivative": "Laplacian of a GCV smoothing spline of ln G against ln dr, "
-             "weighted by the standard error"}
-    coords = {**_extra_coords(G), "dr": _lag_coord(G)}
-    attrs["equation"] = "eq. 24 (full contact, p0^2 offset left out)"
-    return xr.DataArray(full, dims=extra + ("dr",), coords=coords, name="G_sigma",
-                        attrs=attrs)
+    spec = check_acf(G)
+    G_si, error = _si(G, spec)
+    full = (E / 2) ** 2 * _laplacian(G_si, error, spec)
+    out = full.transpose(..., "dr").assign_coords({**_own_coords(G), **_lags(G, spec)})
+    out.name = "G_sigma"
+    out.attrs = result_attrs(G, units="Pa2", long_name="stress autocorrelation function",
+                             derivative=_DERIVATIVE,
+                             equation="eq. 24 (full contact, p0^2 offset left out)")
+    return out
 
 
 def stress_acf_from_spectrum(C: xr.DataArray, dr: Any, *, E_star: Any) -> xr.DataArray:
@@ -282,79 +293,56 @@ def stress_acf_from_spectrum(C: xr.DataArray, dr: Any, *, E_star: Any) -> xr.Dat
     >>> print(f"{float(S[0]):.4g}")  # (E*/2)^2 gbar^2 at dr -> 0
     2.5e+09
     """
-    from ._kernels.hankel import acf_from_spectrum_kernel
-    from .models import model_from_attrs
-
-    E = _positive(E_star, "[pressure]", "E_star")
+    E = u.positive_si(E_star, _PRESSURE, what="E_star")
     model = model_from_attrs(C.attrs)
     if model is None:
         raise ValueError("stress_acf_from_spectrum needs a model spectrum "
                          "(xrough.model_spectrum)")
-    lunit = u.format_units(u.parse_units(C["q"].attrs["units"]) ** -1)
-    dr = np.atleast_1d(np.asarray(dr, dtype=float))
+    lunit = u.parse_units(C["q"].attrs["units"]) ** -1
+    dr = u.array_in(dr, lunit, what="dr", noun="distances")
     knots = 0.0 if model.rolloff == "sharp" else 160.0
     g_q2 = acf_from_spectrum_kernel(dr, lambda q: q**2 * model(q), model.breakpoints,
                                     knots_per_decade=knots)
     values = (E / 2) ** 2 * (model.moment(2) - g_q2)
     return xr.DataArray(values, dims="dr", name="G_sigma",
-                        coords={"dr": ("dr", dr, {"units": lunit,
-                                                  "long_name": "lag distance"})},
-                        attrs={"units": "Pa2", "long_name": "stress autocorrelation function",
-                               "equation": "eq. 22-24, spectral route"})
+                        coords=lag_coord(dr, u.format_units(lunit)),
+                        attrs=result_attrs(C, units="Pa2",
+                                           long_name="stress autocorrelation function",
+                                           equation="eq. 22-24, spectral route"))
 
 
 PERSSON_VARIABLES = ("p_star", "a_r", "a_ri", "sigma_c", "sigma_quick", "G_sigma",
                      "Gamma_sigma", "G_du")
 
 
-def _restrict_to(G: xr.DataArray, gradient: xr.DataArray) -> xr.DataArray:
-    """G on the lags where gbar is given (the exact gbar covers only supported lags)."""
-    if gradient.sizes["dr"] == G.sizes["dr"]:
-        return G
-    keep = np.isin(G["dr"].values, gradient["dr"].values)
-    if keep.sum() != gradient.sizes["dr"]:
-        return G  # not a subset: _gradient_on explains
-    return G.isel(dr=np.flatnonzero(keep))
-
-
-def _gradient_on(gradient: xr.DataArray, G: xr.DataArray) -> np.ndarray:
-    """Gbar on G's lags, refusing a gradient that does not cover them."""
-    gradient = gradient.transpose(..., "dr")
-    if gradient.sizes["dr"] != G.sizes["dr"] or not np.allclose(gradient["dr"].values,
-                                                               G["dr"].values, rtol=1e-9):
+def _gradient_on(gradient: xr.DataArray, G: xr.DataArray, spec: AcfSpec) -> xr.DataArray:
+    """Put a given gbar on G's lags (NaN where it is not given), refusing other lags."""
+    if not isinstance(gradient, xr.DataArray) or "dr" not in gradient.dims:
+        raise TypeError("gradient must be the DataArray gbar(dr) of xrough.rms_gradient")
+    unit = u.as_length_unit(u.units_of(gradient["dr"], what="coordinate 'dr' of gradient"),
+                            what="coordinate 'dr' of gradient")
+    lags = gradient["dr"].values * u.conversion_factor(unit, spec.length_unit)
+    gradient = _strip(gradient.assign_coords(dr=lags)).drop_vars(
+        [c for c in gradient.coords if c not in gradient.dims], errors="ignore")
+    match = np.isclose(spec.dr[:, None], lags[None, :], rtol=1e-9, atol=0).any(axis=0)
+    if not match.all():
         raise ValueError(
-            "the rms gradient is not given on the lags of G (an 'exact' gradient is only "
-            "defined where G supports the spectrum); restrict G with G.sel(dr=gbar.dr) or "
-            "use gradient_method='simple' or 'fit'")
-    values = np.broadcast_to(gradient.values, G.shape)
-    if not np.all(np.isfinite(values)) or np.any(values <= 0):
-        raise ValueError("the rms gradient must be positive and finite on every lag of G")
-    return values
+            "the rms gradient is not given on the lags of G; compute it from this G "
+            "(xrough.rms_gradient(G)) or pass gradient_method instead")
+    if gradient.sizes["dr"] != spec.dr.size:
+        gradient = gradient.reindex(dr=spec.dr, method="nearest", tolerance=1e-9 * spec.dr[-1])
+    return gradient.assign_coords(dr=spec.dr)
 
 
-def _quick_stress(G: xr.DataArray, fit: xr.Dataset, E: float, p0s: np.ndarray) -> np.ndarray:
-    """Eq. 41 below lambda_r, eq. 42 beyond it, never below p0 (shape p0, ..., dr)."""
-    from ._kernels.shape_factors import rolloff_factor, self_affine_factor
-
-    lf, gf = check_acf(G)
-    hurst = np.asarray(fit["hurst"].values, dtype=float)
-    rolloff = str(fit.attrs.get("rolloff", "sharp"))
-    c_sa = self_affine_factor(np.clip(hurst, 1e-3, 1 - 1e-3))
-    c_ro = rolloff_factor(np.clip(hurst, 1e-3, 1 - 1e-3), rolloff=rolloff)
-    lam_r = np.asarray(fit["lambda_r"].values, dtype=float) * lf
-    sig_h = np.asarray(fit["sigma_h"].values, dtype=float) * lf
-    extra = (...,) + (None,)
-    dr = G["dr"].values * lf
-    g = G.values * gf
-    sa = E * np.sqrt(np.asarray(c_sa)[extra] * g) / dr
-    ro = E * np.sqrt(np.asarray(c_ro)[extra]) * lam_r[extra] * sig_h[extra] / dr**2
-    est = np.where(dr < lam_r[extra], sa, ro)
-    return np.maximum(est[None], p0s.reshape((-1,) + (1,) * G.ndim))
+def _first_finite(values: np.ndarray) -> np.ndarray:
+    """Take the first finite value along the last axis (NaN if none)."""
+    finite = np.isfinite(values)
+    idx = np.argmax(finite, axis=-1)
+    first = np.take_along_axis(values, idx[..., None], axis=-1)[..., 0]
+    return np.where(finite.any(axis=-1), first, np.nan)
 
 
-
-
-
+@_own_attrs
 def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
             kappa: float = KAPPA_PERSSON, gradient: xr.DataArray | None = None,
             gradient_method: str = "auto", variables: tuple[str, ...] | None = None,
@@ -430,80 +418,87 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     if unknown:
         raise ValueError(f"unknown variables {sorted(unknown)}; choose from "
                          f"{PERSSON_VARIABLES}")
-    E = _positive(E_star, "[pressure]", "E_star")
-    p0s, many = _p0_values(p0)
-    check_acf(G)
+    E = u.positive_si(E_star, _PRESSURE, what="E_star")
+    p0s = u.positive_si(p0, _PRESSURE, what="p0", many=True)
+    many = np.ndim(p0s) > 0
+    spec = check_acf(G)
     G = G.transpose(..., "dr")
-    extra = G.dims[:-1]
-    dims = ("p0",) + extra + ("dr",)
-    pshape = (-1,) + (1,) * len(G.dims)
-    out: dict[str, tuple] = {}
-    restricted = "none"
+    G_si, error = _si(G, spec)
+    p0_da = xr.DataArray(np.atleast_1d(p0s), dims="p0")
+    dr_m = xr.DataArray(spec.dr * spec.to_m, dims="dr")
+    out: dict[str, xr.DataArray] = {}
+    method = "none"
     if set(wanted) - {"sigma_quick"}:  # everything else needs gbar(dr)
         if gradient is None:
             gradient = rms_gradient(G, method=gradient_method)
-        full_range = (float(G["dr"][0]), float(G["dr"][-1]), G.sizes["dr"])
-        G = _restrict_to(G, gradient)
-        gbar = _gradient_on(gradient, G)
-        if G.sizes["dr"] < full_range[2]:
-            restricted = (f"{G.sizes['dr']} of {full_range[2]} lags of G, "
-                          f"{float(G['dr'][0]):.4g} to {float(G['dr'][-1]):.4g} "
-                          f"{G['dr'].attrs['units']}: where the rms gradient is determined")
-        p_star = p0s.reshape(pshape) / (E * gbar[None])
-        a_r = _contact_area(p_star, kappa)
+        method = str(gradient.attrs.get("method", "given"))
+        gbar = _gradient_on(gradient, G, spec)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            p_star = p0_da / (E * gbar)
+        a_r = k.contact_area(p_star, kappa)
         need_ai = theory == "modified" or "a_ri" in wanted
-        a_ri = _improved_area(p_star, a_r) if need_ai else None
+        a_ri = k.improved_area(p_star, a_r) if need_ai else None
         weight = a_r if theory == "persson" else a_r**2 / a_ri
     if "p_star" in wanted:
-        out["p_star"] = (dims, p_star * np.ones_like(a_r), {
-            "units": "1", "long_name": "reduced pressure p0 / (E* gbar)", "equation":
-            "eq. 29"})
+        out["p_star"] = p_star.assign_attrs(
+            units="1", long_name="reduced pressure p0 / (E* gbar)", equation="eq. 29")
     if "a_r" in wanted:
-        out["a_r"] = (dims, a_r, {"units": "1", "long_name": "relative contact area",
-                                  "equation": "eq. 29: erf(sqrt(pi) kappa p* / 2)"})
+        out["a_r"] = a_r.assign_attrs(units="1", long_name="relative contact area",
+                                      equation="eq. 29: erf(sqrt(pi) kappa p* / 2)")
     if "a_ri" in wanted:
-        out["a_ri"] = (dims, a_ri, {"units": "1", "long_name":
-                                    "improved relative contact area", "equation": "eq. 50"})
+        out["a_ri"] = a_ri.assign_attrs(units="1", long_name="improved relative contact "
+                                        "area", equation="eq. 50")
     if "sigma_c" in wanted:
-        out["sigma_c"] = (dims, p0s.reshape(pshape) / a_r, {
-            "units": "Pa", "long_name": "mean contact stress at resolution dr",
-            "equation": "eq. 39/40: p0 / a_r"})
+        out["sigma_c"] = (p0_da / a_r).assign_attrs(
+            units="Pa", long_name="mean contact stress at resolution dr",
+            equation="eq. 39/40: p0 / a_r")
     if "sigma_quick" in wanted:
         if fit is None:
-            from .fitting import fit_acf
-
             fit = fit_acf(G)
-        out["sigma_quick"] = (dims, _quick_stress(G, fit, E, p0s), {
-            "units": "Pa", "long_name": "quick estimate of the mean contact stress",
-            "equation": "eq. 41 (dr < lambda_r), eq. 42 (dr > lambda_r), at least p0"})
+        lf = u.conversion_factor(u.as_length_unit(u.units_of(fit["lambda_r"],
+                                                             what="lambda_r"),
+                                                  what="lambda_r"), "m")
+        hf = u.conversion_factor(u.as_length_unit(u.units_of(fit["sigma_h"], what="sigma_h"),
+                                                  what="sigma_h"), "m")
+        params = [fit[v].drop_vars([c for c in fit[v].coords if c not in fit[v].dims])
+                  for v in ("hurst", "sigma_h", "lambda_r")]
+        est = xr.apply_ufunc(
+            k.quick_stress, dr_m, G_si, params[0], params[1] * hf, params[2] * lf,
+            dask="parallelized", output_dtypes=[float], keep_attrs=False,
+            kwargs={"E_star": E, "rolloff": str(fit.attrs.get("rolloff", "sharp"))})
+        out["sigma_quick"] = np.maximum(est, p0_da).assign_attrs(
+            units="Pa", long_name="quick estimate of the mean contact stress",
+            equation="eq. 41 (dr < lambda_r), eq. 42 (dr > lambda_r), at least p0")
     if "G_sigma" in wanted or "Gamma_sigma" in wanted:
-        full = _full_stress(G, E)
-        g_sigma = p0s.reshape(pshape) ** 2 + full[None] * weight
+        full = (E / 2) ** 2 * _laplacian(G_si, error, spec)
+        g_sigma = p0_da**2 + full * weight
         if "G_sigma" in wanted:
-            out["G_sigma"] = (dims, g_sigma, {
-                "units": "Pa2", "long_name": "stress autocorrelation function",
-                "equation": f"eq. 30/48 with W of eq. 49 ({theory})"})
+            out["G_sigma"] = g_sigma.assign_attrs(
+                units="Pa2", long_name="stress autocorrelation function",
+                equation=f"eq. 30/48 with W of eq. 49 ({theory})")
         if "Gamma_sigma" in wanted:
-            p_zero = p0s.reshape(pshape) / (E * gbar[..., :1][None])
-            a0 = _contact_area(p_zero, kappa)
+            gbar0 = xr.apply_ufunc(_first_finite, gbar, input_core_dims=[["dr"]],
+                                   dask="parallelized", output_dtypes=[float])
+            p_zero = p0_da / (E * gbar0)
+            a0 = k.contact_area(p_zero, kappa)
             if theory == "modified":
-                a0 = _improved_area(p_zero, a0)
-            out["Gamma_sigma"] = (dims, g_sigma / a0, {
-                "units": "Pa2", "long_name": "reduced stress autocorrelation function",
-                "equation": f"eq. 47 ({theory}: divided by "
-                f"{'a_ri' if theory == 'modified' else 'a_r'} at the smallest dr)"})
+                a0 = k.improved_area(p_zero, a0)
+            out["Gamma_sigma"] = (g_sigma / a0).assign_attrs(
+                units="Pa2", long_name="reduced stress autocorrelation function",
+                equation=f"eq. 47 ({theory}: divided by "
+                f"{'a_ri' if theory == 'modified' else 'a_r'} at the smallest dr)")
     if "G_du" in wanted:
-        out["G_du"] = (dims, G.values[None] * weight, {
-            "units": G.attrs["units"], "long_name": "displacement autocorrelation function",
-            "equation": f"eq. 34 with W of eq. 49 ({theory})"})
-    coords = {**_extra_coords(G), "dr": _lag_coord(G),
-              "p0": ("p0", p0s, {"units": "Pa", "long_name": "mean pressure"})}
-    ds = xr.Dataset(out, coords=coords, attrs={
-        "E_star": E, "E_star_units": "Pa", "kappa": float(kappa), "theory": theory,
-        "gradient_method": "none" if gradient is None else gradient.attrs.get("method",
-                                                                              "given"),
-        "note": "real-space Persson theory: functions of q evaluated at dr = 2 pi / q",
-        "dr_restricted_to": restricted})
+        out["G_du"] = (_strip(G) * weight).assign_attrs(
+            units=G.attrs["units"], long_name="displacement autocorrelation function",
+            equation=f"eq. 34 with W of eq. 49 ({theory})")
+    out = {name: v.transpose("p0", ..., "dr") for name, v in out.items()}
+    coords = {**_own_coords(G), **_lags(G, spec),
+              "p0": ("p0", np.atleast_1d(p0s), {"units": "Pa", "long_name": "mean pressure"})}
+    ds = xr.Dataset(out, coords=coords, attrs=result_attrs(
+        G, E_star=E, E_star_units="Pa", kappa=float(kappa), theory=theory,
+        gradient_method=method,
+        note="real-space Persson theory: functions of q evaluated at dr = 2 pi / q; NaN "
+        "where the rms gradient is not determined"))
     if not many:
         ds = ds.isel(p0=0)
     return ds
@@ -512,20 +507,7 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
 # ---------------------------------------------------------------------------------------
 # adhesion: patch radius (eq. 43-46)
 # ---------------------------------------------------------------------------------------
-def _first_root(f, lo: float, hi: float, n: int = 4000) -> float:
-    """Smallest root of ``f`` on a log grid of [lo, hi] (inf if ``f`` stays negative)."""
-    grid = np.geomspace(lo, hi, n)
-    vals = f(grid)
-    sign = np.flatnonzero(vals >= 0)
-    if sign.size == 0:
-        return np.inf
-    k = sign[0]
-    if k == 0:
-        return float(grid[0])
-    return float(optimize.brentq(lambda x: float(f(np.array([x]))[0]), grid[k - 1], grid[k],
-                                 xtol=1e-14 * grid[k], rtol=1e-12))
-
-
+@_own_attrs
 def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
     r"""Radius of spontaneously adhering patches (Dahlquist-type criterion, eq. 43-46).
 
@@ -569,30 +551,19 @@ def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
     >>> print(f"{float(pr.a_c_upper):.2f} {float(pr.a_c):.2f} {pr.a_c.attrs['units']}")
     32.00 21.33 nm
     """
-    E = _positive(E_star, "[pressure]", "E_star")
-    gam = _positive(gamma, _ENERGY, "gamma")
-    lf, _ = check_acf(G)
-
-    def one(curve):
-        lo, hi = curve.dr[0] * 1e-6, curve.dr[-1] * 1e6
-
-        def upper(a):
-            return E / 4 * curve.cumulative_g_over_r2(a)[0] - gam
-
-        def refined(a):
-            return upper(a) + E * curve(a) / (8 * a)
-
-        return np.array([_first_root(refined, lo, hi), _first_root(upper, lo, hi)]) / lf
-
-    res = _apply_lines(G, one, ["k"], {"k": 2})
-    extra = G.transpose(..., "dr").dims[:-1]
-    unit = G["dr"].attrs["units"]
+    E = u.positive_si(E_star, _PRESSURE, what="E_star")
+    gam = u.positive_si(gamma, _ENERGY, what="gamma")
+    spec = check_acf(G)
+    G_si, _ = _si(G, spec)
+    res = _per_curve(k.patch_radius_curve, G_si, out={"k": 2}, dr=spec.dr * spec.to_m,
+                     E_star=E, gamma=gam) / spec.to_m
+    unit = spec.unit_str
     return xr.Dataset(
-        {"a_c": (extra, res[..., 0], {"units": unit, "long_name": "adhesive patch radius",
-                                      "equation": "eq. 46: gamma = v_el(a_c) + E* G(a_c) / "
-                                      "(8 a_c)"}),
-         "a_c_upper": (extra, res[..., 1], {"units": unit, "long_name":
-                                            "adhesive patch radius, upper estimate",
-                                            "equation": "eq. 44: gamma = v_el(a_c)"})},
-        coords=_extra_coords(G),
-        attrs={"E_star": E, "E_star_units": "Pa", "gamma": gam, "gamma_units": "J m-2"})
+        {"a_c": res.isel(k=0).assign_attrs(
+            units=unit, long_name="adhesive patch radius",
+            equation="eq. 46: gamma = v_el(a_c) + E* G(a_c) / (8 a_c)"),
+         "a_c_upper": res.isel(k=1).assign_attrs(
+            units=unit, long_name="adhesive patch radius, upper estimate",
+            equation="eq. 44: gamma = v_el(a_c)")},
+        coords=_own_coords(G),
+        attrs=result_attrs(G, E_star=E, E_star_units="Pa", gamma=gam, gamma_units="J m-2"))

@@ -39,9 +39,9 @@ with ``<name>_std``, one standard deviation in the same units):
 
 plus ``reduced_chi2`` and ``n_bins``.
 
-The least-squares fits themselves (numpy) are in :mod:`xrough._kernels.fitting`; the curves
-of a fit (:func:`model_acf`, :func:`gradient_from_fit`) in :mod:`xrough.fitted`, importable
-from here too.
+The least-squares fits themselves (numpy) are in :mod:`xrough._kernels.fitting`;
+:func:`model_acf` evaluates a fit, and :func:`xrough.gradient_from_fit` the gradient it
+implies.
 """
 
 from __future__ import annotations
@@ -55,6 +55,7 @@ import xarray as xr
 from . import units as u
 from ._kernels.fitting import (
     EQ36_OUTPUTS,
+    FLAGS,
     H_BOUNDS,
     MODELS,
     PARAMETERS,  # noqa: F401  (the fitted parameters, public here)
@@ -62,11 +63,12 @@ from ._kernels.fitting import (
     SPECTRUM_PARAMETERS,  # noqa: F401
     fit_eq36_kernel,
     fit_spectrum_kernel,
+    fitted_spectrum_acf,
 )
 from ._kernels.shape_factors import ROLLOFFS
-from .fitted import gradient_from_fit, model_acf
+from .acf import check_acf, result_attrs
 
-__all__ = ["fit_acf", "model_acf", "gradient_from_fit"]
+__all__ = ["fit_acf", "model_acf"]
 
 _FIXABLE = ("sigma_h", "hurst", "C_b")
 _SPECTRUM_FIXABLE = ("hurst", "lambda_r", "lambda_s")
@@ -84,14 +86,6 @@ _EQ36 = "eq. 36: 1/G(dr) = C_b/dr^2 + C_sa/dr^(2H) + 1/sigma_h^2, C_sa = dr_ref^
 # --------------------------------------------------------------------------------------
 # helpers
 # --------------------------------------------------------------------------------------
-def _lateral_unit(da: xr.DataArray, dim: str = "dr") -> pint.Unit:
-    if dim not in da.dims or dim not in da.coords:
-        raise ValueError(f"G must have a dimension coordinate {dim!r} (lag distance), got "
-                         f"dims {da.dims}")
-    return u.as_length_unit(u.units_of(da[dim], what=f"coordinate {dim!r}"),
-                            what=f"coordinate {dim!r}")
-
-
 def _area_unit(da: xr.DataArray, what: str) -> pint.Unit:
     unit = u.units_of(da, what=what)
     if unit.dimensionality != (u.ureg.meter**2).dimensionality:
@@ -388,31 +382,25 @@ def fit_acf(
     >>> print(f"H = {float(q.hurst):.3f}, sigma_h = {float(q.sigma_h):.2f} nm")
     H = 0.560, sigma_h = 2.05 nm
     """
-    if not isinstance(G, xr.DataArray):
-        raise TypeError(f"G must be an xarray.DataArray, got {type(G).__name__}")
     if model not in MODELS:
         raise ValueError(f"model must be one of {MODELS}, got {model!r}")
     if rolloff not in ROLLOFFS:
         raise ValueError(f"rolloff must be one of {ROLLOFFS}, got {rolloff!r}")
-    lateral = _lateral_unit(G)
-    g_unit = _area_unit(G, "G")
+    spec = check_acf(G)
+    lateral, dr = spec.length_unit, spec.dr
+    g_unit = u.units_of(G, what="G")
     height = g_unit**0.5
-    g_factor = u.conversion_factor(g_unit, lateral**2)
-    dr = np.asarray(G["dr"].values, dtype=float)
-    if dr.ndim != 1 or not np.all(np.isfinite(dr) & (dr > 0)):
-        raise ValueError("coordinate 'dr' must hold finite positive lags")
+    g_factor = spec.g_factor
     lo = 0.0 if dr_min is None else u.length_in(dr_min, lateral, what="dr_min")
     hi = np.inf if dr_max is None else u.length_in(dr_max, lateral, what="dr_max")
-    use = (dr >= lo * (1 - 1e-12)) & (dr <= hi * (1 + 1e-12))
+    use = (dr > 0) & (dr >= lo * (1 - 1e-12)) & (dr <= hi * (1 + 1e-12))
     if not np.any(use):
         raise ValueError(f"no lag of G lies in [dr_min, dr_max] = [{lo:g}, {hi:g}] "
                          f"{u.format_units(lateral)}")
 
     if weights not in ("standard_error", None):
         raise ValueError(f"weights must be 'standard_error' or None, got {weights!r}")
-    if G.chunks is not None and len(G.chunksizes["dr"]) > 1:
-        raise ValueError("dim 'dr' is split into several dask chunks; each fit needs all "
-                         "lags: use G.chunk({'dr': -1})")
+    G = G.chunk({"dr": -1}) if G.chunks is not None else G  # each fit needs all lags
     weighted = weights == "standard_error" and "standard_error" in G.coords
     if weighted:
         se_da = G.coords["standard_error"]
@@ -490,8 +478,9 @@ def fit_acf(
         "rolloff": rolloff,
         "uncertainty": ("1 standard deviation from the least-squares covariance times "
                         + ("max(1, reduced_chi2)" if weighted else "reduced_chi2")),
-        "source": str(G.attrs.get("source", G.attrs.get("estimator", ""))),
     }
+    attrs = result_attrs(G, **attrs)
+    attrs.setdefault("source", str(G.attrs.get("estimator", "")))
     single = out.ndim == 1 and out.chunks is None
     if model == "eq36":
         attrs["lambda_r_definition"] = (
@@ -523,3 +512,158 @@ def fit_acf(
         ds = ds.assign_coords(lambda_0=((), kwargs["lambda_0"], {
             "units": lat_s, "long_name": "long-wavelength cutoff of the model (inf: none)"}))
     return ds
+
+
+# --------------------------------------------------------------------------------------
+# reading a fit
+# --------------------------------------------------------------------------------------
+def _params_units(params: xr.Dataset) -> tuple[pint.Unit, pint.Unit, str]:
+    """Lateral and height units and model of a fit, checking that it has what it needs."""
+    if not isinstance(params, xr.Dataset):
+        raise TypeError(f"params must be the xarray.Dataset of fit_acf, got "
+                        f"{type(params).__name__}")
+    model = params.attrs.get("model", "eq36")
+    if model not in MODELS:
+        raise ValueError(f"params.attrs['model'] must be one of {MODELS}, got {model!r}")
+    needed = PARAMETERS if model == "eq36" else (*SPECTRUM_PARAMETERS, *FLAGS)
+    missing = [v for v in (*needed, "dr_ref") if v not in params.variables]
+    if missing:
+        raise ValueError(f"params lacks {missing}; pass the Dataset returned by fit_acf")
+    lateral = u.as_length_unit(u.units_of(params["lambda_r"], what="lambda_r"),
+                               what="lambda_r")
+    height = u.as_length_unit(u.units_of(params["sigma_h"], what="sigma_h"), what="sigma_h")
+    return lateral, height, model
+
+
+def _lags(dr: Any, lateral: pint.Unit, params: xr.Dataset) -> np.ndarray:
+    """Lags in ``lateral`` (any form :func:`xrough.units.quantity` reads; default: fitted range)."""
+    if dr is None:
+        lo, hi = params.attrs.get("dr_min"), params.attrs.get("dr_max")
+        if lo is None or hi is None:
+            raise ValueError("pass dr (params has no dr_min/dr_max attributes)")
+        f = u.conversion_factor(u.parse_units(params.attrs.get("dr_units", lateral)),
+                                lateral)
+        return np.geomspace(lo * f, hi * f, 50)
+    return u.array_in(dr, lateral, what="dr", noun="distances", positive=True)
+
+
+def _lag_coord(values: np.ndarray, lateral: pint.Unit) -> dict:
+    return {"dr": ("dr", values, {"units": u.format_units(lateral),
+                                  "long_name": "lag distance"})}
+
+
+def _in_lateral(params: xr.Dataset, lateral: pint.Unit, height: pint.Unit) -> dict:
+    """``sigma_h``, ``G_sa``, ``dr_ref``, ``lambda_r`` in the lateral unit, ``hurst``, ``C_b``.
+
+    (``C_b`` is None for the spectrum model.)
+    """
+    h2l = u.conversion_factor(height, lateral)
+    g_unit = u.units_of(params["G_sa"], what="G_sa")
+    ref_unit = u.as_length_unit(u.units_of(params["dr_ref"], what="dr_ref"), what="dr_ref")
+    return {
+        "sigma_h": params["sigma_h"] * h2l,
+        "G_sa": params["G_sa"] * u.conversion_factor(g_unit, lateral**2),
+        "dr_ref": float(params["dr_ref"]) * u.conversion_factor(ref_unit, lateral),
+        "lambda_r": params["lambda_r"],
+        "hurst": params["hurst"],
+        "C_b": params.get("C_b"),
+    }
+
+
+def _spectrum_inputs(params: xr.Dataset, lateral: pint.Unit) -> tuple[list, dict]:
+    """Per-fit inputs of the spectrum model (lengths in ``lateral``, ``G_sa`` as stored)."""
+    ref_unit = u.as_length_unit(u.units_of(params["dr_ref"], what="dr_ref"), what="dr_ref")
+    lam_0 = np.inf
+    if "lambda_0" in params.variables:
+        unit = u.as_length_unit(u.units_of(params["lambda_0"], what="lambda_0"),
+                                what="lambda_0")
+        lam_0 = float(params["lambda_0"]) * u.conversion_factor(unit, lateral)
+    s_unit = u.as_length_unit(u.units_of(params["lambda_s"], what="lambda_s"),
+                              what="lambda_s")
+    arrays = [params["hurst"], params["G_sa"], params["lambda_r"],
+              params["lambda_s"] * u.conversion_factor(s_unit, lateral),
+              params["lambda_r_resolved"], params["lambda_s_resolved"]]
+    arrays = [a.drop_vars([c for c in a.coords if c not in a.dims]) for a in arrays]
+    scalars = {"dr_ref": float(params["dr_ref"]) * u.conversion_factor(ref_unit, lateral),
+               "lam_0": lam_0, "rolloff": params.attrs.get("rolloff", "sharp")}
+    return arrays, scalars
+
+
+def _per_fit(func, arrays, values, lateral, **kwargs) -> xr.DataArray:
+    return xr.apply_ufunc(
+        func, *arrays, input_core_dims=[[]] * len(arrays), output_core_dims=[["dr"]],
+        vectorize=True, dask="parallelized", output_dtypes=[float],
+        dask_gufunc_kwargs={"output_sizes": {"dr": values.size}},
+        kwargs={"dr": values, **kwargs}, keep_attrs=False,
+    ).assign_coords(_lag_coord(values, lateral))
+
+
+def model_acf(params: xr.Dataset, dr: Any = None) -> xr.DataArray:
+    r"""Evaluate the fitted height-difference ACF ``G(dr)`` (plots, checks).
+
+    For ``model="spectrum"``, eq. 9 of the fitted spectrum; for ``model="eq36"``,
+
+    .. math::
+
+        G(\Delta r) = \left[\frac{C_b}{\Delta r^2} + \frac{C_{sa}}{\Delta r^{2H}}
+                      + \frac{1}{\sigma_h^2}\right]^{-1},
+        \qquad C_{sa} = \Delta r_{ref}^{2H} / G_{sa}
+
+    Parameters
+    ----------
+    params : xarray.Dataset
+        The result of :func:`fit_acf` (any extra dims are broadcast).
+    dr : array_like, str, pint.Quantity or xarray.DataArray, optional
+        Positive lags; plain numbers in the unit of ``params.lambda_r``.  Default: 50
+        logarithmic points over the fitted range.
+
+    Returns
+    -------
+    xarray.DataArray
+        ``G`` on dim ``dr`` (units of ``params.lambda_r``) and the extra dims of
+        ``params``, in the units of ``params.G_sa``; ``attrs["equation"]`` is
+        ``"eq. 9"`` or ``"eq. 36"``.
+
+    Raises
+    ------
+    ValueError
+        ``params`` without the fitted variables or units; invalid ``dr``.
+
+    Notes
+    -----
+    A cutoff that the fit did not resolve (``lambda_s_resolved = 0``,
+    ``lambda_r_resolved = 0``) is absent from the curve (``lambda_s = 0``,
+    ``lambda_r = inf`` or ``lambda_0``), as in the fit.
+
+    Examples
+    --------
+    >>> import xrough
+    >>> from xrough.fitting import fit_acf, model_acf
+    >>> C = xrough.model_spectrum(hurst=0.5, lambda_r="1 um", lambda_s="10 nm",
+    ...                           rms_height="2 nm", unit="nm")
+    >>> p = fit_acf(xrough.acf_from_spectrum(C, dr_min=1, dr_max=1e5))
+    >>> curve = model_acf(p, [1e9])   # far out: sigma_h^2
+    >>> print(f"{float(curve[0]):.4f} {curve.attrs['units']} = "
+    ...       f"{float(p.sigma_h)**2:.4f} {p.sigma_h.attrs['units']}^2")
+    4.0000 nm2 = 4.0000 nm^2
+    """
+    lateral, height, model = _params_units(params)
+    values = _lags(dr, lateral, params)
+    g_unit = u.units_of(params["G_sa"], what="G_sa")
+    if model == "spectrum":
+        arrays, scalars = _spectrum_inputs(params, lateral)
+        out = _per_fit(fitted_spectrum_acf, arrays, values, lateral, **scalars)
+        equation, what = "eq. 9", "model spectrum"
+    else:
+        p = _in_lateral(params, lateral, height)
+        x = xr.DataArray(values, dims="dr", coords=_lag_coord(values, lateral))
+        c_sa = p["dr_ref"] ** (2 * p["hurst"]) / p["G_sa"]
+        inv = p["C_b"] / x**2 + c_sa / x ** (2 * p["hurst"]) + 1.0 / p["sigma_h"] ** 2
+        out = (1.0 / inv) * u.conversion_factor(lateral**2, g_unit)
+        equation, what = "eq. 36", "eq. 36"
+    out = out.drop_vars([c for c in out.coords if c not in out.dims and c != "dr"])
+    out.name = "G"
+    out.attrs = {"units": u.format_units(g_unit),
+                 "long_name": f"height-difference ACF (fit of {what})",
+                 "equation": equation}
+    return out.transpose(..., "dr")

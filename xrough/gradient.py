@@ -1,37 +1,86 @@
-"""Scale-dependent rms gradient gbar(dr) from G(dr): eq. 26 and its approximations.
+"""Scale-dependent rms gradient gbar(dr) (eq. 26), by every route.
 
 ``gbar^2(dr) = (1/2pi) int_0^{2pi/dr} dq q^3 C(q)`` (eq. 26) is the mean-square slope of
 the surface with all wavelengths shorter than ``dr`` removed; it is what Persson theory
-needs at resolution ``dr``. Three ways to get it from G:
+needs at resolution ``dr``. Routes:
 
-``"exact"``
-    eq. 26 with C(q) from G by the Hankel transform of eq. 10/11.
-``"simple"``
-    ``gbar^2 = 4 G(dr) / dr^2``, exact only in the ballistic regime (``q_s dr << 1``) and an
-    overestimate elsewhere.
-``"auto"``
-    the first of these that G supports.
-``"fit"``
-    from the fit of G (:func:`xrough.fit_acf`): eq. 26 of the fitted model spectrum, or
-    eq. 37/38 for a fit of eq. 36.
+:func:`gradient_from_spectrum`
+    eq. 26 of a spectrum (closed form for the model spectra).
+:func:`rms_gradient_exact`
+    eq. 26 of the spectrum of a measured G (eq. 10/11), where G determines it.
+:func:`gradient_from_fit`
+    eq. 26 of the fitted model spectrum, or eq. 37/38 for a fit of eq. 36.
+:func:`rms_gradient`
+    any of these from a G (``method="exact"``, ``"fit"``), the ballistic approximation
+    ``gbar^2 = 4 G / dr^2`` (``"simple"``), or the first that G supports (``"auto"``);
+    lazy on a chunked G.
+
+The numpy kernels are in :mod:`xrough._kernels.gradient`.
 """
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import xarray as xr
 
-from .curves import check_acf
+from . import units as u
+from ._kernels import gradient as kernels
+from ._kernels.binning import log_range
+from ._kernels.fitting import fitted_spectrum_gradient
+from ._kernels.hankel import power_law_moment_kernel
+from ._kernels.shape_factors import ROLLOFFS, rolloff_factor, self_affine_factor
+from ._kernels.spectral_models import model_gradient2
+from .acf import check_acf, lag_coord, result_attrs
+from .fitting import (
+    _fixed_spectrum,
+    _in_lateral,
+    _lag_coord,
+    _lags,
+    _params_units,
+    _per_fit,
+    _reference_lag,
+    _spectrum_inputs,
+    fit_acf,
+)
+from .models import model_attrs
+from .spectra import _check_options, _spectrum_input, _spectrum_lags, acf_samples
 
-__all__ = ["rms_gradient", "GRADIENT_METHODS"]
+__all__ = ["rms_gradient", "rms_gradient_exact", "gradient_from_spectrum",
+           "gradient_from_fit", "GRADIENT_METHODS"]
 
 GRADIENT_METHODS = ("auto", "exact", "simple", "fit")
+_EXACT_DEFAULTS = {"smooth": None, "support_rtol": 0.01, "interpolation": "hermite",
+                   "points_per_decade": 40}
+_EQUATIONS = {
+    "exact": "eq. 26 with C(q) from eq. 10/11",
+    "simple": "gbar^2 ~ 4 G(dr) / dr^2 (ballistic approximation of eq. 26)",
+    "fit": "eq. 26 of the fitted model spectrum",
+    "exact+fit": "eq. 26 with C(q) from eq. 10/11 where G determines it, eq. 26 of the "
+                 "fitted model spectrum on the other lags",
+}
 
 
-def _simple(G: xr.DataArray) -> xr.DataArray:
-    lf, gf = check_acf(G)
-    dr = G["dr"] * lf
-    return np.sqrt(4.0 * G * gf / dr**2)
+def _gradient_da(gbar: np.ndarray, dr: np.ndarray, unit_str: str, attrs: dict) -> xr.DataArray:
+    """``gbar(dr)`` (eq. 26) as a DataArray on dim ``"dr"`` in ``unit_str``."""
+    return xr.DataArray(gbar, dims=("dr",), coords=lag_coord(dr, unit_str), name="gbar",
+                        attrs={"units": "1", "long_name": "scale-dependent rms gradient",
+                               "equation": "eq. 26", **attrs})
+
+
+def _noise(G: xr.DataArray) -> xr.DataArray:
+    """Relative independent scatter per bin: ``sampling_error / G`` (random pairs) or 0."""
+    if "sampling_error" not in G.coords:
+        return _strip(xr.zeros_like(G))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = (_strip(G.coords["sampling_error"].broadcast_like(G)) / _strip(G)).fillna(0.0)
+    return rel
+
+
+def _strip(da: xr.DataArray) -> xr.DataArray:
+    """``da`` without the per-bin coords (pair_count, errors): kernels get plain arrays."""
+    return da.drop_vars([c for c in da.coords if c != "dr" and "dr" in da[c].dims])
 
 
 def rms_gradient(G: xr.DataArray, *, method: str = "auto") -> xr.DataArray:
@@ -76,42 +125,411 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto") -> xr.DataArray:
     """
     if method not in GRADIENT_METHODS:
         raise ValueError(f"method must be one of {GRADIENT_METHODS}, got {method!r}")
-    if method == "auto":
-        reasons = []
-        for candidate in ("exact", "fit"):
-            try:
-                out = rms_gradient(G, method=candidate)
-            except ValueError as err:
-                reasons.append(f"{candidate}: {str(err).splitlines()[0]}")
-                continue
-            if candidate == "exact" and 2 * out.sizes["dr"] < G.sizes["dr"]:
-                reasons.append(f"exact: determined on {out.sizes['dr']} of "
-                               f"{G.sizes['dr']} lags only")
-                continue
-            if reasons:
-                out.attrs["fallback_reason"] = "; ".join(reasons)
-            return out
-        out = rms_gradient(G, method="simple")
-        out.attrs["fallback_reason"] = "; ".join(reasons)
-        return out
+    spec = check_acf(G)
+    G = G.transpose(..., "dr")
+    if G.chunks is not None:
+        G = G.chunk({"dr": -1})  # each curve needs all its lags
+    dr = spec.dr
+    Gl = _strip(G) * spec.g_factor  # in the square of dr's unit
+    common = dict(input_core_dims=[["dr"], ["dr"]], output_core_dims=[["dr"]],
+                  vectorize=True, dask="parallelized", output_dtypes=[float],
+                  keep_attrs=False)
+    extra_attrs: dict = {}
     if method == "simple":
-        out = _simple(G)
-        equation = "gbar^2 ~ 4 G(dr) / dr^2 (ballistic approximation of eq. 26)"
-    elif method == "exact":
-        from .spectra import rms_gradient_exact
-
-        out = rms_gradient_exact(G)
-        equation = "eq. 26 with C(q) from eq. 10/11"
-    else:
-        from .fitting import fit_acf, gradient_from_fit
-
+        out = xr.apply_ufunc(kernels.simple_gradient, xr.DataArray(dr, dims="dr"), Gl,
+                             dask="parallelized", output_dtypes=[float], keep_attrs=False)
+    elif method == "fit":
         params = fit_acf(G)
-        out = gradient_from_fit(params, G["dr"])
-        equation = ("eq. 26 of the fitted model spectrum" if params.attrs.get("model") ==
-                    "spectrum" else "eq. 37/38 with the fit of eq. 36")
-    out = out.drop_vars([c for c in out.coords if c not in out.dims and c != "dr"],
-                        errors="ignore")
+        out = gradient_from_fit(params, G["dr"].isel(dr=dr > 0)).reindex(dr=G["dr"].values)
+        if params.attrs.get("model") != "spectrum":
+            extra_attrs["equation"] = "eq. 37/38 with the fit of eq. 36"
+    elif method == "exact":
+        out = xr.apply_ufunc(kernels.exact_on_lags, Gl, _noise(G),
+                             kwargs={"dr": dr, **_EXACT_DEFAULTS}, **common)
+        extra_attrs["note"] = "NaN where G does not determine gbar (see rms_gradient_exact)"
+    else:
+        out, info = _auto(G, Gl, _noise(G), spec)
+        extra_attrs.update(info)
+    out = out.transpose(..., "dr").assign_coords(G["dr"].coords)
+    out = out.drop_vars([c for c in out.coords if c not in out.dims and c != "dr"
+                         and c != "gradient_method"], errors="ignore")
     out.name = "gbar"
-    out.attrs = {**out.attrs, "units": "1", "long_name": "scale-dependent rms gradient",
-                 "equation": equation, "method": method}
+    attrs = {"units": "1", "long_name": "scale-dependent rms gradient",
+             "equation": _EQUATIONS.get(method, "eq. 26 (route per curve: see "
+                                        "coordinate gradient_method)"),
+             "method": method}
+    attrs.update(extra_attrs)
+    out.attrs = result_attrs(G, **attrs)
     return out
+
+
+def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec) -> tuple:
+    """``method='auto'``: one kernel per curve, exact where it covers, else fit, else simple."""
+    dr = spec.dr
+    weighted = "standard_error" in G.coords
+    se = (_strip(G.coords["standard_error"].broadcast_like(G)) * spec.g_factor
+          if weighted else xr.ones_like(Gl))
+    use = dr > 0
+    fit = None
+    if np.count_nonzero(use) >= 5:
+        dr_ref = _reference_lag(dr[use], spec.length_unit)
+        fixed, _ = _fixed_spectrum(None, spec.length_unit, np.inf)
+        fit = {"use": use, "dr_ref": dr_ref, "weighted": weighted, "fixed": fixed,
+               "rolloff": "sharp", "lambda_0": np.inf, "unit": spec.unit_str}
+        fit_gradient = {"dr_ref": dr_ref, "lam_0": np.inf, "rolloff": "sharp",
+                        "g_factor": 1.0}
+    else:
+        fit_gradient = None
+
+    def kernel(g, s, n):
+        return kernels.auto_gradient(g, s, n, dr=dr, exact=_EXACT_DEFAULTS, fit=fit,
+                                     fit_gradient=fit_gradient)
+
+    out, code = xr.apply_ufunc(
+        kernel, Gl, _strip(se), noise, input_core_dims=[["dr"]] * 3,
+        output_core_dims=[["dr"], []], vectorize=True, dask="parallelized",
+        output_dtypes=[float, np.int8], keep_attrs=False)
+    code = code.assign_attrs(
+        long_name="route of the rms gradient per curve", units="1",
+        flag_values="0 1 2 3", flag_meanings=" ".join(kernels.AUTO_METHODS))
+    out = out.assign_coords(gradient_method=code)
+    info: dict = {}
+    if code.chunks is None and code.ndim == 0:  # one curve, computed: say which route
+        taken = kernels.AUTO_METHODS[int(code)]
+        info["method"] = taken
+        info["equation"] = _EQUATIONS[taken]
+        if taken != "exact":
+            n_valid = int(np.count_nonzero(np.isfinite(Gl.values) & use))
+            n_exact = int(np.count_nonzero(np.isfinite(kernels.exact_on_lags(
+                Gl.values, noise.values, dr=dr, **_EXACT_DEFAULTS))))
+            reason = f"exact: determined on {n_exact} of {n_valid} lags only"
+            if taken == "simple":
+                reason += "; fit: failed or not finite on every lag"
+            info["fallback_reason"] = reason
+    return out, info
+
+
+def rms_gradient_exact(
+    G: xr.DataArray,
+    dr: Any = None,
+    *,
+    smooth: float | None = None,
+    noise: Any = None,
+    support_rtol: float = 0.01,
+    interpolation: str = "hermite",
+    points_per_decade: float = 40,
+) -> xr.DataArray:
+    r"""Compute the "exact" scale-dependent rms gradient of a ``G`` (eq. 26 via eq. 10/11).
+
+    .. math::
+
+        \bar g^2(\Delta r) = \frac{1}{2\pi} \int_0^{2\pi/\Delta r} dq\, q^3\, C(q),
+        \qquad C \text{ from } G \text{ by eq. 10/11 (:func:`spectrum`)}
+
+    ``C`` is evaluated on ``points_per_decade`` from ``0.01 * 2 pi / dr_max`` to
+    ``2 pi / dr_min`` (taken flat below, a negligible share) and integrated exactly as a
+    piecewise power law (a straight line between samples where ``C <= 0``, possible where
+    ``G`` does not determine ``C``: the ringing around a jump of ``C`` must not be
+    clipped).  ``gbar`` is returned only where it is supported: where neither the
+    extrapolation variants of :func:`spectrum` (the end slopes of ``G`` turning sooner or
+    later), nor leaving out ``C`` below the grid, nor noise change ``gbar`` by more than
+    ``support_rtol`` (the largest change within +-0.2 decades counts).  ``gbar`` can be
+    supported where ``C`` is not: ``q^3 C`` beyond the short-wavelength cutoff decides
+    little of ``gbar^2``, and a ``G`` that has reached its plateau fixes the small
+    wavenumbers.
+
+    Parameters
+    ----------
+    G : xarray.DataArray with one dim (``"dr"``)
+        Height-difference ACF (length^2 on a lag coordinate in length); see
+        :func:`spectrum`.
+    dr : array_like, pint.Quantity or xarray.DataArray, optional
+        Lags (plain numbers in the unit of ``G``'s coordinate), all within the supported
+        range.  Default: the lags of ``G`` that lie within it.
+    smooth, noise, support_rtol, interpolation
+        As for :func:`spectrum`.
+    points_per_decade : float
+        Density of the ``q`` grid on which ``C`` is integrated.
+
+    Returns
+    -------
+    xarray.DataArray
+        ``gbar`` on dim ``"dr"`` (units of ``G``'s coordinate), dimensionless, attrs
+        ``equation="eq. 26"``, ``dr_min_supported``, ``dr_max_supported``,
+        ``support_rtol``, ``smooth_decades``, ``interpolation``.
+
+    Raises
+    ------
+    ValueError
+        Everything :func:`spectrum` raises; a ``dr`` outside the supported range (the
+        message names it).
+
+    See Also
+    --------
+    spectrum, gradient_from_spectrum
+
+    Notes
+    -----
+    In the ballistic regime ``gbar^2 -> 4 G / dr^2``; the simplest approximation of the
+    paper, ``gbar^2(dr) ~ 4 G(dr) / dr^2``, holds only there.
+
+    Examples
+    --------
+    >>> from xrough.spectra import acf_from_spectrum, model_spectrum
+    >>> from xrough.gradient import gradient_from_spectrum, rms_gradient_exact
+    >>> import numpy as np
+    >>> model = dict(hurst=0.8, lambda_r="1 um", lambda_s="10 nm", rms_gradient=0.5,
+    ...              unit="nm", rolloff="smooth")
+    >>> G = acf_from_spectrum(model_spectrum(**model), np.logspace(-1, 6, 141))
+    >>> gbar = rms_gradient_exact(G, [1.0, 100.0])
+    >>> exact = gradient_from_spectrum(model_spectrum(**model), [1.0, 100.0])
+    >>> print(np.round((gbar / exact).values, 2))
+    [1. 1.]
+    """
+    _check_options(smooth, support_rtol, interpolation, points_per_decade)
+    acf = acf_samples(G, noise)
+    dr_lo, dr_hi = kernels.exact_support(acf.dr, acf.G, acf.noise, smooth=smooth,
+                                         support_rtol=support_rtol,
+                                         interpolation=interpolation)
+    if not np.isfinite(dr_lo):
+        raise ValueError(
+            f"G does not determine gbar anywhere to within support_rtol={support_rtol:g}: "
+            f"the extrapolation beyond dr = {acf.dr[0]:g}..{acf.dr[-1]:g} {acf.unit_str} or "
+            "noise dominates; pass a larger support_rtol or smooth=<decades>, or measure G "
+            "over a wider range")
+    tol = 1e-9 * dr_hi
+    if dr is None:
+        dr_arr = acf.dr[(acf.dr >= dr_lo - tol) & (acf.dr <= dr_hi + tol)]
+        if dr_arr.size == 0:
+            dr_arr = log_range(dr_lo, dr_hi, 20)
+    else:
+        dr_arr = u.array_in(dr, acf.length_unit, what="dr", noun="distances")
+        bad = (dr_arr < dr_lo - tol) | (dr_arr > dr_hi + tol)
+        if np.any(bad):
+            raise ValueError(
+                f"gbar is supported for {dr_lo:.4g} <= dr <= {dr_hi:.4g} {acf.unit_str} only "
+                f"(got dr = {dr_arr[bad][:3]}): elsewhere the extrapolation of G or noise "
+                f"changes gbar^2 by more than support_rtol={support_rtol:g}")
+    gbar = kernels.exact_gradient(acf.dr, acf.G, dr_arr, smooth=smooth,
+                                  interpolation=interpolation,
+                                  points_per_decade=points_per_decade)
+    positive = np.isfinite(gbar)  # noise can drive the cumulative sum negative
+    if not positive.all():
+        if dr is not None or not positive.any():
+            raise ValueError(
+                f"gbar^2 from the spectrum of G is not positive at dr = "
+                f"{dr_arr[~positive][:3]} {acf.unit_str} (noise in G); pass smooth=<decades> "
+                "or use rms_gradient(G, method='fit')")
+        dr_arr, gbar = dr_arr[positive], gbar[positive]
+    attrs = result_attrs(G, **{
+        "estimator": "eq. 26 with C from G by eq. 10/11",
+        "dr_min_supported": float(dr_lo),
+        "dr_max_supported": float(dr_hi),
+        "support_rtol": float(support_rtol),
+        "smooth_decades": 0.0 if smooth is None else float(smooth),
+        "interpolation": interpolation,
+    })
+    return _gradient_da(gbar, dr_arr, acf.unit_str, attrs)
+
+
+def gradient_from_spectrum(
+    C: xr.DataArray,
+    dr: Any = None,
+    *,
+    points_per_decade: float = 20,
+    dr_min: Any = None,
+    dr_max: Any = None,
+) -> xr.DataArray:
+    r"""Scale-dependent rms gradient from an isotropic spectrum (paper eq. 26).
+
+    .. math::
+
+        \bar g^2(\Delta r) = \frac{1}{2\pi} \int_0^{2\pi/\Delta r} dq\, q^3\, C(q)
+
+    the mean-square gradient of the surface with every wavelength shorter than ``dr``
+    removed; ``gbar(0)`` is the rms gradient.  A spectrum with the attributes of
+    :func:`model_spectrum` is integrated in closed form; samples are a piecewise power law
+    (zero outside the sampled range, as in :func:`acf_from_spectrum`), integrated exactly.
+
+    Parameters
+    ----------
+    C : xarray.DataArray with one dim (``"q"``)
+        ``C(q)`` in length^4 on an angular-wavenumber coordinate in 1/length (``units``
+        required); samples must be finite and ``>= 0`` on positive, increasing ``q``.
+    dr : array_like, pint.Quantity or xarray.DataArray, optional
+        Lag distances ``>= 0`` (plain numbers in the length unit of ``q``).  Default:
+        logarithmic from ``0.01 * 2 pi / q_max`` to ``100 * 2 pi / q_min``.
+    points_per_decade : float
+        Density of the default ``dr`` grid.
+    dr_min, dr_max : float, str or pint.Quantity, optional
+        Override the range of the default grid.
+
+    Returns
+    -------
+    xarray.DataArray
+        ``gbar`` on dim ``"dr"`` (``units`` the spectrum's length unit), dimensionless
+        (``units`` ``"1"``), attrs ``equation="eq. 26"`` and, for a model spectrum, the
+        model attributes.
+
+    Raises
+    ------
+    ValueError
+        Missing or wrong units, invalid samples, model attributes that contradict the
+        values, or a bad ``dr``.
+
+    See Also
+    --------
+    rms_gradient_exact : eq. 26 from a measured ``G``.
+
+    Notes
+    -----
+    For eq. 35 (sharp), with ``q_c = min(2 pi / dr, q_s)``:
+    ``2 pi gbar^2 = C_r (min(q_c, q_r)^4 - q_0^4) / 4
+    + C_r q_r^(2+2H) (q_c^(2-2H) - q_r^(2-2H)) / (2 - 2H)`` (second term for
+    ``q_c > q_r``); in the self-affine range ``gbar^2 ~ dr^-(2-2H)``.  For the smooth
+    variant, ``2 pi gbar^2 = (C_r q_r^4 / 2) [Phi(u_c) - Phi(u_0)]``, ``u = (q/q_r)^2``,
+    ``Phi(u) = ((1+u)^(1-H) - 1)/(1-H) + ((1+u)^-H - 1)/H`` (evaluated without
+    cancellation).
+
+    Examples
+    --------
+    >>> from xrough.spectra import model_spectrum
+    >>> from xrough.gradient import gradient_from_spectrum
+    >>> C = model_spectrum(hurst=0.8, lambda_r="1 um", lambda_s="10 nm",
+    ...                    rms_gradient=0.5, unit="nm")
+    >>> gbar = gradient_from_spectrum(C, [0.0, 10.0, 1e3])
+    >>> gbar.attrs["units"], gbar.dr.attrs["units"], gbar.attrs["equation"]
+    ('1', 'nm', 'eq. 26')
+    >>> print(np.round(gbar.values, 6))  # gbar(0) is the rms gradient
+    [0.5      0.5      0.067981]
+    """
+    spec = _spectrum_input(C)
+    dr_arr = _spectrum_lags(spec, dr, points_per_decade, dr_min, dr_max)
+    with np.errstate(divide="ignore"):
+        q_cut = np.where(dr_arr > 0, 2 * np.pi / np.where(dr_arr > 0, dr_arr, 1.0), np.inf)
+    if spec.model is not None:
+        m = spec.model
+        gbar2 = model_gradient2(q_cut, c=m.C_r * m.q_r ** (2 + 2 * m.hurst), hurst=m.hurst,
+                                q_r=m.q_r, q_s=m.q_s, q_0=m.q_0, rolloff=m.rolloff)
+        extra = model_attrs(spec.model)
+    else:
+        gbar2 = power_law_moment_kernel(q_cut, spec.func.q, spec.func.values, 2)
+        extra = {}
+    return _gradient_da(np.sqrt(gbar2), dr_arr, spec.unit_str,
+                        result_attrs(C, estimator="spectrum", **extra))
+
+
+def gradient_from_fit(params: xr.Dataset, dr: Any = None, *,
+                      rolloff: str | None = None) -> xr.DataArray:
+    r"""Scale-dependent rms gradient ``gbar(dr)`` from a fit of G.
+
+    For ``model="spectrum"``, eq. 26 of the fitted spectrum in closed form,
+
+    .. math::
+
+        \bar g^2(\Delta r) = \frac{1}{2\pi} \int_0^{2\pi/\Delta r} dq\, q^3\, C(q);
+
+    for ``model="eq36"``, the paper's eq. 37/38,
+
+    .. math::
+
+        \frac{1}{\bar g^2(\Delta r)} = \frac{1}{\bar g^2(0)}
+            + \frac{\Delta r^{2(1-H)}}{C'_{sa}} + \frac{\Delta r^4}{r_{ro}},
+        \quad \bar g^2(0) = \frac{4}{C_b},\;
+        C'_{sa} = \frac{c_{sa}(H)}{C_{sa}},\;
+        r_{ro} = c_{ro}(H)\, \sigma_h^2 \lambda_r^2
+
+    Parameters
+    ----------
+    params : xarray.Dataset
+        The result of :func:`fit_acf`.
+    dr : array_like, str, pint.Quantity or xarray.DataArray, optional
+        Positive lags; plain numbers in the unit of ``params.lambda_r``.  Default: 50
+        logarithmic points over the fitted range.
+    rolloff : {'sharp', 'smooth'}, optional
+        Roll-off shape; default ``params.attrs["rolloff"]``.  For eq. 36 it selects
+        ``c_ro(H)``; a spectrum fit only accepts its own shape.
+
+    Returns
+    -------
+    xarray.DataArray
+        ``gbar`` (units "1") on dim ``dr`` and the extra dims of ``params``;
+        ``attrs["equation"]`` is ``"eq. 26"`` or ``"eq. 37/38"``.
+
+    Raises
+    ------
+    ValueError
+        ``params`` without the fitted variables or units; invalid ``dr`` or ``rolloff``.
+
+    Notes
+    -----
+    *Spectrum model.*  Exact for the fitted spectrum; with ``lambda_s_resolved = 0`` the
+    spectrum has no short cutoff and ``gbar`` grows without bound as ``dr -> 0``
+    (as ``dr^-(1-H)``), and ``lambda_r_resolved = 0`` drops the plateau.
+
+    *Eq. 36.*  xrough's convention for the shape factors (docs/theory.md):
+    ``gbar^2(dr) = c_sa(H) G(dr)/dr^2`` in the self-affine regime and ``gbar^2(dr) =
+    c_ro(H) sigma_h^2 lambda_r^2 / dr^4`` for ``dr >> lambda_r``, with gbar from eq. 26,
+    so that
+
+    * ``c_sa(H) = 4 pi^(2-2H) H Gamma(1+H) / Gamma(2-H)``
+      (:func:`xrough._kernels.shape_factors.self_affine_factor`, both roll-off shapes);
+    * ``c_ro(H) = 2 pi^2 H / (1+H)`` (sharp, eq. 35) or ``2 pi^2 H`` (smooth), in the limit
+      ``lambda_s/lambda_r -> 0`` (:func:`xrough._kernels.shape_factors.rolloff_factor`).
+
+    Each term is exact deep inside its regime (``dr << lambda_s``: ``gbar -> gbar(0)``;
+    ``lambda_s << dr << lambda_r``; ``dr >> lambda_r``) and the sum of reciprocals is
+    an interpolation between them: near the crossovers it can be off by tens of percent.
+    ``C_b = 0`` gives ``gbar(0) = inf``; ``sigma_h = inf`` drops the roll-off term.
+
+    Examples
+    --------
+    >>> import xrough
+    >>> from xrough.fitting import fit_acf
+    >>> from xrough.gradient import gradient_from_fit
+    >>> C = xrough.model_spectrum(hurst=0.5, lambda_r="1 um", lambda_s="10 nm",
+    ...                           rms_height="2 nm", unit="nm")
+    >>> G = xrough.acf_from_spectrum(C, dr_min=1, dr_max=1e5)
+    >>> g = gradient_from_fit(fit_acf(G), [1e-6, 100.0])
+    >>> g.attrs["units"], g.attrs["equation"]
+    ('1', 'eq. 26')
+    >>> print(f"gbar(0) = {float(g[0]):.4f} (model {C.attrs['rms_gradient']:.4f})")
+    gbar(0) = 0.1026 (model 0.1026)
+    >>> g36 = gradient_from_fit(fit_acf(G, model="eq36"), [1e-6, 100.0])
+    >>> print(f"eq. 37/38: gbar(0) = {float(g36[0]):.4f}")
+    eq. 37/38: gbar(0) = 0.1236
+    """
+    lateral, height, model = _params_units(params)
+    own = params.attrs.get("rolloff", "sharp")
+    rolloff = own if rolloff is None else rolloff
+    if rolloff not in ROLLOFFS:
+        raise ValueError(f"rolloff must be one of {ROLLOFFS}, got {rolloff!r}")
+    values = _lags(dr, lateral, params)
+    if model == "spectrum":
+        if rolloff != own:
+            raise ValueError(f"rolloff={rolloff!r} differs from the {own!r} spectrum that "
+                             "was fitted; refit with that shape")
+        arrays, scalars = _spectrum_inputs(params, lateral)
+        g_factor = u.conversion_factor(u.units_of(params["G_sa"], what="G_sa"), lateral**2)
+        out = _per_fit(fitted_spectrum_gradient, arrays, values, lateral, g_factor=g_factor,
+                       **scalars)
+        equation, what = "eq. 26", "fitted spectrum"
+    else:
+        p = _in_lateral(params, lateral, height)
+        x = xr.DataArray(values, dims="dr", coords=_lag_coord(values, lateral))
+        H = p["hurst"]
+        c_sa = xr.apply_ufunc(self_affine_factor, H, dask="parallelized",
+                              output_dtypes=[float], keep_attrs=False)
+        c_ro = xr.apply_ufunc(lambda h: rolloff_factor(h, rolloff=rolloff), H,
+                              dask="parallelized", output_dtypes=[float], keep_attrs=False)
+        C_sa = p["dr_ref"] ** (2 * H) / p["G_sa"]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r_ro = c_ro * p["sigma_h"] ** 2 * p["lambda_r"] ** 2
+            inv = p["C_b"] / 4.0 + x ** (2 * (1 - H)) * C_sa / c_sa + x**4 / r_ro
+            out = np.sqrt(1.0 / inv)
+        equation, what = "eq. 37/38", "fit of eq. 36"
+    out = out.drop_vars([c for c in out.coords if c not in out.dims and c != "dr"])
+    out.name = "gbar"
+    out.attrs = {"units": "1", "long_name": f"scale-dependent rms gradient ({what})",
+                 "equation": equation, "rolloff": rolloff}
+    return out.transpose(..., "dr")

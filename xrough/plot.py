@@ -2,7 +2,8 @@
 
 :func:`plot` dispatches on what the DataArray is: a topography map (image), a profile
 (line), or a function of lag ``dr`` or wavenumber ``q`` (log-log, with the standard error
-as a band when present). Every function returns the :class:`matplotlib.axes.Axes`.
+as a band when present). :func:`plot_stitched` draws several instruments' G and their
+stitched G in one figure. Every function returns the :class:`matplotlib.axes.Axes`.
 """
 
 from __future__ import annotations
@@ -10,7 +11,9 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-__all__ = ["plot", "plot_topography", "plot_loglog", "plot_dataset"]
+from . import stitching
+
+__all__ = ["plot", "plot_topography", "plot_loglog", "plot_dataset", "plot_stitched"]
 
 
 def _label(da: xr.DataArray, default: str) -> str:
@@ -140,13 +143,66 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None):
     return flat[: len(names)]
 
 
+def plot_stitched(measurements, *, ax=None, error: bool = True, threshold: float = 3.0,
+                  warn: bool = True, **kwargs):
+    """G(dr) of each instrument in its reliable window, and their stitched G on top.
+
+    Parameters
+    ----------
+    measurements : mapping, xarray.Dataset or xarray.DataTree
+        Topographies or precomputed G of several instruments, as for
+        :func:`xrough.stitch_curves` (a DataTree holds one instrument per node).
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw into (default: a new figure).
+    error : bool
+        Draw the standard error of the stitched G as a band.
+    threshold, warn
+        Mismatch diagnostic of :func:`xrough.stitch`: ``|z|`` above which two instruments
+        disagree, and whether to warn (:class:`xrough.StitchingMismatchWarning`).
+    **kwargs
+        Passed to :func:`xrough.stitch_curves` (``points_per_decade``, ``windows``,
+        ``unit``, ...).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        Log-log axes with one line per instrument (labelled by its name, NaN bins outside
+        its window left out) and the stitched G (labelled ``stitched``), axis labels in the
+        common units.
+
+    See Also
+    --------
+    xrough.stitch_curves, xrough.stitch, plot_loglog
+
+    Examples
+    --------
+    >>> topo = xrough.self_affine_surface(hurst=0.7, lambda_r="2 um", lambda_s="20 nm",
+    ...                                   size="8 um", n=1024, rms_height="10 nm",
+    ...                                   profile=True, seed=3, unit="nm")
+    >>> fine = topo.isel(x=slice(0, 256)).assign_attrs(periodic=0)
+    >>> coarse = topo.isel(x=slice(None, None, 4))
+    >>> ax = xrough.plot.plot_stitched({"fine": fine, "coarse": coarse})
+    >>> len(ax.get_lines()), ax.get_xlabel()
+    (3, 'lag distance (nm)')
+    """
+    ax = _axes(ax)
+    curves = stitching.stitch_curves(measurements, **kwargs)
+    for name in curves.measurement.values:
+        plot_loglog(curves.G.sel(measurement=name).dropna("dr"), ax=ax, label=str(name),
+                    linewidth=1.0)
+    G = stitching.stitch(curves, threshold=threshold, warn=warn)
+    return plot_loglog(G, ax=ax, error=error, label="stitched", color="k", linewidth=1.5,
+                       zorder=3)
+
+
 def plot(da: xr.DataArray, *, ax=None, **kwargs):
     """Plot any xrough DataArray (topography, G(dr), C(q), ...).
 
     Parameters
     ----------
     da : xarray.DataArray
-        A topography (dims ``y, x`` or ``x``) or a result on ``dr`` / ``q``.
+        A topography (dims ``y, x`` or ``x``) or a result on ``dr`` / ``q``; a Dataset
+        goes to :func:`plot_dataset`, a DataTree of instruments to :func:`plot_stitched`.
     ax : matplotlib.axes.Axes, optional
         Axes to draw into (default: a new figure).
     **kwargs
@@ -156,6 +212,8 @@ def plot(da: xr.DataArray, *, ax=None, **kwargs):
     -------
     matplotlib.axes.Axes
     """
+    if hasattr(xr, "DataTree") and isinstance(da, xr.DataTree):
+        return plot_stitched(da, ax=ax, **kwargs)
     if isinstance(da, xr.Dataset):
         return plot_dataset(da, **kwargs)
     if "dr" in da.dims or "q" in da.dims or "a_c" in da.dims:

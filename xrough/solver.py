@@ -17,7 +17,6 @@ import xarray as xr
 
 from . import units as u
 from ._kernels.solver import _ElasticOperator, _solve_approach, _solve_load
-from .contact import _positive
 from .topography import check_valid_points, grid_of
 
 __all__ = ["solve_contact", "ConvergenceWarning"]
@@ -159,7 +158,7 @@ def solve_contact(
     (0.5, True)
     """
     grid, h = _check_topography(topography)
-    E = _positive(E_star, "[pressure]", "E_star")
+    E = u.positive_si(E_star, "[pressure]", what="E_star")
     if (p0 is None) == (displacement is None):
         raise ValueError("give exactly one of p0 (mean pressure) or displacement")
     if not (np.isfinite(tol) and 0 < tol < 1):
@@ -169,7 +168,7 @@ def solve_contact(
     hunit, lunit = grid.height_unit, grid.lateral_unit
     to_lat = u.conversion_factor(hunit, lunit)
     if p0 is not None:
-        load_dim, values = "p0", _positive(p0, "[pressure]", "p0", allow_many=True)
+        load_dim, values = "p0", u.positive_si(p0, "[pressure]", what="p0", many=True)
         targets = np.atleast_1d(values) / E
         load_attrs = {"units": "Pa", "long_name": "prescribed mean pressure"}
     else:

@@ -1,4 +1,4 @@
-"""Functions of an isotropic spectrum: model spectra, G by eq. 9 and gbar by eq. 26.
+"""Spectra and G: model spectra, G of a spectrum (eq. 9) and the spectrum of a G (eq. 10/11).
 
 Conventions (docs/theory.md): ``q`` is the angular wavenumber (``2 pi / wavelength``, never
 cycles); ``C(q) = A <|h~(q)|^2>`` is the isotropic 2D height spectrum (units length^4);
@@ -8,9 +8,7 @@ cycles); ``C(q) = A <|h~(q)|^2>`` is the isotropic 2D height spectrum (units len
 Every output carries ``units`` on its data and its dimension coordinate, computed here (never
 through ``keep_attrs``), and only netCDF-legal attributes (str, float, int).
 
-The inverse direction, the spectrum from G (eq. 10/11) and the exact rms gradient of G, is in
-:mod:`xrough.spectrum_from_acf`; :func:`spectrum` and :func:`rms_gradient_exact` are
-importable from here too.
+The rms gradient of a spectrum or of a G by eq. 26 is in :mod:`xrough.gradient`.
 """
 
 from __future__ import annotations
@@ -23,22 +21,23 @@ import pint
 import xarray as xr
 
 from . import units as _units
+from ._kernels.binning import log_range
 from ._kernels.hankel import (
     PowerLawInterpolant,
     acf_from_spectrum_kernel,
-    power_law_moment_kernel,
+    acf_plateau_kernel,
+    smooth_acf_kernel,
+    spectrum_from_acf_kernel,
+    spectrum_support_kernel,
 )
-from ._kernels.spectral_models import SpectrumModel, model_gradient2
-from ._lags import _gradient_da, _lag_values, _log_range
+from ._kernels.spectral_models import SpectrumModel
+from .acf import check_acf, result_attrs
 from .models import model_attrs, model_from_attrs, self_affine_model
-from .spectrum_from_acf import rms_gradient_exact, spectrum
 
 __all__ = [
     "model_spectrum",
     "acf_from_spectrum",
     "spectrum",
-    "gradient_from_spectrum",
-    "rms_gradient_exact",
 ]
 
 _EQUATIONS = {
@@ -269,7 +268,7 @@ def _spectrum_lags(spec: _SpectrumInput, dr: Any, points_per_decade: float, dr_m
                    dr_max: Any) -> np.ndarray:
     """``dr`` in the spectrum's length unit; by default logarithmic over its wavelengths."""
     if dr is not None:
-        return _lag_values(dr, spec.length_unit)
+        return _units.array_in(dr, spec.length_unit, what="dr", noun="distances")
     q_pos = spec.q[np.isfinite(spec.q) & (spec.q > 0)]
     if q_pos.size == 0:
         raise ValueError(f"coordinate {spec.dim!r} has no positive wavenumber; pass dr")
@@ -281,7 +280,7 @@ def _spectrum_lags(spec: _SpectrumInput, dr: Any, points_per_decade: float, dr_m
         raise ValueError(f"dr_max must exceed dr_min (got {hi:g} and {lo:g} {spec.unit_str})")
     if not (np.isfinite(points_per_decade) and points_per_decade > 0):
         raise ValueError(f"points_per_decade must be positive, got {points_per_decade!r}")
-    return _log_range(lo, hi, points_per_decade)
+    return log_range(lo, hi, points_per_decade)
 
 
 def acf_from_spectrum(
@@ -391,87 +390,237 @@ def acf_from_spectrum(
 # --------------------------------------------------------------------------------------
 # eq. 26: the scale-dependent rms gradient
 # --------------------------------------------------------------------------------------
-def gradient_from_spectrum(
-    C: xr.DataArray,
-    dr: Any = None,
+
+
+# --------------------------------------------------------------------------------------
+# G(dr) as input
+# --------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class _AcfInput:
+    """A validated G(dr): valid samples in one length unit and their random scatter."""
+
+    dr: np.ndarray
+    G: np.ndarray  # in length_unit^2
+    noise: np.ndarray  # relative independent scatter per sample (0: none known)
+    length_unit: pint.Unit
+    unit_str: str
+
+
+def acf_samples(G: Any, noise: Any = None, *, min_bins: int = 4) -> _AcfInput:
+    """One checked G (:func:`xrough.acf.check_acf`): its valid bins at ``dr > 0`` in ``dr``'s unit.
+
+    ``noise`` is the relative independent scatter per bin; default ``sampling_error / G``
+    when G has that coordinate (the random-pair estimator), else 0.
+    """
+    spec = check_acf(G, single=True, min_bins=min_bins)
+    dr = spec.dr
+    g = np.asarray(G.values, dtype=float) * spec.g_factor
+    if noise is None:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = (np.asarray(G["sampling_error"].values, dtype=float) * spec.g_factor / g
+                   if "sampling_error" in G.coords else np.zeros_like(g))
+    else:
+        rel = np.broadcast_to(np.asarray(noise, dtype=float), g.shape)
+        if not np.all(np.isfinite(rel) & (rel >= 0)):
+            raise ValueError(f"noise must be a relative scatter >= 0, got {noise!r}")
+    valid = np.isfinite(g) & (dr > 0)
+    return _AcfInput(dr[valid], g[valid], np.nan_to_num(rel[valid]), spec.length_unit,
+                     spec.unit_str)
+
+
+def _check_options(smooth, support_rtol, interpolation, points_per_decade) -> None:
+    if smooth is not None and not (np.isfinite(smooth) and smooth > 0):
+        raise ValueError(f"smooth must be a positive width in decades or None, got {smooth!r}")
+    if not support_rtol > 0:
+        raise ValueError(f"support_rtol must be positive, got {support_rtol!r}")
+    if interpolation not in ("hermite", "power law"):
+        raise ValueError(f"interpolation must be 'hermite' or 'power law', got "
+                         f"{interpolation!r}")
+    if not (np.isfinite(points_per_decade) and points_per_decade > 0):
+        raise ValueError(f"points_per_decade must be positive, got {points_per_decade!r}")
+
+
+def _support(acf: _AcfInput, *, smooth, support_rtol, interpolation) -> tuple[float, float]:
+    q_lo, q_hi = spectrum_support_kernel(acf.dr, acf.G, rtol=support_rtol, noise=acf.noise,
+                                         smooth=smooth, interpolation=interpolation)
+    if not np.isfinite(q_lo):
+        noisy = " or smooth=<decades> (the samples scatter)" if np.any(acf.noise > 0) else ""
+        raise ValueError(
+            f"G does not determine C anywhere to within support_rtol={support_rtol:g}: the "
+            f"extrapolation beyond dr = {acf.dr[0]:g}..{acf.dr[-1]:g} {acf.unit_str} or noise "
+            f"dominates; pass a larger support_rtol{noisy}, or measure G over a wider range")
+    return q_lo, q_hi
+
+
+def spectrum(
+    G: xr.DataArray,
+    q: Any = None,
     *,
+    smooth: float | None = None,
+    noise: Any = None,
+    support_rtol: float = 0.01,
+    interpolation: str = "hermite",
     points_per_decade: float = 20,
-    dr_min: Any = None,
-    dr_max: Any = None,
 ) -> xr.DataArray:
-    r"""Scale-dependent rms gradient from an isotropic spectrum (paper eq. 26).
+    r"""Isotropic height spectrum from the height-difference ACF (paper eq. 10/11).
 
     .. math::
 
-        \bar g^2(\Delta r) = \frac{1}{2\pi} \int_0^{2\pi/\Delta r} dq\, q^3\, C(q)
+        C(q) = 2\pi \int_0^\infty d\Delta r\, \Delta r\, J_0(q \Delta r)
+               \left[\sigma_h^2 - G(\Delta r)\right]
+             = \frac{2\pi}{q^2} \int_0^\infty d\Delta r\, J_0(q \Delta r)\,
+               \frac{d}{d\Delta r}\left[\Delta r \frac{dG}{d\Delta r}\right]
 
-    the mean-square gradient of the surface with every wavelength shorter than ``dr``
-    removed; ``gbar(0)`` is the rms gradient.  A spectrum with the attributes of
-    :func:`model_spectrum` is integrated in closed form; samples are a piecewise power law
-    (zero outside the sampled range, as in :func:`acf_from_spectrum`), integrated exactly.
+    The second form (two integrations by parts, every boundary term kept exactly) contains
+    no ``sigma_h^2 - G``: there is no round-off where ``G ~ sigma_h^2``, and ``sigma_h^2``
+    drops out.  As in eq. 11 it is split, at ``dr = 1/q``: below, ``J0`` is replaced by
+    ``-(1 - J0)`` plus the boundary term ``dr dG/d(dr)`` at ``1/q``, so that nothing
+    cancels at small ``q`` either.
+
+    ``G`` is represented through its valid (non-NaN) bins as a piecewise power law in
+    log-log, times a quintic correction per interval that matches the slopes and
+    curvatures of a cubic spline of ``ln G`` against ``ln dr``, so that ``G`` is twice
+    continuously differentiable (a kink would add a ``q^-2.5`` tail that swamps the
+    ``q^-2(1+H)`` of a self-affine ``C``).
+    Beyond the data, the log-log slope of ``G`` turns smoothly (C2, within one decade) to 2
+    below the smallest lag (ballistic, ``G ~ dr^2``) and to 0 beyond the largest (flat:
+    ``sigma_h^2`` is the level this extension reaches, ``attrs["sigma_h2"]``).  Each
+    interval is integrated as in eq. 9 (:func:`acf_from_spectrum`): Gauss-Legendre below
+    ``q dr = 64``, asymptotic antiderivatives of ``t^beta J0(t)`` above.
 
     Parameters
     ----------
-    C : xarray.DataArray with one dim (``"q"``)
-        ``C(q)`` in length^4 on an angular-wavenumber coordinate in 1/length (``units``
-        required); samples must be finite and ``>= 0`` on positive, increasing ``q``.
-    dr : array_like, pint.Quantity or xarray.DataArray, optional
-        Lag distances ``>= 0`` (plain numbers in the length unit of ``q``).  Default:
-        logarithmic from ``0.01 * 2 pi / q_max`` to ``100 * 2 pi / q_min``.
+    G : xarray.DataArray with one dim (``"dr"``)
+        Height-difference ACF in length^2 on a lag coordinate in length (``units``
+        required on both), e.g. from :func:`xrough.height_difference_acf` or
+        :func:`acf_from_spectrum`.  NaN bins are dropped; at least 4 must remain, with
+        strictly increasing lags.
+    q : array_like, pint.Quantity or xarray.DataArray, optional
+        Angular wavenumbers ``>= 0`` (plain numbers in the inverse length unit of ``dr``).
+        Default: logarithmic, ``points_per_decade``, from half the smallest to twice the
+        largest supported ``q``.
+    smooth : float, optional
+        Smooth ``G`` first by local quadratic regression of ``ln G`` on ``log10 dr`` over a
+        window of this many decades (power laws pass unchanged).  For noisy ``G`` (random
+        pairs): 0.5 to 1.
+    noise : float or array_like, optional
+        Relative random scatter of the bins, independent from bin to bin, used for the
+        supported range.  Default: ``sampling_error / G`` if ``G`` has that coordinate (the
+        random-pair estimator), else 0.  ``standard_error`` is not used: finite-area errors
+        are correlated across bins and are not amplified.
+    support_rtol : float
+        Relative change of ``C`` allowed for ``q`` to count as supported (see Notes).
+    interpolation : {'hermite', 'power law'}
+        ``'power law'`` drops the quintic correction (kinks at the samples; for
+        comparison).
     points_per_decade : float
-        Density of the default ``dr`` grid.
-    dr_min, dr_max : float, str or pint.Quantity, optional
-        Override the range of the default grid.
+        Density of the default ``q`` grid.
 
     Returns
     -------
     xarray.DataArray
-        ``gbar`` on dim ``"dr"`` (``units`` the spectrum's length unit), dimensionless
-        (``units`` ``"1"``), attrs ``equation="eq. 26"`` and, for a model spectrum, the
-        model attributes.
+        ``C`` on dim ``"q"`` (``units`` ``"<len>-1"``, long_name "angular wavenumber"), data
+        in ``"<len>4"`` with ``<len>`` the unit of ``dr``; int8 coord ``supported`` (1 inside
+        the supported range); attrs ``equation="eq. 10/11"``, ``q_min_supported``,
+        ``q_max_supported`` (in ``<len>-1``), ``support_rtol``, ``sigma_h2`` (in
+        ``<len>2``), ``smooth_decades`` (0 for none), ``noise`` (median relative scatter
+        assumed), ``interpolation``, ``dr_min``, ``dr_max`` (data range, in ``<len>``).
 
     Raises
     ------
     ValueError
-        Missing or wrong units, invalid samples, model attributes that contradict the
-        values, or a bad ``dr``.
+        ``G`` not 1-D, missing units, ``G`` not in length^2, a coordinate that is not a
+        length, fewer than 4 valid bins, non-increasing lags, negative or zero ``G``,
+        ``G(0) != 0``, a ``G`` that decreases overall (not a height-difference ACF), bad
+        options or ``q``, or no supported range at all.
 
     See Also
     --------
-    rms_gradient_exact : eq. 26 from a measured ``G``.
+    acf_from_spectrum : the inverse, eq. 9.
+    rms_gradient_exact : eq. 26 from this spectrum.
 
     Notes
     -----
-    For eq. 35 (sharp), with ``q_c = min(2 pi / dr, q_s)``:
-    ``2 pi gbar^2 = C_r (min(q_c, q_r)^4 - q_0^4) / 4
-    + C_r q_r^(2+2H) (q_c^(2-2H) - q_r^(2-2H)) / (2 - 2H)`` (second term for
-    ``q_c > q_r``); in the self-affine range ``gbar^2 ~ dr^-(2-2H)``.  For the smooth
-    variant, ``2 pi gbar^2 = (C_r q_r^4 / 2) [Phi(u_c) - Phi(u_0)]``, ``u = (q/q_r)^2``,
-    ``Phi(u) = ((1+u)^(1-H) - 1)/(1-H) + ((1+u)^-H - 1)/H`` (evaluated without
-    cancellation).
+    **Supported range.** ``C(q)`` counts as determined by the data where it is positive
+    and changes by at most ``support_rtol |C|`` when the extrapolation changes: the
+    measured log-log slope at the smallest lag turns ballistic sooner (within 0.2 instead of
+    1 decade) or later (after one more decade), the same for the turn to flat at the
+    largest lag, and, with ``noise``, ``G`` is perturbed by that independent relative
+    scatter (standard deviation over 16 seeded copies).  Changes are evaluated on a grid
+    of 10 per decade over ``[2 pi / dr_max, 2 pi / dr_min]``, and the largest within
+    +-0.2 decades counts (the difference of two extrapolations oscillates in ``q``); the
+    longest interval that passes is reported, its ends interpolated.  A ballistic ``G``
+    at the smallest lags and a plateau at the largest give nearly all of
+    ``[2 pi / dr_max, 2 pi / dr_min]`` (less where ``C`` drops to 0); a ``G`` that is
+    still self-affine at ``dr_min`` or still rising at ``dr_max`` gives less, or nothing.
+    The rule measures what the extrapolation leaves open, not the interpolation error
+    (next paragraph).
+
+    **Accuracy** (docs/spectra.md): with noise-free ``G`` sampled at 20 points per decade,
+    ``C`` is accurate to ~1e-5 where it is smooth.  A jump of ``C`` (the cutoff ``q_s`` of
+    eq. 35) rings in ``G`` as ``dr^-3/2``, which no logarithmic grid follows: ``C`` is off
+    by ~1 % from ``q_s / 4`` and by tens of % within a factor 2 of ``q_s``.  A kink of
+    ``C`` (``q_r`` in the sharp eq. 35) rings as ``dr^-5/2``: 10-20 % error far below
+    ``q_r`` at 20 points per decade, ~1 % at 100.  Noise is amplified where ``C`` is small
+    compared with ``sigma_h^2 dr^2`` (below the roll-off): independent 5 % scatter leaves
+    nothing supported at 1 %, and with ``smooth=1`` about one decade around the roll-off
+    at 20 %.
 
     Examples
     --------
-    >>> from xrough.spectra import gradient_from_spectrum, model_spectrum
-    >>> C = model_spectrum(hurst=0.8, lambda_r="1 um", lambda_s="10 nm",
-    ...                    rms_gradient=0.5, unit="nm")
-    >>> gbar = gradient_from_spectrum(C, [0.0, 10.0, 1e3])
-    >>> gbar.attrs["units"], gbar.dr.attrs["units"], gbar.attrs["equation"]
-    ('1', 'nm', 'eq. 26')
-    >>> print(np.round(gbar.values, 6))  # gbar(0) is the rms gradient
-    [0.5      0.5      0.067981]
+    Round trip through eq. 9 for the smooth model spectrum:
+
+    >>> from xrough.spectra import acf_from_spectrum, model_spectrum, spectrum
+    >>> import numpy as np
+    >>> model = dict(hurst=0.8, lambda_r="1 um", lambda_s="10 nm", rms_height="1 nm",
+    ...              unit="nm", rolloff="smooth")
+    >>> G = acf_from_spectrum(model_spectrum(**model), np.logspace(-1, 6, 141))
+    >>> C = spectrum(G, [1e-4, 1e-3, 1e-2])
+    >>> C.attrs["units"], C.q.attrs["units"], C.attrs["equation"]
+    ('nm4', 'nm-1', 'eq. 10/11')
+    >>> exact = model_spectrum(C.q.values, **model)
+    >>> print(np.round((C / exact).values, 3))
+    [1. 1. 1.]
+    >>> C.supported.values.tolist()
+    [1, 1, 1]
     """
-    spec = _spectrum_input(C)
-    dr_arr = _spectrum_lags(spec, dr, points_per_decade, dr_min, dr_max)
-    with np.errstate(divide="ignore"):
-        q_cut = np.where(dr_arr > 0, 2 * np.pi / np.where(dr_arr > 0, dr_arr, 1.0), np.inf)
-    if spec.model is not None:
-        m = spec.model
-        gbar2 = model_gradient2(q_cut, c=m.C_r * m.q_r ** (2 + 2 * m.hurst), hurst=m.hurst,
-                                q_r=m.q_r, q_s=m.q_s, q_0=m.q_0, rolloff=m.rolloff)
-        extra = model_attrs(spec.model)
-    else:
-        gbar2 = power_law_moment_kernel(q_cut, spec.func.q, spec.func.values, 2)
-        extra = {}
-    return _gradient_da(np.sqrt(gbar2), dr_arr, spec.unit_str,
-                        {"estimator": "spectrum", **extra})
+    _check_options(smooth, support_rtol, interpolation, points_per_decade)
+    acf = acf_samples(G, noise)
+    q_lo, q_hi = _support(acf, smooth=smooth, support_rtol=support_rtol,
+                          interpolation=interpolation)
+    q_arr = (log_range(0.5 * q_lo, 2.0 * q_hi, points_per_decade) if q is None
+             else _units.array_in(q, acf.length_unit**-1, what="q", noun="wavenumbers"))
+    g = acf.G if smooth is None else smooth_acf_kernel(acf.dr, acf.G, smooth)
+    values = spectrum_from_acf_kernel(q_arr, acf.dr, g, interpolation=interpolation)
+    q_unit = _units.power_units(acf.unit_str, -1)
+    supported = ((q_arr >= q_lo) & (q_arr <= q_hi)).astype(np.int8)
+    attrs = {
+        "units": _units.power_units(acf.unit_str, 4),
+        "long_name": "isotropic height spectrum",
+        "equation": "eq. 10/11",
+        "estimator": "Hankel transform of G (eq. 10/11)",
+        "spectrum_kind": "isotropic 2D",
+        "q_min_supported": q_lo,
+        "q_max_supported": q_hi,
+        "support_rtol": float(support_rtol),
+        "sigma_h2": acf_plateau_kernel(acf.dr, g),
+        "smooth_decades": 0.0 if smooth is None else float(smooth),
+        "noise": float(np.median(acf.noise)),
+        "interpolation": interpolation,
+        "dr_min": float(acf.dr[0]),
+        "dr_max": float(acf.dr[-1]),
+    }
+    attrs = result_attrs(G, **attrs)
+    return xr.DataArray(
+        values,
+        dims=("q",),
+        coords={
+            "q": ("q", q_arr, {"units": q_unit, "long_name": "angular wavenumber"}),
+            "supported": ("q", supported, {
+                "long_name": "1 where G determines C (q_min_supported <= q <= "
+                             "q_max_supported), 0 where extrapolation or noise dominates",
+                "units": "1"}),
+        },
+        name="C",
+        attrs=attrs,
+    )

@@ -39,11 +39,12 @@ import warnings
 from collections.abc import Mapping
 from typing import Any
 
+import dask
 import numpy as np
 import xarray as xr
 
-from . import __version__
 from . import units as u
+from .acf import result_attrs
 from .correlation import height_difference_acf
 from .preprocess import reliability_window
 from .topography import grid_of
@@ -311,18 +312,16 @@ def stitch_curves(
 
     names = list(items)
     topo_names = [n for n in names if not _is_acf(items[n])]
-    if parallel and len(topo_names) > 1:
-        import dask
-
+    if parallel and len(topo_names) > 1:  # on the active scheduler (distributed if a Client)
         done = dict(zip(topo_names, dask.compute(
-            *[dask.delayed(task)(n) for n in topo_names], scheduler="threads")))
+            *[dask.delayed(task)(n) for n in topo_names])))
     else:
         done = {n: task(n) for n in topo_names}
     nb = len(centres)
     g = np.full((len(names), nb), np.nan)
     se = np.full_like(g, np.nan)
     cnt = np.zeros_like(g)
-    sources, pixel, scan, kinds = [], [], [], []
+    sources, checksums, pixel, scan, kinds = [], [], [], [], []
     for m, name in enumerate(names):
         i = info[name]
         dr, gm, sem, nm, attrs = done[name] if name in done else task(name)
@@ -332,6 +331,7 @@ def stitch_curves(
         g[m], se[m], cnt[m] = _rebin(dr * i["f"], gm * i["g_factor"], sem * i["g_factor"],
                                      nm, centres, edges, i["lo"], i["hi"])
         sources.append(str(attrs.get("source_file", attrs.get("source", "")) or name))
+        checksums.append(str(attrs.get("source_sha256", "")))
         pixel.append(float(attrs.get("pixel_size", np.nan)) * i["f"])
         scan.append(float(attrs.get("scan_size", np.nan)) * i["f"])
         kinds.append("G" if _is_acf(items[name]) else
@@ -353,10 +353,11 @@ def stitch_curves(
                 "pixel_size": ("measurement", pixel, {"units": lunit}),
                 "scan_size": ("measurement", scan, {"units": lunit}),
                 "kind": ("measurement", kinds),
-                "source": ("measurement", sources)},
-        attrs={"points_per_decade": ppd,
-               "window_rules": "; ".join(f"{n}: {info[n]['rule']}" for n in names),
-               "xrough_version": __version__})
+                "source": ("measurement", sources),
+                "source_sha256": ("measurement", checksums,
+                                  {"long_name": "SHA-256 of the source file ('' if none)"})},
+        attrs=result_attrs(None, points_per_decade=ppd, window_rules="; ".join(
+            f"{n}: {info[n]['rule']}" for n in names)))
     return ds
 
 
@@ -543,7 +544,7 @@ def stitch(
                 "n_measurements": ("dr", n_meas[keep].astype(np.int64),
                                    {"units": "1",
                                     "long_name": "measurements combined in the bin"})})
-    out.attrs = {
+    out.attrs = result_attrs(None, **{
         "units": gunits,
         "long_name": "height-difference autocorrelation function",
         "symbol": "G",
@@ -566,6 +567,7 @@ def stitch(
         "mismatch_pairs": ", ".join(str(p) for p in mism.pair.values),
         "mismatch_ratio": mism.ratio.values.astype(float),
         "mismatch_z": mism.z.values.astype(float),
-        "xrough_version": __version__,
-    }
+        "source_sha256": ", ".join(str(c) for c in curves.source_sha256.values)
+        if "source_sha256" in curves.coords else "",
+    })
     return out

@@ -5,9 +5,11 @@ and dimension coordinate (``"m"``, ``"nm"``, ``"m2"``, ``"J m-2"``). pint does a
 and conversion; this module only translates between CF strings and pint, and checks
 dimensionality with messages that name the offending quantity.
 
-Physical parameters accept a plain number, a string (``"25 MPa"``) or a pint Quantity. Plain
-numbers are SI (``E_star=25e6`` is 25 MPa), except lengths tied to data or to a ``unit=``
-argument, which are in that unit (``dr_max=100`` on a map in nm is 100 nm).
+Physical parameters accept a plain number, a string (``"25 MPa"``), a pint Quantity (of any
+registry) or a DataArray with a ``units`` attribute (0-d for one value), all read by
+:func:`quantity`, the one unit boundary of the package. Plain numbers are SI
+(``E_star=25e6`` is 25 MPa), except lengths tied to data or to a ``unit=`` argument, which
+are in that unit (``dr_max=100`` on a map in nm is 100 nm).
 """
 
 from __future__ import annotations
@@ -25,6 +27,8 @@ __all__ = [
     "units_of",
     "quantity",
     "to_si",
+    "positive_si",
+    "magnitude_in",
     "array_in",
     "as_length_unit",
     "is_length",
@@ -141,15 +145,64 @@ def units_of(obj: Any, *, what: str | None = None) -> pint.Unit:
     return parse_units(units, what=str(name))
 
 
-def quantity(value: Any, *, default_units: str | pint.Unit = "", what: str = "value"):
-    """Turn a number, string or pint Quantity into a pint Quantity of this registry.
+def _is_dataarray(value: Any) -> bool:
+    return hasattr(value, "attrs") and hasattr(value, "dims") and hasattr(value, "values")
 
-    Plain numbers get ``default_units`` (SI for physical parameters).
+
+def quantity(value: Any, *, default_units: str | pint.Unit = "", what: str = "value"):
+    """Turn any accepted form of a physical value into a pint Quantity of this registry.
+
+    This is xrough's one unit boundary: every public function reads its physical and length
+    arguments through here, so each form means the same everywhere.
+
+    Parameters
+    ----------
+    value : number, array, str, pint.Quantity, xarray.DataArray, or a list of these
+        - numbers and numeric arrays get ``default_units`` (SI for physical parameters,
+          the data's unit for lengths tied to data);
+        - strings are a number and a unit (``"25 MPa"``, ``"50 mJ/m^2"``, ``"2 um4"``);
+        - pint Quantities of any registry keep their unit;
+        - DataArrays (0-d or not) use their ``units`` attribute, or ``default_units``
+          when they have none;
+        - lists and tuples are converted element by element (``["0.1 MPa", "1 MPa"]``).
+    default_units : str or pint.Unit
+        Unit of plain numbers.
+    what : str
+        Name of the argument, for error messages.
+
+    Returns
+    -------
+    pint.Quantity
+
+    Raises
+    ------
+    ValueError
+        A string or ``units`` attribute that pint does not understand, or list elements
+        with incompatible units.
+    TypeError
+        Any other type.
+
+    Examples
+    --------
+    >>> import xarray as xr
+    >>> quantity(xr.DataArray(0.2, attrs={"units": "um"}), what="a_c").to("nm")
+    <Quantity(200.0, 'nanometer')>
+    >>> quantity(["0.1 MPa", 2e5], default_units="Pa", what="p0").to("Pa").magnitude
+    array([100000., 200000.])
     """
     if isinstance(value, pint.Quantity):
         if value._REGISTRY is not ureg:  # noqa: SLF001
             return ureg.Quantity(value.magnitude, str(value.units))
         return value
+    if _is_dataarray(value):
+        units = value.attrs.get("units")
+        magnitude = np.asarray(value.values)
+        if magnitude.dtype.kind not in "iuf":
+            raise TypeError(f"{what}: a DataArray of numbers is needed, got dtype "
+                            f"{magnitude.dtype}")
+        unit = (parse_units(units, what=f"{what} (its 'units' attribute)")
+                if units is not None else default_units)
+        return ureg.Quantity(magnitude.astype(float), unit)
     if isinstance(value, str):
         match = _NUMBER_UNIT.match(value)
         try:
@@ -167,17 +220,59 @@ def quantity(value: Any, *, default_units: str | pint.Unit = "", what: str = "va
         isinstance(value, np.ndarray) and value.dtype.kind in "iuf"
     ):
         return ureg.Quantity(value, default_units)
-    raise TypeError(f"{what}: expected a number, a string like '25 MPa' or a pint Quantity, "
-                    f"got {type(value).__name__}")
+    if isinstance(value, (list, tuple)) or (isinstance(value, np.ndarray) and
+                                            value.dtype.kind in "OU"):
+        parts = [quantity(v, default_units=default_units, what=what) for v in value]
+        if not parts:
+            return ureg.Quantity(np.zeros(0), default_units)
+        unit = parts[0].units
+        try:
+            mags = [float(p.to(unit).magnitude) if p.units != unit else p.magnitude
+                    for p in parts]
+        except pint.errors.DimensionalityError:
+            raise ValueError(f"{what}: the values {value!r} have incompatible units") from None
+        return ureg.Quantity(np.asarray(mags, dtype=float), unit)
+    raise TypeError(f"{what}: expected a number, a string like '25 MPa', a pint Quantity or "
+                    f"a DataArray with a 'units' attribute, got {type(value).__name__}")
 
 
-def to_si(value: Any, dimension: str, *, what: str) -> float:
+def magnitude_in(value: Any, unit: str | pint.Unit, *, what: str) -> np.ndarray:
+    """Magnitude of ``value`` (any form :func:`quantity` accepts) in ``unit``, as floats.
+
+    Plain numbers are taken to be in ``unit`` already. The dimensions must agree.
+
+    Examples
+    --------
+    >>> float(magnitude_in("0.2 um", "nm", what="a_c"))
+    200.0
+    """
+    target = parse_units(unit, what=what) if isinstance(unit, str) else unit
+    q = quantity(value, default_units=target, what=what)
+    if q.dimensionality != ureg.Quantity(1, target).dimensionality:
+        want = {"[length]": "a length", "[mass] / [length] / [time] ** 2": "a pressure",
+                "[mass] / [time] ** 2": "an energy per area"}.get(
+                    str(ureg.Quantity(1, target).dimensionality), f"in {format_units(target)}")
+        raise ValueError(f"{what}: {_show(value)} is not {want} (it has dimensions "
+                         f"{q.dimensionality})")
+    mag = np.asarray(q.magnitude, dtype=float)
+    if q.units != target:
+        mag = mag * conversion_factor(q.units, target)
+    return mag
+
+
+def _show(value: Any) -> str:
+    if _is_dataarray(value):
+        return f"a DataArray in {value.attrs.get('units', 'no unit')!r}"
+    return repr(value)
+
+
+def to_si(value: Any, dimension: str, *, what: str) -> float | np.ndarray:
     """Convert a parameter to an SI magnitude after checking its dimensionality.
 
     Parameters
     ----------
-    value : float, str or pint.Quantity
-        Plain numbers are taken as SI.
+    value : float, str, pint.Quantity or xarray.DataArray
+        Any form :func:`quantity` accepts; plain numbers are taken as SI.
     dimension : str
         A pint dimensionality such as ``"[length]"`` or ``"[pressure]"``.
     what : str
@@ -193,12 +288,43 @@ def to_si(value: Any, dimension: str, *, what: str) -> float:
     si_unit = _SI_UNITS.get(dimension)
     if si_unit is None:
         raise KeyError(f"no SI unit known for dimension {dimension!r}")
-    q = quantity(value, default_units=si_unit, what=what)
-    if not q.check(dimension):
-        raise ValueError(f"{what}: {value!r} is not a {dimension.strip('[]')} "
-                         f"(it has dimensions {q.dimensionality})")
-    mag = q.to(si_unit).magnitude
-    return float(mag) if np.ndim(mag) == 0 else np.asarray(mag, dtype=float)
+    mag = magnitude_in(value, si_unit, what=what)
+    return float(mag) if np.ndim(mag) == 0 else mag
+
+
+def positive_si(value: Any, dimension: str, *, what: str, many: bool = False):
+    """SI magnitude of a positive, finite physical parameter (plain numbers are SI).
+
+    Parameters
+    ----------
+    value : float, str, pint.Quantity, xarray.DataArray or a list of these
+        See :func:`quantity`.
+    dimension : str
+        ``"[pressure]"``, ``"[length]"`` or ``"[mass] / [time] ** 2"`` (energy per area).
+    what : str
+        Parameter name for error messages.
+    many : bool
+        Allow several values: a 1-D array is returned when ``value`` holds more than a
+        scalar, a float otherwise.
+
+    Raises
+    ------
+    ValueError
+        Wrong dimensions, several values where one is expected, or a value that is not
+        positive and finite.
+
+    Examples
+    --------
+    >>> positive_si(["0.1 MPa", "1 MPa"], "[pressure]", what="p0", many=True)
+    array([ 100000., 1000000.])
+    """
+    mag = to_si(value, dimension, what=what)
+    arr = np.atleast_1d(np.asarray(mag, dtype=float))
+    if arr.ndim != 1 or (np.ndim(mag) > 0 and not many):
+        raise ValueError(f"{what} must be a single value, got {_show(value)}")
+    if arr.size == 0 or not np.all(np.isfinite(arr)) or np.any(arr <= 0):
+        raise ValueError(f"{what} must be positive and finite, got {_show(value)}")
+    return arr if np.ndim(mag) > 0 else float(arr[0])
 
 
 _SI_UNITS = {
@@ -210,11 +336,11 @@ _SI_UNITS = {
 
 
 def length_in(value: Any, unit: str | pint.Unit, *, what: str, positive: bool = True) -> float:
-    """Convert a length parameter to a float in ``unit``; plain numbers are already in it.
+    """One length in ``unit`` (any form :func:`quantity` accepts; numbers are in ``unit``).
 
     Lengths tied to data follow the data's unit: ``dr_max=100`` on a map in nm means
-    100 nm, ``lambda_r=2000`` with ``unit="nm"`` means 2000 nm. Strings and pint Quantities
-    carry their own unit.
+    100 nm, ``lambda_r=2000`` with ``unit="nm"`` means 2000 nm. Strings, pint Quantities
+    and DataArrays with a ``units`` attribute carry their own unit.
 
     Examples
     --------
@@ -223,52 +349,33 @@ def length_in(value: Any, unit: str | pint.Unit, *, what: str, positive: bool = 
     >>> length_in(5, "nm", what="dr_max")
     5.0
     """
-    unit = parse_units(unit, what=what) if isinstance(unit, str) else unit
-    if isinstance(value, (int, float, np.integer, np.floating)):
-        mag = float(value)
-    else:
-        q = quantity(value, default_units=unit, what=what)
-        if not q.check("[length]"):
-            raise ValueError(f"{what}: {value!r} is not a length "
-                             f"(it has dimensions {q.dimensionality})")
-        if np.ndim(q.magnitude) != 0:
-            raise ValueError(f"{what} must be a single length, got {value!r}")
-        mag = float(q.magnitude) * conversion_factor(q.units, unit)
+    mag = magnitude_in(value, unit, what=what)
+    if np.ndim(mag) != 0 and np.size(mag) != 1:
+        raise ValueError(f"{what} must be a single length, got {_show(value)}")
+    mag = float(np.reshape(mag, -1)[0])
     if not np.isfinite(mag) or (positive and not mag > 0):
         raise ValueError(f"{what} must be a {'positive' if positive else 'finite'} length, "
-                         f"got {value!r}")
+                         f"got {_show(value)}")
     return mag
 
 
-def array_in(value: Any, unit: str | pint.Unit, *, what: str,
-             noun: str = "values") -> np.ndarray:
-    """Convert to a 1-D array of finite values ``>= 0`` in ``unit``.
+def array_in(value: Any, unit: str | pint.Unit, *, what: str, noun: str = "values",
+             positive: bool = False) -> np.ndarray:
+    """1-D array of finite values ``>= 0`` (``> 0`` with ``positive``) in ``unit``.
 
-    ``value`` may be numbers (already in ``unit``), a pint Quantity, or a DataArray whose
-    ``units`` attribute (if any) is converted.
+    ``value`` may be numbers (already in ``unit``), strings, a pint Quantity, a list of
+    these, or a DataArray whose ``units`` attribute (if any) is converted.
 
     Examples
     --------
     >>> array_in(ureg.Quantity([1.0, 2.0], "um"), "nm", what="dr")
     array([1000., 2000.])
     """
-    target = parse_units(unit, what=what) if isinstance(unit, str) else unit
-    if hasattr(value, "attrs") and hasattr(value, "values"):  # a DataArray
-        given = value.attrs.get("units")
-        factor = 1.0 if given is None else conversion_factor(parse_units(given, what=what),
-                                                             target)
-        values = np.asarray(value.values, dtype=float) * factor
-    elif isinstance(value, pint.Quantity):
-        q = quantity(value, what=what)
-        if q.dimensionality != ureg.Quantity(1, target).dimensionality:
-            raise ValueError(f"{what} must have units like {format_units(target)!r}, got "
-                             f"{value!r}")
-        values = np.asarray(q.to(target).magnitude, dtype=float)
-    else:
-        values = np.asarray(value, dtype=float)
-    values = np.atleast_1d(values)
-    if values.ndim != 1 or not np.all(np.isfinite(values)) or np.any(values < 0):
-        raise ValueError(f"{what} must be a 1-D array of finite {noun} >= 0")
+    values = np.atleast_1d(magnitude_in(value, unit, what=what))
+    bad = np.any(values <= 0) if positive else np.any(values < 0)
+    if values.ndim != 1 or not np.all(np.isfinite(values)) or bad:
+        raise ValueError(f"{what} must be a 1-D array of finite {noun} "
+                         f"{'> 0' if positive else '>= 0'}")
     return values
 
 

@@ -17,15 +17,10 @@ import xarray as xr
 from scipy import special
 
 from . import units as u
-from .contact import (
-    KAPPA_PERSSON,
-    THEORIES,
-    _contact_area,
-    _full_stress,
-    _improved_area,
-    _positive,
-    persson,
-)
+from ._kernels.contact import KAPPA_PERSSON
+from ._kernels.contact import contact_area as _contact_area
+from ._kernels.contact import improved_area as _improved_area
+from .contact import THEORIES, persson, stress_acf
 from .correlation import height_difference_acf
 from .gradient import rms_gradient
 from .solver import _check_topography, solve_contact
@@ -242,8 +237,8 @@ def compare_with_simulation(
     (True, 1.0)
     """
     names = _theories(theory)
-    E = _positive(E_star, "[pressure]", "E_star")
-    p0s = np.sort(np.atleast_1d(_positive(p0, "[pressure]", "p0", allow_many=True)))
+    E = u.positive_si(E_star, "[pressure]", what="E_star")
+    p0s = np.sort(np.atleast_1d(u.positive_si(p0, "[pressure]", what="p0", many=True)))
     if kappa is not None and not (np.isfinite(kappa) and kappa > 0):
         raise ValueError(f"kappa must be positive, got {kappa!r}")
     grid, h = _check_topography(topography)
@@ -361,7 +356,7 @@ def compare_with_simulation(
     }
     if full_contact:
         S_full_sim = S_sim.isel(p0=n).values - float(p_full) ** 2
-        S_full = _full_stress(G, E)
+        S_full = stress_acf(G, E_star=E).values
         var = float(sim["pressure"].values[n].var())  # G_sigma_full_sim(0)
         diff = xr.DataArray(S_full - S_full_sim, dims="dr")
         f_max, f_rms = _errors(diff, var, sel)

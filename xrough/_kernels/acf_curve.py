@@ -19,7 +19,67 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import make_smoothing_spline
 
-__all__ = ["AcfCurve"]
+__all__ = ["AcfCurve", "acf_problem", "require_acf"]
+
+#: A G whose last third lies this factor below its first third (medians) is a height ACF.
+DECREASE = 1.1
+
+
+def acf_problem(dr: np.ndarray, lines: np.ndarray, *, min_bins: int = 2,
+                unit: str = "") -> str:
+    """Say what is wrong with the values of G (the rules of :mod:`xrough.acf`), or ``""``.
+
+    Parameters
+    ----------
+    dr : ndarray
+        Lags (checked already: finite, increasing, >= 0).
+    lines : ndarray
+        G in the square of the lag unit, one curve per row (or a single 1-D curve).
+    min_bins : int
+        Valid bins needed per curve.
+    unit : str
+        Lag unit, for messages.
+    """
+    lines = np.atleast_2d(np.asarray(lines, dtype=float))
+    if np.any(np.isinf(lines)):
+        return "has infinite values (NaN marks an empty bin; inf is never a valid G)"
+    zero_lag = dr == 0
+    if np.any(lines[:, zero_lag][np.isfinite(lines[:, zero_lag])] != 0):
+        return "must be 0 at dr = 0 (a point differs from itself by nothing)"
+    positive_lag = ~zero_lag
+    for line in lines:
+        g = line[positive_lag]
+        valid = np.isfinite(g)
+        if not valid.any():
+            return "is all NaN (no valid bin)"
+        pos = g[valid & (g > 0)] if np.any(valid) else g[:0]
+        if pos.size >= 2:
+            ln_g = np.log(pos)
+            third = max(1, ln_g.size // 3)
+            if np.median(ln_g[-third:]) < np.median(ln_g[:third]) - np.log(DECREASE):
+                return ("decreases overall (its last third is more than 10 % below its "
+                        "first third): that is a height ACF <h(r) h(r+dr)> = sigma_h^2 - G, "
+                        "not the height-difference ACF G(dr) = 1/2 <(h(r) - h(r+dr))^2>, "
+                        "which grows from 0 at dr = 0 to sigma_h^2")
+        if np.any(g[valid] < 0):
+            return ("has negative values: a height-difference ACF is "
+                    "1/2 <(h(r) - h(r+dr))^2> >= 0")
+        if np.any(g[valid] == 0):
+            at = dr[positive_lag][valid & (g == 0)][:3]
+            return (f"is 0 at dr = {at} {unit}: a rough surface has G > 0 at every lag > 0 "
+                    "(0 means a flat surface or heights below their resolution; drop those "
+                    "bins with G.where(G > 0))")
+        if valid.sum() < min_bins:
+            return (f"has {int(valid.sum())} valid (non-NaN) bins at dr > 0; at least "
+                    f"{min_bins} are needed")
+    return ""
+
+
+def require_acf(dr: np.ndarray, g: np.ndarray, *, min_bins: int = 2) -> None:
+    """Raise ValueError if one curve of G breaks a value rule (for kernels on dask chunks)."""
+    problem = acf_problem(dr, g, min_bins=min_bins)
+    if problem:
+        raise ValueError(f"G {problem}")
 
 
 class AcfCurve:

@@ -1,7 +1,7 @@
 """Quadrature building blocks of the Hankel transforms (pure numpy/scipy, no xarray).
 
 Shared by eq. 9 (:mod:`xrough._kernels.hankel`, ``G`` from ``C``) and eq. 10/11
-(:mod:`xrough._kernels.hankel_inverse`, ``C`` from ``G``):
+(:mod:`xrough._kernels.hankel` (inverse direction), ``C`` from ``G``):
 
 * composite Gauss-Legendre on panels (:func:`_panel_quadrature`), on grids that are
   logarithmic between breakpoints (:func:`_log_grid`), processed in blocks of rows;

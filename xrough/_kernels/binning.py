@@ -12,8 +12,14 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["log_bin_edges", "linear_bin_edges", "lag_multiplicity", "lag_radius2",
+__all__ = ["log_range", "log_bin_edges", "linear_bin_edges", "lag_multiplicity", "lag_radius2",
            "bin_index", "binned_sum", "max_lags"]
+
+
+def log_range(lo: float, hi: float, points_per_decade: float) -> np.ndarray:
+    """Logarithmic grid from ``lo`` to ``hi`` with at least ``points_per_decade``."""
+    n = max(2, int(np.ceil(points_per_decade * np.log10(hi / lo))) + 1)
+    return np.geomspace(lo, hi, n)
 
 
 def log_bin_edges(dr_min: float, dr_max: float, points_per_decade: float) -> np.ndarray:

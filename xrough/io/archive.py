@@ -18,7 +18,7 @@ from pathlib import Path
 
 import xarray as xr
 
-from . import __version__
+from .._version import __version__
 
 __all__ = ["save_analysis", "open_analysis"]
 

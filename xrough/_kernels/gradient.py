@@ -1,0 +1,153 @@
+"""Scale-dependent rms gradient of one G curve (eq. 26), by every route (pure numpy/scipy).
+
+* :func:`exact_gradient`: eq. 26 of the spectrum of G (eq. 10/11), with the range of lags
+  where the data determine it;
+* :func:`auto_gradient`: the exact gradient where it covers at least half of the lags of G,
+  else eq. 26 of the fitted model spectrum, else the ballistic ``sqrt(4 G / dr^2)``; the
+  per-curve choice is returned as a code (:data:`AUTO_METHODS`).
+
+All lengths in one unit; G in its square.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .acf_curve import require_acf
+from .binning import log_range
+from .fitting import SPECTRUM_OUTPUTS, fit_spectrum_kernel, fitted_spectrum_gradient
+from .hankel import (
+    power_law_moment_kernel,
+    smooth_acf_kernel,
+    spectrum_from_acf_kernel,
+    spectrum_variants_kernel,
+    supported_interval,
+)
+
+__all__ = ["AUTO_METHODS", "exact_gradient", "exact_support", "exact_on_lags", "auto_gradient",
+           "simple_gradient"]
+
+#: Codes of the route :func:`auto_gradient` took, per curve.
+AUTO_METHODS = ("exact", "fit", "simple", "exact+fit")
+
+
+def _cumulative(q, values):
+    """gbar^2 at every grid q: C flat below the grid, a power law between points."""
+    below = values[0] * q[0] ** 4 / (8.0 * np.pi)
+    return below + power_law_moment_kernel(q, q, values, 2, nonpositive="linear")
+
+
+def exact_support(dr, g, noise, *, smooth, support_rtol, interpolation) -> tuple[float, float]:
+    """Lags ``(dr_lo, dr_hi)`` where eq. 26 of the spectrum of G is determined (NaN: none).
+
+    ``dr``, ``g``, ``noise``: the valid bins (``dr > 0``). The extrapolation variants of the
+    spectrum (the end slopes of G turning sooner or later), leaving out C below the grid,
+    and the noise may change ``gbar`` by at most ``support_rtol`` (the largest change within
+    +-0.2 decades counts).
+    """
+    lo, hi = 0.02 * np.pi / dr[-1], 2 * np.pi / dr[0]
+    q = log_range(lo, hi, 10)
+    base, extrapolated, noisy = spectrum_variants_kernel(
+        q, dr, g, noise=noise, smooth=smooth, interpolation=interpolation)
+    total = _cumulative(q, base)
+    below = np.abs(base[0] * q[0] ** 4 / (8.0 * np.pi))
+    variants = [_cumulative(q, v) for v in extrapolated] + [total - below]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratios = np.sqrt(np.maximum(np.array(variants), 0.0) / total)
+        change = np.max(np.abs(ratios - 1.0), axis=0)
+        if noisy.shape[0]:
+            sample = np.sqrt(np.maximum([_cumulative(q, v) for v in noisy], 0.0) / total)
+            change = np.maximum(change, np.std(sample, axis=0))
+        change = np.where(total > 0, change, np.inf)
+    q_lo, q_hi = supported_interval(q, change, support_rtol, envelope=0.2)
+    if not np.isfinite(q_lo):
+        return np.nan, np.nan
+    return 2 * np.pi / q_hi, 2 * np.pi / q_lo
+
+
+def exact_gradient(dr, g, dr_out, *, smooth, interpolation, points_per_decade) -> np.ndarray:
+    """``gbar`` (eq. 26 of the spectrum of G, eq. 10/11) at ``dr_out``; NaN where gbar^2 <= 0.
+
+    ``dr``, ``g``: the valid bins of G (``dr > 0``, G > 0).
+    """
+    lo, hi = 0.02 * np.pi / dr[-1], 2 * np.pi / dr[0]
+    q = log_range(lo, hi, points_per_decade)
+    gs = g if smooth is None else smooth_acf_kernel(dr, g, smooth)
+    values = spectrum_from_acf_kernel(q, dr, gs, interpolation=interpolation)
+    gbar2 = values[0] * q[0] ** 4 / (8.0 * np.pi) + power_law_moment_kernel(
+        2 * np.pi / np.asarray(dr_out, dtype=float), q, values, 2, nonpositive="linear")
+    with np.errstate(invalid="ignore"):
+        return np.where(gbar2 > 0, np.sqrt(np.abs(gbar2)), np.nan)
+
+
+def simple_gradient(dr, g) -> np.ndarray:
+    """``sqrt(4 G / dr^2)``, the ballistic approximation of eq. 26 (NaN at ``dr = 0``)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(dr > 0, np.sqrt(4.0 * g / np.where(dr > 0, dr, 1.0) ** 2), np.nan)
+
+
+def exact_on_lags(g, noise, *, dr, smooth, support_rtol, interpolation,
+                  points_per_decade) -> np.ndarray:
+    """Compute the exact gbar on every lag of one G curve, NaN outside the supported lags."""
+    require_acf(dr, g, min_bins=4)
+    ok = np.isfinite(g) & (dr > 0)
+    r, v = dr[ok], g[ok]
+    out = np.full(dr.shape, np.nan)
+    if ok.sum() < 4:
+        return out
+    try:
+        dr_lo, dr_hi = exact_support(r, v, noise[ok], smooth=smooth, support_rtol=support_rtol,
+                                     interpolation=interpolation)
+    except ValueError:
+        return out
+    if not np.isfinite(dr_lo):
+        return out
+    tol = 1e-9 * dr_hi
+    inside = ok & (dr >= dr_lo - tol) & (dr <= dr_hi + tol)
+    if inside.any():
+        out[inside] = exact_gradient(r, v, dr[inside], smooth=smooth,
+                                     interpolation=interpolation,
+                                     points_per_decade=points_per_decade)
+    return out
+
+
+def auto_gradient(g, se, noise, *, dr, exact: dict, fit: dict | None,
+                  fit_gradient: dict | None) -> tuple[np.ndarray, int]:
+    """Gbar of one curve by the first route that covers it, and the route's code.
+
+    The exact gradient where G determines it; if that is fewer than half of the valid
+    lags, the fitted spectrum's gradient everywhere; the fit also fills the lags the exact
+    gradient leaves open (code 3); the ballistic form where no fit succeeds.
+    ``exact``: options of :func:`exact_on_lags`; ``fit``/``fit_gradient``: options of
+    :func:`~xrough._kernels.fitting.fit_spectrum_kernel` and
+    :func:`~xrough._kernels.fitting.fitted_spectrum_gradient` (None: no fit).
+    """
+    valid = np.isfinite(g) & (dr > 0)
+    out = exact_on_lags(g, noise, dr=dr, **exact)
+    covered = np.isfinite(out) & valid
+    if covered.sum() == valid.sum():
+        return out, 0
+    use_exact = 2 * covered.sum() >= valid.sum()
+    fitted = _fit_gradient(g, se, dr, fit, fit_gradient)
+    if fitted is not None and np.all(np.isfinite(fitted[valid])):
+        if use_exact:
+            return np.where(covered, out, np.where(valid, fitted, np.nan)), 3
+        return np.where(valid, fitted, np.nan), 1
+    if use_exact:
+        return np.where(covered, out, np.where(valid, simple_gradient(dr, g), np.nan)), 0
+    return np.where(valid, simple_gradient(dr, g), np.nan), 2
+
+
+def _fit_gradient(g, se, dr, fit, fit_gradient):
+    """Gbar of the model spectrum fitted to one G, or None if the fit fails."""
+    if fit is None:
+        return None
+    try:
+        params = dict(zip(SPECTRUM_OUTPUTS, fit_spectrum_kernel(g, se, dr=dr, **fit)))
+    except (ValueError, FloatingPointError, np.linalg.LinAlgError):
+        return None
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return fitted_spectrum_gradient(
+            params["hurst"], params["G_sa"], params["lambda_r"], params["lambda_s"],
+            params["lambda_r_resolved"], params["lambda_s_resolved"],
+            dr=np.where(dr > 0, dr, np.nan), **fit_gradient)

@@ -1,0 +1,195 @@
+"""What a height-difference ACF G(dr) is: the one definition every function checks against.
+
+``G(dr) = 1/2 <(h(r) - h(r + dr))^2>`` (eq. 1) comes from :func:`xrough.height_difference_acf`,
+:func:`xrough.stitch`, :func:`xrough.acf_from_spectrum` or the user. Every public function
+that takes a G reads it through :func:`check_acf`, which applies one rule per property:
+
+=================  =======================================================================
+property           rule
+=================  =======================================================================
+type               an :class:`xarray.DataArray`
+dims               a ``dr`` dim with a coordinate; any other dim (``scan``, ...) holds
+                   further curves, each treated on its own (functions that need a single
+                   curve say so: select one with ``G.isel(scan=0)``)
+units              ``units`` on ``dr`` is a length, on the data a length^2 (any unit:
+                   nm, um, m; each function works in the unit of ``dr``)
+lags               finite, strictly increasing, ``>= 0``; a ``dr = 0`` bin is allowed if
+                   G is 0 or NaN there, and is ignored by every calculation
+values             NaN marks an empty bin and is skipped; no ``inf``; ``G > 0`` at every
+                   valid lag ``> 0`` (0 or below cannot come from a rough surface); at
+                   least two valid bins (more where a function needs them)
+shape              need not be monotone (a periodic surface makes G oscillate), but must
+                   not decrease overall: a curve whose last third is more than 10 % below
+                   its first third (medians of ``ln G``) is a height ACF
+                   ``<h(r) h(r + dr)> = sigma_h^2 - G``, not G
+=================  =======================================================================
+
+Value rules are checked at once on numpy data, and when a chunked (dask) G is computed.
+
+The module also builds the attrs of results: :func:`result_attrs` carries the provenance of
+the input (source file, checksum, format, overrides, detrending, reliability window) forward
+to every G and every result derived from it, and records the xrough version.
+Arguments with units (lags, wavenumbers, moduli, pressures) are read by :mod:`xrough.units`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pint
+import xarray as xr
+
+from . import units as u
+from ._kernels.acf_curve import acf_problem
+from ._version import __version__
+
+__all__ = ["AcfSpec", "check_acf", "PROVENANCE", "result_attrs", "lag_coord"]
+
+#: Attributes that say where data came from; every estimator and result carries them on.
+PROVENANCE = ("source", "source_file", "source_sha256", "format", "overrides", "channel",
+              "instrument", "detrend", "reliable_dr_min", "reliable_dr_max")
+
+
+@dataclass(frozen=True)
+class AcfSpec:
+    """What :func:`check_acf` established about a G (its values are not copied).
+
+    Attributes
+    ----------
+    dr : ndarray
+        The lags, in ``length_unit``.
+    length_unit : pint.Unit
+        Unit of ``dr``; G is read in its square.
+    unit_str : str
+        CF string of ``length_unit``.
+    g_factor : float
+        Converts G (and its standard error) to ``length_unit^2``.
+    to_m : float
+        Converts ``length_unit`` to metres.
+    extra_dims : tuple of str
+        Dims other than ``dr`` (one curve per combination).
+    """
+
+    dr: np.ndarray
+    length_unit: pint.Unit
+    unit_str: str
+    g_factor: float
+    to_m: float
+    extra_dims: tuple[str, ...]
+
+    @property
+    def to_m2(self) -> float:
+        """Converts G (in its own unit) to m^2."""
+        return self.g_factor * self.to_m**2
+
+
+def check_acf(G: xr.DataArray, *, what: str = "G", single: bool = False,
+              min_bins: int = 2) -> AcfSpec:
+    """Check that ``G`` is a height-difference ACF by the rules of :mod:`xrough.acf`.
+
+    Parameters
+    ----------
+    G : xarray.DataArray
+        The candidate G(dr).
+    what : str
+        Its name in error messages.
+    single : bool
+        Require one curve (no dims besides ``dr``).
+    min_bins : int
+        Valid bins (non-NaN, ``dr > 0``) needed per curve.
+
+    Returns
+    -------
+    AcfSpec
+
+    Raises
+    ------
+    TypeError
+        Not a DataArray.
+    ValueError
+        Naming the rule broken and the fix.
+
+    Examples
+    --------
+    >>> import numpy as np, xarray as xr
+    >>> G = xr.DataArray([0.0, 1.0, 4.0], dims="dr", attrs={"units": "nm2"},
+    ...                  coords={"dr": ("dr", [0.0, 1.0, 2.0], {"units": "nm"})})
+    >>> check_acf(G).unit_str
+    'nm'
+    >>> check_acf(G.assign_attrs(units="nm"))
+    Traceback (most recent call last):
+    ...
+    ValueError: G must be in length^2 (a height-difference ACF, e.g. 'nm2'), but its units are 'nm'
+    """
+    if not isinstance(G, xr.DataArray):
+        raise TypeError(f"{what} must be an xarray.DataArray, got {type(G).__name__}")
+    if "dr" not in G.dims:
+        raise ValueError(f"{what} needs a 'dr' dim (lag distance); got dims {G.dims}. "
+                         "Compute it with topography.rough.acf()")
+    if "dr" not in G.coords:
+        raise ValueError(f"{what} needs a coordinate 'dr' with the lag distances")
+    if single and G.ndim != 1:
+        raise ValueError(f"{what} must be one curve G(dr); got dims {G.dims}. Select one "
+                         f"first, e.g. G.isel({[d for d in G.dims if d != 'dr'][0]}=0)")
+    length_unit = u.as_length_unit(u.units_of(G["dr"], what="coordinate 'dr'"),
+                                   what="coordinate 'dr' (the lag distance)")
+    unit_str = u.format_units(length_unit)
+    g_unit = u.units_of(G, what=what)
+    if g_unit.dimensionality != (u.ureg.meter**2).dimensionality:
+        raise ValueError(f"{what} must be in length^2 (a height-difference ACF, e.g. "
+                         f"{u.power_units(unit_str, 2)!r}), but its units are "
+                         f"{u.format_units(g_unit)!r}")
+    dr = np.asarray(G["dr"].values, dtype=float)
+    if not np.all(np.isfinite(dr)) or np.any(dr < 0) or np.any(np.diff(dr) <= 0):
+        raise ValueError("coordinate 'dr' must hold finite lags >= 0, strictly increasing "
+                         "(use G.sortby('dr'))")
+    spec = AcfSpec(dr=dr, length_unit=length_unit, unit_str=unit_str,
+                   g_factor=u.conversion_factor(g_unit, length_unit**2),
+                   to_m=u.conversion_factor(length_unit, "m"),
+                   extra_dims=tuple(d for d in G.dims if d != "dr"))
+    if G.chunks is None:
+        lines = np.moveaxis(np.asarray(G.values, dtype=float), G.get_axis_num("dr"), -1)
+        problem = acf_problem(dr, lines.reshape(-1, dr.size), min_bins=min_bins,
+                              unit=unit_str)
+        if problem:
+            raise ValueError(f"{what} {problem}")
+    return spec
+
+
+def lag_coord(values: np.ndarray, unit: str, *, name: str = "dr",
+              long_name: str = "lag distance") -> dict:
+    """Build the coordinate of lags (or patch radii) in ``unit``, ready for ``coords=``."""
+    return {name: (name, np.asarray(values, dtype=float),
+                   {"units": unit, "long_name": long_name})}
+
+
+def result_attrs(source: xr.DataArray | xr.Dataset | dict | None, /, **attrs) -> dict:
+    """Attrs of a result: the provenance of ``source``, the result's own attrs, the version.
+
+    Parameters
+    ----------
+    source : DataArray, Dataset or dict of attrs, optional
+        The input (topography or G) whose :data:`PROVENANCE` attrs are carried forward.
+    **attrs
+        The result's own attrs (units, long_name, equation, parameters); they take
+        precedence over the provenance.
+
+    Returns
+    -------
+    dict
+        NetCDF-legal attrs (str, numbers), with ``xrough_version``.
+
+    Examples
+    --------
+    >>> import xarray as xr
+    >>> topo = xr.DataArray([0.0], attrs={"source_file": "scan.x3p", "units": "nm"})
+    >>> attrs = result_attrs(topo, units="nm2", long_name="G")
+    >>> attrs["source_file"], attrs["units"], "xrough_version" in attrs
+    ('scan.x3p', 'nm2', True)
+    """
+    given = source if isinstance(source, dict) else getattr(source, "attrs", {}) or {}
+    out = {k: given[k] for k in PROVENANCE if k in given}
+    out.update(attrs)
+    out["xrough_version"] = __version__
+    return out
