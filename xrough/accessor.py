@@ -1,10 +1,21 @@
-"""The ``.rough`` accessor: one line per method, each forwarding to a public function.
+"""The ``.rough`` accessors: one line per method, each forwarding to a public function.
 
-The accessor holds no state: everything a later step needs lives in coords and attrs, so
+``DataArray.rough`` works on topographies and on G(dr), ``Dataset.rough`` on several
+measurements in one Dataset and on result Datasets, ``DataTree.rough`` on several
+instruments, one node each. Every method is the public function with the accessor's object
+as its first argument: ``G.rough.persson(E_star=..., p0=...)`` is
+``xrough.persson(G, E_star=..., p0=...)``, and ``help``, ``inspect.signature``, IPython's
+``?`` and Sphinx show that function's signature (without the data argument) and docstring.
+
+The accessors hold no state: everything a later step needs lives in coords and attrs, so
 ``topo.rough.acf().rough.plot()`` chains.
 """
 
 from __future__ import annotations
+
+import inspect
+from collections.abc import Callable
+from typing import Any
 
 import xarray as xr
 
@@ -21,96 +32,149 @@ from . import (
     validation,
 )
 
-__all__ = ["RoughDataArrayAccessor", "RoughDatasetAccessor"]
+__all__ = ["RoughDataArrayAccessor", "RoughDatasetAccessor", "RoughDataTreeAccessor"]
+
+_POSITIONAL = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+
+
+class _forward:
+    """Accessor method that calls ``func(accessor._obj, *args, **kwargs)``.
+
+    The class attribute is a plain function ``method(self, ...)`` whose signature is
+    ``func``'s with its first (data) parameter renamed ``self``, so that the bound method
+    ``obj.rough.name`` shows ``func``'s parameters after the data argument, and the
+    unbound one reads like a method written out by hand (which is what Sphinx autodoc
+    expects). ``__doc__`` is ``func``'s docstring, ``__wrapped__`` is ``func`` (IPython's
+    ``??`` shows its source), and the name is the attribute's (``acf`` for
+    :func:`xrough.height_difference_acf`).
+
+    Parameters
+    ----------
+    func : callable
+        A public function whose first parameter takes the DataArray, Dataset or DataTree
+        positionally.
+
+    Raises
+    ------
+    TypeError
+        ``func`` has no first parameter that can be passed positionally.
+    """
+
+    def __init__(self, func: Callable[..., Any]) -> None:
+        sig = inspect.signature(func)
+        params = list(sig.parameters.values())
+        if not params or params[0].kind not in _POSITIONAL:
+            raise TypeError(f"{func.__qualname__}{sig} does not take its data argument "
+                            "positionally; it cannot be an accessor method")
+        data = params[0]
+
+        def method(self, /, *args, **kwargs):
+            return func(self._obj, *args, **kwargs)
+
+        this = data.replace(name="self", annotation=inspect.Parameter.empty)
+        method.__signature__ = sig.replace(parameters=[this, *params[1:]])
+        method.__doc__ = func.__doc__
+        method.__wrapped__ = func
+        method.__annotations__ = {k: v for k, v in getattr(func, "__annotations__", {}).items()
+                                  if k != data.name}
+        method.__name__ = method.__qualname__ = func.__name__
+        self.method = method
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.method.__name__ = name
+        self.method.__qualname__ = f"{owner.__qualname__}.{name}"
+
+    def __get__(self, instance: Any, owner: type | None = None) -> Callable[..., Any]:
+        return self.method.__get__(instance, owner)
 
 
 @xr.register_dataarray_accessor("rough")
 class RoughDataArrayAccessor:
-    """``DataArray.rough``: roughness and contact-mechanics steps on topographies and G."""
+    """``DataArray.rough``: roughness and contact-mechanics steps on topographies and G.
+
+    Parameters
+    ----------
+    obj : xarray.DataArray
+        A topography (dims ``y, x`` or ``x``) or a result on ``dr`` (G) or ``q``.
+    """
 
     def __init__(self, obj: xr.DataArray) -> None:
         self._obj = obj
 
-    def acf(self, **kwargs) -> xr.DataArray:
-        """G(dr) of a topography; see :func:`xrough.height_difference_acf`."""
-        return correlation.height_difference_acf(self._obj, **kwargs)
-
-    def detrend(self, **kwargs) -> xr.DataArray:
-        """Remove a mean, plane or quadratic trend; see :func:`xrough.detrend`."""
-        return preprocess.detrend(self._obj, **kwargs)
-
-    def fit_trend(self, **kwargs) -> xr.Dataset:
-        """Coefficients of the least-squares trend; see :func:`xrough.fit_trend`."""
-        return preprocess.fit_trend(self._obj, **kwargs)
-
-    def mask_outliers(self, **kwargs) -> xr.DataArray:
-        """Spikes and dimples to NaN; see :func:`xrough.mask_outliers`."""
-        return preprocess.mask_outliers(self._obj, **kwargs)
-
-    def reliable(self, **kwargs) -> xr.DataArray:
-        """Record the reliable lag range; see :func:`xrough.reliable`."""
-        return preprocess.reliable(self._obj, **kwargs)
-
-    def reliability_window(self) -> tuple:
-        """Reliable (dr_min, dr_max); see :func:`xrough.reliability_window`."""
-        return preprocess.reliability_window(self._obj)
-
-    def solve_contact(self, **kwargs) -> xr.Dataset:
-        """Boundary-element contact solution; see :func:`xrough.solve_contact`."""
-        return solver.solve_contact(self._obj, **kwargs)
-
-    def validate(self, **kwargs) -> xr.Dataset:
-        """Theories against the contact solver; see :func:`xrough.compare_with_simulation`."""
-        return validation.compare_with_simulation(self._obj, **kwargs)
-
-    def spectrum(self, **kwargs) -> xr.DataArray:
-        """Spectrum C(q) from G (eq. 10/11); see :func:`xrough.spectrum`."""
-        return spectra.spectrum(self._obj, **kwargs)
-
-    def fit(self, **kwargs) -> xr.Dataset:
-        """Fit G (eq. 36 or the model spectrum); see :func:`xrough.fit_acf`."""
-        return fitting.fit_acf(self._obj, **kwargs)
-
-    def energy(self, **kwargs) -> xr.Dataset:
-        """Elastic energy of full contact (eq. 16, 44); see :func:`xrough.elastic_energy`."""
-        return contact.elastic_energy(self._obj, **kwargs)
-
-    def gradient(self, **kwargs) -> xr.DataArray:
-        """Scale-dependent rms gradient (eq. 26); see :func:`xrough.rms_gradient`."""
-        return gradient.rms_gradient(self._obj, **kwargs)
-
-    def stress_acf(self, **kwargs) -> xr.DataArray:
-        """Stress ACF (eq. 24, 30/48); see :func:`xrough.stress_acf`."""
-        return contact.stress_acf(self._obj, **kwargs)
-
-    def persson(self, **kwargs) -> xr.Dataset:
-        """Real-space Persson theory (eq. 29-50); see :func:`xrough.persson`."""
-        return contact.persson(self._obj, **kwargs)
-
-    def patch_radius(self, **kwargs) -> xr.Dataset:
-        """Adhesive patch radius (eq. 44, 46); see :func:`xrough.patch_radius`."""
-        return contact.patch_radius(self._obj, **kwargs)
-
-    def plot(self, **kwargs):
-        """Plot a topography or a correlation function; see :func:`xrough.plot.plot`."""
-        return plot.plot(self._obj, **kwargs)
+    acf = _forward(correlation.height_difference_acf)
+    detrend = _forward(preprocess.detrend)
+    fit_trend = _forward(preprocess.fit_trend)
+    mask_outliers = _forward(preprocess.mask_outliers)
+    reliable = _forward(preprocess.reliable)
+    reliability_window = _forward(preprocess.reliability_window)
+    solve_contact = _forward(solver.solve_contact)
+    validate = _forward(validation.compare_with_simulation)
+    spectrum = _forward(spectra.spectrum)
+    fit = _forward(fitting.fit_acf)
+    energy = _forward(contact.elastic_energy)
+    gradient = _forward(gradient.rms_gradient)
+    stress_acf = _forward(contact.stress_acf)
+    persson = _forward(contact.persson)
+    patch_radius = _forward(contact.patch_radius)
+    plot = _forward(plot.plot)
 
 
 @xr.register_dataset_accessor("rough")
 class RoughDatasetAccessor:
-    """``Dataset.rough``: stitching several measurements, plots of result Datasets."""
+    """``Dataset.rough``: stitching several measurements, plots of result Datasets.
+
+    Parameters
+    ----------
+    obj : xarray.Dataset
+        Measurements as data variables (on shared dims), the curves of
+        :func:`xrough.stitch_curves`, or a result Dataset (Persson theory, energy, ...).
+    """
 
     def __init__(self, obj: xr.Dataset) -> None:
         self._obj = obj
 
-    def acf(self, **kwargs) -> xr.DataArray:
-        """One G(dr) stitched from the measurements; see :func:`xrough.stitch`."""
-        return stitching.stitch(self._obj, **kwargs)
+    acf = _forward(stitching.stitch)
+    stitch_curves = _forward(stitching.stitch_curves)
+    plot = _forward(plot.plot_dataset)
 
-    def stitch_curves(self, **kwargs) -> xr.Dataset:
-        """Each measurement's G on the common grid; see :func:`xrough.stitch_curves`."""
-        return stitching.stitch_curves(self._obj, **kwargs)
 
-    def plot(self, **kwargs):
-        """One panel per variable; see :func:`xrough.plot.plot_dataset`."""
-        return plot.plot_dataset(self._obj, **kwargs)
+class RoughDataTreeAccessor:
+    """``DataTree.rough``: one G(dr) from several instruments, one node each.
+
+    Every data variable of the tree is a measurement (a topography on its own grid and
+    in its own units, or a precomputed G), named by its path.
+
+    Registered with xarray versions that have :class:`xarray.DataTree` (2024.10 on).
+
+    Parameters
+    ----------
+    obj : xarray.DataTree
+        The measurements.
+
+    Examples
+    --------
+    >>> import xarray as xr, xrough
+    >>> topo = xrough.self_affine_surface(hurst=0.7, lambda_r="2 um", lambda_s="20 nm",
+    ...                                   size="8 um", n=1024, rms_height="10 nm",
+    ...                                   profile=True, seed=3, unit="nm")
+    >>> tree = xr.DataTree.from_dict({
+    ...     "afm": topo.isel(x=slice(0, 256)).assign_attrs(periodic=0).to_dataset(name="h"),
+    ...     "stylus": topo.isel(x=slice(None, None, 4)).to_dataset(name="h")})
+    >>> G = tree.rough.acf(points_per_decade=5)
+    >>> G.attrs["stitched_from"]
+    'afm/h, stylus/h'
+    >>> ax = tree.rough.plot(points_per_decade=5)
+    >>> [t.get_text() for t in ax.get_legend().get_texts()]
+    ['afm/h', 'stylus/h', 'stitched']
+    """
+
+    def __init__(self, obj: xr.DataTree) -> None:
+        self._obj = obj
+
+    acf = _forward(stitching.stitch)
+    stitch_curves = _forward(stitching.stitch_curves)
+    plot = _forward(plot.plot_stitched)
+
+
+if hasattr(xr, "register_datatree_accessor"):  # xarray >= 2024.10
+    xr.register_datatree_accessor("rough")(RoughDataTreeAccessor)

@@ -248,7 +248,9 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
     if p0 is not None:
         ds = persson(G, E_star=E, p0=p0, theory=theory, gradient=gradient, kappa=kappa,
                      gradient_method=gradient_method, variables=("G_sigma",))
-        return ds["G_sigma"]
+        out = ds["G_sigma"]
+        out.attrs = {**ds.attrs, **out.attrs}  # provenance, E_star, theory and the variable's
+        return out
     spec = check_acf(G)
     G_si, error = _si(G, spec)
     full = (E / 2) ** 2 * _laplacian(G_si, error, spec)

@@ -118,7 +118,7 @@ def bin_edges(lag_shape: tuple[int, ...], spacing: tuple[float, ...], periodic: 
     hi = longest if hi is None else min(hi, np.sqrt(sum(((n - 1) * d) ** 2 for n, d in
                                                          zip(lag_shape, spacing))))
     if not isinstance(bins, str):
-        edges = np.asarray(bins, dtype=float)
+        edges = u.array_in(bins, lateral_unit, what="bins", noun="bin edges")
         if edges.ndim != 1 or edges.size < 2 or np.any(np.diff(edges) <= 0) or edges[0] < 0:
             raise ValueError("bin edges must be a 1D increasing array of >= 2 lags >= 0")
         return edges

@@ -173,9 +173,12 @@ def solve_contact(
         load_attrs = {"units": "Pa", "long_name": "prescribed mean pressure"}
     else:
         load_dim = "delta"  # "displacement" names the elastic field
-        many = isinstance(displacement, (list, tuple, np.ndarray))
-        values = np.array([u.length_in(d, hunit, what="displacement")
-                           for d in (displacement if many else [displacement])])
+        mags = u.magnitude_in(displacement, hunit, what="displacement")
+        many = np.ndim(mags) > 0
+        values = np.atleast_1d(mags).astype(float)
+        if values.ndim != 1 or not np.all(np.isfinite(values) & (values > 0)):
+            raise ValueError(f"displacement must be a positive, finite length, got "
+                             f"{displacement!r}")
         targets = values * to_lat
         values = values if many else float(values[0])
         load_attrs = {"units": hunit, "long_name": "prescribed approach from first contact"}

@@ -179,12 +179,7 @@ def model_spectrum(
         q_min = min(q_0, q_r / 10.0) if q_0 > 0 else q_r / 100.0
         q_arr = _log_grid([q_min, q_0 if q_0 > 0 else q_min, q_r, q_s], points_per_decade)
     else:
-        if isinstance(q, pint.Quantity):
-            q = _units.quantity(q, what="q").to(length_unit**-1).magnitude
-        q_arr = np.atleast_1d(np.asarray(q, dtype=float))
-        if q_arr.ndim != 1 or not np.all(np.isfinite(q_arr)) or np.any(q_arr < 0):
-            raise ValueError("q must be a 1-D array of finite wavenumbers >= 0 "
-                             f"(in {unit_str}-1)")
+        q_arr = _units.array_in(q, length_unit**-1, what="q", noun="wavenumbers")
     values = _sample_model(model, q_arr)
 
     q_unit = _units.power_units(unit_str, -1)

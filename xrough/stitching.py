@@ -7,7 +7,8 @@ different windows; stitching brings their G to one length unit and one log grid 
 bins and combines them where they overlap.
 
 :func:`stitch_curves`
-    G of every measurement (in parallel threads), restricted to its window, re-binned onto
+    G of every measurement (in parallel on the active dask scheduler: threads, or a
+    ``dask.distributed`` Client when one exists), restricted to its window, re-binned onto
     the common log grid: a :class:`xarray.Dataset` on ``(measurement, dr)``, NaN outside
     each window.
 :func:`stitch_mismatch`

@@ -960,7 +960,7 @@ def supported_interval(x, change, rtol: float, *,
     change = np.asarray(change, dtype=float)
     if envelope > 0:
         lx10 = np.log10(x)
-        near = np.abs(lx10[:, None] - lx10[None, :]) <= envelope
+        near = np.abs(lx10[:, None] - lx10[None, :]) <= envelope * (1 + 1e-9)  # grid round-off
         change = np.max(np.where(near, change[None, :], -np.inf), axis=1)
     ok = change <= rtol
     if not np.any(ok):
