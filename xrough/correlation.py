@@ -48,6 +48,7 @@ import dask.array as dsa
 import numpy as np
 import xarray as xr
 from dask.diagnostics import ProgressBar
+from tqdm.auto import tqdm
 
 from . import units as u
 from ._kernels import binning
@@ -178,8 +179,6 @@ def _plan(grid: Grid, *, direction: str, bins, points_per_decade, bin_width, dr_
 def _progress_bar(total: int, progress, desc: str):
     if progress is False or total <= 1 and progress is None:
         return None
-    from tqdm.auto import tqdm
-
     return tqdm(total=total, desc=desc, disable=None if progress is None else not progress,
                 leave=False)
 

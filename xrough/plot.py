@@ -8,6 +8,7 @@ stitched G in one figure. Every function returns the :class:`matplotlib.axes.Axe
 
 from __future__ import annotations
 
+import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 
@@ -24,8 +25,6 @@ def _label(da: xr.DataArray, default: str) -> str:
 
 def _axes(ax):
     if ax is None:
-        import matplotlib.pyplot as plt
-
         _, ax = plt.subplots()
     return ax
 
@@ -123,8 +122,6 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None):
     >>> len(axes)
     8
     """
-    import matplotlib.pyplot as plt
-
     names = [n for n in (variables or ds.data_vars)
              if any(d in ds[n].dims for d in ("dr", "q", "a_c"))]
     if not names:

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
+from tqdm.auto import tqdm
 
 from . import units as u
 from ._kernels.solver import _ElasticOperator, _solve_approach, _solve_load
@@ -29,8 +30,6 @@ class ConvergenceWarning(RuntimeWarning):
 def _progress_bar(progress: bool | None, desc: str):
     if progress is False:
         return None
-    from tqdm.auto import tqdm
-
     return tqdm(desc=desc, unit="it", disable=None if progress is None else not progress,
                 leave=False)
 

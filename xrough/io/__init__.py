@@ -22,6 +22,9 @@ import inspect
 from dataclasses import dataclass
 from pathlib import Path
 
+from .. import units as u
+from ..topography import topography
+
 __all__ = ["FORMATS", "BRIDGE", "detect_format", "open_topography", "file_sha256"]
 
 
@@ -170,9 +173,6 @@ def open_topography(
     FileNotFoundError, ValueError
         Missing, unknown or corrupted file (the message names the file and the problem).
     """
-    from .. import units as u
-    from ..topography import topography
-
     path = Path(path)
     name = format or detect_format(path)
     if name not in FORMATS and name != BRIDGE:

@@ -22,6 +22,8 @@ from pathlib import Path
 import xarray as xr
 from xarray.backends import BackendEntrypoint
 
+from . import detect_format, open_topography
+
 __all__ = ["XroughBackendEntrypoint"]
 
 _PROVENANCE = ("source_file", "source_sha256", "format", "overrides")
@@ -80,8 +82,6 @@ class XroughBackendEntrypoint(BackendEntrypoint):
         -------
         xarray.Dataset
         """
-        from . import open_topography
-
         path = _as_path(filename_or_obj)
         if path is None:
             raise TypeError("the xrough engine reads files by path (str or os.PathLike), got "
@@ -109,8 +109,6 @@ class XroughBackendEntrypoint(BackendEntrypoint):
         -------
         bool
         """
-        from . import detect_format
-
         path = _as_path(filename_or_obj)
         if path is None or not path.is_file():
             return False

@@ -29,6 +29,7 @@ import xarray as xr
 
 from .. import units as u
 from ..topography import topography
+from .text import _nonuniform as build
 
 __all__ = ["available", "sniff", "read", "read_with_surfacetopography", "channels", "info_attrs"]
 
@@ -352,8 +353,6 @@ def read_with_surfacetopography(path, *, channel: int | str | None = None, size=
 
 
 def _nonuniform(name, x, h, lunit, hunit, attrs, resample, size):
-    from .text import _nonuniform as build
-
     if x.size > 1 and x[0] > x[-1]:
         x, h = x[::-1], h[::-1]
     return build(name, x, h, lunit, hunit, attrs, resample, size, None)

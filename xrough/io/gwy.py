@@ -28,6 +28,7 @@ import re
 import struct
 from pathlib import Path
 
+import gwyfile
 import numpy as np
 
 from .. import units as u
@@ -56,15 +57,6 @@ def sniff(head: bytes, path: Path | None = None) -> bool:
     return head[:4] == MAGIC
 
 
-def _gwyfile():
-    try:
-        import gwyfile
-    except ImportError as err:  # pragma: no cover - gwyfile is a dependency
-        raise ImportError("reading and writing .gwy files needs the 'gwyfile' package "
-                          "(pip install gwyfile)") from err
-    return gwyfile
-
-
 def _load(path: Path):
     """Load the top-level container after checking the magic and the declared size."""
     with open(path, "rb") as fh:
@@ -78,7 +70,6 @@ def _load(path: Path):
     if name_end + 5 + size > len(blob):
         raise fail(path, f"truncated file: the container declares {size} bytes but only "
                          f"{len(blob) - name_end - 5} follow")
-    gwyfile = _gwyfile()
     try:
         obj = gwyfile.objects.GwyObject.frombuffer(blob[4:])
     except Exception as err:  # noqa: BLE001 - a corrupted stream fails in many ways
@@ -289,7 +280,6 @@ def write(topo, path: str | Path) -> None:
     >>> bool((back.values == topo.values).all()), back.attrs["units"]
     (True, 'm')
     """
-    gwyfile = _gwyfile()
     path = Path(path)
     grid = grid_of(topo)
     if grid.dims != ("y", "x") or topo.ndim != 2:

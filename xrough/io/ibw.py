@@ -30,6 +30,7 @@ from datetime import datetime
 from pathlib import Path
 
 import numpy as np
+from igor2 import binarywave
 
 from .. import units as u
 from ..topography import topography
@@ -182,11 +183,6 @@ def _load(path: Path):
     with open(path, "rb") as fh:
         blob = fh.read()
     _, header = _check(path, blob)
-    try:
-        from igor2 import binarywave
-    except ImportError as err:  # pragma: no cover - igor2 is a dependency
-        raise ImportError("reading .ibw files needs the 'igor2' package (pip install igor2)"
-                          ) from err
     try:
         wave = binarywave.load(io.BytesIO(blob))["wave"]
     except Exception as err:  # noqa: BLE001 - a corrupted stream fails in many ways

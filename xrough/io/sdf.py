@@ -33,6 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..topography import topography
+
 __all__ = ["sniff", "read"]
 
 _TEXT_MAGIC = b"aISO-1.0"
@@ -183,8 +185,6 @@ def read(path: str | Path):
     array([[10., 20., 30.],
            [40., nan, 60.]])
     """
-    from ..topography import topography
-
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no such file: {path}")

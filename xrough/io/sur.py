@@ -26,6 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import units as u
+from ..topography import topography
+
 __all__ = ["sniff", "read", "OBJECT_TYPES"]
 
 _MAGICS = (b"DIGITAL SURF", b"DSCOMPRESSED")
@@ -81,8 +84,6 @@ def _string(raw: bytes) -> str:
 
 
 def _unit(text: str, path: Path, what: str) -> str:
-    from .. import units as u
-
     # the micro sign appears as latin-1 0xB5, Greek mu, or 0xE6 (an MS-DOS code page)
     clean = text.replace("\xb5", "u").replace("\u03bc", "u").replace("\xe6", "u")
     if not clean:
@@ -221,9 +222,6 @@ def read(path: str | Path, *, index: int = 0):
     array([[0.01, 0.02, 0.03],
            [0.04, 0.05, 0.06]])
     """
-    from .. import units as u
-    from ..topography import topography
-
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no such file: {path}")

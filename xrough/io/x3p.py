@@ -35,6 +35,9 @@ from xml.etree import ElementTree
 
 import numpy as np
 
+from .. import units as u
+from ..topography import grid_of, topography
+
 __all__ = ["sniff", "read", "write", "NAMESPACE"]
 
 #: XML namespace of ``main.xml``.
@@ -216,8 +219,6 @@ def read(path: str | Path, *, verify_checksums: bool = True):
     --------
     See :func:`write` for a round trip through a file.
     """
-    from ..topography import topography
-
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no such file: {path}")
@@ -425,9 +426,6 @@ def write(topography, path: str | Path, *, dtype: str = "D",
     >>> back.sizes["y"], back.sizes["x"], back.attrs["units"], float(back.x[1])
     (3, 4, 'm', 1e-06)
     """
-    from .. import units as u
-    from ..topography import grid_of
-
     path = Path(path)
     dtype = str(dtype).upper()
     if dtype not in ("D", "F"):

@@ -1,0 +1,127 @@
+"""The layout the architecture page describes: one direction of imports, kernels without xarray.
+
+Read from the source with :mod:`ast`, so a violation fails here whether or not the import
+happens to run.
+"""
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parents[1] / "xrough"
+#: Imports allowed inside functions: optional extras only.
+OPTIONAL = {"SurfaceTopography", "SurfaceTopography.IO"}
+
+
+def _module_name(path: Path) -> str:
+    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _resolve(module: str, node: ast.ImportFrom, is_package: bool) -> list[str]:
+    """Absolute names of the xrough modules an ImportFrom refers to."""
+    if node.level == 0:
+        base = node.module or ""
+    else:
+        parts = module.split(".")
+        keep = len(parts) - node.level + (1 if is_package else 0)
+        base = ".".join(parts[:keep] + ([node.module] if node.module else []))
+    if not base.startswith("xrough"):
+        return []
+    return [base] + [f"{base}.{a.name}" for a in node.names]
+
+
+def _graph():
+    modules = {}
+    for path in PACKAGE.rglob("*.py"):
+        name = _module_name(path)
+        modules[name] = (path, ast.parse(path.read_text()))
+    edges = {name: set() for name in modules}
+    local = {name: [] for name in modules}
+    for name, (path, tree) in modules.items():
+        is_package = path.name == "__init__.py"
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom):
+                targets = _resolve(name, node, is_package)
+            elif isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            else:
+                continue
+            submodules = [t for t in targets[1:] if t in modules]
+            if isinstance(node, ast.ImportFrom) and targets:
+                # "from .pkg import module" imports the module; names import the base
+                names_from_base = len(submodules) < len(targets) - 1
+                targets = submodules + ([targets[0]] if names_from_base else [])
+            for t in targets:
+                if t in modules and t != name:
+                    edges[name].add(t)
+            if node.col_offset > 0:  # inside a function or class
+                local[name].append((node.lineno, targets or [getattr(node, "module", "")]))
+    return modules, edges, local
+
+
+MODULES, EDGES, LOCAL = _graph()
+
+
+def test_no_import_cycles():
+    """Depth-first search over the module graph (package __init__ files excluded as sources
+    of re-exports only: a module importing its own package root would show up below)."""
+    state: dict[str, int] = {}
+
+    def visit(node, stack):
+        state[node] = 1
+        for nxt in EDGES[node]:
+            if nxt == "xrough" or nxt.endswith("__init__"):
+                continue
+            if state.get(nxt) == 1:
+                cycle = stack[stack.index(nxt):] + [nxt]
+                pytest.fail(f"import cycle: {' -> '.join(cycle)}")
+            if state.get(nxt) is None:
+                visit(nxt, stack + [nxt])
+        state[node] = 2
+
+    for name in EDGES:
+        if name != "xrough" and state.get(name) is None:
+            visit(name, [name])
+
+
+def test_no_module_imports_the_package_root():
+    offenders = [name for name, targets in EDGES.items()
+                 if name != "xrough" and "xrough" in targets]
+    assert offenders == []
+
+
+def test_kernels_have_no_xarray():
+    offenders = []
+    for name, (_, tree) in MODULES.items():
+        if not name.startswith("xrough._kernels"):
+            continue
+        for node in ast.walk(tree):
+            mods = ([a.name for a in node.names] if isinstance(node, ast.Import) else
+                    [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            offenders += [(name, m) for m in mods if m.split(".")[0] == "xarray"]
+    assert offenders == []
+
+
+def test_kernels_import_only_kernels():
+    offenders = [(name, t) for name, targets in EDGES.items()
+                 if name.startswith("xrough._kernels") for t in targets
+                 if not t.startswith("xrough._kernels")]
+    assert offenders == []
+
+
+def test_function_local_imports_are_optional_extras_only():
+    offenders = [(name, line, targets) for name, items in LOCAL.items()
+                 for line, targets in items
+                 if not all(t in OPTIONAL for t in targets)]
+    assert offenders == []
+
+
+def test_version_has_one_home():
+    assert "xrough._version" in EDGES["xrough"]
+    for name, (_, tree) in MODULES.items():
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Assign) and any(
+                    getattr(t, "id", None) == "__version__" for t in node.targets):
+                assert name == "xrough._version", name
