@@ -112,7 +112,7 @@ def exact_on_lags(g, noise, *, dr, smooth, support_rtol, interpolation,
 
 
 def auto_gradient(g, se, noise, *, dr, exact: dict, fit: dict | None,
-                  fit_gradient: dict | None) -> tuple[np.ndarray, int]:
+                  fit_gradient: dict | None) -> tuple[np.ndarray, int, int]:
     """Gbar of one curve by the first route that covers it, and the route's code.
 
     The exact gradient where G determines it; if that is fewer than half of the valid
@@ -126,16 +126,17 @@ def auto_gradient(g, se, noise, *, dr, exact: dict, fit: dict | None,
     out = exact_on_lags(g, noise, dr=dr, **exact)
     covered = np.isfinite(out) & valid
     if covered.sum() == valid.sum():
-        return out, 0
+        return out, 0, int(covered.sum())
     use_exact = 2 * covered.sum() >= valid.sum()
     fitted = _fit_gradient(g, se, dr, fit, fit_gradient)
     if fitted is not None and np.all(np.isfinite(fitted[valid])):
         if use_exact:
-            return np.where(covered, out, np.where(valid, fitted, np.nan)), 3
-        return np.where(valid, fitted, np.nan), 1
+            return np.where(covered, out, np.where(valid, fitted, np.nan)), 3, int(covered.sum())
+        return np.where(valid, fitted, np.nan), 1, int(covered.sum())
     if use_exact:
-        return np.where(covered, out, np.where(valid, simple_gradient(dr, g), np.nan)), 0
-    return np.where(valid, simple_gradient(dr, g), np.nan), 2
+        return (np.where(covered, out, np.where(valid, simple_gradient(dr, g), np.nan)), 0,
+                int(covered.sum()))
+    return np.where(valid, simple_gradient(dr, g), np.nan), 2, int(covered.sum())
 
 
 def _fit_gradient(g, se, dr, fit, fit_gradient):
