@@ -64,6 +64,8 @@ __all__ = ["height_difference_acf", "height_difference_acf_tiled"]
 ESTIMATORS = ("auto", "fft", "random", "tiled")
 _DEFAULT_PAIRS = 1_000_000
 DIRECTIONS = ("radial", "x", "y")
+#: More linear bins than this would be mostly empty and cost memory without information.
+MAX_BINS = 100_000
 
 
 @dataclass(frozen=True)
@@ -128,10 +130,20 @@ def bin_edges(lag_shape: tuple[int, ...], spacing: tuple[float, ...], periodic: 
                          f"{lateral_unit} (largest lag on this grid: {longest:g})")
     hi_edge = hi * (1 + 1e-12)  # include dr_max itself
     if bins == "log":
+        if not (np.isfinite(points_per_decade) and 0 < points_per_decade <= 1000):
+            raise ValueError(f"points_per_decade must be a positive number up to 1000, got "
+                             f"{points_per_decade!r}")
         return binning.log_bin_edges(lo, hi_edge, points_per_decade)
     if bins == "linear":
         width = min(spacing) if bin_width is None else _length(bin_width, lateral_unit,
                                                                "bin_width")
+        n_bins = (hi_edge - lo) / width
+        if n_bins > MAX_BINS:
+            raise ValueError(
+                f"bin_width={width:g} {lateral_unit} gives {n_bins:.3g} linear bins between "
+                f"{lo:g} and {hi:g} {lateral_unit}; at most {MAX_BINS:,} are allowed (the "
+                f"lattice has no more distinct lags than that: use a bin_width of at least "
+                f"{(hi_edge - lo) / MAX_BINS:.3g} {lateral_unit})")
         return binning.linear_bin_edges(lo, hi_edge, width)
     raise ValueError(f"bins must be 'log', 'linear' or an array of edges, got {bins!r}")
 

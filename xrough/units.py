@@ -324,8 +324,15 @@ def positive_si(value: Any, dimension: str, *, what: str, many: bool = False):
         raise ValueError(f"{what} must be a single value, got {_show(value)}")
     if arr.size == 0 or not np.all(np.isfinite(arr)) or np.any(arr <= 0):
         raise ValueError(f"{what} must be positive and finite, got {_show(value)}")
+    if np.any(arr > _LARGEST) or np.any(arr < 1 / _LARGEST):
+        raise ValueError(f"{what} = {_show(value)} is outside 1e-100 to 1e100 in SI units: "
+                         "no physical value is, and its square (e.g. Pa^2 of a stress ACF) "
+                         "would not fit in a float")
     return arr if np.ndim(mag) > 0 else float(arr[0])
 
+
+#: Largest SI magnitude of a physical parameter whose square still fits in a float.
+_LARGEST = 1e100
 
 _SI_UNITS = {
     "[length]": "m",
