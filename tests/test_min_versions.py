@@ -5,14 +5,12 @@ pins each of them (``==``) for .ci/oldest, which runs the whole suite on those v
 The two must name the same versions, or the minimums stop being tested.
 """
 
+import tomllib
 from pathlib import Path
 
-import pytest
 from packaging.requirements import Requirement
 from packaging.utils import canonicalize_name
 from packaging.version import Version
-
-tomllib = pytest.importorskip("tomllib")  # Python >= 3.11
 
 ROOT = Path(__file__).resolve().parents[1]
 CONSTRAINTS = ROOT / ".ci" / "oldest-constraints.txt"

@@ -74,7 +74,7 @@ def test_stack_same_g_threads_distributed_numpy():
     with dask.config.set(scheduler="threads"):
         threaded = lazy.compute()
     with distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1,
-                                  dashboard_address=None) as cluster, \
+                                  dashboard_address=":0") as cluster, \
             distributed.Client(cluster) as client:
         on_cluster = lazy.compute()
         topo = _masked_surface(n=256).chunk({"y": 128, "x": 128})

@@ -176,5 +176,4 @@ class RoughDataTreeAccessor:
     plot = _forward(plot.plot_stitched)
 
 
-if hasattr(xr, "register_datatree_accessor"):  # xarray >= 2024.10
-    xr.register_datatree_accessor("rough")(RoughDataTreeAccessor)
+xr.register_datatree_accessor("rough")(RoughDataTreeAccessor)

@@ -74,7 +74,7 @@ class StitchingMismatchWarning(UserWarning):
 def _as_mapping(measurements: Any) -> dict[str, xr.DataArray]:
     if isinstance(measurements, xr.Dataset):
         items = {str(k): v for k, v in measurements.data_vars.items()}
-    elif hasattr(xr, "DataTree") and isinstance(measurements, xr.DataTree):
+    elif isinstance(measurements, xr.DataTree):
         items = {}
         for node in measurements.subtree:
             for name, var in node.dataset.data_vars.items():
