@@ -40,7 +40,12 @@ def sur_file():
 
 
 def surface_topography(path):
-    """SurfaceTopography's reading of ``path``: the topography and heights (y, x), NaN-masked."""
+    """SurfaceTopography's reading of ``path``: the topography and heights (y, x), NaN-masked.
+
+    SurfaceTopography keeps the file's row order with the first row at the top of the
+    picture (as Gwyddion); the heights are returned in xrough's orientation, bottom row
+    first, so that they compare with xrough's readers.
+    """
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
@@ -49,7 +54,7 @@ def surface_topography(path):
             pytest.skip("SurfaceTopography is not installed")
         topo = read_topography(str(path))
         heights = np.ma.filled(np.ma.asarray(topo.heights(), dtype=float), np.nan).T
-    return topo, heights
+    return topo, heights[::-1]
 
 
 def tag(xml, name):
@@ -70,7 +75,7 @@ def test_x3p_real_file_matches_its_header(x3p_file):
     nx, ny = int(tag(xml, "SizeX")), int(tag(xml, "SizeY"))
     dx, dy = float(tag(cx, "Increment")), float(tag(cy, "Increment"))
     assert tag(xml, "DataType") is not None and "<DataType>D</DataType>" in xml
-    expected = np.frombuffer(raw, "<f8").reshape(ny, nx)
+    expected = np.frombuffer(raw, "<f8").reshape(ny, nx)[::-1]  # file's last row at y = 0
 
     topo = x3p.read(x3p_file)
     assert topo.dims == ("y", "x") and topo.shape == (ny, nx) == (650, 650)
@@ -144,7 +149,7 @@ def test_x3p_round_trip_map_with_nans(tmp_path):
         listed = zf.read("md5checksum.hex").decode().split()[0]
         assert listed == hashlib.md5(zf.read("main.xml")).hexdigest()
     valid = np.unpackbits(np.frombuffer(bits, np.uint8), bitorder="little")[:35]
-    np.testing.assert_array_equal(valid.reshape(5, 7), np.isfinite(topo.values))
+    np.testing.assert_array_equal(valid.reshape(5, 7), np.isfinite(topo.values)[::-1])
     st, heights = surface_topography(path)
     assert st.physical_sizes == pytest.approx((7 * 0.1e-6, 5 * 0.3e-6), rel=1e-12)
     np.testing.assert_array_equal(heights, topo.values)
@@ -251,6 +256,7 @@ def test_x3p_integer_data_with_increment_offset_and_validity_mask(tmp_path):
     topo = x3p.read(path)
     expected = raw * 1e-9 + 2e-6
     expected[~valid_bits.reshape(2, 4)] = np.nan
+    expected = expected[::-1]  # the file's last row is y = 0
     np.testing.assert_allclose(topo.values, expected, rtol=1e-15)
     assert np.isnan(topo.values).sum() == 2
     assert float(topo.x[1]) == 2.5e-6 and float(topo.y[1]) == 5e-6
@@ -259,7 +265,7 @@ def test_x3p_integer_data_with_increment_offset_and_validity_mask(tmp_path):
         raw2 = np.arange(8, dtype=dtype).reshape(2, 4)
         path = x3p_by_hand(tmp_path / f"{code}.x3p", nx=4, ny=2, data=raw2.tobytes(),
                            z=f"<DataType>{code}</DataType>")
-        np.testing.assert_array_equal(x3p.read(path).values, raw2.astype(float))
+        np.testing.assert_array_equal(x3p.read(path).values, raw2[::-1].astype(float))
 
 
 def test_x3p_inline_datalist_profile(tmp_path):
@@ -399,8 +405,8 @@ def test_sdf_real_file_matches_its_header(sdf_file):
     assert float(topo.y[1]) == float(header["Yscale"])
     assert grid_of(topo).size == pytest.approx((4e-6, 7e-6), rel=1e-14)
     expected = np.array(values, dtype=float).reshape(ny, nx) * float(header["Zscale"])
-    np.testing.assert_array_equal(topo.values, expected)
-    assert topo.values[0, 1] == 0.99874 * 1e-6
+    np.testing.assert_array_equal(topo.values, expected[::-1])  # last profile at y = 0
+    assert topo.values[-1, 1] == 0.99874 * 1e-6
     assert topo.attrs["manufacturer_id"] == header["ManufacID"] == "ISOTC213"
     assert topo.attrs["create_date"] == header["CreateDate"]
     assert topo.attrs["z_resolution"] == float(header["Zresolution"])
@@ -452,7 +458,7 @@ def test_sdf_text_integer_data_with_missing_points(tmp_path):
     path.write_text(SDF_HEADER.format(nx=3, ny=2, dz="1.0E-9", code=5)
                     + "1 2 BAD\n-32768 5\n6\n*\n")
     topo = sdf.read(path)
-    np.testing.assert_array_equal(topo.values, np.array([[1, 2, np.nan], [np.nan, 5, 6]])
+    np.testing.assert_array_equal(topo.values, np.array([[np.nan, 5, 6], [1, 2, np.nan]])
                                   * 1e-9)
     assert float(topo.y[1]) == 3e-6 and "trailer" not in topo.attrs
 
@@ -470,7 +476,7 @@ def test_sdf_single_profile_and_binary(tmp_path):
     binary = tmp_path / "binary.sdf"
     binary.write_bytes(header + values.tobytes())
     topo = sdf.read(binary)
-    np.testing.assert_allclose(topo.values, np.array([[10, 20, 30], [40, np.nan, 60]])
+    np.testing.assert_allclose(topo.values, np.array([[40, np.nan, 60], [10, 20, 30]])
                                * 1e-9, rtol=1e-15)
     assert topo.attrs["manufacturer_id"] == "Bin" and topo.attrs["z_resolution"] == 1e-10
     assert detect_format(binary) == "sdf"
@@ -536,6 +542,7 @@ def test_sur_real_file_matches_its_header(sur_file):
     expected = points * float(np.float32(h["dz"])) + h["zoff"]
     missing = points == h["zmin"] - 2
     expected[missing] = np.nan
+    expected, missing = expected[::-1], missing[::-1]  # the last line is y = 0
 
     topo = sur.read(sur_file)
     assert topo.dims == ("y", "x") and topo.shape == (h["ny"], h["nx"]) == (484, 563)
@@ -615,7 +622,7 @@ def test_sur_synthetic_objects(tmp_path):
     assert profile.attrs["n_objects"] == 2 and profile.attrs["object_index"] == 0
     assert profile.attrs["date"] == "2021-01-02T03:04:05"
     topo = sur.read(path, index=1)
-    expected = np.array([[1, 2, 3], [4, np.nan, 6]]) * 0.01 + 1.5
+    expected = np.array([[4, np.nan, 6], [1, 2, 3]]) * 0.01 + 1.5  # last line at y = 0
     np.testing.assert_allclose(topo.values, expected, rtol=1e-7)
     assert float(topo.x[1]) == 0.5 and float(topo.y[1]) == 0.25
     assert topo.attrs["object_index"] == 1 and topo.attrs["object_name"] == "sample"
@@ -625,7 +632,9 @@ def test_sur_synthetic_objects(tmp_path):
 
 def test_sur_inversion_units_and_32_bit(tmp_path):
     points = np.array([[1, 2, 3], [4, 5, 6]])
-    for code, expected in ((1, -points), (2, -points[:, ::-1]), (3, -points[::-1])):
+    # as Gwyddion: 1 negates, 2 also mirrors left-right, 3 upside-down; then the last
+    # line of the picture is y = 0
+    for code, expected in ((1, -points[::-1]), (2, -points[::-1, ::-1]), (3, -points)):
         path = tmp_path / f"inv{code}.sur"
         path.write_bytes(sur_object(points, inversion=code, dz=1.0, units="nm", bits=32))
         topo = sur.read(path)

@@ -23,6 +23,16 @@ Missing points are ``BAD`` in text files and, for 16- and 32-bit integer data ty
 reserved extreme value (the minimum of signed and the maximum of unsigned types); they
 become NaN. Not read: compressed data (``Compression`` other than 0) and the data
 checksum (``CheckType``), whose algorithm the header does not identify.
+
+Row orientation: ISO 25178-71 stores the profiles in the order of increasing ``y`` and
+leaves the orientation of the picture to the software; Gwyddion and SurfaceTopography show
+the first profile at the *top* of the image. xrough's rule for every reader is that row 0
+of the returned array is ``y = 0`` and ``y = 0`` is the picture's *bottom* row as that
+software displays it, so the profiles are reversed on read (the last profile is ``y = 0``).
+
+Safety: the number of points the header declares is checked against the data the file
+holds, and against ``max_points`` (default :data:`xrough.io.x3p.MAX_POINTS`), before any
+array is allocated; every failure is a ``ValueError`` naming the file.
 """
 
 from __future__ import annotations
@@ -34,6 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from ..topography import topography
+from .x3p import check_file, check_points, reader_errors
 
 __all__ = ["sniff", "read"]
 
@@ -129,19 +140,22 @@ def _parse_binary(raw: bytes, path: Path):
     return header, raw[start + _BINARY_HEADER.size:]
 
 
-def read(path: str | Path):
+def read(path: str | Path, *, max_points: int | None = None):
     """Read an ISO 25178-71 SDF file (text ``aISO-1.0`` or binary ``bISO-1.0``).
 
     Parameters
     ----------
     path : str or Path
         The ``.sdf`` file.
+    max_points : int, optional
+        Refuse a header declaring more points (default :data:`xrough.io.x3p.MAX_POINTS`).
 
     Returns
     -------
     xarray.DataArray
         Heights ``value * Zscale`` in metres on dims ``("y", "x")`` (one row per
-        profile) or ``("x",)`` when the file has a single profile; spacings ``Xscale``
+        profile, the last profile at ``y = 0``, see the module notes on row orientation)
+        or ``("x",)`` when the file has a single profile; spacings ``Xscale``
         and ``Yscale`` in metres. Attributes: ``manufacturer_id``, ``create_date``,
         ``modification_date`` (as written, ``DDMMYYYYHHMM``), ``z_resolution`` (metres;
         negative: unknown), ``compression``, ``data_type`` (code), ``check_type``, other
@@ -151,8 +165,10 @@ def read(path: str | Path):
     Raises
     ------
     ValueError
-        Bad magic, missing or malformed header fields, compressed or too little data;
-        the message names the file and the problem.
+        Bad magic, missing or malformed header fields, compressed or too little data,
+        more points than ``max_points``; the message names the file and the problem.
+    FileNotFoundError, IsADirectoryError
+        ``path`` is not a file.
 
     Examples
     --------
@@ -181,13 +197,17 @@ def read(path: str | Path):
     ...     topo = sdf.read(path)
     >>> topo.shape, topo.attrs["units"], float(topo.x[1]), float(topo.y[1])
     ((2, 3), 'm', 1e-06, 2e-06)
-    >>> topo.values * 1e9
-    array([[10., 20., 30.],
-           [40., nan, 60.]])
+    >>> topo.values * 1e9  # the last profile is y = 0
+    array([[40., nan, 60.],
+           [10., 20., 30.]])
     """
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no such file: {path}")
+    check_file(path)
+    with reader_errors(path, "ISO 25178-71 SDF"):
+        return _read(path, max_points)
+
+
+def _read(path: Path, max_points: int | None):
     raw = path.read_bytes().removeprefix(_BOM)
     binary = raw.startswith(_BINARY_MAGIC)
     if not (binary or raw.startswith(_TEXT_MAGIC)):
@@ -219,6 +239,7 @@ def read(path: str | Path):
                          f"{field('Compression', int)}) is not supported")
     _, dtype, marker = _DATA_TYPES[code]
     n = nx * ny
+    check_points(path, n, max_points, f"the header ({nx} x {ny})")
     if binary:
         if len(payload) < n * dtype.itemsize:
             raise ValueError(f"{path.name}: the file holds {len(payload)} bytes of data, "
@@ -268,7 +289,8 @@ def read(path: str | Path):
     try:
         if ny == 1:
             return topography(heights, spacing=dx, unit="m", attrs=attrs)
-        return topography(heights.reshape(ny, nx), spacing=(dy, dx), unit="m",
+        # the first profile is the top of the picture: reversed, the last is y = 0
+        return topography(heights.reshape(ny, nx)[::-1], spacing=(dy, dx), unit="m",
                           attrs=attrs)
     except ValueError as err:
         raise ValueError(f"{path.name}: {err}") from None

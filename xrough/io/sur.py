@@ -13,6 +13,17 @@ negated and, for 2 and 3, is mirrored left-right or upside-down, as MountainsMap
 The header's float32 values are taken at their shortest decimal form (a Z spacing stored
 as the float32 nearest to ``1e-7`` is 1e-07, not 1.0000000116860974e-07).
 
+Row orientation: the points are stored line after line and MountainsMap, Gwyddion and
+SurfaceTopography show the first line at the *top* of the image. xrough's rule for every
+reader is that row 0 of the returned array is ``y = 0`` and ``y = 0`` is the picture's
+*bottom* row as that software displays it, so the lines are reversed on read (the last
+stored line is ``y = 0``), after the inversion flag has been applied.
+
+Safety: the points a header declares are checked against the file's size (plain data) or
+against ``max_points`` (default :data:`xrough.io.x3p.MAX_POINTS`) and the stream
+directory (compressed data, each stream inflated with a cap at the size the directory
+states) before anything is allocated; every failure is a ``ValueError`` naming the file.
+
 Not read: the private zone, the client zone, intensity/RGB/binary images, spectra and
 force curves (only height objects: profiles, surfaces and series or layers of them).
 """
@@ -28,6 +39,7 @@ import numpy as np
 
 from .. import units as u
 from ..topography import topography
+from .x3p import check_file, check_points, reader_errors
 
 __all__ = ["sniff", "read", "OBJECT_TYPES"]
 
@@ -133,12 +145,19 @@ def _points(raw: bytes, h: dict, path: Path, index: int, decode: bool):
                              f"header, the file has {max(len(raw) - start, 0)}")
         return (np.frombuffer(raw, dtype, count, start) if decode else None), end
     # DSCOMPRESSED: stream count, (raw size, zipped size) per stream, then the streams
-    try:
-        (n_streams,) = struct.unpack_from("<I", raw, start)
-        sizes = struct.unpack_from(f"<{2 * n_streams}I", raw, start + 4)
-    except struct.error:
+    if len(raw) < start + 4:
         raise ValueError(f"{path.name}: object {index} is truncated in its compressed "
-                         "data directory") from None
+                         "data directory")
+    (n_streams,) = struct.unpack_from("<I", raw, start)
+    if len(raw) < start + 4 + 8 * n_streams:
+        raise ValueError(f"{path.name}: object {index} is truncated in its compressed "
+                         f"data directory ({n_streams} streams announced)")
+    sizes = struct.unpack_from(f"<{2 * n_streams}I", raw, start + 4)
+    expected = count * dtype.itemsize
+    if decode and sum(sizes[::2]) != expected:
+        raise ValueError(f"{path.name}: object {index}: the compressed streams expand to "
+                         f"{sum(sizes[::2])} bytes by their directory, {count} points of "
+                         f"{h['point_size']} bits need {expected} (corrupted file)")
     pos = start + 4 + 8 * n_streams
     chunks = []
     for raw_size, zip_size in zip(sizes[::2], sizes[1::2]):
@@ -146,16 +165,7 @@ def _points(raw: bytes, h: dict, path: Path, index: int, decode: bool):
             raise ValueError(f"{path.name}: object {index} is truncated in its compressed "
                              "data")
         if decode:
-            try:
-                chunk = zlib.decompress(raw[pos:pos + zip_size])
-            except zlib.error as err:
-                raise ValueError(f"{path.name}: object {index} has corrupted compressed "
-                                 f"data ({err})") from None
-            if len(chunk) != raw_size:
-                raise ValueError(f"{path.name}: object {index}: a compressed stream "
-                                 f"expands to {len(chunk)} bytes, the directory states "
-                                 f"{raw_size}")
-            chunks.append(chunk)
+            chunks.append(_inflate(raw[pos:pos + zip_size], raw_size, path, index))
         pos += zip_size
     if not decode:
         return None, pos
@@ -167,7 +177,26 @@ def _points(raw: bytes, h: dict, path: Path, index: int, decode: bool):
     return np.frombuffer(data, dtype, count), pos
 
 
-def read(path: str | Path, *, index: int = 0):
+def _inflate(stream: bytes, raw_size: int, path: Path, index: int) -> bytes:
+    """Decompress one zlib stream, never producing more than ``raw_size`` bytes."""
+    inflater = zlib.decompressobj()
+    try:
+        chunk = inflater.decompress(stream, raw_size + 1)
+    except zlib.error as err:
+        raise ValueError(f"{path.name}: object {index} has corrupted compressed data "
+                         f"({err})") from None
+    if len(chunk) > raw_size or inflater.unconsumed_tail:
+        raise ValueError(f"{path.name}: object {index} has corrupted compressed data: a "
+                         f"stream expands to more than the {raw_size} bytes the directory "
+                         "states")
+    if len(chunk) != raw_size or not inflater.eof:
+        raise ValueError(f"{path.name}: object {index}: a compressed stream expands to "
+                         f"{len(chunk)} bytes, the directory states {raw_size} "
+                         "(truncated or corrupted)")
+    return chunk
+
+
+def read(path: str | Path, *, index: int = 0, max_points: int | None = None):
     """Read one object of a Digital Surf SUR file.
 
     Parameters
@@ -177,13 +206,18 @@ def read(path: str | Path, *, index: int = 0):
     index : int, default 0
         Which object of a multi-object file (series, layers, surface with images) to
         read, counting from 0.
+    max_points : int, optional
+        Refuse an object declaring more points (default
+        :data:`xrough.io.x3p.MAX_POINTS`), a guard against corrupted headers.
 
     Returns
     -------
     xarray.DataArray
         Heights in the file's Z step unit on dims ``("y", "x")`` (lines, points per line)
-        or ``("x",)`` for a one-line object, lateral coordinates in the X step unit
-        (the Y spacing converted to it if Y has another unit), non-measured points NaN.
+        or ``("x",)`` for a one-line object, lines reversed (the last stored line at
+        ``y = 0``, see the module notes on row orientation), lateral coordinates in the X
+        step unit (the Y spacing converted to it if Y has another unit), non-measured
+        points NaN.
         Attributes: ``object_type``, ``object_name``, ``operator_name``,
         ``acquisition``, ``date`` (ISO 8601), ``comment``, ``x_offset`` / ``y_offset``
         (lateral unit), ``inversion``, ``n_objects`` and ``object_index`` (files with
@@ -193,8 +227,10 @@ def read(path: str | Path, *, index: int = 0):
     ------
     ValueError
         Bad signature, inconsistent header, truncated or corrupted data, an object that
-        holds no heights, or ``index`` out of range; the message names the file and the
-        problem.
+        holds no heights, more points than ``max_points``, or ``index`` out of range; the
+        message names the file and the problem.
+    FileNotFoundError, IsADirectoryError
+        ``path`` is not a file.
 
     Examples
     --------
@@ -218,20 +254,24 @@ def read(path: str | Path, *, index: int = 0):
     ...     topo = sur.read(path)
     >>> topo.shape, topo.attrs["units"], float(topo.x[1]), float(topo.y[1])
     ((2, 3), 'um', 0.5, 0.25)
-    >>> topo.values
-    array([[0.01, 0.02, 0.03],
-           [0.04, 0.05, 0.06]])
+    >>> topo.values  # the last stored line is y = 0
+    array([[0.04, 0.05, 0.06],
+           [0.01, 0.02, 0.03]])
     """
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no such file: {path}")
+    check_file(path)
+    index = int(index)
+    with reader_errors(path, "Digital Surf SUR"):
+        return _read(path, index, max_points)
+
+
+def _read(path: Path, index: int, max_points: int | None):
     raw = path.read_bytes()
     if raw[:12] not in _MAGICS:
         raise ValueError(f"{path.name}: not a SUR file (it starts with {raw[:12]!r}, not "
                          "'DIGITAL SURF' or 'DSCOMPRESSED')")
     first = _header(raw, 0, path, 0)
     n_objects = max(first["n_objects"], 1)
-    index = int(index)
     if not 0 <= index < n_objects:
         raise ValueError(f"{path.name}: index={index} but the file has {n_objects} "
                          f"object{'s' if n_objects > 1 else ''} (0 to {n_objects - 1})")
@@ -244,6 +284,7 @@ def read(path: str | Path, *, index: int = 0):
     if h["object_type"] not in _HEIGHT_TYPES:
         raise ValueError(f"{path.name}: object {index} is a {kind}, not heights; choose "
                          "another object with index=")
+    check_points(path, h["n_points"], max_points, f"object {index}")
     points, _ = _points(raw, h, path, index, decode=True)
 
     dz = _f32(h["dz"])
@@ -260,6 +301,7 @@ def read(path: str | Path, *, index: int = 0):
             heights = heights[:, ::-1]
         elif h["inversion"] == 3:
             heights = heights[::-1, :]
+    heights = heights[::-1]  # the first line is the top of the picture, the last y = 0
     height_unit = _unit(h["dz_unit"], path, "Z")
     lateral_unit = _unit(h["dx_unit"], path, "X")
     dx = _f32(h["dx"])

@@ -15,6 +15,21 @@ Reading
     The coordinates of the returned topography start at zero; non-zero axis offsets (the
     position of the first point on the instrument's stage) are kept in
     ``attrs["x_offset"]`` and ``attrs["y_offset"]`` (metres).
+Row orientation
+    ISO 25178-72 numbers the points row by row, the first row at ``CY`` offset, and leaves
+    the orientation of the picture to the software. Gwyddion, MountainsMap and
+    SurfaceTopography show the file's first row at the *top* of the image. xrough's rule
+    for every reader is that row 0 of the returned array is ``y = 0`` and ``y = 0`` is
+    the picture's *bottom* row as that software displays it, so the rows are reversed on
+    read (the file's last row is ``y = 0``) and again on write: the picture is the same in
+    every program. Note that xrough's ``y`` then runs against the standard's ``CY``.
+Safety
+    Untrusted files cannot make the reader allocate more than the header declares: the
+    header may declare at most ``max_points`` points (default :data:`MAX_POINTS`), each
+    archive member is decompressed in a stream capped at the size the header requires
+    (and refused before decompression when the archive states more, or a compression
+    ratio no real data reaches), and inline ``<DataList>`` points are counted before any
+    array is allocated. Every failure is a ``ValueError`` naming the file.
 Not read
     Point clouds (``PCL``, ``ListDimension``), absolute lateral axes (coordinates stored per
     point), several layers (``SizeZ > 1``) and the optional rotation matrix.
@@ -25,9 +40,11 @@ Writing
 
 from __future__ import annotations
 
+import contextlib
 import datetime
 import hashlib
 import re
+import struct
 import zipfile
 import zlib
 from pathlib import Path
@@ -38,7 +55,18 @@ import numpy as np
 from .. import units as u
 from ..topography import grid_of, topography
 
-__all__ = ["sniff", "read", "write", "NAMESPACE"]
+__all__ = ["sniff", "read", "write", "NAMESPACE", "MAX_POINTS", "check_file",
+           "check_points", "reader_errors"]
+
+#: Largest number of points a reader of this package's native formats (X3P, SUR, SDF)
+#: accepts unless the caller passes ``max_points=``: a larger header is taken as corrupted.
+MAX_POINTS = 2**31
+#: Deflate does not compress real data by more than about 1000:1; a member claiming more
+#: is a zip bomb or a corrupted archive.
+_MAX_RATIO = 1100
+#: Upper bound on the uncompressed size of ``main.xml`` and of the checksum file.
+_MAX_XML = 2**31
+_MAX_CHECKSUM_FILE = 1 << 16
 
 #: XML namespace of ``main.xml``.
 NAMESPACE = "http://www.opengps.eu/2008/ISO5436_2"
@@ -97,6 +125,116 @@ def sniff(head: bytes, path: Path | None = None) -> bool:
     return b"ISO5436_2" in start
 
 
+# ------------------------------------------------------------------ shared safety rules
+
+#: Third-party exceptions and what they mean in a file reader, in words.
+_ERROR_WORDS = (
+    (UnicodeError, "text that is not validly encoded"),
+    (ElementTree.ParseError, "malformed XML"),
+    (zlib.error, "corrupted compressed data"),
+    (zipfile.BadZipFile, "a corrupted zip archive"),
+    (struct.error, "a truncated or corrupted binary structure"),
+    (EOFError, "data that ends too early (truncated file)"),
+    (ZeroDivisionError, "a zero size or spacing"),
+    (OverflowError, "a number out of range"),
+    (MemoryError, "sizes too large for memory"),
+    (RecursionError, "structures nested too deeply"),
+    (KeyError, "a missing entry"),
+    (IndexError, "a missing entry"),
+)
+
+
+def check_file(path: Path) -> None:
+    """Raise ``FileNotFoundError`` or ``IsADirectoryError`` unless ``path`` is a file.
+
+    Examples
+    --------
+    >>> check_file(Path("no-such-file.x3p"))
+    Traceback (most recent call last):
+    ...
+    FileNotFoundError: no such file: no-such-file.x3p
+    """
+    if path.is_dir():
+        raise IsADirectoryError(f"{path.name}: is a directory, not a file")
+    if not path.is_file():
+        raise FileNotFoundError(f"no such file: {path}")
+
+
+def check_points(path: Path, n: int, max_points: int | None, what: str) -> None:
+    """Refuse a header that declares more than ``max_points`` points.
+
+    Parameters
+    ----------
+    path : Path
+        The file, named in the message.
+    n : int
+        The number of points the header declares.
+    max_points : int or None
+        The limit (``None``: :data:`MAX_POINTS`).
+    what : str
+        What declares them, for the message.
+
+    Raises
+    ------
+    ValueError
+        ``n > max_points``.
+
+    Examples
+    --------
+    >>> check_points(Path("a.sur"), 10, 100, "the header")
+    >>> check_points(Path("a.sur"), 60000 * 60000, None, "the header")
+    Traceback (most recent call last):
+    ...
+    ValueError: a.sur: the header declares 3600000000 points, more than ...
+    """
+    limit = MAX_POINTS if max_points is None else int(max_points)
+    if n > limit:
+        raise ValueError(f"{path.name}: {what} declares {n} points, more than the limit of "
+                         f"{limit} (a corrupted header? pass max_points= to read a larger "
+                         "file)")
+
+
+@contextlib.contextmanager
+def reader_errors(path: Path, description: str):
+    """Turn every error raised inside the block into a ``ValueError`` naming the file.
+
+    ``FileNotFoundError`` and ``IsADirectoryError`` pass unchanged, a ``ValueError``
+    that already starts with the file's name too; other errors of a reader choking on a
+    corrupted file (``zlib.error``, ``struct.error``, ``UnicodeDecodeError``, XML errors,
+    ``ZeroDivisionError``, ``OverflowError``, ``MemoryError``...) are re-raised as
+    ``ValueError("<file>: cannot read as <description>: <what is wrong>")``.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    description : str
+        The format, for the message.
+
+    Examples
+    --------
+    >>> with reader_errors(Path("scan.sur"), "Digital Surf SUR"):
+    ...     1 / 0
+    Traceback (most recent call last):
+    ...
+    ValueError: scan.sur: cannot read as Digital Surf SUR: a zero size or spacing ...
+    """
+    prefix = f"{path.name}:"
+    try:
+        yield
+    except (FileNotFoundError, IsADirectoryError):
+        raise
+    except Exception as err:  # noqa: BLE001 - a corrupted file fails in many ways
+        if isinstance(err, ValueError) and not isinstance(err, UnicodeError):
+            if str(err).startswith(prefix):
+                raise
+            raise ValueError(f"{prefix} {err}") from err
+        words = next((w for kind, w in _ERROR_WORDS if isinstance(err, kind)),
+                     "a corrupted file")
+        raise ValueError(f"{prefix} cannot read as {description}: {words} "
+                         f"({type(err).__name__}: {err})") from err
+
+
 # ---------------------------------------------------------------------------- reading
 
 
@@ -120,15 +258,32 @@ def _text(elem, *names) -> str | None:
     return node.text.strip()
 
 
-def _member(zf: zipfile.ZipFile, name: str, path: Path, what: str) -> bytes:
-    if name not in zf.namelist():
-        raise ValueError(f"{path.name}: the {what} {name!r} named in main.xml is missing "
-                         "from the archive")
+def _member(zf: zipfile.ZipFile, name: str, path: Path, what: str, limit: int) -> bytes:
+    """Extract one member, never decompressing more than ``limit`` bytes."""
     try:
-        return zf.read(name)
-    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, RuntimeError) as err:
+        info = zf.getinfo(name)
+    except KeyError:
+        raise ValueError(f"{path.name}: the {what} {name!r} named in main.xml is missing "
+                         "from the archive") from None
+    if info.file_size > limit:
+        raise ValueError(f"{path.name}: the {what} {name!r} holds {info.file_size} bytes, "
+                         f"more than the {limit} the header allows (corrupted file)")
+    if (info.compress_type != zipfile.ZIP_STORED
+            and info.file_size > _MAX_RATIO * max(info.compress_size, 1)):
+        raise ValueError(f"{path.name}: the {what} {name!r} claims to expand "
+                         f"{info.compress_size} bytes to {info.file_size}, a compression "
+                         "ratio no measured data reaches (zip bomb or corrupted archive)")
+    try:
+        with zf.open(info) as fh:
+            data = fh.read(limit + 1)
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, RuntimeError,
+            NotImplementedError) as err:
         raise ValueError(f"{path.name}: cannot extract {name!r} from the archive "
                          f"(corrupted or truncated file: {err})") from None
+    if len(data) > limit:
+        raise ValueError(f"{path.name}: the {what} {name!r} expands to more than the "
+                         f"{limit} bytes the header allows (corrupted file)")
+    return data
 
 
 def _check_md5(data: bytes, expected: str | None, path: Path, what: str) -> None:
@@ -173,12 +328,16 @@ def _axis(axes, name: str, path: Path) -> dict:
 
 
 def _read_datalist(datalist, n: int, path: Path) -> np.ndarray:
-    """Heights stored inline in ``<DataList>``: one ``<Datum>`` per point, empty = invalid."""
-    values = np.full(n, np.nan)
+    """Heights stored inline in ``<DataList>``: one ``<Datum>`` per point, empty = invalid.
+
+    The points are counted before the array is allocated, so a header claiming more
+    points than the list holds fails without allocating.
+    """
     data = [d for d in datalist if _local(d.tag) == "Datum"]
     if len(data) != n:
         raise ValueError(f"{path.name}: <DataList> holds {len(data)} points, the matrix "
                          f"dimensions ask for {n}")
+    values = np.full(n, np.nan)
     for i, datum in enumerate(data):
         text = (datum.text or "").strip()
         if text:
@@ -186,7 +345,7 @@ def _read_datalist(datalist, n: int, path: Path) -> np.ndarray:
     return values
 
 
-def read(path: str | Path, *, verify_checksums: bool = True):
+def read(path: str | Path, *, verify_checksums: bool = True, max_points: int | None = None):
     """Read an ISO 25178-72 X3P file.
 
     Parameters
@@ -196,12 +355,16 @@ def read(path: str | Path, *, verify_checksums: bool = True):
     verify_checksums : bool, default True
         Check the MD5 checksums of ``main.xml``, of the point data and of the validity
         mask where the file states them.
+    max_points : int, optional
+        Refuse a file declaring more points (default :data:`MAX_POINTS`): a guard against
+        corrupted headers and zip bombs.
 
     Returns
     -------
     xarray.DataArray
         Heights in metres on dims ``("y", "x")`` (map) or ``("x",)`` (profile), lateral
-        coordinates in metres starting at zero (spacing = the axis increments). Attributes
+        coordinates in metres starting at zero (spacing = the axis increments), the file's
+        last row at ``y = 0`` (see the module notes on row orientation). Attributes
         hold the file's metadata when present: ``date``, ``creator``,
         ``instrument_manufacturer``, ``instrument_model``, ``instrument_serial``,
         ``instrument_version``, ``instrument`` (manufacturer and model),
@@ -212,16 +375,23 @@ def read(path: str | Path, *, verify_checksums: bool = True):
     ------
     ValueError
         Not a zip archive, no or malformed ``main.xml``, unsupported layout (point cloud,
-        absolute lateral axes, several layers), a data member of the wrong size, or a
-        checksum mismatch; the message names the file and the problem.
+        absolute lateral axes, several layers), a data member of the wrong size, more points
+        than ``max_points``, a zip bomb, or a checksum mismatch; the message names the file
+        and the problem.
+    FileNotFoundError, IsADirectoryError
+        ``path`` is not a file.
 
     Examples
     --------
     See :func:`write` for a round trip through a file.
     """
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no such file: {path}")
+    check_file(path)
+    with reader_errors(path, "ISO 25178-72 X3P"):
+        return _read(path, verify_checksums, max_points)
+
+
+def _read(path: Path, verify_checksums: bool, max_points: int | None):
     try:
         zf = zipfile.ZipFile(path)
     except (zipfile.BadZipFile, OSError) as err:
@@ -231,7 +401,7 @@ def read(path: str | Path, *, verify_checksums: bool = True):
         if _MAIN not in zf.namelist():
             raise ValueError(f"{path.name}: not an X3P file, the zip archive has no "
                              f"main.xml (members: {', '.join(zf.namelist()[:5])})")
-        xml = _member(zf, _MAIN, path, "document")
+        xml = _member(zf, _MAIN, path, "document", _MAX_XML)
         try:
             root = ElementTree.fromstring(xml)
         except ElementTree.ParseError as err:
@@ -245,8 +415,8 @@ def read(path: str | Path, *, verify_checksums: bool = True):
 
         checksum_name = _text(root, "Record4", "ChecksumFile")
         if verify_checksums and checksum_name:
-            listed = _member(zf, checksum_name, path, "checksum file").decode("ascii",
-                                                                              "replace")
+            listed = _member(zf, checksum_name, path, "checksum file",
+                             _MAX_CHECKSUM_FILE).decode("ascii", "replace")
             match = re.match(r"\s*([0-9a-fA-F]{32})", listed)
             if match is None:
                 raise ValueError(f"{path.name}: the checksum file {checksum_name!r} holds "
@@ -285,14 +455,15 @@ def read(path: str | Path, *, verify_checksums: bool = True):
             raise ValueError(f"{path.name}: SizeZ = {nz}; several layers per point are not "
                              "supported")
         n = nx * ny
+        check_points(path, n, max_points, f"main.xml ({nx} x {ny})")
 
         link, datalist = _child(record3, "DataLink"), _child(record3, "DataList")
         if link is not None:
             name = _text(link, "PointDataLink") or _DATA_MEMBER
-            raw = _member(zf, name, path, "point data")
+            dtype = _DTYPES[cz["dtype"]]
+            raw = _member(zf, name, path, "point data", n * dtype.itemsize)
             if verify_checksums:
                 _check_md5(raw, _text(link, "MD5ChecksumPointData"), path, name)
-            dtype = _DTYPES[cz["dtype"]]
             if len(raw) != n * dtype.itemsize:
                 raise ValueError(
                     f"{path.name}: {name} has {len(raw)} bytes, but {nx} x {ny} points of "
@@ -300,7 +471,7 @@ def read(path: str | Path, *, verify_checksums: bool = True):
             values = np.frombuffer(raw, dtype=dtype).astype(float)
             valid_name = _text(link, "ValidPointsLink")
             if valid_name:
-                bits = _member(zf, valid_name, path, "validity mask")
+                bits = _member(zf, valid_name, path, "validity mask", (n + 7) // 8)
                 if verify_checksums:
                     _check_md5(bits, _text(link, "MD5ChecksumValidPoints"), path,
                                valid_name)
@@ -335,7 +506,9 @@ def read(path: str | Path, *, verify_checksums: bool = True):
     try:
         if profile:
             return topography(values, spacing=cx["increment"], unit="m", attrs=attrs)
-        return topography(values.reshape(ny, nx), spacing=(cy["increment"], cx["increment"]),
+        # the file's first row is the top of the picture: reversed, the last is y = 0
+        return topography(values.reshape(ny, nx)[::-1], spacing=(cy["increment"],
+                                                                  cx["increment"]),
                           unit="m", attrs=attrs)
     except ValueError as err:
         raise ValueError(f"{path.name}: {err}") from None
@@ -376,9 +549,10 @@ def write(topography, path: str | Path, *, dtype: str = "D",
           metadata: dict | None = None) -> None:
     """Write a map or profile to an ISO 25178-72 X3P file.
 
-    Heights and lateral lengths are converted to metres. Missing points (NaN) are stored
-    as NaN and flagged in a validity mask. The file carries MD5 checksums of ``main.xml``
-    and of the binary members.
+    Heights and lateral lengths are converted to metres. Rows are stored from the largest
+    ``y`` down (the top of the picture first, see the module notes on row orientation).
+    Missing points (NaN) are stored as NaN and flagged in a validity mask. The file
+    carries MD5 checksums of ``main.xml`` and of the binary members.
 
     Parameters
     ----------
@@ -453,6 +627,8 @@ def write(topography, path: str | Path, *, dtype: str = "D",
         offsets[dim] = offset * fac if fac != 1.0 else offset
     profile = grid.dims == ("x",)
     ny, nx = (1, heights.size) if profile else heights.shape
+    if not profile:  # y = 0 is the picture's bottom row, X3P stores the top row first
+        heights = heights[::-1]
 
     data = heights.astype(_DTYPES[dtype]).tobytes()
     invalid = np.isnan(heights).ravel()
@@ -499,7 +675,7 @@ def write(topography, path: str | Path, *, dtype: str = "D",
         raise ValueError(f"unknown X3P metadata fields: {sorted(unknown)}; known: "
                          f"{[k for k, _ in _RECORD2]}")
     if fields:
-        now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+        now = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
         defaults = {"date": now, "calibration_date": fields.get("date", now),
                     "probing_system_type": "Software"}
         record2 = sub(root, "Record2")
