@@ -125,3 +125,21 @@ def test_version_has_one_home():
             if isinstance(node, ast.Assign) and any(
                     getattr(t, "id", None) == "__version__" for t in node.targets):
                 assert name == "xrough._version", name
+
+
+def test_modules_do_not_reach_into_each_others_private_names():
+    """A concept module uses another's public names; kernels and its own subpackage aside."""
+    offenders = []
+    for name, (path, tree) in MODULES.items():
+        if name.startswith("xrough._kernels"):
+            continue
+        for node in ast.walk(tree):
+            if not isinstance(node, ast.ImportFrom) or node.level == 0:
+                continue
+            source = (node.module or "")
+            if source.startswith("_kernels") or (node.level == 1 and "." in name[7:]
+                                                  and path.name != "__init__.py"):
+                continue  # kernels, or a sibling in the same subpackage (io)
+            offenders += [(name, source, a.name) for a in node.names
+                          if a.name.startswith("_") and a.name != "__version__"]
+    assert offenders == []

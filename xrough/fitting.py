@@ -66,7 +66,7 @@ from ._kernels.fitting import (
     fitted_spectrum_acf,
 )
 from ._kernels.shape_factors import ROLLOFFS
-from .acf import check_acf, result_attrs
+from .acf import check_acf, lag_coord, result_attrs
 
 __all__ = ["fit_acf", "model_acf"]
 
@@ -135,7 +135,7 @@ def _fixed_values(fix, lateral: pint.Unit, height: pint.Unit) -> tuple[np.ndarra
     return out, ", ".join(text) or "none"
 
 
-def _reference_lag(dr: np.ndarray, lateral: pint.Unit) -> float:
+def reference_lag(dr: np.ndarray, lateral: pint.Unit) -> float:
     """Return the power of ten (decided in metres) nearest the geometric mean of ``dr``."""
     to_m = u.conversion_factor(lateral, "m")
     mean_m = float(np.exp(np.mean(np.log(dr)))) * to_m
@@ -146,7 +146,7 @@ def _variable(da: xr.DataArray, units: str, long_name: str) -> xr.DataArray:
     return da.assign_attrs({"units": units, "long_name": long_name})
 
 
-def _fixed_spectrum(fix, lateral: pint.Unit, lambda_0: float) -> tuple[np.ndarray, str]:
+def fixed_spectrum(fix, lateral: pint.Unit, lambda_0: float) -> tuple[np.ndarray, str]:
     """``[H, lambda_r, lambda_s]`` (NaN where free; lengths in ``lateral``), description."""
     fix = dict(fix or {})
     unknown = sorted(set(fix) - set(_SPECTRUM_FIXABLE))
@@ -421,11 +421,11 @@ def fit_acf(
     else:
         lam0 = np.inf if lambda_0 is None else u.length_in(lambda_0, lateral,
                                                            what="lambda_0")
-        fixed, fixed_text = _fixed_spectrum(fix, lateral, lam0)
+        fixed, fixed_text = fixed_spectrum(fix, lateral, lam0)
         kernel, names = fit_spectrum_kernel, SPECTRUM_OUTPUTS
         kwargs = {"lambda_0": lam0}
 
-    dr_ref = _reference_lag(dr[use], lateral)
+    dr_ref = reference_lag(dr[use], lateral)
     Gl = (G * g_factor).drop_vars([c for c in G.coords if "dr" in G[c].dims and c != "dr"])
     se = se.drop_vars([c for c in se.coords if "dr" in se[c].dims and c != "dr"])
     out = xr.apply_ufunc(
@@ -517,7 +517,7 @@ def fit_acf(
 # --------------------------------------------------------------------------------------
 # reading a fit
 # --------------------------------------------------------------------------------------
-def _params_units(params: xr.Dataset) -> tuple[pint.Unit, pint.Unit, str]:
+def fit_units(params: xr.Dataset) -> tuple[pint.Unit, pint.Unit, str]:
     """Lateral and height units and model of a fit, checking that it has what it needs."""
     if not isinstance(params, xr.Dataset):
         raise TypeError(f"params must be the xarray.Dataset of fit_acf, got "
@@ -535,7 +535,7 @@ def _params_units(params: xr.Dataset) -> tuple[pint.Unit, pint.Unit, str]:
     return lateral, height, model
 
 
-def _lags(dr: Any, lateral: pint.Unit, params: xr.Dataset) -> np.ndarray:
+def fit_lags(dr: Any, lateral: pint.Unit, params: xr.Dataset) -> np.ndarray:
     """Lags in ``lateral`` (any form :func:`xrough.units.quantity` reads; default: fitted range)."""
     if dr is None:
         lo, hi = params.attrs.get("dr_min"), params.attrs.get("dr_max")
@@ -547,12 +547,7 @@ def _lags(dr: Any, lateral: pint.Unit, params: xr.Dataset) -> np.ndarray:
     return u.array_in(dr, lateral, what="dr", noun="distances", positive=True)
 
 
-def _lag_coord(values: np.ndarray, lateral: pint.Unit) -> dict:
-    return {"dr": ("dr", values, {"units": u.format_units(lateral),
-                                  "long_name": "lag distance"})}
-
-
-def _in_lateral(params: xr.Dataset, lateral: pint.Unit, height: pint.Unit) -> dict:
+def fit_in_lateral(params: xr.Dataset, lateral: pint.Unit, height: pint.Unit) -> dict:
     """``sigma_h``, ``G_sa``, ``dr_ref``, ``lambda_r`` in the lateral unit, ``hurst``, ``C_b``.
 
     (``C_b`` is None for the spectrum model.)
@@ -570,7 +565,7 @@ def _in_lateral(params: xr.Dataset, lateral: pint.Unit, height: pint.Unit) -> di
     }
 
 
-def _spectrum_inputs(params: xr.Dataset, lateral: pint.Unit) -> tuple[list, dict]:
+def fit_spectrum_inputs(params: xr.Dataset, lateral: pint.Unit) -> tuple[list, dict]:
     """Per-fit inputs of the spectrum model (lengths in ``lateral``, ``G_sa`` as stored)."""
     ref_unit = u.as_length_unit(u.units_of(params["dr_ref"], what="dr_ref"), what="dr_ref")
     lam_0 = np.inf
@@ -589,13 +584,13 @@ def _spectrum_inputs(params: xr.Dataset, lateral: pint.Unit) -> tuple[list, dict
     return arrays, scalars
 
 
-def _per_fit(func, arrays, values, lateral, **kwargs) -> xr.DataArray:
+def per_fit(func, arrays, values, lateral, **kwargs) -> xr.DataArray:
     return xr.apply_ufunc(
         func, *arrays, input_core_dims=[[]] * len(arrays), output_core_dims=[["dr"]],
         vectorize=True, dask="parallelized", output_dtypes=[float],
         dask_gufunc_kwargs={"output_sizes": {"dr": values.size}},
         kwargs={"dr": values, **kwargs}, keep_attrs=False,
-    ).assign_coords(_lag_coord(values, lateral))
+    ).assign_coords(lag_coord(values, u.format_units(lateral)))
 
 
 def model_acf(params: xr.Dataset, dr: Any = None) -> xr.DataArray:
@@ -647,16 +642,16 @@ def model_acf(params: xr.Dataset, dr: Any = None) -> xr.DataArray:
     ...       f"{float(p.sigma_h)**2:.4f} {p.sigma_h.attrs['units']}^2")
     4.0000 nm2 = 4.0000 nm^2
     """
-    lateral, height, model = _params_units(params)
-    values = _lags(dr, lateral, params)
+    lateral, height, model = fit_units(params)
+    values = fit_lags(dr, lateral, params)
     g_unit = u.units_of(params["G_sa"], what="G_sa")
     if model == "spectrum":
-        arrays, scalars = _spectrum_inputs(params, lateral)
-        out = _per_fit(fitted_spectrum_acf, arrays, values, lateral, **scalars)
+        arrays, scalars = fit_spectrum_inputs(params, lateral)
+        out = per_fit(fitted_spectrum_acf, arrays, values, lateral, **scalars)
         equation, what = "eq. 9", "model spectrum"
     else:
-        p = _in_lateral(params, lateral, height)
-        x = xr.DataArray(values, dims="dr", coords=_lag_coord(values, lateral))
+        p = fit_in_lateral(params, lateral, height)
+        x = xr.DataArray(values, dims="dr", coords=lag_coord(values, u.format_units(lateral)))
         c_sa = p["dr_ref"] ** (2 * p["hurst"]) / p["G_sa"]
         inv = p["C_b"] / x**2 + c_sa / x ** (2 * p["hurst"]) + 1.0 / p["sigma_h"] ** 2
         out = (1.0 / inv) * u.conversion_factor(lateral**2, g_unit)

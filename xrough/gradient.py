@@ -34,18 +34,17 @@ from ._kernels.shape_factors import ROLLOFFS, rolloff_factor, self_affine_factor
 from ._kernels.spectral_models import model_gradient2
 from .acf import check_acf, lag_coord, result_attrs
 from .fitting import (
-    _fixed_spectrum,
-    _in_lateral,
-    _lag_coord,
-    _lags,
-    _params_units,
-    _per_fit,
-    _reference_lag,
-    _spectrum_inputs,
     fit_acf,
+    fit_in_lateral,
+    fit_lags,
+    fit_spectrum_inputs,
+    fit_units,
+    fixed_spectrum,
+    per_fit,
+    reference_lag,
 )
 from .models import model_attrs
-from .spectra import _check_options, _spectrum_input, _spectrum_lags, acf_samples
+from .spectra import acf_samples, check_spectrum_options, spectrum_input, spectrum_lags
 
 __all__ = ["rms_gradient", "rms_gradient_exact", "gradient_from_spectrum",
            "gradient_from_fit", "GRADIENT_METHODS"]
@@ -172,8 +171,8 @@ def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec) -> tuple
     use = dr > 0
     fit = None
     if np.count_nonzero(use) >= 5:
-        dr_ref = _reference_lag(dr[use], spec.length_unit)
-        fixed, _ = _fixed_spectrum(None, spec.length_unit, np.inf)
+        dr_ref = reference_lag(dr[use], spec.length_unit)
+        fixed, _ = fixed_spectrum(None, spec.length_unit, np.inf)
         fit = {"use": use, "dr_ref": dr_ref, "weighted": weighted, "fixed": fixed,
                "rolloff": "sharp", "lambda_0": np.inf, "unit": spec.unit_str}
         fit_gradient = {"dr_ref": dr_ref, "lam_0": np.inf, "rolloff": "sharp",
@@ -284,7 +283,7 @@ def rms_gradient_exact(
     >>> print(np.round((gbar / exact).values, 2))
     [1. 1.]
     """
-    _check_options(smooth, support_rtol, interpolation, points_per_decade)
+    check_spectrum_options(smooth, support_rtol, interpolation, points_per_decade)
     acf = acf_samples(G, noise)
     dr_lo, dr_hi = kernels.exact_support(acf.dr, acf.G, acf.noise, smooth=smooth,
                                          support_rtol=support_rtol,
@@ -401,8 +400,8 @@ def gradient_from_spectrum(
     >>> print(np.round(gbar.values, 6))  # gbar(0) is the rms gradient
     [0.5      0.5      0.067981]
     """
-    spec = _spectrum_input(C)
-    dr_arr = _spectrum_lags(spec, dr, points_per_decade, dr_min, dr_max)
+    spec = spectrum_input(C)
+    dr_arr = spectrum_lags(spec, dr, points_per_decade, dr_min, dr_max)
     with np.errstate(divide="ignore"):
         q_cut = np.where(dr_arr > 0, 2 * np.pi / np.where(dr_arr > 0, dr_arr, 1.0), np.inf)
     if spec.model is not None:
@@ -497,24 +496,24 @@ def gradient_from_fit(params: xr.Dataset, dr: Any = None, *,
     >>> print(f"eq. 37/38: gbar(0) = {float(g36[0]):.4f}")
     eq. 37/38: gbar(0) = 0.1236
     """
-    lateral, height, model = _params_units(params)
+    lateral, height, model = fit_units(params)
     own = params.attrs.get("rolloff", "sharp")
     rolloff = own if rolloff is None else rolloff
     if rolloff not in ROLLOFFS:
         raise ValueError(f"rolloff must be one of {ROLLOFFS}, got {rolloff!r}")
-    values = _lags(dr, lateral, params)
+    values = fit_lags(dr, lateral, params)
     if model == "spectrum":
         if rolloff != own:
             raise ValueError(f"rolloff={rolloff!r} differs from the {own!r} spectrum that "
                              "was fitted; refit with that shape")
-        arrays, scalars = _spectrum_inputs(params, lateral)
+        arrays, scalars = fit_spectrum_inputs(params, lateral)
         g_factor = u.conversion_factor(u.units_of(params["G_sa"], what="G_sa"), lateral**2)
-        out = _per_fit(fitted_spectrum_gradient, arrays, values, lateral, g_factor=g_factor,
+        out = per_fit(fitted_spectrum_gradient, arrays, values, lateral, g_factor=g_factor,
                        **scalars)
         equation, what = "eq. 26", "fitted spectrum"
     else:
-        p = _in_lateral(params, lateral, height)
-        x = xr.DataArray(values, dims="dr", coords=_lag_coord(values, lateral))
+        p = fit_in_lateral(params, lateral, height)
+        x = xr.DataArray(values, dims="dr", coords=lag_coord(values, u.format_units(lateral)))
         H = p["hurst"]
         c_sa = xr.apply_ufunc(self_affine_factor, H, dask="parallelized",
                               output_dtypes=[float], keep_attrs=False)

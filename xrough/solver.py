@@ -34,7 +34,7 @@ def _progress_bar(progress: bool | None, desc: str):
                 leave=False)
 
 
-def _check_topography(topography: xr.DataArray):
+def check_topography(topography: xr.DataArray):
     grid = grid_of(topography)
     if grid.dims != ("y", "x"):
         raise ValueError("solve_contact needs a map with dims ('y', 'x'), not a profile")
@@ -156,7 +156,7 @@ def solve_contact(
     >>> round(res.attrs["relative_contact_area"], 2), bool(res.converged)  # 2a / lambda
     (0.5, True)
     """
-    grid, h = _check_topography(topography)
+    grid, h = check_topography(topography)
     E = u.positive_si(E_star, "[pressure]", what="E_star")
     if (p0 is None) == (displacement is None):
         raise ValueError("give exactly one of p0 (mean pressure) or displacement")

@@ -211,7 +211,7 @@ class _SpectrumInput:
     func: Any  # the model, or a PowerLawInterpolant through the samples
 
 
-def _spectrum_input(spectrum: Any) -> _SpectrumInput:
+def spectrum_input(spectrum: Any) -> _SpectrumInput:
     """Check a C(q) DataArray (dims, units, values) and convert it to its ``q`` unit."""
     if not isinstance(spectrum, xr.DataArray):
         raise TypeError(f"spectrum must be an xarray.DataArray, got {type(spectrum).__name__}")
@@ -259,7 +259,7 @@ def _spectrum_input(spectrum: Any) -> _SpectrumInput:
     return _SpectrumInput(dim, q, length_unit, unit_str, model, func)
 
 
-def _spectrum_lags(spec: _SpectrumInput, dr: Any, points_per_decade: float, dr_min: Any,
+def spectrum_lags(spec: _SpectrumInput, dr: Any, points_per_decade: float, dr_min: Any,
                    dr_max: Any) -> np.ndarray:
     """``dr`` in the spectrum's length unit; by default logarithmic over its wavelengths."""
     if dr is not None:
@@ -352,7 +352,7 @@ def acf_from_spectrum(
     >>> print(f"{float(G[1]):.6f} nm2")
     4.000000 nm2
     """
-    spec = _spectrum_input(spectrum)
+    spec = spectrum_input(spectrum)
     unit_str, model = spec.unit_str, spec.model
     if model is not None:
         func, bp = model, model.breakpoints
@@ -361,7 +361,7 @@ def acf_from_spectrum(
         func = spec.func
         bp, knots = func.breakpoints, 0.0
 
-    dr_arr = _spectrum_lags(spec, dr, points_per_decade, dr_min, dr_max)
+    dr_arr = spectrum_lags(spec, dr, points_per_decade, dr_min, dr_max)
 
     G = acf_from_spectrum_kernel(dr_arr, func, bp, knots_per_decade=knots)
 
@@ -423,7 +423,7 @@ def acf_samples(G: Any, noise: Any = None, *, min_bins: int = 4) -> _AcfInput:
                      spec.unit_str)
 
 
-def _check_options(smooth, support_rtol, interpolation, points_per_decade) -> None:
+def check_spectrum_options(smooth, support_rtol, interpolation, points_per_decade) -> None:
     if smooth is not None and not (np.isfinite(smooth) and smooth > 0):
         raise ValueError(f"smooth must be a positive width in decades or None, got {smooth!r}")
     if not support_rtol > 0:
@@ -579,7 +579,7 @@ def spectrum(
     >>> C.supported.values.tolist()
     [1, 1, 1]
     """
-    _check_options(smooth, support_rtol, interpolation, points_per_decade)
+    check_spectrum_options(smooth, support_rtol, interpolation, points_per_decade)
     acf = acf_samples(G, noise)
     q_lo, q_hi = _support(acf, smooth=smooth, support_rtol=support_rtol,
                           interpolation=interpolation)

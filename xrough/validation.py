@@ -23,7 +23,7 @@ from ._kernels.contact import improved_area as _improved_area
 from .contact import THEORIES, persson, stress_acf
 from .correlation import height_difference_acf
 from .gradient import rms_gradient
-from .solver import _check_topography, solve_contact
+from .solver import check_topography, solve_contact
 
 __all__ = ["compare_with_simulation", "fit_kappa"]
 
@@ -241,7 +241,7 @@ def compare_with_simulation(
     p0s = np.sort(np.atleast_1d(u.positive_si(p0, "[pressure]", what="p0", many=True)))
     if kappa is not None and not (np.isfinite(kappa) and kappa > 0):
         raise ValueError(f"kappa must be positive, got {kappa!r}")
-    grid, h = _check_topography(topography)
+    grid, h = check_topography(topography)
     lunit, hunit = grid.lateral_unit, grid.height_unit
     acf_kwargs = {"points_per_decade": 10, **(acf_kwargs or {})}
 
