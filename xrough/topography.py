@@ -79,7 +79,9 @@ def _uniform_spacing(values: np.ndarray, name: str) -> float:
         raise ValueError(
             f"coordinate {name!r} is not uniformly spaced: step {worst} is {steps[worst]:g} "
             f"while the mean step is {step:g} (relative deviation {dev:.2g} > {tol:g}). "
-            "Resample the data onto a uniform grid first."
+            "Resample the data onto a uniform grid first: read the file with "
+            "open_topography(path, resample=True) (linear interpolation onto a uniform "
+            "grid with the same number of points), or interpolate it yourself."
         )
     return float(abs(step))
 

@@ -19,13 +19,15 @@ import hashlib
 import importlib
 import importlib.util
 import inspect
+import struct
 from dataclasses import dataclass
 from pathlib import Path
 
 from .. import units as u
 from ..topography import topography
 
-__all__ = ["FORMATS", "BRIDGE", "detect_format", "open_topography", "file_sha256"]
+__all__ = ["FORMATS", "BRIDGE", "detect_format", "open_topography", "file_sha256",
+           "list_channels"]
 
 
 @dataclass(frozen=True)
@@ -48,7 +50,7 @@ FORMATS: dict[str, Format] = {
     "ibw": Format("xrough.io.ibw", (".ibw",), "Igor binary wave (Asylum AFM)"),
     "netcdf": Format("xrough.io.netcdf", (".nc", ".nc4", ".netcdf"), "NetCDF"),
     "npy": Format("xrough.io.npy", (".npy",), "NumPy array"),
-    "text": Format("xrough.io.text", (".txt", ".asc", ".csv", ".dat", ".xyz"),
+    "text": Format("xrough.io.text", (".txt", ".asc", ".csv", ".dat", ".xyz", ".hfm"),
                    "plain text: matrix, x-y profile, x-y-z points, CSV with header"),
 }
 
@@ -102,29 +104,129 @@ def detect_format(path: str | Path) -> str:
 
     Notes
     -----
-    When no native format recognises the file, by content or by extension, and
-    SurfaceTopography is installed, returns :data:`BRIDGE` if SurfaceTopography reads it.
+    Every native format's ``sniff`` is tried first (by content). When none recognises
+    the file, the formats its extension names are considered, but only those its content
+    does not contradict (a ``.dat`` holding binary data is not plain text, whatever its
+    extension says). Last, when SurfaceTopography is installed, :data:`BRIDGE` if
+    SurfaceTopography reads the file (Zygo MetroPro ``.dat``, Sensofar, Wyko...).
     """
     path = Path(path)
+    if path.is_dir():
+        raise IsADirectoryError(f"{path.name}: is a directory, not a file")
     if not path.is_file():
         raise FileNotFoundError(f"no such file: {path}")
-    with open(path, "rb") as fh:
-        head = fh.read(4096)
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+    except OSError as err:
+        raise OSError(f"{path.name}: cannot read the file ({err.strerror or err})") from err
     if not head:
         raise ValueError(f"{path.name}: the file is empty")
-    by_extension = [n for n, f in FORMATS.items()
-                    if path.suffix.lower() in f.extensions and _has_module(n)]
     for name in list(FORMATS):
         try:
             if _module(name).sniff(head, path):
                 return name
         except ImportError:  # optional reader dependency missing
             continue
+    by_extension = [n for n, f in FORMATS.items()
+                    if path.suffix.lower() in f.extensions and _has_module(n)
+                    and _plausible(n, head)]
     if by_extension:
         return by_extension[0]
     if _bridge_reads(head, path):
         return BRIDGE
-    raise ValueError(f"{path.name}: unknown file format (known: {', '.join(FORMATS)})")
+    hint = ""
+    if not _bridge_available():
+        hint = ("; SurfaceTopography (pip install xrough[formats]) reads many more "
+                "formats and is not installed")
+    raise ValueError(f"{path.name}: unknown file format (known: {', '.join(FORMATS)}"
+                     f"{hint})")
+
+
+def _plausible(name: str, head: bytes) -> bool:
+    """Whether the content does not rule out ``name`` (binary bytes rule out text)."""
+    if name == "text":
+        return not _module("text").looks_binary(head)
+    return True
+
+
+def _bridge_available() -> bool:
+    try:
+        return _module(BRIDGE).available()
+    except ImportError:  # pragma: no cover - the bridge module itself always imports
+        return False
+
+
+def list_channels(path: str | Path, *, format: str | None = None) -> list[dict]:
+    """List the data channels of a file (for a listing such as ``xrough info``).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    format : str, optional
+        One of :data:`FORMATS` or :data:`BRIDGE` (default: detected from the content).
+
+    Returns
+    -------
+    list of dict
+        One dict per channel with ``index``, ``name``, ``unit`` (of the values, ``""``
+        if the file states none), ``is_height`` (the unit is a length), ``default``
+        (whether :func:`open_topography` reads this channel without ``channel=``) and
+        ``description``, one line of text naming all of these. Formats without
+        channels (text, X3P, SDF, SUR, NetCDF, NumPy) give an empty list.
+
+    Raises
+    ------
+    FileNotFoundError, ValueError
+        Missing, unknown or corrupted file.
+
+    Examples
+    --------
+    >>> for c in list_channels("scan.spm"):  # doctest: +SKIP
+    ...     print(c["description"])
+    0: Height [nm] height, Main Trace (default)
+    1: ZSensor [nm] height, Main Trace
+    2: Phase [deg]
+    """
+    path = Path(path)
+    name = format or detect_format(path)
+    if name not in FORMATS and name != BRIDGE:
+        raise ValueError(f"unknown format {name!r}; known: {', '.join(FORMATS)}, {BRIDGE}")
+    module = _module(name)
+    lister = getattr(module, "channels", None)
+    if lister is None:
+        return []
+    try:
+        found = lister(path)
+        default = getattr(module, "default_channel", None)
+        chosen = default(path) if default is not None and found else None
+    except (ValueError, OSError):
+        raise
+    except Exception as err:  # a third-party parser choking on a corrupted file
+        raise ValueError(f"{path.name}: cannot list the channels ({type(err).__name__}: "
+                         f"{err})") from err
+    if chosen is None and found:
+        heights = [c for c in found if c.get("is_height")]
+        chosen = (heights or found)[0]["index"] if heights else None
+    out = []
+    for c in found:
+        unit = c.get("data_unit") if name == BRIDGE else c.get("unit")
+        unit = "" if unit is None else str(unit)
+        where = ", ".join(str(c[k]) for k in ("scan_line", "line_direction") if c.get(k))
+        entry = {"index": int(c["index"]), "name": str(c["name"]), "unit": unit,
+                 "is_height": bool(c.get("is_height")),
+                 "default": c["index"] == chosen}
+        text = f"{entry['index']}: {entry['name']} [{unit or 'no unit'}]"
+        if entry["is_height"]:
+            text += " height"
+        if where:
+            text += f", {where}"
+        if entry["default"]:
+            text += " (default)"
+        entry["description"] = text
+        out.append(entry)
+    return out
 
 
 def open_topography(
@@ -182,17 +284,47 @@ def open_topography(
         read = _module(name).read
         # readers of files that may lack sizes or units (text, npy...) take them directly
         accepted = _keyword_parameters(read)
+        unknown = sorted(set(options) - accepted)
+        if unknown and not _takes_any_keyword(read):
+            raise ValueError(
+                f"{path.name}: the {name} reader has no option "
+                f"{', '.join(k + '=' for k in unknown)}"
+                + (" (the format has no channels)" if "channel" in unknown else "")
+                + f"; its options: {', '.join(sorted(accepted - {'path'})) or 'none'}")
         for key, value in (("size", size), ("unit", unit), ("height_unit", height_unit)):
             if value is not None and key in accepted:
                 options.setdefault(key, value)
         da = read(path, **options)
-    except (ValueError, FileNotFoundError):
+    except UnicodeError as err:
+        raise ValueError(f"{path.name}: the text cannot be decoded ({err.reason} at byte "
+                         f"{getattr(err, 'start', '?')}); pass encoding= if the file is "
+                         "text in another encoding") from err
+    except ValueError as err:
+        if str(err).startswith(path.name):
+            raise
+        # third-party parsers (dateutil, numpy, igor2...) raise ValueErrors of their own
+        raise ValueError(f"{path.name}: cannot read as {description}: the file is "
+                         f"corrupted or not in this format ({type(err).__name__}: "
+                         f"{str(err)[:300]})") from err
+    except FileNotFoundError:
         raise
+    except MemoryError as err:
+        raise ValueError(f"{path.name}: cannot read as {description}: the header declares "
+                         "more data than fits in memory (corrupted file?)") from err
     except ImportError as err:  # optional reader dependency (e.g. SurfaceTopography)
         raise ValueError(f"{path.name}: cannot read as {description}: {err}") from err
-    except Exception as err:  # a reader choking on a corrupted file
+    except (ArithmeticError, IndexError, KeyError, TypeError, struct.error, EOFError) \
+            as err:  # a reader choking on a corrupted file
+        raise ValueError(f"{path.name}: cannot read as {description}: the file is "
+                         "corrupted or inconsistent (its header states impossible values: "
+                         f"{type(err).__name__}: {str(err)[:300]})") from err
+    except OSError as err:
+        if path.name in str(err):
+            raise
+        raise OSError(f"{path.name}: cannot read the file ({err})") from err
+    except Exception as err:  # anything else a third-party parser raises
         raise ValueError(f"{path.name}: cannot read as {description} "
-                         f"({type(err).__name__}: {err})") from err
+                         f"({type(err).__name__}: {str(err)[:300]})") from err
     applied = []
     if unit is not None or height_unit is not None:
         lat = unit or da["x"].attrs["units"]
@@ -223,6 +355,15 @@ def open_topography(
     if da.attrs.get("sampling") == "non-uniform":  # kept as measured, on request only
         return da
     return topography(da)
+
+
+def _takes_any_keyword(func) -> bool:
+    """Whether ``func`` accepts arbitrary keywords (``**kwargs``)."""
+    try:
+        params = inspect.signature(func).parameters.values()
+    except (TypeError, ValueError):
+        return True
+    return any(p.kind is p.VAR_KEYWORD for p in params)
 
 
 def _keyword_parameters(func) -> set[str]:

@@ -42,9 +42,8 @@ def select_channel(path: Path, channels: list[dict], channel, *,
     Raises
     ------
     ValueError
-        An index out of range or an unknown name (the message lists the channels).
-    TypeError
-        ``channel`` is neither a name nor an index.
+        An index out of range, an unknown name (the message lists the channels), or
+        ``channel`` neither a name nor an index.
 
     Examples
     --------
@@ -66,4 +65,5 @@ def select_channel(path: Path, channels: list[dict], channel, *,
             if c["name"].lower() == channel.strip().lower():
                 return c
         raise fail(path, f"no channel named {channel!r}; channels: {listing}")
-    raise TypeError(f"channel must be a name (str) or an index (int), got {channel!r}")
+    raise fail(path, f"channel must be a name (str) or an index (int), got {channel!r}; "
+                     f"channels: {listing}")

@@ -320,8 +320,12 @@ def read_with_surfacetopography(path, *, channel: int | str | None = None, size=
             sizes = tuple(float(s) for s in topo.physical_sizes)
             periodic = bool(topo.is_periodic)
             attrs = info_attrs(topo.info)
-        except ValueError:
-            raise
+        except ValueError as err:
+            if str(err).startswith(name):
+                raise
+            raise ValueError(f"{name}: SurfaceTopography failed to read the data: the file "
+                             f"is corrupted or holds values it cannot parse "
+                             f"({type(err).__name__}: {str(err).strip()[:300]!r})") from None
         except Exception as err:  # noqa: BLE001
             raise ValueError(f"{name}: SurfaceTopography failed to read the data "
                              f"({type(err).__name__}: {str(err).strip()[:300]})") from None

@@ -26,6 +26,7 @@ from __future__ import annotations
 import io
 import re
 import struct
+import warnings
 from datetime import datetime
 from pathlib import Path
 
@@ -36,7 +37,7 @@ from .. import units as u
 from ..topography import topography
 from ._common import fail, select_channel
 
-__all__ = ["sniff", "read", "channels"]
+__all__ = ["sniff", "read", "channels", "default_channel"]
 
 # Bytes summed by the header checksum (binary header + wave header), per version.
 _CHECKSUM_BYTES = {1: (8 + 110,), 2: (16 + 110,), 3: (20 + 110,), 5: (64 + 320, 64 + 316)}
@@ -243,18 +244,55 @@ def _describe(c: dict) -> str:
     return f"{c['index']}: {c['name']!r} ({c['unit'] or 'unknown unit'})"
 
 
+def _default(path: Path, chans: list[dict], listing: str, *, warn: bool) -> dict:
+    """Pick the channel read without ``channel=``; warn when the choice is ambiguous.
+
+    The first ``Height...`` channel, else the first ``ZSensor...`` one, else the first
+    with a length unit. A file with both ``Height`` and ``ZSensor`` channels (the
+    feedback signal and the calibrated sensor) makes the choice ambiguous: a
+    ``UserWarning`` names them.
+    """
+    heights = [c for c in chans if c["is_height"]]
+    groups = [[c for c in heights if _base_name(c["name"]).startswith(prefix)]
+              for prefix in ("Height", "ZSensor")]
+    for named in groups:
+        if named:
+            if warn and all(groups):
+                names = ", ".join(repr(c["name"]) for c in groups[0] + groups[1])
+                warnings.warn(f"{path.name}: several height channels ({names}); reading "
+                              f"{named[0]['index']}: {named[0]['name']!r}. Pass channel= "
+                              "to choose (xrough.io.list_channels lists them)", UserWarning,
+                              stacklevel=4)
+            return named[0]
+    if heights:
+        return heights[0]
+    raise fail(path, f"no height channel (with a length unit); channels: {listing}"
+                     + ("; a wave without a data unit needs unit= or height_unit="
+                        if any(not c["unit"] for c in chans) else ""))
+
+
 def _choose(path: Path, chans: list[dict], channel) -> dict:
     def default(listing: str) -> dict:
-        heights = [c for c in chans if c["is_height"]]
-        for prefix in ("Height", "ZSensor"):
-            named = [c for c in heights if _base_name(c["name"]).startswith(prefix)]
-            if named:
-                return named[0]
-        if heights:
-            return heights[0]
-        raise fail(path, f"no height channel (with a length unit); channels: {listing}")
+        return _default(path, chans, listing, warn=True)
 
     return select_channel(path, chans, channel, default=default, describe=_describe)
+
+
+def default_channel(path: str | Path) -> int:
+    """Index of the channel :func:`read` reads without ``channel=``.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    int
+    """
+    path = Path(path)
+    chans = _layout(path, *_load(path))["channels"]
+    listing = "; ".join(_describe(c) for c in chans)
+    return int(_default(path, chans, listing, warn=False)["index"])
 
 
 def _date(note: dict[str, str]) -> str | None:
@@ -276,7 +314,8 @@ def _float(text):
         return None
 
 
-def read(path: str | Path, *, channel: str | int | None = None):
+def read(path: str | Path, *, channel: str | int | None = None, unit: str | None = None,
+         height_unit: str | None = None):
     """Read one channel of an Igor binary wave (Asylum AFM image) as a topography.
 
     Parameters
@@ -286,7 +325,14 @@ def read(path: str | Path, *, channel: str | int | None = None):
     channel : str or int, optional
         Layer name (``"HeightRetrace"``, case-insensitive) or index. Default: the first
         ``Height...`` channel (``HeightTrace`` in a usual Asylum file), else the first
-        ``ZSensor...`` one, else the first channel with a length unit.
+        ``ZSensor...`` one, else the first channel with a length unit (a ``UserWarning``
+        when both ``Height`` and ``ZSensor`` channels exist).
+    unit : str, optional
+        Lateral unit for a wave whose dimensions state none, and height unit for a wave
+        (layer) whose data state none, unless ``height_unit`` is given. Units the file
+        states are kept (:func:`xrough.open_topography` relabels them on request).
+    height_unit : str, optional
+        Height unit for a wave whose data state none.
 
     Returns
     -------
@@ -308,6 +354,15 @@ def read(path: str | Path, *, channel: str | int | None = None):
     path = Path(path)
     layout = _layout(path, *_load(path))
     wh, shape, dim_units = layout["wave_header"], layout["shape"], layout["dim_units"]
+    given = height_unit or unit
+    if given is not None:  # the user's unit for data that state none
+        given = u.format_units(u.as_length_unit(given, what="height_unit"))
+        for c in layout["channels"]:
+            if not c["unit"]:
+                c.update(unit=given, is_height=True, unit_from="user")
+    if unit is not None:
+        lateral_given = u.format_units(u.as_length_unit(unit, what="unit"))
+        dim_units = [d or lateral_given for d in dim_units]
     chosen = _choose(path, layout["channels"], channel)
     if not chosen["is_height"]:
         heights = "; ".join(_describe(c) for c in layout["channels"] if c["is_height"])
@@ -330,12 +385,16 @@ def read(path: str | Path, *, channel: str | int | None = None):
             sfb[d] += sfa[d] * (values.shape[d] - 1)
             sfa[d] = -sfa[d]
     lateral = dim_units[0]
+    if not lateral:
+        raise fail(path, "the wave states no unit for its x dimension: pass unit= "
+                         "(e.g. unit='um'); no unit is guessed")
     if not u.is_length(lateral):
         raise fail(path, f"the x dimension unit {lateral!r} is not a length")
     spacing = [sfa[0]]
     if ndim == 2:
         if not u.is_length(dim_units[1]):
-            raise fail(path, f"the y dimension unit {dim_units[1]!r} is not a length")
+            raise fail(path, f"the y dimension unit {dim_units[1]!r} is not a length"
+                             + ("" if dim_units[1] else ": pass unit="))
         spacing.append(sfa[1] * u.conversion_factor(dim_units[1], lateral))
         values = values.T  # Igor (x, y) -> (y, x)
     note = layout["note"]
@@ -354,6 +413,7 @@ def read(path: str | Path, *, channel: str | int | None = None):
         "scan_angle": _float(note.get("ScanAngle")),
         "scan_rate": _float(note.get("ScanRate")),
         "note": layout["note_text"],
+        "units_from": "user (the file states none)" if chosen.get("unit_from") else None,
     }
     attrs = {k: v for k, v in attrs.items() if v not in (None, "")}
     return topography(values, spacing=tuple(reversed(spacing)), unit=lateral,

@@ -49,6 +49,7 @@ slow axis ``y``; one number means a square scan).
 from __future__ import annotations
 
 import re
+import warnings
 from datetime import datetime
 from pathlib import Path
 
@@ -58,7 +59,7 @@ from .. import units as u
 from ..topography import topography
 from ._common import fail, select_channel
 
-__all__ = ["sniff", "read", "channels", "parse_value"]
+__all__ = ["sniff", "read", "channels", "default_channel", "parse_value"]
 
 _MAGICS = (b"\\*File list", b"\\\\*File list", b"?*File list")
 _END = "*file list end"
@@ -339,13 +340,20 @@ def _channels(path: Path):
         elsize = info["bpp"]
         if version >= _VERSION_32BIT and info["length"] == 4 * info["nx"] * info["ny"]:
             elsize = 4
-        if info["length"] != elsize * info["nx"] * info["ny"] and gx and gy and \
-                info["length"] == elsize * gx * gy:
-            # Some files state a wrong resolution per image; the scan list's is right.
-            # Pixels stay square: the size scales with the number of points.
-            info["sx"] *= gx / info["nx"]
-            info["sy"] *= gy / info["ny"]
+        stated = elsize * info["nx"] * info["ny"]
+        if info["length"] != stated and gx and gy and info["length"] == elsize * gx * gy:
+            # The image section's resolution contradicts its data length, the scan list's
+            # agrees: the data are gx x gy points over the stated Scan Size (never a
+            # silent rescale of the size: the warning and an attribute say what was done).
+            info["header_inconsistency"] = (
+                f"channel {name!r}: Samps/line {info['nx']} x Number of lines "
+                f"{info['ny']} contradict Data length {info['length']}; read as the scan "
+                f"list's {gx} x {gy} points over the stated Scan Size")
             info["nx"], info["ny"] = gx, gy
+        elif info["length"] != stated and info["nx"] >= 1 and info["ny"] >= 1:
+            raise fail(path, f"channel {name!r}: the header is inconsistent: Data length "
+                             f"{info['length']} bytes is not Samps/line {info['nx']} x "
+                             f"Number of lines {info['ny']} x {elsize} bytes = {stated}")
         if info["nx"] < 1 or info["ny"] < 1 or info["length"] < elsize * info["nx"] * info["ny"]:
             raise fail(path, f"channel {name!r}: Data length {info['length']} is smaller than "
                              f"{info['nx']} x {info['ny']} points of {elsize} bytes")
@@ -383,22 +391,64 @@ def channels(path: str | Path) -> list[dict]:
             for c in infos]
 
 
+def _default(path: Path, infos: list[dict], listing: str, *, warn: bool) -> dict:
+    """Pick the channel read without ``channel=``; warn when the choice is ambiguous.
+
+    The first channel named ``Height`` (else ``Height Sensor``, ``ZSensor``) on the main
+    scan line, else the first channel with a length unit. Two different height quantities
+    on the main scan line (``Height`` and ``ZSensor``: the feedback signal and the
+    calibrated sensor) make the choice ambiguous: a ``UserWarning`` names them.
+    """
+    heights = [c for c in infos if c["unit"] and u.is_length(c["unit"])]
+    named = sorted((c for c in heights if c["name"].lower() in _HEIGHT_NAMES),
+                   key=lambda c: (_HEIGHT_NAMES.index(c["name"].lower()),
+                                  _is_interleave(c), c["index"]))
+    if not heights:
+        broken = [c["error"] for c in infos if c.get("error")]
+        if broken:  # e.g. a height channel whose scale cannot be worked out
+            raise ValueError(f"{broken[0]}; channels: {listing}")
+        raise fail(path, f"no height channel (with a length unit); channels: {listing}")
+    chosen = (named or heights)[0]
+    main = {c["name"].lower() for c in named if not _is_interleave(c)}
+    if warn and len(main) > 1:
+        names = ", ".join(repr(c["name"]) for c in named if not _is_interleave(c))
+        warnings.warn(f"{path.name}: several height channels ({names}); reading "
+                      f"{chosen['index']}: {chosen['name']!r}. Pass channel= to choose "
+                      "(xrough.io.list_channels lists them)", UserWarning, stacklevel=4)
+    return chosen
+
+
+def _is_interleave(info: dict) -> bool:
+    return (_section_value(info["entries"], "Scan Line") or "").lower() == "interleave"
+
+
 def _choose(path: Path, infos: list[dict], channel) -> dict:
     if not infos:
         raise fail(path, "the file holds no image sections ('\\*Ciao image list')")
 
     def default(listing: str) -> dict:
-        heights = [c for c in infos if c["unit"] and u.is_length(c["unit"])]
-        named = sorted((c for c in heights if c["name"].lower() in _HEIGHT_NAMES),
-                       key=lambda c: _HEIGHT_NAMES.index(c["name"].lower()))
-        if not heights:
-            broken = [c["error"] for c in infos if c.get("error")]
-            if broken:  # e.g. a height channel whose scale cannot be worked out
-                raise ValueError(f"{broken[0]}; channels: {listing}")
-            raise fail(path, f"no height channel (with a length unit); channels: {listing}")
-        return (named or heights)[0]
+        return _default(path, infos, listing, warn=True)
 
     return select_channel(path, infos, channel, default=default, describe=_describe)
+
+
+def default_channel(path: str | Path) -> int:
+    """Index of the channel :func:`read` reads without ``channel=``.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    int
+    """
+    path = Path(path)
+    *_, infos = _channels(path)
+    if not infos:
+        raise fail(path, "the file holds no image sections ('\\*Ciao image list')")
+    listing = "; ".join(_describe(c) for c in infos)
+    return int(_default(path, infos, listing, warn=False)["index"])
 
 
 def _date(text: str | None) -> str | None:
@@ -494,7 +544,11 @@ def read(path: str | Path, *, channel: str | int | None = None):
         "realtime_planefit": _section_value(entries, "Realtime Planefit"),
         "offline_planefit": _section_value(entries, "Offline Planefit"),
         "header": text,
+        "header_inconsistency": info.get("header_inconsistency"),
     }
+    if info.get("header_inconsistency"):
+        warnings.warn(f"{path.name}: {info['header_inconsistency']}", UserWarning,
+                      stacklevel=2)
     try:
         attrs["scan_rate"] = float(attrs["scan_rate"])
     except (TypeError, ValueError):

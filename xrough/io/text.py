@@ -39,7 +39,7 @@ import xarray as xr
 from .. import units as u
 from ..topography import grid_of, topography
 
-__all__ = ["sniff", "read", "write"]
+__all__ = ["sniff", "read", "write", "looks_binary"]
 
 _NUM = r"[-+]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|nan|inf|infinity)"
 _NUM_RE = re.compile(rf"^{_NUM}$", re.IGNORECASE)
@@ -84,6 +84,10 @@ _Z_UNIT = {"zunit", "zunits", "unitz", "valueunits", "valueunit", "heightunit",
 _ANY_UNIT = {"unit", "units", "lengthunit"}
 # Keys too common to mean a size or spacing unless the value carries a length unit.
 _NEEDS_UNIT = {"width", "height", "size", "length", "resolution", "spacing", "range"}
+# Raw values times this factor are heights, e.g. ``height conversion factor (-> m)=6.3e-08``.
+_CONVERSION = re.compile(r"^(?:height|z|value|data)\s*(?:conversion|scale|scaling)\s*"
+                         r"factor\s*(?:[(\[]\s*-*>\s*(?P<unit>[^)\]]*?)\s*[)\]])?\s*$",
+                         re.IGNORECASE)
 _X_COUNT = {"xpixels", "nx", "pointsperline", "samplesperline", "xres", "npointsx"}
 _Y_COUNT = {"ypixels", "ny", "lines", "numberoflines", "yres", "npointsy"}
 
@@ -101,7 +105,8 @@ def _decode(data: bytes) -> str:
         return data.decode("latin-1")  # never fails; instrument exports use it (µ = 0xB5)
 
 
-def _looks_binary(data: bytes) -> bool:
+def looks_binary(data: bytes) -> bool:
+    """Whether ``data`` (the start of a file) holds bytes that plain text never has."""
     if data.startswith((b"\xff\xfe", b"\xfe\xff")):
         return False
     if b"\x00" in data:
@@ -136,7 +141,7 @@ def sniff(head: bytes, path: Path) -> bool:
     -------
     bool
     """
-    if not head or _looks_binary(head) or head.lstrip().startswith(_OTHER_TEXT_FORMATS):
+    if not head or looks_binary(head) or head.lstrip().startswith(_OTHER_TEXT_FORMATS):
         return False
     lines = _decode(head).splitlines()
     if len(head) >= 4096 and len(lines) > 1:
@@ -251,6 +256,7 @@ class _Header:
         self.spacing = {"x": None, "y": None}
         self.unit = {"x": None, "y": None, "z": None, "any": None}
         self.count = {"x": None, "y": None}
+        self.height_factor: tuple[float, str | None, str] | None = None
 
     def add(self, key: str, value: str) -> None:
         name = _attr_name(key)
@@ -259,6 +265,11 @@ class _Header:
                 name += "_"
             self.attrs[name] = _attr_value(value)
         k = _norm_key(key)
+        factor = _CONVERSION.match(key.strip())
+        if factor and self.height_factor is None and _NUM_RE.match(value.strip()):
+            target = factor.group("unit")
+            self.height_factor = (float(value), _length_unit(target) if target else None,
+                                  f"{key.strip()}={value.strip()}")
         q = _quantity_in(value) if value else None
         if q is not None and q[1] is None and k in _NEEDS_UNIT:
             q = None
@@ -293,7 +304,8 @@ def _column_names(line: str, ncols: int, delimiter: str | None) -> list[str] | N
     candidates = []
     if delimiter:
         candidates.append(text.split(delimiter))
-    candidates += [text.split("\t"), re.split(r"\s{2,}", text),
+    candidates += [text.split(";"), text.split(","), text.split("\t"),
+                   re.split(r"\s{2,}", text),
                    re.findall(r"[^\s\[(]+(?:\s*[\[(][^\])]*[\])])?", text), text.split()]
     for names in candidates:
         names = [n.strip() for n in names]
@@ -397,12 +409,18 @@ def _data_block(name: str, lines: list[str]):
 
 def _parse(path: Path, encoding: str | None):
     name = path.name
+    if path.is_dir():
+        raise IsADirectoryError(f"{name}: is a directory, not a file")
     data = path.read_bytes()
     if not data.strip():
         raise ValueError(f"{name}: the file is empty")
-    if encoding is None and _looks_binary(data[:65536]):
+    if encoding is None and looks_binary(data[:65536]):
         raise ValueError(f"{name}: binary content, not a text file")
-    text = data.decode(encoding) if encoding else _decode(data)
+    try:
+        text = data.decode(encoding) if encoding else _decode(data)
+    except (UnicodeError, LookupError) as err:
+        raise ValueError(f"{name}: cannot decode the file as {encoding!r} text "
+                         f"({err})") from None
     lines = text.splitlines()
     rows = _data_block(name, lines)
     sample = [lines[i] for i in rows[:50]]
@@ -455,6 +473,59 @@ def _lateral_pair(name, qx, qy, unit, fallback):
         raise _need_unit(name, "lateral size", "unit=")
     factor = u.conversion_factor(qy[1], ux) if qy[1] else 1.0
     return (qy[0] * factor, qx[0]), unit or ux
+
+
+def _header_has_map_geometry(header: _Header) -> bool:
+    """Whether the header states the lateral size or points of a map along x and y."""
+    sizes = (header.size["x"] is not None and header.size["y"] is not None)
+    counts = header.count["x"] is not None and header.count["y"] is not None
+    return sizes or counts
+
+
+def _check_pixels(name, size, nrows, ncols, header) -> None:
+    """Refuse a matrix whose stated sizes give non-square pixels (a truncated file?).
+
+    A file cut at a line boundary still parses, and the header's height spread over the
+    remaining lines would silently stretch ``dy``; the point counts, when the header
+    states them, have already been checked.
+    """
+    if header.count["x"] is not None and header.count["y"] is not None:
+        return
+    ly, lx = size
+    dy, dx = ly / nrows, lx / ncols
+    if not np.isclose(dy, dx, rtol=1e-3):
+        raise ValueError(
+            f"{name}: the header states a {ly:g} x {lx:g} area but the matrix has "
+            f"{nrows} lines of {ncols} points, so a pixel would be {dy / dx:.4g} times as "
+            "tall as wide (a truncated file?); if the pixels really are rectangular, pass "
+            "size=(Ly, Lx) or spacing=(dy, dx)")
+
+
+def _check_profile_length(name, x, header, lunit) -> None:
+    """Refuse a profile whose positions do not cover the length or points the header states."""
+    n = x.size
+    if header.count["x"] is not None and header.count["x"] != n and \
+            header.count["y"] is None:
+        raise ValueError(f"{name}: the header states {header.count['x']} points but the "
+                         f"file has {n} (truncated file?)")
+    stated = header.size["profile"]
+    if stated is None or n < 2 or not np.all(np.isfinite(x[[0, -1]])):
+        return
+    length, sunit = stated
+    if sunit is not None and lunit is not None and sunit != lunit:
+        try:
+            length *= u.conversion_factor(sunit, lunit)
+        except Exception:  # noqa: BLE001 - a unit pint cannot convert: no check possible
+            return
+    extent = abs(float(x[-1] - x[0]))
+    step = extent / (n - 1)
+    tol = 0.02 * abs(length) + 2 * step
+    if length > 0 and abs(extent - length) > tol and abs(extent + step - length) > tol:
+        raise ValueError(
+            f"{name}: the header states a length of {stated[0]:g} {stated[1] or lunit} but "
+            f"the {n} points cover {extent:g} {lunit} (x from {x[0]:g} to {x[-1]:g}): a "
+            "truncated or inconsistent file; pass size= or spacing= to read the points as "
+            "they are")
 
 
 def _need_unit(name: str, what: str, option: str) -> ValueError:
@@ -625,10 +696,23 @@ def read(path, *, unit: str | None = None, height_unit: str | None = None, spaci
     if layout is None:
         if column is not None:
             layout = "profile"
+        elif nrows >= 2 and ncols >= 2 and _header_has_map_geometry(header):
+            layout = "matrix"  # e.g. a Gwyddion export of a narrow map: Width and Height
         else:
             layout = {1: "column", 2: "profile", 3: "xyz"}.get(ncols, "matrix")
     attrs["text_layout"] = layout
     col_units = [_unit_in(n) for n in names] if names else [None] * ncols
+    factor_unit = None
+    if header.height_factor is not None:
+        factor, factor_unit, stated = header.height_factor
+        if not (np.isfinite(factor) and factor != 0):
+            raise ValueError(f"{name}: the header's height conversion factor ({stated}) is "
+                             "not a finite non-zero number")
+        attrs["height_conversion"] = stated
+        hcols = slice(None) if layout in ("matrix", "column") else \
+            (slice(2, 3) if layout == "xyz" else slice(1, None))
+        values = values.copy()
+        values[:, hcols] *= factor
 
     if layout == "matrix":
         if nrows < 2 or ncols < 2:
@@ -638,7 +722,7 @@ def read(path, *, unit: str | None = None, height_unit: str | None = None, spaci
             if header.count[dim] is not None and header.count[dim] != n:
                 raise ValueError(f"{name}: the header states {header.count[dim]} points "
                                  f"along {dim} but the matrix has {n} (truncated file?)")
-        hunit = height_unit or unit or header.height_unit()
+        hunit = height_unit or unit or factor_unit or header.height_unit()
         if hunit is None:
             raise _need_unit(name, "heights", "unit= or height_unit=")
         lunit = unit or header.lateral_unit()
@@ -649,6 +733,7 @@ def read(path, *, unit: str | None = None, height_unit: str | None = None, spaci
             dy = header.spacing["y"] or dx
             if sx is not None and sy is not None:
                 size, lunit = _lateral_pair(name, sx, sy, unit, header.lateral_unit())
+                _check_pixels(name, size, nrows, ncols, header)
             elif dx is not None:
                 spacing, lunit = _lateral_pair(name, dx, dy, unit, header.lateral_unit())
             else:
@@ -659,8 +744,8 @@ def read(path, *, unit: str | None = None, height_unit: str | None = None, spaci
                           height_unit=hunit, attrs=attrs)
 
     if layout == "column":
-        hunit = height_unit or unit or (col_units[0] if ncols == 1 else None) \
-            or header.height_unit()
+        hunit = height_unit or unit or factor_unit \
+            or (col_units[0] if ncols == 1 else None) or header.height_unit()
         if hunit is None:
             raise _need_unit(name, "heights", "unit= or height_unit=")
         h = values[:, 0] if ncols == 1 else values.ravel()
@@ -701,9 +786,12 @@ def read(path, *, unit: str | None = None, height_unit: str | None = None, spaci
                              "column of a profile table, or layout='matrix'/'xyz'")
         lunit = unit or col_units[0] or header.unit["x"] or header.unit["any"] \
             or header.lateral_unit()
-        hunit = height_unit or unit or col_units[hcol] or header.height_unit()
+        hunit = height_unit or unit or factor_unit or col_units[hcol] \
+            or header.height_unit()
         if lunit is None:
             raise _need_unit(name, "x positions", "unit=")
+        if spacing is None and size is None:
+            _check_profile_length(name, values[:, 0], header, lunit)
         if hunit is None:
             raise _need_unit(name, "heights", "unit= or height_unit=")
         if column is not None and names:
@@ -715,7 +803,7 @@ def read(path, *, unit: str | None = None, height_unit: str | None = None, spaci
     if ncols != 3:
         raise ValueError(f"{name}: x-y-z points need three columns, found {ncols}")
     lunit = unit or col_units[0] or col_units[1] or header.lateral_unit()
-    hunit = height_unit or unit or col_units[2] or header.height_unit()
+    hunit = height_unit or unit or factor_unit or col_units[2] or header.height_unit()
     if lunit is None:
         raise _need_unit(name, "x-y positions", "unit=")
     if hunit is None:
