@@ -1,72 +1,393 @@
-"""The command line, end to end in a subprocess."""
+"""The command line, run in-process through ``xrough.cli.main`` (one run in a subprocess).
 
+Each defect of the command line found by trying it as a new user has a regression test
+here: units of printed numbers, the multi-file figure, options the API has, a short
+``info``, the default detrending, JSON output, group names of multi-file archives, atomic
+writes, argument checks and one-line errors with documented exit codes.
+"""
+
+import contextlib
+import decimal
+import io
+import json
+import re
 import subprocess
 import sys
+from pathlib import Path
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 import xarray as xr
 
 import xrough
+import xrough.cli
+from conftest import data_path
+from xrough import units as u
+from xrough.cli import main
+
+E_STAR, P0, GAMMA = "25MPa", "0.1MPa", "50mJ/m^2"
 
 
-def run(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "xrough.cli", *args], cwd=cwd,
-                          capture_output=True, text=True, timeout=300)
+def surface():
+    return xrough.self_affine_surface(hurst=0.8, lambda_r="2 um", lambda_s="100 nm",
+                                      size="8 um", n=256, rms_gradient=0.5, seed=1,
+                                      unit="nm")
 
 
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
+    """A map in um with heights in nm (tilted), the same map in mm with heights in m,
+    a profile, a map with many attributes, and broken files."""
     folder = tmp_path_factory.mktemp("cli")
-    topo = xrough.self_affine_surface(hurst=0.8, lambda_r="2 um", lambda_s="100 nm",
-                                      size="8 um", n=256, rms_gradient=0.5, seed=1,
-                                      unit="nm")
-    topo.to_netcdf(folder / "afm.nc")
+    topo = surface()
+    h = topo.values + 0.05 * topo.x.values[None, :]  # a tilt of 50 nm per um
+    xrough.topography(h, spacing="31.25 nm", unit="um", height_unit="nm").to_netcdf(
+        folder / "afm.nc")
+    xrough.topography(h * 1e-9, spacing="31.25 nm", unit="mm", height_unit="m").to_netcdf(
+        folder / "stylus.nc")
+    xrough.topography(topo.values[0], spacing="31.25 nm", unit="um",
+                      height_unit="nm").to_netcdf(folder / "profile.nc")
+    header = {f"header_entry_{k:03d}": f"value {k}" for k in range(300)}
+    xrough.topography(topo.values[:64, :64], spacing="31.25 nm", unit="nm",
+                      attrs=header).to_netcdf(folder / "long_header.nc")
     (folder / "broken.nc").write_bytes(b"CDF\x01" + b"\x00" * 20)
     (folder / "noise.xyz").write_bytes(bytes(range(256)) * 4)
-    return folder, topo
+    return folder
 
 
-def test_info(files):
-    folder, topo = files
-    res = run("info", "afm.nc", cwd=folder)
-    assert res.returncode == 0, res.stderr
-    assert "256 x 256 points" in res.stdout and "netcdf" in res.stdout
+def run(*args, cwd, monkeypatch, capsys):
+    """Run ``xrough args`` in ``cwd``; return (exit status, stdout, stderr)."""
+    monkeypatch.chdir(cwd)
+    status = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return status, out, err
 
 
-def test_acf_writes_netcdf(files):
-    folder, topo = files
-    res = run("acf", "afm.nc", "-o", "g.nc", cwd=folder)
-    assert res.returncode == 0, res.stderr
-    back = xrough.open_analysis(folder / "g.nc")
-    xr.testing.assert_allclose(back["afm"]["G"], topo.rough.acf())
-    assert back["afm"]["G"].attrs["source_sha256"] == xrough.io.file_sha256(folder / "afm.nc")
+def table(text):
+    """Rows of the report table as dicts (columns are separated by two spaces or more)."""
+    lines = [line for line in text.splitlines() if line.strip()]
+    head = re.split(r"\s{2,}", lines[0].strip())
+    rows = []
+    for line in lines[1:]:
+        cells = re.split(r"\s{2,}", line.strip())
+        if len(cells) != len(head):
+            break
+        rows.append(dict(zip(head, cells)))
+    return rows
 
 
-def test_report_table_figure_and_archive(files):
-    folder, _ = files
-    res = run("report", "afm.nc", "--E-star", "25MPa", "--p0", "0.1MPa", "--gamma",
-              "50mJ/m^2", "-o", "out/report.nc", cwd=folder)
-    assert res.returncode == 0, res.stderr
-    for column in ("sigma_h", "H", "lambda_r", "rms grad", "v_el", "a_r", "sigma_c",
-                   "patch radius"):
-        assert column in res.stdout
-    assert (folder / "out" / "report.png").stat().st_size > 10_000
-    back = xrough.open_analysis(folder / "out" / "report.nc")
+def agrees(printed, value, unit):
+    """Does the printed ``"12.34 nm"`` equal ``value unit`` within its last printed digit?"""
+    number, _, printed_unit = printed.partition(" ")
+    q = u.ureg.Quantity(float(number), printed_unit or "dimensionless")
+    half_digit = 0.5 * 10.0 ** decimal.Decimal(number).as_tuple().exponent
+    tolerance = u.ureg.Quantity(half_digit, printed_unit or "dimensionless")
+    expected = u.ureg.Quantity(float(value), u.parse_units(unit)).to(q.units)
+    return abs(expected.magnitude - q.magnitude) <= tolerance.magnitude * (1 + 1e-9)
+
+
+@pytest.fixture(scope="module")
+def report(files):
+    """``xrough report afm.nc stylus.nc`` in-process, with its output and figure."""
+    out = io.StringIO()
+    with pytest.MonkeyPatch.context() as mp, contextlib.redirect_stdout(out):
+        mp.chdir(files)
+        mp.setattr(plt, "close", lambda *a, **k: None)  # keep the figure to inspect it
+        before = set(plt.get_fignums())
+        status = main(["report", "afm.nc", "stylus.nc", "--E-star", E_STAR, "--p0", P0,
+                       "--gamma", GAMMA, "-o", "out/report.nc"])
+        new = sorted(set(plt.get_fignums()) - before)
+    fig = plt.figure(new[-1]) if new else None
+    yield status, out.getvalue(), fig
+    plt.close("all")
+
+
+def api_results(path):
+    """What the report computes, through the API: default plane detrending."""
+    topo = xrough.detrend(xrough.open_topography(path), mode="plane")
+    G = topo.rough.acf(direction="radial", points_per_decade=10)
+    fit = G.rough.fit()
+    gbar = G.rough.gradient()
+    contact = G.rough.persson(E_star=E_STAR, p0=P0, gradient=gbar, fit=fit)
+    return {"sigma_h": fit.sigma_h, "lambda_r": fit.lambda_r, "rms grad": gbar.isel(dr=0),
+            "v_el": G.rough.energy(E_star=E_STAR).v_el,
+            "a_r": contact.a_r.isel(dr=0), "sigma_c": contact.sigma_c.isel(dr=0),
+            "at dr": contact.dr.isel(dr=0),
+            "patch radius": G.rough.patch_radius(E_star=E_STAR, gamma=GAMMA).a_c,
+            "H": fit.hurst}
+
+
+def test_report_numbers_agree_with_the_api_in_their_printed_units(files, report):
+    status, out, _ = report
+    assert status == 0
+    rows = {r["measurement"]: r for r in table(out)}
+    assert set(rows) == {"afm", "stylus"}
+    expected = api_results(files / "afm.nc")
+    checked = 0
+    for column, value in expected.items():
+        printed = rows["afm"][column]
+        if column == "H":
+            assert printed.startswith(f"{float(value):.3f}+-")
+            continue
+        if not np.isfinite(float(value)):
+            continue
+        assert agrees(printed, value, value.attrs.get("units", "1")), (column, printed)
+        checked += 1
+    assert checked >= 7
+
+
+def test_sigma_h_is_printed_in_the_height_unit(report):
+    """A map in um with 65 nm rms printed 'sigma_h 0.06524 um' in the lateral unit's
+    scale... and in mm/m files the lateral unit labelled a height in m."""
+    _, out, _ = report
+    rows = {r["measurement"]: r for r in table(out)}
+    for name in ("afm", "stylus"):  # the same surface: heights in nm and in m
+        number, unit = rows[name]["sigma_h"].split()
+        assert unit == "nm" and 50 < float(number) < 80, rows[name]
+        assert rows[name]["lambda_r"].endswith("µm")
+        assert rows[name]["v_el"].endswith("J/m²") and rows[name]["sigma_c"].endswith("Pa")
+    assert rows["afm"]["sigma_h"] == rows["stylus"]["sigma_h"]  # unit invariance
+
+
+def test_multi_file_figure_draws_every_file_in_the_axis_unit(files, report):
+    """A file in mm and a file in m were drawn on one axis labelled with one unit."""
+    _, _, fig = report
+    ax = fig.axes[0]
+    dr_unit = re.search(r"\(([^)]*)\)$", ax.get_xlabel()).group(1)
+    g_unit = re.search(r"\(([^)]*)\)$", ax.get_ylabel()).group(1)
+    for name in ("afm", "stylus"):  # one line each, labelled with the measurement
+        (line,) = [ln for ln in ax.lines if ln.get_label() == name]
+        G = xrough.detrend(xrough.open_topography(files / f"{name}.nc"),
+                           mode="plane").rough.acf()
+        dr = G.dr.values * u.conversion_factor(G.dr.attrs["units"], dr_unit)
+        g = G.values * u.conversion_factor(G.attrs["units"], g_unit)
+        np.testing.assert_allclose(line.get_xdata(), dr, rtol=1e-9, err_msg=name)
+        np.testing.assert_allclose(line.get_ydata(), g, rtol=1e-9, err_msg=name)
+
+
+def test_report_archive_and_figure(files, report):
+    status, out, _ = report
+    assert status == 0 and "wrote out/report.nc and out/report.png" in out
+    assert (files / "out" / "report.png").stat().st_size > 10_000
+    back = xrough.open_analysis(files / "out" / "report.nc")
     assert set(back["afm"]) >= {"G", "fit", "persson", "energy", "patch", "gradient"}
     assert "E_star=25MPa" in back["_provenance"]["history"]
-    assert np.isfinite(float(back["afm"]["energy"].v_el))
+    assert back["afm"]["G"].attrs["detrend"] == "plane"
+
+
+def test_report_states_the_default_detrending(report):
+    """The report detrended nothing by default, and did not say so."""
+    _, out, _ = report
+    assert "detrend before G: plane" in out
+
+
+def test_detrend_defaults_to_a_plane_for_maps_and_a_line_for_profiles(files, monkeypatch,
+                                                                      capsys):
+    status, out, _ = run("acf", "afm.nc", "profile.nc", "--json", "-o", "g.nc", cwd=files,
+                         monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 0
+    found = {m["name"]: m["detrend"] for m in json.loads(out)["measurements"]}
+    assert found == {"afm": "plane", "profile": "line"}
+    back = xrough.open_analysis(files / "g.nc")
+    assert back["afm"]["G"].attrs["detrend"] == "plane"
+    status, out, _ = run("acf", "afm.nc", "--detrend", "none", "-o", "g_raw.nc",
+                         cwd=files, monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 0 and "detrend before G: none" in out
+    back = xrough.open_analysis(files / "g_raw.nc")
+    xr.testing.assert_allclose(back["afm"]["G"].drop_attrs(),
+                               xrough.open_topography(files / "afm.nc").rough.acf()
+                               .drop_attrs())
+
+
+def test_report_json(files, monkeypatch, capsys):
+    status, out, err = run("report", "afm.nc", "--E-star", E_STAR, "--p0", P0, "--json",
+                           "-o", "rj.nc", cwd=files, monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 0, err
+    doc = json.loads(out)  # nothing but JSON on stdout
+    m = doc["measurements"][0]
+    assert m["sigma_h"]["units"] == "nm" and m["lambda_r"]["units"] == "um"
+    assert m["v_el"]["units"] == "J m-2" and m["sigma_c"]["units"] == "Pa"
+    assert doc["parameters"]["E_star"] == {"value": 25e6, "units": "Pa"}
+    assert m["patch_radius"] is None and m["detrend"] == "plane"
+    fit = xrough.open_analysis(files / "rj.nc")["afm"]["fit"]
+    assert m["sigma_h"]["value"] == pytest.approx(float(fit.sigma_h), rel=1e-12)
+
+
+def test_acf_json_and_text_carry_units(files, monkeypatch, capsys):
+    status, out, _ = run("acf", "stylus.nc", "--json", "-o", "gs.nc", cwd=files,
+                         monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 0
+    m = json.loads(out)["measurements"][0]
+    assert m["dr"]["units"] == "mm" and m["G"]["units"] == "m2"
+    assert len(m["dr"]["values"]) == len(m["G"]["values"]) == len(m["pair_count"])
+    status, out, _ = run("acf", "stylus.nc", "-o", "gs.nc", cwd=files,
+                         monkeypatch=monkeypatch, capsys=capsys)
+    assert re.search(r"dr 31\.25 nm to [\d.]+ µm, G [\d.]+ \S+m² to", out), out
+
+
+def test_info_is_short_and_all_prints_the_header(files, monkeypatch, capsys):
+    status, out, _ = run("info", "long_header.nc", cwd=files, monkeypatch=monkeypatch,
+                         capsys=capsys)
+    assert status == 0
+    assert len(out.splitlines()) < 25 and "header_entry_150" not in out
+    assert "64 x 64" in out and "valid points  100.00%" in out and "--all" in out
+    status, out, _ = run("info", "long_header.nc", "--all", cwd=files,
+                         monkeypatch=monkeypatch, capsys=capsys)
+    assert len(out.splitlines()) > 300 and "header_entry_150: value 150" in out
+
+
+def test_info_units_size_and_json(files, monkeypatch, capsys):
+    status, out, _ = run("info", "afm.nc", cwd=files, monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 0
+    assert "size          8 µm x 8 µm" in out and "lateral um, height nm" in out
+    status, out, _ = run("info", "afm.nc", "--json", cwd=files, monkeypatch=monkeypatch,
+                         capsys=capsys)
+    doc = json.loads(out)["files"][0]
+    assert doc["size"]["x"] == {"value": pytest.approx(8.0), "units": "um"}
+    assert doc["height_units"] == "nm" and doc["valid_fraction"] == 1.0
+    assert doc["provenance"]["source_file"] == "afm.nc" and doc["channels"] == []
+
+
+def test_unit_and_height_unit_options(files, monkeypatch, capsys):
+    status, out, _ = run("info", "afm.nc", "--unit", "nm", "--height-unit", "um",
+                         "--format", "netcdf", "--json", cwd=files,
+                         monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 0
+    doc = json.loads(out)["files"][0]
+    assert (doc["lateral_units"], doc["height_units"]) == ("nm", "um")
+
+
+def test_channel_on_a_format_without_channels_is_a_clear_error(files, monkeypatch, capsys):
+    status, _, err = run("info", "afm.nc", "--channel", "1", cwd=files,
+                         monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 1 and len(err.strip().splitlines()) == 1
+    assert "afm.nc" in err and "--channel" in err and "TypeError" not in err
+
+
+def test_wrong_format_is_a_one_line_error(files, monkeypatch, capsys):
+    status, _, err = run("info", "afm.nc", "--format", "sdf", cwd=files,
+                         monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 1 and "afm.nc" in err and len(err.strip().splitlines()) == 1
+
+
+def test_info_lists_and_selects_channels_of_an_afm_file(monkeypatch, capsys):
+    path = data_path("instruments", "di-1.di")
+    status, out, _ = run("info", path, cwd=path.parent, monkeypatch=monkeypatch,
+                         capsys=capsys)
+    assert status == 0 and len(out.splitlines()) < 30  # was about 800 header lines
+    assert re.search(r"channels +0: Height \(nm, height\); 1: ", out)
+    status, out, _ = run("info", path, "--channel", "2", "--json", cwd=path.parent,
+                         monkeypatch=monkeypatch, capsys=capsys)
+    if status == 0:  # a phase channel, if the reader accepts non-height channels
+        assert json.loads(out)["files"][0]["channel_index"] == 2
+
+
+def test_info_sur_heights_in_their_unit(monkeypatch, capsys):
+    path = data_path("instruments", "sur-2.sur")
+    status, out, _ = run("info", path, "--json", cwd=path.parent, monkeypatch=monkeypatch,
+                         capsys=capsys)
+    doc = json.loads(out)["files"][0]
+    topo = xrough.open_topography(path)
+    assert doc["rms_height"]["units"] == topo.attrs["units"]
+    assert doc["rms_height"]["value"] == pytest.approx(float(topo.std()), rel=1e-9)
+
+
+def test_acf_keeps_every_measurement_with_safe_group_names(files, monkeypatch, capsys):
+    """Same stems overwrote each other; '(1)', '-x', '.x' stems broke the archive; a
+    measurement named _provenance replaced the provenance."""
+    topo = xrough.open_topography(files / "afm.nc")
+    names = ["a/scan.nc", "b/scan.nc", "c/(1).nc", "c/-lead.nc", "c/.hidden.nc",
+             "c/_provenance.nc", "c/na me.nc"]
+    for name in names:
+        (files / name).parent.mkdir(exist_ok=True)
+        topo.isel(y=slice(0, 64), x=slice(0, 64)).to_netcdf(files / name)
+    status, _, err = run("acf", *names, "-o", "many.nc", cwd=files,
+                         monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 0, err
+    back = xrough.open_analysis(files / "many.nc")
+    groups = set(back) - {"_provenance"}
+    assert len(groups) == len(names)
+    assert {"a_scan", "b_scan"} <= groups
+    assert all(re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.+-]*", g) for g in groups)
+    assert "xrough acf" in back["_provenance"]["history"]
+    assert {back[g]["G"].attrs["source_path"] for g in groups} == set(names)
+    assert back["provenance"]["G"].attrs["source_file"] == "_provenance.nc"
+
+
+def test_failed_acf_leaves_no_file_and_keeps_the_previous(files, monkeypatch, capsys):
+    status, _, err = run("acf", "afm.nc", "broken.nc", "-o", "fresh.nc", cwd=files,
+                         monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 1 and "broken.nc" in err and not (files / "fresh.nc").exists()
+    (files / "kept.nc").write_bytes(b"previous results")
+    status, _, _ = run("acf", "broken.nc", "-o", "kept.nc", cwd=files,
+                       monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 1 and (files / "kept.nc").read_bytes() == b"previous results"
+    assert not list(files.glob(".*.tmp"))
+
+
+def test_a_failure_while_writing_leaves_the_previous_archive(files, monkeypatch, capsys):
+    """A failed write destroyed the archive at the path and left a broken one."""
+    def failing_save(path, analysis, history=None):
+        Path(path).write_bytes(b"half an archive")
+        raise OSError("no space left on device")
+
+    (files / "previous.nc").write_bytes(b"previous results")
+    monkeypatch.setattr(xrough.cli, "save_analysis", failing_save)
+    status, _, err = run("acf", "long_header.nc", "-o", "previous.nc", cwd=files,
+                         monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 1 and "no space left" in err
+    assert (files / "previous.nc").read_bytes() == b"previous results"
+    assert not list(files.glob(".*.tmp"))
+
+
+def test_output_into_a_missing_folder_is_created(files, monkeypatch, capsys):
+    status, _, err = run("acf", "long_header.nc", "-o", "new/deeper/g.nc", cwd=files,
+                         monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 0, err
+    assert "G" in xrough.open_analysis(files / "new" / "deeper" / "g.nc")["long_header"]
 
 
 @pytest.mark.parametrize("args, message", [
+    (("demo", "-n", "0"), "-n 0"),
+    (("demo", "-n", "16"), "-n 16"),
+    (("demo", "--hurst", "1.5"), "--hurst"),
+    (("demo", "-o", "afm.nc/inside"), "cannot create the folder"),
+    (("acf", "afm.nc", "-o", "afm.nc/g.nc"), "cannot create the folder"),
+    (("acf", "afm.nc", "-o", "."), "is a folder"),
     (("info", "missing.nc"), "no such file"),
     (("info", "broken.nc"), "broken.nc"),
     (("info", "noise.xyz"), "noise.xyz"),
-    (("report", "afm.nc", "--E-star=-1MPa", "--p0", "1MPa"), "E_star"),
+    (("report", "afm.nc", "--E-star=-1MPa", "--p0", "1MPa"), "--E-star"),
     (("report", "afm.nc", "--E-star", "25 nm", "--p0", "1MPa"), "not a pressure"),
+    (("report", "afm.nc", "--E-star", "25MPa", "--p0", "1MPa", "--gamma", "1 m"),
+     "--gamma"),
 ])
-def test_bad_input_exits_1_with_a_one_line_reason(files, args, message):
-    folder, _ = files
-    res = run(*args, cwd=folder)
-    assert res.returncode == 1
-    assert message in res.stderr and len(res.stderr.strip().splitlines()) == 1
+def test_bad_input_exits_1_with_a_one_line_reason(files, monkeypatch, capsys, args,
+                                                  message):
+    status, _, err = run(*args, cwd=files, monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 1
+    assert message in err and len(err.strip().splitlines()) == 1, err
+    assert "Traceback" not in err and "Errno" not in err and "Permission" not in err
+
+
+def test_usage_errors_exit_2_and_help_documents_exit_codes(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert "exit status" in out and "0  success" in out and "2  usage error" in out
+    with pytest.raises(SystemExit) as exc:
+        main(["acf", "afm.nc", "--no-such-option"])
+    assert exc.value.code == 2
+    with pytest.raises(SystemExit) as exc:
+        main(["info", "x.nc", "--format", "nonsense"])
+    assert exc.value.code == 2
+
+
+def test_installed_command_runs(files):
+    """The console script end to end (one subprocess: the entry point and exit status)."""
+    res = subprocess.run([sys.executable, "-m", "xrough.cli", "info", "missing.nc"],
+                         cwd=files, capture_output=True, text=True, timeout=300)
+    assert res.returncode == 1 and res.stderr.startswith("xrough: error: ")
+    assert len(res.stderr.strip().splitlines()) == 1
