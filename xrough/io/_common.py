@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["fail", "select_channel"]
+__all__ = ["fail", "naming", "select_channel"]
 
 
 def fail(path: Path, message: str) -> ValueError:
@@ -19,6 +20,32 @@ def fail(path: Path, message: str) -> ValueError:
     ValueError('scan.spm: truncated file')
     """
     return ValueError(f"{path.name}: {message}")
+
+
+@contextmanager
+def naming(path: Path) -> Iterator[None]:
+    """Make every ``ValueError`` raised inside the block name the file.
+
+    Errors from shared helpers (a topography with one point, a unit pint does not know)
+    do not know which file they are about; the reader adds its name in front.
+
+    Examples
+    --------
+    >>> try:
+    ...     with naming(Path("scan.txt")):
+    ...         raise ValueError("coordinate 'x' needs at least 2 points")
+    ... except ValueError as err:
+    ...     print(err)
+    scan.txt: coordinate 'x' needs at least 2 points
+    """
+    try:
+        yield
+    except UnicodeError as err:
+        raise fail(path, f"cannot decode the text ({err})") from err
+    except ValueError as err:
+        if str(err).startswith(f"{path.name}:"):
+            raise
+        raise fail(path, str(err)) from err
 
 
 def select_channel(path: Path, channels: list[dict], channel, *,

@@ -35,7 +35,7 @@ from igor2 import binarywave
 
 from .. import units as u
 from ..topography import topography
-from ._common import fail, select_channel
+from ._common import fail, naming, select_channel
 
 __all__ = ["sniff", "read", "channels", "default_channel"]
 
@@ -352,6 +352,11 @@ def read(path: str | Path, *, channel: str | int | None = None, unit: str | None
         unsupported wave, corrupted or truncated file (the message names the file).
     """
     path = Path(path)
+    with naming(path):
+        return _read(path, channel, unit, height_unit)
+
+
+def _read(path: Path, channel, unit, height_unit):
     layout = _layout(path, *_load(path))
     wh, shape, dim_units = layout["wave_header"], layout["shape"], layout["dim_units"]
     given = height_unit or unit

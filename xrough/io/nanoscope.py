@@ -57,7 +57,7 @@ import numpy as np
 
 from .. import units as u
 from ..topography import topography
-from ._common import fail, select_channel
+from ._common import fail, naming, select_channel
 
 __all__ = ["sniff", "read", "channels", "default_channel", "parse_value"]
 
@@ -494,6 +494,11 @@ def read(path: str | Path, *, channel: str | int | None = None):
         file and the problem).
     """
     path = Path(path)
+    with naming(path):
+        return _read(path, channel)
+
+
+def _read(path: Path, channel):
     text, is_text, sections, version, infos = _channels(path)
     if is_text:
         raise fail(path, "Nanoscope files with the data stored as text ('?*File list') are "

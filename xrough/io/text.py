@@ -38,6 +38,7 @@ import xarray as xr
 
 from .. import units as u
 from ..topography import grid_of, topography
+from ._common import naming
 
 __all__ = ["sniff", "read", "write", "looks_binary"]
 
@@ -684,6 +685,13 @@ def read(path, *, unit: str | None = None, height_unit: str | None = None, spaci
     [5.0, 6.0, 7.0, 8.0]
     """
     path = Path(path)
+    with naming(path):
+        return _read(path, unit=unit, height_unit=height_unit, spacing=spacing, size=size,
+                     resample=resample, layout=layout, column=column, encoding=encoding)
+
+
+def _read(path: Path, *, unit, height_unit, spacing, size, resample, layout, column,
+          encoding) -> xr.DataArray:
     name = path.name
     if layout not in (None, "matrix", "profile", "xyz", "column"):
         raise ValueError(f"layout must be 'matrix', 'profile', 'xyz' or 'column', got "
