@@ -4,7 +4,11 @@ A ``.gwy`` file is the magic ``GWYP`` followed by a serialised ``GwyContainer`` 
 entries ``/N/data`` are ``GwyDataField`` channels (``xres``, ``yres``, ``xreal``,
 ``yreal``, ``xoff``, ``yoff``, ``si_unit_xy``, ``si_unit_z`` and the values row by row),
 with an optional title ``/N/data/title``, mask ``/N/mask`` (1 = marked) and metadata
-container ``/N/meta``. Parsing and serialising are done by the ``gwyfile`` package.
+container ``/N/meta``. Parsing and serialising are done by the ``gwyfile`` package, after
+:func:`check_structure` has walked the whole serialised tree with bounds: every object's
+declared size, every component's type and every array's length must fit in the file, so a
+corrupted file is refused in time proportional to its size instead of sending the parser
+into an endless loop or a huge allocation.
 
 Conventions:
 
@@ -34,6 +38,7 @@ import numpy as np
 from .. import units as u
 from ..topography import grid_of, topography
 from ._common import fail
+from .x3p import check_file, reader_errors
 
 __all__ = ["sniff", "read", "write", "channels"]
 
@@ -42,6 +47,10 @@ _STRUCTURAL = ("units", "channel", "channel_index", "x_offset", "y_offset", "mas
 _INT = re.compile(r"[-+]?\d+")
 _FLOAT = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 _DATA_KEY = re.compile(r"/(\d+)/data")
+#: Bytes of the fixed-size component types and of the items of the fixed-size arrays.
+_SCALAR_SIZES = {ord("b"): 1, ord("c"): 1, ord("i"): 4, ord("q"): 8, ord("d"): 8}
+_ARRAY_SIZES = {ord("C"): 1, ord("I"): 4, ord("Q"): 8, ord("D"): 8}
+_MAX_DEPTH = 64
 
 
 def sniff(head: bytes, path: Path | None = None) -> bool:
@@ -57,10 +66,102 @@ def sniff(head: bytes, path: Path | None = None) -> bool:
     return head[:4] == MAGIC
 
 
-def _load(path: Path):
-    """Load the top-level container after checking the magic and the declared size."""
-    with open(path, "rb") as fh:
-        blob = fh.read()
+def _string_end(blob: bytes, pos: int, end: int, what: str) -> int:
+    """Position after the NUL ending the string at ``pos``, which must end before ``end``."""
+    stop = blob.find(b"\0", pos, end)
+    if stop < 0:
+        raise ValueError(f"{what} at byte {pos} is not terminated before byte {end}")
+    return stop + 1
+
+
+def _walk_object(blob: bytes, pos: int, end: int, depth: int) -> int:
+    """Check the serialised object at ``pos`` (bounded by ``end``); return its end."""
+    if depth > _MAX_DEPTH:
+        raise ValueError(f"objects nested more than {_MAX_DEPTH} deep")
+    name_end = _string_end(blob, pos, end, "an object name")
+    if name_end == pos + 1:
+        raise ValueError(f"an object at byte {pos} has an empty name")
+    if name_end + 4 > end:
+        raise ValueError(f"the object at byte {pos} lacks its size")
+    (size,) = struct.unpack_from("<I", blob, name_end)
+    start, stop = name_end + 4, name_end + 4 + size
+    if stop > end:
+        raise ValueError(f"the object at byte {pos} declares {size} bytes, only "
+                         f"{end - start} are left")
+    pos = start
+    while pos < stop:
+        pos = _walk_component(blob, pos, stop, depth)
+    return stop
+
+
+def _walk_component(blob: bytes, pos: int, end: int, depth: int) -> int:
+    """Check one named component at ``pos`` (bounded by ``end``); return its end."""
+    pos = _string_end(blob, pos, end, "a component name")
+    if pos >= end:
+        raise ValueError(f"the component ending at byte {pos} has no type")
+    kind = blob[pos]
+    pos += 1
+    if kind in _SCALAR_SIZES:
+        pos += _SCALAR_SIZES[kind]
+    elif kind == ord("s"):
+        pos = _string_end(blob, pos, end, "a string")
+    elif kind == ord("o"):
+        pos = _walk_object(blob, pos, end, depth + 1)
+    elif kind in _ARRAY_SIZES or kind in (ord("S"), ord("O")):
+        if pos + 4 > end:
+            raise ValueError(f"the array at byte {pos} lacks its length")
+        (n,) = struct.unpack_from("<I", blob, pos)
+        pos += 4
+        if n == 0:
+            raise ValueError(f"the array at byte {pos} is empty (Gwyddion never writes one)")
+        if kind in _ARRAY_SIZES:
+            if kind == ord("C"):  # gwyfile cannot parse character arrays
+                raise ValueError("character arrays (type 'C') are not supported")
+            pos += n * _ARRAY_SIZES[kind]
+        elif n > end - pos:
+            raise ValueError(f"the array at byte {pos} declares {n} items, only "
+                             f"{end - pos} bytes are left")
+        else:
+            for _ in range(n):
+                pos = (_string_end(blob, pos, end, "a string") if kind == ord("S")
+                       else _walk_object(blob, pos, end, depth + 1))
+    else:
+        raise ValueError(f"unknown component type {bytes([kind])!r} at byte {pos - 1}")
+    if pos > end:
+        raise ValueError(f"a component ends at byte {pos}, past the end of its object "
+                         f"(byte {end})")
+    return pos
+
+
+def check_structure(blob: bytes, path: Path) -> None:
+    r"""Walk a serialised ``.gwy`` file with bounds before it is parsed.
+
+    The format is the magic ``GWYP`` and one object: a NUL-terminated type name, a 32-bit
+    size and that many bytes of components, each a NUL-terminated name, a one-letter type
+    (``b c i q d s o`` or the arrays ``C I Q D S O`` with a 32-bit length) and its value.
+    Every size, length and string must fit inside the object that holds it, and the
+    top-level object must end exactly at the end of the file.
+
+    Parameters
+    ----------
+    blob : bytes
+        The whole file.
+    path : Path
+        The file, named in the message.
+
+    Raises
+    ------
+    ValueError
+        Anything that does not fit; the message names the file and what is wrong.
+
+    Examples
+    --------
+    >>> check_structure(b"GWYP" + b"GwyContainer\0" + bytes(4), Path("a.gwy"))
+    >>> check_structure(b"GWYP" + b"GwyContainer\0" + b"\xff" * 4, Path("a.gwy"))
+    Traceback (most recent call last):
+    ...
+    ValueError: a.gwy: truncated file: the container declares 4294967295 bytes ...
+    """
     if blob[:4] != MAGIC:
         raise fail(path, "not a Gwyddion file (no 'GWYP' magic)")
     name_end = blob.find(b"\0", 4, 4 + 256)
@@ -70,6 +171,20 @@ def _load(path: Path):
     if name_end + 5 + size > len(blob):
         raise fail(path, f"truncated file: the container declares {size} bytes but only "
                          f"{len(blob) - name_end - 5} follow")
+    try:
+        end = _walk_object(blob, 4, len(blob), 0)
+    except ValueError as err:
+        raise fail(path, f"corrupted Gwyddion file: {err}") from None
+    if end != len(blob):
+        raise fail(path, f"corrupted Gwyddion file: {len(blob) - end} bytes follow the "
+                         "top-level object")
+
+
+def _load(path: Path):
+    """Load the top-level container after checking the whole serialised structure."""
+    with open(path, "rb") as fh:
+        blob = fh.read()
+    check_structure(blob, path)
     try:
         obj = gwyfile.objects.GwyObject.frombuffer(blob[4:])
     except Exception as err:  # noqa: BLE001 - a corrupted stream fails in many ways
@@ -166,8 +281,21 @@ def read(path: str | Path, *, channel: str | int | None = None, mask: bool = Tru
     ValueError
         Unknown channel or one without length units (the message lists the channels),
         corrupted or truncated file (the message names the file).
+    FileNotFoundError, IsADirectoryError
+        ``path`` is not a file.
+    TypeError
+        ``channel`` is neither a title nor an id.
     """
     path = Path(path)
+    if channel is not None and (isinstance(channel, bool) or not isinstance(
+            channel, (str, int, np.integer))):
+        raise TypeError(f"channel must be a title (str) or an id (int), got {channel!r}")
+    check_file(path)
+    with reader_errors(path, "Gwyddion"):
+        return _read(path, channel, mask)
+
+
+def _read(path: Path, channel, mask: bool):
     container = _load(path)
     fields = _fields(container)
     listing = "; ".join(_describe(c) for c in fields) or "none"

@@ -9,10 +9,17 @@ either order (``heights(x, y)`` is transposed to xrough's ``(y, x)``), with unit
 ``units`` or ``unit`` attribute. A ``length`` attribute on a coordinate (as written by
 SurfaceTopography) gives the physical size ``n * spacing`` along it, and a ``periodic``
 attribute the periodicity.
+
+Untrusted files: the header of a NetCDF-3 file (classic, 64-bit offset, CDF-5) is walked
+with bounds before the NetCDF library sees it, and every variable's declared size and
+offset is compared with the file's size. A truncated file or a header declaring more data
+than the file holds is refused (the library would read the missing bytes as zeros, or
+allocate what the header claims). Every failure is a ``ValueError`` naming the file.
 """
 
 from __future__ import annotations
 
+import mmap
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +27,7 @@ import xarray as xr
 
 from .. import units as u
 from ..topography import topography
+from .x3p import check_file, reader_errors
 
 __all__ = ["sniff", "read", "write"]
 
@@ -29,6 +37,144 @@ _EXTENSIONS = (".nc", ".nc4", ".netcdf", ".cdf")
 _HEIGHT_NAMES = ("height", "heights", "topography", "topo", "z", "h",
                  "__xarray_dataarray_variable__")
 _DATAARRAY_DEFAULT = "__xarray_dataarray_variable__"
+#: Bytes per value of the NetCDF-3 external types (CDF-5 adds 7 to 11).
+_NC_TYPE_SIZES = {1: 1, 2: 1, 3: 2, 4: 4, 5: 4, 6: 8, 7: 1, 8: 2, 9: 4, 10: 8, 11: 8}
+_NC_DIMENSION, _NC_VARIABLE, _NC_ATTRIBUTE = 10, 11, 12
+_MAX_NESTING = 10_000  # more dims, attributes or variables than this: a corrupted header
+
+
+class _Header:
+    """Bounded reader of a NetCDF-3 header (big-endian integers, 4-byte padding)."""
+
+    def __init__(self, buf, name: str):
+        self.buf, self.name, self.pos, self.size = buf, name, 0, len(buf)
+        version = buf[3]
+        self.count = 8 if version == 5 else 4
+        self.offset = 4 if version == 1 else 8
+
+    def fail(self, what: str) -> ValueError:
+        return ValueError(f"{self.name}: truncated or corrupted NetCDF-3 file: {what}")
+
+    def need(self, n: int, what: str) -> None:
+        if n < 0 or self.pos + n > self.size:
+            raise self.fail(f"the header's {what} needs {n} bytes at byte {self.pos}, the "
+                            f"file has {self.size}")
+
+    def integer(self, n: int, what: str) -> int:
+        self.need(n, what)
+        value = int.from_bytes(self.buf[self.pos:self.pos + n], "big")
+        self.pos += n
+        return value
+
+    def skip(self, n: int, what: str) -> None:
+        padded = n + (-n) % 4
+        self.need(padded, what)
+        self.pos += padded
+
+    def name_(self, what: str) -> bytes:
+        n = self.integer(self.count, what)
+        self.need(n, what)
+        text = bytes(self.buf[self.pos:self.pos + n])
+        self.skip(n, what)
+        return text
+
+    def list_(self, tag: int, what: str, least: int) -> int:
+        found = self.integer(4, f"{what} list")
+        n = self.integer(self.count, f"{what} list")
+        if found == 0 and n == 0:
+            return 0
+        if found != tag:
+            raise self.fail(f"the {what} list has tag {found}, expected {tag}")
+        if n > _MAX_NESTING or n * least > self.size - self.pos:
+            raise self.fail(f"the header declares {n} {what}s, more than the file can hold")
+        return n
+
+    def attributes(self, where: str) -> None:
+        for _ in range(self.list_(_NC_ATTRIBUTE, f"attribute of {where}", 12)):
+            self.name_(f"attribute name of {where}")
+            kind = self.integer(4, f"attribute type of {where}")
+            if kind not in _NC_TYPE_SIZES:
+                raise self.fail(f"an attribute of {where} has unknown type {kind}")
+            n = self.integer(self.count, f"attribute of {where}")
+            self.skip(n * _NC_TYPE_SIZES[kind], f"attribute values of {where}")
+
+
+def check_netcdf3(path: Path) -> None:
+    """Check a NetCDF-3 file's header against the file before the library opens it.
+
+    Walks the header with bounds (every count, name and attribute must fit in the file)
+    and checks that every variable's data, at the offset the header states and with the
+    size its dimensions (and the number of records) declare, lies inside the file.
+
+    Parameters
+    ----------
+    path : Path
+        The file; files that are not NetCDF-3 are left alone.
+
+    Raises
+    ------
+    ValueError
+        Truncated file or corrupted header; the message names the file, the variable and
+        the sizes.
+    """
+    size = path.stat().st_size
+    if size < 4:
+        return
+    with open(path, "rb") as fh:
+        if fh.read(4) not in _NETCDF3:
+            return
+        with mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as buf:
+            _check_netcdf3_header(buf, path.name)
+
+
+def _check_netcdf3_header(buf, name: str) -> None:
+    h = _Header(buf, name)
+    h.pos = 4
+    numrecs = h.integer(h.count, "number of records")
+    streaming = numrecs == (1 << (8 * h.count)) - 1
+    dims = []
+    for _ in range(h.list_(_NC_DIMENSION, "dimension", 8)):
+        dim_name = h.name_("dimension name")
+        dims.append((dim_name, h.integer(h.count, "dimension length")))
+    h.attributes("the file")
+    variables = []
+    for _ in range(h.list_(_NC_VARIABLE, "variable", 24)):
+        var = h.name_("variable name").decode("utf-8", "replace")
+        ndims = h.integer(h.count, f"dimensions of {var!r}")
+        if ndims * h.count > h.size - h.pos:
+            raise h.fail(f"variable {var!r} declares {ndims} dimensions")
+        ids = [h.integer(h.count, f"dimension ids of {var!r}") for _ in range(ndims)]
+        if any(i >= len(dims) for i in ids):
+            raise h.fail(f"variable {var!r} refers to a dimension that does not exist")
+        h.attributes(f"variable {var!r}")
+        kind = h.integer(4, f"type of {var!r}")
+        if kind not in _NC_TYPE_SIZES:
+            raise h.fail(f"variable {var!r} has unknown type {kind}")
+        h.integer(h.count, f"size of {var!r}")
+        begin = h.integer(h.offset, f"offset of {var!r}")
+        lengths = [dims[i][1] for i in ids]
+        record = bool(lengths) and lengths[0] == 0
+        count = 1
+        for n in lengths[1:] if record else lengths:
+            count *= n
+        variables.append((var, record, begin, count * _NC_TYPE_SIZES[kind]))
+    header_end = h.pos
+    records = [v for v in variables if v[1]]
+    recsize = sum(n + (-n) % 4 for *_, n in records) if len(records) > 1 else (
+        records[0][3] if records else 0)
+    for var, record, begin, nbytes in variables:
+        if begin < header_end:
+            raise h.fail(f"variable {var!r} starts at byte {begin}, inside the header "
+                         f"(which ends at byte {header_end})")
+        if record:
+            if streaming or numrecs == 0:
+                continue
+            end = begin + (numrecs - 1) * recsize + nbytes
+        else:
+            end = begin + nbytes
+        if end > h.size:
+            raise h.fail(f"variable {var!r} needs the bytes {begin} to {end} by its "
+                         f"header, the file has {h.size} bytes")
 
 
 def sniff(head: bytes, path: Path) -> bool:
@@ -125,7 +271,10 @@ def read(path, *, variable: str | None = None, group: str | None = None,
     Raises
     ------
     ValueError
-        No or several candidate variables, dims other than ``x``/``y``, missing units.
+        No or several candidate variables, dims other than ``x``/``y``, missing units, a
+        truncated or corrupted file (the message names the file).
+    FileNotFoundError, IsADirectoryError
+        ``path`` is not a file.
 
     Examples
     --------
@@ -138,13 +287,18 @@ def read(path, *, variable: str | None = None, group: str | None = None,
     True
     """
     path = Path(path)
+    check_file(path)
+    with reader_errors(path, "NetCDF"):
+        return _read(path, variable, group, unit, height_unit, size)
+
+
+def _read(path: Path, variable, group, unit, height_unit, size) -> xr.DataArray:
     name = path.name
+    check_netcdf3(path)
     try:
         with xr.open_dataset(path, engine="netcdf4", group=group, decode_times=False) as ds:
             ds = ds.load()
     except OSError as err:
-        if not path.is_file():
-            raise FileNotFoundError(f"no such file: {path}") from err
         raise ValueError(f"{name}: cannot read as NetCDF ({err})") from None
     var = _choose(ds, name, variable)
     da = ds[var]

@@ -1,0 +1,616 @@
+"""Untrusted files: the native readers (X3P, SUR, SDF, Gwyddion, NetCDF) under mutation.
+
+Each format has a regression test per defect found by fuzzing (truncated NetCDF read as
+zeros, a corrupted ``.gwy`` that hangs the third-party parser, allocation bombs), a
+loop over 1000 seeded mutations of a small valid file (truncation, flipped bytes, absurd
+sizes in the header, zero length) and a smaller hypothesis test. Every outcome must be a
+``ValueError``/``OSError`` naming the file, or a read that gives a valid topography.
+"""
+
+import hashlib
+import io
+import re
+import struct
+import subprocess
+import sys
+import threading
+import time
+import tracemalloc
+import zipfile
+import zlib
+from collections import Counter
+
+import numpy as np
+import pytest
+import xarray as xr
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from test_io_x3p_sdf_sur import SDF_HEADER, sur_object
+
+import xrough
+from conftest import data_path
+from xrough.io import gwy, netcdf, sdf, sur, x3p
+
+MUTATIONS = 1000
+#: Outcome counts of the loop tests, per format (printed with ``-s``).
+OUTCOMES: dict[str, Counter] = {}
+
+
+def small_map(shape=(6, 8), seed=3):
+    h = np.random.default_rng(seed).normal(scale=1e-7, size=shape)
+    h[0, -1] = 5e-7  # asymmetric: a bump at the top right of the picture
+    h[2, 3] = np.nan
+    return xrough.topography(h, spacing=(2e-6, 1e-6), unit="m")
+
+
+# ------------------------------------------------------------------ valid seed files
+
+
+def x3p_bytes(tmp_path):
+    path = tmp_path / "seed.x3p"
+    x3p.write(small_map(), path, metadata={"creator": "fuzz", "comment": "seed"})
+    return path.read_bytes()
+
+
+def gwy_bytes(tmp_path):
+    path = tmp_path / "seed.gwy"
+    gwy.write(small_map().assign_attrs(operator="fuzz", scan_rate=1.5), path)
+    return path.read_bytes()
+
+
+def netcdf_bytes(tmp_path, fmt="NETCDF3_64BIT", shape=(6, 8)):
+    path = tmp_path / "seed.nc"
+    topo = xrough.topography(np.random.default_rng(1).normal(size=shape), spacing="2 nm",
+                             unit="nm")
+    topo.assign_attrs(instrument="fuzz").to_netcdf(path, format=fmt, engine="netcdf4")
+    return path.read_bytes()
+
+
+def sur_bytes(_tmp_path=None):
+    points = np.arange(48).reshape(6, 8) - 20
+    return (sur_object(points, n_objects=2, comment=b"plain", special=1, zmin=-22)
+            + sur_object(points[::-1], compressed=True, units="nm", zoff=2.0))
+
+
+def sdf_text_bytes(_tmp_path=None):
+    values = "\n".join(" ".join(str(v) for v in row)
+                       for row in np.arange(24).reshape(4, 6) - 7)
+    return (SDF_HEADER.format(nx=6, ny=4, dz="1.0E-9", code=5) + values
+            + "\n*\n<OperatorName> fuzz </OperatorName>\n*\n").encode("latin-1")
+
+
+def sdf_binary_bytes(_tmp_path=None):
+    values = (np.arange(24, dtype="<i2") - 7).tobytes()
+    header = struct.pack("<8s10s12s12sHHddddBBB", b"bISO-1.0", b"Bin", b"010120240000",
+                         b"010120240000", 6, 4, 1e-6, 2e-6, 1e-9, -1.0, 0, 5, 0)
+    return header + values
+
+
+# --------------------------------------------------------------------------- mutation
+
+ABSURD_32 = (0, 1, 0xFFFFFFFF, 0x7FFFFFFF, 0x80000000, 0xFFFF, 30000 * 30000, 0x10000)
+ABSURD_64 = (float("inf"), float("-inf"), float("nan"), 1e308, -1.0, 0.0, 5e-324, 1e300)
+
+
+def mutate(raw: bytes, rng: np.random.Generator, header: int = 600) -> bytes:
+    """One random mutation: truncation, flipped bytes, an absurd size, a cut or a copy."""
+    n = len(raw)
+    data = bytearray(raw)
+
+    def position(width=1):
+        limit = min(header, n) if rng.random() < 0.7 else n
+        return int(rng.integers(0, max(limit - width, 1)))
+
+    kind = rng.integers(7)
+    if kind == 0:  # truncation anywhere, zero length included
+        return bytes(data[:int(rng.integers(0, n))])
+    if kind == 1:  # a few flipped bytes
+        for _ in range(int(rng.integers(1, 9))):
+            data[position()] ^= int(rng.integers(1, 256))
+        return bytes(data)
+    if kind == 2:  # an absurd 32-bit integer (sizes, counts, offsets), either byte order
+        value = int(rng.choice(ABSURD_32)).to_bytes(4, "little" if rng.random() < 0.5
+                                                    else "big")
+        pos = position(4)
+        data[pos:pos + 4] = value
+        return bytes(data)
+    if kind == 3:  # an absurd double (scales, spacings)
+        pos = position(8)
+        data[pos:pos + 8] = struct.pack("<d" if rng.random() < 0.5 else ">d",
+                                        float(rng.choice(ABSURD_64)))
+        return bytes(data[:n])
+    if kind == 4:  # a chunk cut out
+        a = position()
+        return bytes(data[:a] + data[a + int(rng.integers(1, 64)):])
+    if kind == 5:  # a chunk repeated
+        a = position()
+        return bytes(data[:a] + data[a:a + int(rng.integers(1, 64))] * 2 + data[a:])
+    return bytes(data[:position()]) + bytes(rng.integers(0, 256, int(rng.integers(1, 32)),
+                                                         dtype=np.uint8))
+
+
+def rezip_x3p(raw: bytes, xml: bytes, *, fix_checksum: bool) -> bytes:
+    """The X3P archive ``raw`` with ``main.xml`` replaced (and its checksum updated)."""
+    out = io.BytesIO()
+    with zipfile.ZipFile(io.BytesIO(raw)) as zin, zipfile.ZipFile(out, "w") as zout:
+        for name in zin.namelist():
+            content = zin.read(name)
+            if name == "main.xml":
+                content = xml
+            elif name == "md5checksum.hex" and fix_checksum:
+                content = f"{hashlib.md5(xml).hexdigest()} *main.xml\n".encode()
+            zout.writestr(name, content)
+    return out.getvalue()
+
+
+XML_VALUES = (b"0", b"-1", b"30000", b"4294967296", b"1e308", b"nan", b"inf", b"", b"x",
+              b"1e-320", b"99999999999999999999", b"\xff\xfe", b"<a>", b"I", b"PCL")
+
+
+def mutate_x3p(raw: bytes, rng: np.random.Generator) -> bytes:
+    """Raw mutations of the archive, or of ``main.xml`` inside a valid archive."""
+    if rng.random() < 0.5:
+        return mutate(raw, rng, header=len(raw))
+    with zipfile.ZipFile(io.BytesIO(raw)) as zf:
+        xml = zf.read("main.xml")
+    if rng.random() < 0.7:  # a value of the document replaced by an absurd one
+        values = list(re.finditer(rb">([^<>]+)<", xml))
+        m = values[int(rng.integers(len(values)))]
+        xml = xml[:m.start(1)] + XML_VALUES[int(rng.integers(len(XML_VALUES)))] + xml[
+            m.end(1):]
+    else:
+        xml = mutate(xml, rng, header=len(xml))
+    return rezip_x3p(raw, xml, fix_checksum=rng.random() < 0.8)
+
+
+# ---------------------------------------------------------------------------- checking
+
+
+def outcome(read, path, name: str) -> str:
+    """Read a mutated file; a clean error or a valid topography, else the test fails."""
+    try:
+        da = read(path)
+    except (ValueError, OSError) as err:
+        assert path.name in str(err), f"{name}: the message does not name the file: {err!r}"
+        return "clean error"
+    except Exception as err:  # noqa: BLE001
+        pytest.fail(f"{name}: {path.name} raised {type(err).__name__}: {err}")
+    assert isinstance(da, xr.DataArray)
+    xrough.topography(da)  # a read must give a valid topography
+    return "read"
+
+
+def fuzz_loop(tmp_path, fmt: str, seeds, read, mutator=mutate, n=MUTATIONS,
+              suffix=None, max_bytes=256 << 20):
+    """``n`` seeded mutations of the seed files; count the outcomes."""
+    rng = np.random.default_rng([ord(c) for c in fmt])
+    counts = Counter()
+    tracemalloc.start()
+    try:
+        for i in range(n):
+            seed = seeds[i % len(seeds)]
+            content = mutator(seed, rng)
+            path = tmp_path / f"m{i:04d}{suffix or '.' + fmt}"
+            path.write_bytes(content)
+            tracemalloc.reset_peak()
+            result = outcome(read, path, fmt)
+            peak = tracemalloc.get_traced_memory()[1]
+            assert peak < max(10 * len(seed), max_bytes), (
+                f"{path.name}: {peak} bytes allocated for a {len(content)}-byte file")
+            if result == "read":
+                result += " (unchanged file)" if content == seed else ""
+            counts[result] += 1
+            path.unlink()
+    finally:
+        tracemalloc.stop()
+    OUTCOMES[fmt] = counts
+    print(f"\n{fmt}: {n} mutations: {dict(counts)}")
+    assert sum(counts.values()) == n
+    return counts
+
+
+# -------------------------------------------------------------------- NetCDF defects
+
+
+@pytest.mark.parametrize("fmt", ["NETCDF3_CLASSIC", "NETCDF3_64BIT"])
+@pytest.mark.parametrize("fraction", [0.5, 0.6, 0.7, 0.8, 0.9, 0.99])
+def test_truncated_netcdf3_is_refused_not_read_as_zeros(tmp_path, fmt, fraction):
+    raw = netcdf_bytes(tmp_path, fmt, shape=(40, 50))
+    path = tmp_path / "cut.nc"
+    path.write_bytes(raw[:int(len(raw) * fraction)])
+    with pytest.raises(ValueError, match=r"cut\.nc: truncated or corrupted NetCDF-3 file: "
+                                         r"variable '\w+' needs the bytes \d+ to \d+"):
+        netcdf.read(path)
+    with pytest.raises(ValueError, match=r"cut\.nc"):
+        xrough.open_topography(path)
+
+
+def test_truncated_netcdf3_fails_on_the_command_line(tmp_path):
+    raw = netcdf_bytes(tmp_path, shape=(40, 50))
+    path = tmp_path / "cut.nc"
+    path.write_bytes(raw[:int(len(raw) * 0.7)])
+    res = subprocess.run([sys.executable, "-m", "xrough.cli", "info", str(path)],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert res.returncode == 1 and "cut.nc" in res.stderr and "truncated" in res.stderr
+
+
+def test_netcdf3_header_declaring_more_than_the_file_allocates_nothing(tmp_path):
+    """An 860-byte file whose header claims 3 GB fails before the library allocates."""
+    raw = data_path("instruments", "nc-1.nc").read_bytes()
+    assert raw[:4] == b"CDF\x02" and len(raw) == 860
+    # the first dimension ('x', length 5) claims 2**31 - 1 points
+    at = raw.index(b"x\x00\x00\x00") + 4
+    assert struct.unpack(">I", raw[at:at + 4])[0] == 5
+    bad = tmp_path / "huge.nc"
+    bad.write_bytes(raw[:at] + struct.pack(">I", 2**31 - 1) + raw[at + 4:])
+    tracemalloc.start()
+    try:
+        with pytest.raises(ValueError, match=r"huge\.nc: truncated or corrupted NetCDF-3 "
+                                             r"file: variable '\w+' needs the bytes"):
+            netcdf.read(bad)
+        assert tracemalloc.get_traced_memory()[1] < 10 << 20
+    finally:
+        tracemalloc.stop()
+    # an attribute claiming more values than the file holds
+    at = raw.index(b"unit\x00\x00\x00\x02") + 8
+    bad.write_bytes(raw[:at] + struct.pack(">I", 2**31 - 1) + raw[at + 4:])
+    with pytest.raises(ValueError, match=r"huge\.nc: truncated or corrupted NetCDF-3 file: "
+                                         r"the header's attribute values"):
+        netcdf.read(bad)
+
+
+def test_netcdf_reader_keeps_valid_files(tmp_path):
+    for fmt in ("NETCDF3_CLASSIC", "NETCDF3_64BIT", "NETCDF4"):
+        topo = small_map()
+        path = tmp_path / f"{fmt}.nc"
+        topo.to_netcdf(path, format=fmt, engine="netcdf4")
+        xr.testing.assert_identical(netcdf.read(path), topo)
+    record = small_map().to_dataset(name="height").expand_dims(t=3)
+    record.to_netcdf(tmp_path / "rec.nc", format="NETCDF3_CLASSIC", unlimited_dims=["t"])
+    netcdf.check_netcdf3(tmp_path / "rec.nc")
+    raw = (tmp_path / "rec.nc").read_bytes()
+    (tmp_path / "rec.nc").write_bytes(raw[:-8])
+    with pytest.raises(ValueError, match=r"rec\.nc: truncated"):
+        netcdf.check_netcdf3(tmp_path / "rec.nc")
+
+
+def test_reader_of_a_directory_names_it(tmp_path):
+    folder = tmp_path / "scan.x3p"
+    folder.mkdir()
+    for module in (x3p, sur, sdf, gwy, netcdf):
+        with pytest.raises(OSError, match="scan.x3p"):
+            module.read(folder)
+
+
+# ------------------------------------------------------------------- Gwyddion defects
+
+
+def run_bounded(func, seconds=30):
+    """Run ``func`` in a thread; fail if it has not returned within ``seconds``."""
+    result = {}
+
+    def target():
+        try:
+            result["value"] = func()
+        except BaseException as err:  # noqa: BLE001
+            result["error"] = err
+
+    thread = threading.Thread(target=target, daemon=True)
+    thread.start()
+    thread.join(seconds)
+    if thread.is_alive():
+        pytest.fail(f"still running after {seconds} s (endless loop in a parser)")
+    return result
+
+
+def test_gwy_that_hung_the_parser_ends_in_a_clean_error(tmp_path):
+    """A string that lost its terminating NUL sent gwyfile into an endless loop."""
+    raw = gwy_bytes(tmp_path)
+    # the unit string ``m`` ends the GwySIUnit object: without its NUL, gwyfile's search
+    # for the end of the string fails and it never advances
+    at = raw.index(b"unitstr\x00sm\x00") + len(b"unitstr\x00sm")
+    path = tmp_path / "hang.gwy"
+    path.write_bytes(raw[:at] + b"x" + raw[at + 1:])
+    result = run_bounded(lambda: gwy.read(path))
+    assert isinstance(result.get("error"), ValueError), result
+    assert re.match(r"hang\.gwy: corrupted Gwyddion file: a string at byte \d+ is not "
+                    r"terminated", str(result["error"]))
+
+
+def test_gwy_structure_walk_accepts_what_gwyddion_writes(tmp_path):
+    raw = gwy_bytes(tmp_path)
+    gwy.check_structure(raw, tmp_path / "seed.gwy")
+    with pytest.raises(ValueError, match=r"x\.gwy: corrupted Gwyddion file: 3 bytes follow"):
+        gwy.check_structure(raw + b"abc", tmp_path / "x.gwy")
+
+
+# ------------------------------------------------------------------ allocation bombs
+
+
+def x3p_with_members(path, xml_sizes, members):
+    """A hand-made X3P archive: ``main.xml`` with ``xml_sizes`` and the given members."""
+    nx, ny = xml_sizes
+    link = "<DataLink><PointDataLink>bindata/data.bin</PointDataLink></DataLink>"
+    xml = (f'<p:ISO5436_2 xmlns:p="{x3p.NAMESPACE}"><Record1><FeatureType>SUR'
+           "</FeatureType><Axes><CX><AxisType>I</AxisType><Increment>1e-6</Increment></CX>"
+           "<CY><AxisType>I</AxisType><Increment>1e-6</Increment></CY><CZ><AxisType>A"
+           "</AxisType><DataType>D</DataType></CZ></Axes></Record1><Record3>"
+           f"<MatrixDimension><SizeX>{nx}</SizeX><SizeY>{ny}</SizeY><SizeZ>1</SizeZ>"
+           f"</MatrixDimension>{members.pop('link', link)}</Record3></p:ISO5436_2>")
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+        zf.writestr("main.xml", xml)
+        for name, content in members.items():
+            zf.writestr(name, content)
+    return path
+
+
+def peak_bytes(func):
+    tracemalloc.start()
+    try:
+        func()
+    finally:
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+    return peak
+
+
+def test_x3p_zip_bomb_is_refused_before_decompression(tmp_path):
+    bomb = x3p_with_members(tmp_path / "bomb.x3p", (10, 10),
+                            {"bindata/data.bin": bytes(64 << 20)})
+    assert bomb.stat().st_size < 200_000
+
+    def read():
+        with pytest.raises(ValueError, match=r"bomb\.x3p: the point data 'bindata/data\.bin'"
+                                             r" holds 67108864 bytes, more than the 800"):
+            x3p.read(bomb)
+
+    start = time.perf_counter()
+    assert peak_bytes(read) < 4 << 20
+    assert time.perf_counter() - start < 5
+
+
+def test_x3p_member_lying_about_its_size_is_capped(tmp_path):
+    """A member whose stated size is small but whose stream inflates to much more."""
+    path = x3p_with_members(tmp_path / "liar.x3p", (10, 10),
+                            {"bindata/data.bin": bytes(32 << 20)})
+    raw = bytearray(path.read_bytes())
+    with zipfile.ZipFile(path) as zf:
+        info = zf.getinfo("bindata/data.bin")
+    # state 800 bytes in the local header and the central directory
+    for offset in (info.header_offset + 22, raw.rindex(b"PK\x01\x02") + 24):
+        assert struct.unpack_from("<I", raw, offset)[0] == 32 << 20
+        struct.pack_into("<I", raw, offset, 800)
+    path.write_bytes(bytes(raw))
+
+    def read():
+        with pytest.raises(ValueError, match=r"liar\.x3p: .*(corrupted|compression ratio)"):
+            x3p.read(path)
+
+    assert peak_bytes(read) < 4 << 20
+
+
+def test_x3p_compression_ratio_no_data_reaches_is_refused(tmp_path):
+    path = x3p_with_members(tmp_path / "ratio.x3p", (4000, 4000),
+                            {"bindata/data.bin": bytes(1 << 20)})
+    raw = bytearray(path.read_bytes())
+    with zipfile.ZipFile(path) as zf:
+        info = zf.getinfo("bindata/data.bin")
+    for offset in (info.header_offset + 22, raw.rindex(b"PK\x01\x02") + 24):
+        struct.pack_into("<I", raw, offset, 4000 * 4000 * 8)
+    path.write_bytes(bytes(raw))
+    with pytest.raises(ValueError, match=r"ratio\.x3p: .*compression ratio no measured data"):
+        x3p.read(path)
+
+
+def test_x3p_datalist_claiming_more_points_allocates_nothing(tmp_path):
+    """A ``<DataList>`` of 5 points under a header claiming 3000 x 3000 (72 MB)."""
+    datalist = "<DataList>" + "<Datum>1e-6</Datum>" * 5 + "</DataList>"
+    path = x3p_with_members(tmp_path / "list.x3p", (3000, 3000), {"link": datalist})
+
+    def read():
+        with pytest.raises(ValueError, match=r"list\.x3p: <DataList> holds 5 points, the "
+                                             r"matrix dimensions ask for 9000000"):
+            x3p.read(path)
+
+    assert peak_bytes(read) < 4 << 20
+    big = x3p_with_members(tmp_path / "big.x3p", (100000, 100000), {"link": datalist})
+    with pytest.raises(ValueError, match=r"big\.x3p: main\.xml \(100000 x 100000\) declares "
+                                         r"10000000000 points, more than the limit"):
+        x3p.read(big)
+    with pytest.raises(ValueError, match=r"list\.x3p: .*more than the limit of 1000"):
+        x3p.read(path, max_points=1000)
+
+
+def test_sur_compressed_bomb_is_capped(tmp_path):
+    """A compressed stream of 64 MB under a directory and header stating 8 bytes."""
+    good = sur_object(np.arange(4).reshape(2, 2), compressed=True)
+    start = 512
+    stream = zlib.compress(bytes(64 << 20), 9)
+    bomb = good[:start] + struct.pack("<III", 1, 8, len(stream)) + stream
+    path = tmp_path / "bomb.sur"
+    path.write_bytes(bomb)
+
+    def read():
+        with pytest.raises(ValueError, match=r"bomb\.sur: object 0 has corrupted compressed "
+                                             r"data: a stream expands to more than the 8"):
+            sur.read(path)
+
+    assert peak_bytes(read) < 4 << 20
+    # a directory stating the bomb's full size is refused by the header's point count
+    path.write_bytes(good[:start] + struct.pack("<III", 1, 64 << 20, len(stream)) + stream)
+
+    def read_declared():
+        with pytest.raises(ValueError, match=r"bomb\.sur: object 0: the compressed streams "
+                                             r"expand to 67108864 bytes by their directory"):
+            sur.read(path)
+
+    assert peak_bytes(read_declared) < 4 << 20
+
+
+def test_sur_header_claiming_too_many_points_is_refused(tmp_path):
+    good = bytearray(sur_object(np.arange(4).reshape(2, 2), compressed=True))
+    struct.pack_into("<iii", good, 108, 60000, 60000, 60000 * 60000 - 2**32)
+    path = tmp_path / "many.sur"
+    path.write_bytes(bytes(good))
+    with pytest.raises(ValueError, match=r"many\.sur: .*inconsistent|many\.sur: .*limit"):
+        sur.read(path)
+    struct.pack_into("<iii", good, 108, 40000, 40000, 40000 * 40000)
+    path.write_bytes(bytes(good))
+    with pytest.raises(ValueError, match=r"many\.sur: object 0 declares 1600000000 points"):
+        sur.read(path, max_points=10**9)
+
+
+def test_third_party_errors_are_wrapped_in_words(tmp_path):
+    # a unit string pint cannot parse, a zero spacing, invalid UTF-8 in main.xml
+    path = tmp_path / "unit.sur"
+    path.write_bytes(sur_object(np.arange(6).reshape(2, 3), units="1/(0"))
+    with pytest.raises(ValueError, match=r"unit\.sur: "):
+        sur.read(path)
+    path = tmp_path / "utf.x3p"
+    x3p.write(small_map(), path)
+    with zipfile.ZipFile(path) as zf:
+        xml = zf.read("main.xml").replace(b"<SizeZ>1</SizeZ>", b"<SizeZ>\xff\xfe</SizeZ>")
+    path.write_bytes(rezip_x3p(path.read_bytes(), xml, fix_checksum=True))
+    with pytest.raises(ValueError, match=r"utf\.x3p: main\.xml is not well-formed XML"):
+        x3p.read(path)
+    with pytest.raises(ValueError) as err, x3p.reader_errors(tmp_path / "z.sdf", "SDF"):
+        raise zlib.error("invalid stored block lengths")
+    assert str(err.value).startswith("z.sdf: cannot read as SDF: corrupted compressed data")
+
+
+# ----------------------------------------------------------------- row orientation
+
+
+def bridge_read(path):
+    bridge = pytest.importorskip("xrough.io.bridge")
+    if not bridge.available():
+        pytest.skip("SurfaceTopography is not installed")
+    return bridge.read(path)
+
+
+def test_row_orientation_x3p_asymmetric_feature(tmp_path):
+    """The picture's top row (the file's first) is at the largest y, as in Gwyddion."""
+    topo = small_map()
+    assert topo.values[0, -1] == 5e-7  # the bump is at y = 0 (bottom right)
+    path = tmp_path / "bump.x3p"
+    x3p.write(topo, path)
+    xr.testing.assert_identical(x3p.read(path), topo)
+    with zipfile.ZipFile(path) as zf:
+        stored = np.frombuffer(zf.read("bindata/data.bin"), "<f8").reshape(6, 8)
+    assert stored[-1, -1] == 5e-7  # stored as the file's last row: the picture's bottom
+    np.testing.assert_array_equal(x3p.read(path).values, bridge_read(path).values)
+    # the same picture through Gwyddion's own format
+    gwy.write(topo, tmp_path / "bump.gwy")
+    np.testing.assert_array_equal(gwy.read(tmp_path / "bump.gwy").values, topo.values)
+
+
+def test_row_orientation_sur_and_sdf_asymmetric_feature(tmp_path):
+    points = np.zeros((4, 5), dtype=int)
+    points[0, 0] = 100  # the file's first line, first point: the picture's top left
+    path = tmp_path / "bump.sur"
+    path.write_bytes(sur_object(points, dz=1.0, units="um"))
+    topo = sur.read(path)
+    assert topo.values[-1, 0] == 100 and np.count_nonzero(topo.values) == 1
+    assert float(topo.y[-1]) > float(topo.y[0])
+
+    values = "\n".join(" ".join(str(v) for v in row) for row in points)
+    path = tmp_path / "bump.sdf"
+    path.write_text(SDF_HEADER.format(nx=5, ny=4, dz="1.0", code=5) + values + "\n*\n")
+    topo = sdf.read(path)
+    assert topo.values[-1, 0] == 100 and np.count_nonzero(topo.values) == 1
+    # SurfaceTopography states micrometres: compare where the bump is
+    np.testing.assert_array_equal(topo.values != 0, bridge_read(path).values != 0)
+
+
+@pytest.mark.data
+def test_row_orientation_sur_real_file_agrees_with_the_bridge():
+    path = data_path("instruments", "sur-2.sur")
+    native, bridged = sur.read(path), bridge_read(path)
+    np.testing.assert_array_equal(np.isnan(native.values), np.isnan(bridged.values))
+    np.testing.assert_allclose(native.values, bridged.values, rtol=1e-7)
+
+
+# ------------------------------------------------------------------ fuzzing: loops
+
+
+def test_fuzz_x3p(tmp_path):
+    counts = fuzz_loop(tmp_path, "x3p", [x3p_bytes(tmp_path)], x3p.read,
+                       mutator=mutate_x3p)
+    assert counts["clean error"] > 0 and counts["read"] > 0
+
+
+def test_fuzz_sur(tmp_path):
+    counts = fuzz_loop(tmp_path, "sur", [sur_bytes()], sur.read)
+    assert counts["clean error"] > 0 and counts["read"] > 0
+
+
+def test_fuzz_sdf(tmp_path):
+    counts = fuzz_loop(tmp_path, "sdf", [sdf_text_bytes(), sdf_binary_bytes()], sdf.read)
+    assert counts["clean error"] > 0 and counts["read"] > 0
+
+
+def bounded_gwy_read(path):
+    """``gwy.read`` that fails the test instead of hanging."""
+    result = run_bounded(lambda: gwy.read(path))
+    if "error" in result:
+        raise result["error"]
+    return result["value"]
+
+
+def test_fuzz_gwy(tmp_path):
+    counts = fuzz_loop(tmp_path, "gwy", [gwy_bytes(tmp_path)], bounded_gwy_read,
+                       mutator=lambda raw, rng: mutate(raw, rng, header=len(raw)))
+    assert counts["clean error"] > 0
+
+
+def test_fuzz_netcdf(tmp_path):
+    seeds = [netcdf_bytes(tmp_path, "NETCDF3_CLASSIC"), netcdf_bytes(tmp_path, "NETCDF3_64BIT")]
+    counts = fuzz_loop(tmp_path, "netcdf", seeds, netcdf.read, suffix=".nc")
+    assert counts["clean error"] > 0 and counts["read"] > 0
+
+
+# ------------------------------------------------------------- fuzzing: hypothesis
+
+SEEDS = {
+    "x3p": (x3p_bytes, x3p.read),
+    "sur": (sur_bytes, sur.read),
+    "sdf": (sdf_text_bytes, sdf.read),
+    "gwy": (gwy_bytes, bounded_gwy_read),
+    "nc": (netcdf_bytes, netcdf.read),
+}
+
+
+@st.composite
+def mutations(draw, size):
+    """Truncation, flipped bytes and absurd 32-bit values at drawn positions."""
+    edits = draw(st.lists(st.tuples(st.integers(0, size - 1), st.integers(1, 255)),
+                          max_size=6))
+    absurd = draw(st.lists(st.tuples(st.integers(0, max(size - 4, 0)),
+                                     st.sampled_from(ABSURD_32)), max_size=2))
+    cut = draw(st.one_of(st.none(), st.integers(0, size)))
+    return edits, absurd, cut
+
+
+@pytest.mark.parametrize("fmt", sorted(SEEDS))
+def test_fuzz_hypothesis(tmp_path_factory, fmt):
+    folder = tmp_path_factory.mktemp(f"hyp-{fmt}")
+    make, read = SEEDS[fmt]
+    seed = make(folder)
+
+    @settings(max_examples=60, deadline=None, derandomize=True,
+              suppress_health_check=[HealthCheck.function_scoped_fixture])
+    @given(mutations(len(seed)))
+    def check(mutation):
+        edits, absurd, cut = mutation
+        data = bytearray(seed)
+        for pos, xor in edits:
+            data[pos] ^= xor
+        for pos, value in absurd:
+            data[pos:pos + 4] = struct.pack("<I", value)
+        if cut is not None:
+            data = data[:cut]
+        path = folder / f"hyp.{fmt}"
+        path.write_bytes(bytes(data))
+        outcome(read, path, fmt)
+
+    check()
