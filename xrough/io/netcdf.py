@@ -150,14 +150,20 @@ def _check_netcdf3_header(buf, name: str) -> None:
         kind = h.integer(4, f"type of {var!r}")
         if kind not in _NC_TYPE_SIZES:
             raise h.fail(f"variable {var!r} has unknown type {kind}")
-        h.integer(h.count, f"size of {var!r}")
+        vsize = h.integer(h.count, f"size of {var!r}")
         begin = h.integer(h.offset, f"offset of {var!r}")
         lengths = [dims[i][1] for i in ids]
         record = bool(lengths) and lengths[0] == 0
         count = 1
         for n in lengths[1:] if record else lengths:
             count *= n
-        variables.append((var, record, begin, count * _NC_TYPE_SIZES[kind]))
+        nbytes = count * _NC_TYPE_SIZES[kind]
+        # the stated size is the data's (padded to 4 bytes), or all ones beyond 4 GiB
+        if vsize not in (nbytes, nbytes + (-nbytes) % 4) and not (
+                vsize == (1 << (8 * h.count)) - 1 and nbytes >= vsize - 3):
+            raise h.fail(f"variable {var!r} states a size of {vsize} bytes, its dimensions "
+                         f"and type make {nbytes}")
+        variables.append((var, record, begin, nbytes))
     header_end = h.pos
     records = [v for v in variables if v[1]]
     recsize = sum(n + (-n) % 4 for *_, n in records) if len(records) > 1 else (
