@@ -1,10 +1,23 @@
-"""One call archives a whole analysis; reopening gives identical objects."""
+"""One call archives a whole analysis; reopening gives identical objects, and nothing is lost.
+
+Every result type round-trips identical (a test per type); attributes of every type the
+archive accepts round-trip with their Python type (a property test); a failed save leaves
+the previous file untouched; any measurement name is kept.
+"""
+
+import os
+import unicodedata
+import warnings
 
 import numpy as np
 import pytest
 import xarray as xr
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import xrough
+from xrough.io import archive
+from xrough.io.archive import PROVENANCE_KEY, safe_name
 
 
 def _analysis():
@@ -20,6 +33,11 @@ def _analysis():
         "energy": G.rough.energy(E_star="25 MPa"),
         "patch": G.rough.patch_radius(E_star="25 MPa", gamma="50 mJ/m^2"),
     }
+
+
+def _round_trip(tmp_path, obj, name="x"):
+    path = xrough.save_analysis(tmp_path / f"{abs(hash(name))}.nc", {name: obj})
+    return xrough.open_analysis(path)[name]
 
 
 def test_round_trip_of_several_measurements(tmp_path):
@@ -48,5 +66,298 @@ def test_flat_analysis_and_bad_entries(tmp_path):
     xr.testing.assert_identical(back["topo"], topo)
     with pytest.raises(TypeError, match="can only archive"):
         xrough.save_analysis(tmp_path / "c.nc", {"x": 3})
-    with pytest.raises(ValueError, match="group names"):
-        xrough.save_analysis(tmp_path / "d.nc", {"a/b": topo})
+    assert not (tmp_path / "c.nc").exists()
+
+
+# --- every result type ----------------------------------------------------------------
+
+
+def _results():
+    """Every kind of result xrough produces, by name (small, built once per module)."""
+    topo = xrough.self_affine_surface(hurst=0.8, lambda_r="2 um", lambda_s="100 nm",
+                                      size="8 um", n=256, rms_gradient=0.5, seed=1,
+                                      unit="nm")
+    G = topo.rough.acf()
+    profile = xrough.self_affine_surface(hurst=0.7, lambda_r="2 um", lambda_s="20 nm",
+                                         size="8 um", n=1024, rms_height="10 nm",
+                                         profile=True, seed=3, unit="nm")
+    fine = profile.isel(x=slice(0, 256)).assign_attrs(periodic=0)
+    coarse = profile.isel(x=slice(None, None, 4))
+    curves = xrough.stitch_curves({"fine": fine, "coarse": coarse})
+    small = xrough.self_affine_surface(hurst=0.8, lambda_r="1 um", lambda_s="200 nm",
+                                       size="2 um", n=32, rms_gradient=0.3, seed=2,
+                                       unit="nm")
+    open_map = topo.assign_attrs(periodic=0).chunk({"y": 128, "x": 128})
+    out = {
+        "topography": topo,
+        "profile": profile,
+        "G_fft": G,
+        "G_random": topo.rough.acf(estimator="random", seed=1),
+        "G_tiled": open_map.rough.acf(estimator="tiled").compute(),
+        "stitch_curves": curves,
+        "G_stitched": xrough.stitch(curves, warn=False),
+        "fit_spectrum": G.rough.fit(),
+        "fit_eq36": G.rough.fit(model="eq36"),
+        "spectrum": G.rough.spectrum(),
+        "persson_one_p0": G.rough.persson(E_star="25 MPa", p0="0.1 MPa"),
+        "persson_p0s": G.rough.persson(E_star="25 MPa", p0=[1e5, 1e6]),
+        "energy": G.rough.energy(E_star="25 MPa"),
+        "patch_radius": G.rough.patch_radius(E_star="25 MPa", gamma="50 mJ/m^2"),
+        "stress_acf": G.rough.stress_acf(E_star="25 MPa"),
+        "stress_acf_p0": G.rough.stress_acf(E_star="25 MPa", p0="0.1 MPa"),
+        "solve_contact": xrough.solve_contact(small, E_star="25 MPa", p0=[1e6, 2e6]),
+        "compare_with_simulation": xrough.compare_with_simulation(small, E_star="25 MPa",
+                                                                  p0=[2e6]),
+    }
+    for method in ("auto", "exact", "simple", "fit"):
+        out[f"gradient_{method}"] = G.rough.gradient(method=method)
+    # several curves: auto picks a route per curve and says so in a flagged coordinate
+    scans = xr.concat([G, xrough.model_acf(G.rough.fit(), G.dr)
+                       .assign_coords(standard_error=G.standard_error)
+                       .assign_attrs(G.attrs)], dim="scan")
+    out["gradient_auto_scans"] = scans.rough.gradient()
+    return out
+
+
+RESULTS = None
+
+
+@pytest.fixture(scope="module")
+def results():
+    global RESULTS
+    if RESULTS is None:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            RESULTS = _results()
+    return RESULTS
+
+
+RESULT_NAMES = ["topography", "profile", "G_fft", "G_random", "G_tiled", "stitch_curves",
+                "G_stitched", "fit_spectrum", "fit_eq36", "spectrum", "persson_one_p0",
+                "persson_p0s", "energy", "patch_radius", "stress_acf", "stress_acf_p0",
+                "solve_contact", "compare_with_simulation", "gradient_auto",
+                "gradient_exact", "gradient_simple", "gradient_fit", "gradient_auto_scans"]
+
+
+@pytest.mark.parametrize("name", RESULT_NAMES)
+def test_every_result_type_round_trips_identical(tmp_path, results, name):
+    obj = results[name]
+    back = _round_trip(tmp_path, obj, name)
+    assert type(back) is type(obj)
+    xr.testing.assert_identical(back, obj)
+
+
+def test_result_list_is_complete(results):
+    assert sorted(results) == sorted(RESULT_NAMES)
+    assert "gradient_method" in results["gradient_auto_scans"].coords
+
+
+def test_stitched_one_element_array_attrs_stay_arrays(tmp_path, results):
+    """Regression: 1-element array attrs (mismatch_ratio...) came back as scalars."""
+    G = results["G_stitched"]
+    arrays = [k for k, v in G.attrs.items() if isinstance(v, np.ndarray) and v.size == 1]
+    assert arrays, "the example should have a 1-element array attr"
+    back = _round_trip(tmp_path, G)
+    for key in arrays:
+        assert isinstance(back.attrs[key], np.ndarray) and back.attrs[key].shape == (1,)
+
+
+# --- attributes: property test ----------------------------------------------------------
+
+_finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
+_text = st.text(st.characters(codec="utf-8", exclude_categories=("Cs",)), max_size=12)
+_json = st.recursive(st.none() | st.booleans() | st.integers(-2**70, 2**70) | _finite
+                     | _text,
+                     lambda inner: st.lists(inner, max_size=3)
+                     | st.dictionaries(_text, inner, max_size=3), max_leaves=6)
+_dtypes = st.sampled_from(["i1", "i4", "i8", "u2", "u8", "f4", "f8", "?"])
+_arrays = st.builds(
+    lambda dtype, shape, seed: np.random.default_rng(seed).integers(0, 50, size=shape)
+    .astype(dtype),
+    _dtypes, st.lists(st.integers(0, 3), min_size=0, max_size=3).map(tuple),
+    st.integers(0, 2**16))
+_values = st.one_of(
+    st.booleans(), st.none(), st.integers(-2**63, 2**63 - 1), _finite, _text,
+    st.binary(max_size=8), _arrays,
+    st.lists(st.integers(-2**60, 2**60), min_size=1, max_size=4),
+    st.lists(_finite, min_size=1, max_size=4).map(tuple),
+    st.lists(_text, max_size=3), st.dictionaries(_text, _json, max_size=3),
+    st.sampled_from([np.float32(1.5), np.int16(-3), np.uint8(7), np.bool_(True)]))
+_names = st.from_regex(r"[A-Za-z][A-Za-z0-9_]{0,8}", fullmatch=True).filter(
+    lambda s: not s.startswith("xrough") and s not in ("units", "calendar"))
+
+
+@settings(max_examples=40, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(attrs=st.dictionaries(_names, _values, max_size=5),
+       coord_attrs=st.dictionaries(_names, _values, max_size=3))
+def test_attrs_of_every_type_round_trip(tmp_path, attrs, coord_attrs):
+    da = xr.DataArray(np.arange(3.0), dims="dr", name="G", attrs=attrs,
+                      coords={"dr": ("dr", [1.0, 2.0, 3.0], coord_attrs)})
+    ds = xr.Dataset({"a": da}, attrs=attrs)
+    for obj in (da, ds):
+        back = _round_trip(tmp_path, obj)
+        xr.testing.assert_identical(back, obj)
+        for key, value in attrs.items():
+            assert type(back.attrs[key]) is type(value) or (
+                isinstance(value, (np.generic, int, float, bool))
+                and np.asarray(back.attrs[key]).dtype == np.asarray(value).dtype
+            ) or isinstance(value, (int, float)), (key, value, back.attrs[key])
+            if isinstance(value, np.ndarray):
+                assert back.attrs[key].shape == value.shape
+                assert back.attrs[key].dtype == value.dtype
+
+
+def test_bool_and_none_attrs_round_trip(tmp_path):
+    """Regression: a boolean attr made the save fail (and destroyed the previous file)."""
+    topo = xrough.topography(np.ones((4, 4)), spacing=1.0, unit="nm")
+    topo.attrs.update(flag=True, off=np.False_, missing=None, meta={"a": [1, 2]},
+                      one=np.array([2.5]), pair=(1, 2))
+    back = _round_trip(tmp_path, topo)
+    xr.testing.assert_identical(back, topo)
+    assert back.attrs["flag"] is True and back.attrs["off"] is False
+    assert back.attrs["missing"] is None and back.attrs["pair"] == (1, 2)
+
+
+def test_unnamed_dataarray_and_names_clashing_with_coordinates(tmp_path):
+    da = xr.DataArray([1.0, 2.0], dims="dr", coords={"dr": [1.0, 2.0]})
+    back = _round_trip(tmp_path, da)
+    assert back.name is None
+    xr.testing.assert_identical(back, da)
+    named = da.rename("dr_values").rename({"dr": "dr"})
+    xr.testing.assert_identical(_round_trip(tmp_path, named, "n"), named)
+    odd = da.rename("(G)")
+    xr.testing.assert_identical(_round_trip(tmp_path, odd, "o"), odd)
+
+
+def test_empty_and_nested_mappings_round_trip(tmp_path):
+    G = xr.DataArray([1.0], dims="dr", name="G", coords={"dr": [1.0]})
+    analysis = {"empty": {}, "a": {"b": {"c": G}}}
+    back = xrough.open_analysis(xrough.save_analysis(tmp_path / "n.nc", analysis))
+    assert back["empty"] == {}
+    xr.testing.assert_identical(back["a"]["b"]["c"], G)
+
+
+# --- atomic writes ------------------------------------------------------------------------
+
+
+def _contents(directory):
+    return sorted(p.name for p in directory.iterdir())
+
+
+def test_refused_attr_names_object_and_attr_and_keeps_previous_file(tmp_path):
+    """Regression: a failed save destroyed the archive at that path."""
+    good = _analysis()
+    path = xrough.save_analysis(tmp_path / "a.nc", {"afm": good})
+    before = path.read_bytes()
+    bad = good["topography"].copy()
+    bad.attrs["when"] = complex(1, 2)
+    with pytest.raises(ValueError, match=r"afm/topography.*'when'"):
+        xrough.save_analysis(path, {"afm": {**good, "topography": bad}})
+    assert path.read_bytes() == before
+    assert _contents(tmp_path) == ["a.nc"]
+    coord = good["G"].copy()
+    coord["dr"].attrs["origin"] = object()
+    with pytest.raises(ValueError, match=r"afm/G \(variable 'dr'\).*'origin'"):
+        xrough.save_analysis(path, {"afm": {"G": coord}})
+    with pytest.raises(ValueError, match="non-string dict key"):
+        xrough.save_analysis(path, {"x": good["G"].assign_attrs(table={1: 2})})
+    with pytest.raises(ValueError, match="variable name"):
+        xrough.save_analysis(path, {"x": xr.Dataset({"-v": ("t", [1.0])})})
+    back = xrough.open_analysis(path)
+    for key, value in good.items():
+        xr.testing.assert_identical(back["afm"][key], value)
+
+
+def test_failure_while_writing_keeps_previous_file(tmp_path, monkeypatch):
+    path = tmp_path / "a.nc"
+    G = _analysis()["G"]
+    xrough.save_analysis(path, {"G": G})
+    before = path.read_bytes()
+    real = xr.DataTree.to_netcdf
+
+    def broken(self, target, *args, **kwargs):
+        real(self, target, *args, **kwargs)  # a file on disk, then the failure
+        raise RuntimeError("disk hiccup")
+
+    monkeypatch.setattr(xr.DataTree, "to_netcdf", broken)
+    with pytest.raises(ValueError, match="previous file at this path is unchanged"):
+        xrough.save_analysis(path, {"G": G * 2})
+    assert path.read_bytes() == before
+    assert _contents(tmp_path) == ["a.nc"]
+
+
+def test_missing_directory_and_directory_target(tmp_path):
+    G = xr.DataArray([1.0], dims="dr", name="G", coords={"dr": [1.0]})
+    with pytest.raises(FileNotFoundError, match="does not exist"):
+        xrough.save_analysis(tmp_path / "missing" / "a.nc", {"G": G})
+    with pytest.raises(IsADirectoryError):
+        xrough.save_analysis(tmp_path, {"G": G})
+    assert _contents(tmp_path) == []
+
+
+def test_file_permissions_follow_umask(tmp_path):
+    G = xr.DataArray([1.0], dims="dr", name="G", coords={"dr": [1.0]})
+    path = xrough.save_analysis(tmp_path / "a.nc", {"G": G})
+    umask = os.umask(0o022)
+    os.umask(umask)
+    assert path.stat().st_mode & 0o777 == 0o666 & ~umask
+
+
+# --- names ----------------------------------------------------------------------------------
+
+
+def test_safe_name():
+    assert safe_name("(1).sur") == "_(1).sur"
+    assert safe_name("-scan") == "_-scan"
+    assert safe_name(".hidden") == "_.hidden"
+    assert safe_name("a/b") == "a_b"
+    assert safe_name("") == "_"
+    assert safe_name("scan ") == "scan_"
+    assert safe_name("tab\there") == "tab_here"
+    assert safe_name("ok(1) µm") == "ok(1) µm"
+    assert safe_name(3) == "3"
+    assert safe_name(PROVENANCE_KEY) == "_provenance_2"
+    assert safe_name("scan", taken=["scan", "scan_2"]) == "scan_3"
+    decomposed = unicodedata.normalize("NFD", "é")
+    assert safe_name(decomposed) == "é"
+    first = safe_name("é" * 300)
+    assert len(first.encode()) <= 255
+    second = safe_name("é" * 300, taken=[first])
+    assert len(second.encode()) <= 255 and second.endswith("_2")
+
+
+def test_any_measurement_name_is_kept(tmp_path):
+    """Regression: forbidden characters broke the save; colliding names lost a result."""
+    G = xr.DataArray([1.0, 2.0], dims="dr", name="G", coords={"dr": [1.0, 2.0]})
+    names = ["(1).sur", "_(1).sur", "-x", ".x", "a/b", "a_b", "", "é",
+             unicodedata.normalize("NFD", "é"), "trailing ", "x" * 300]
+    analysis = {name: {"G": G * k} for k, name in enumerate(names, start=1)}
+    analysis["flat(2)"] = G
+    back = xrough.open_analysis(xrough.save_analysis(tmp_path / "n.nc", analysis))
+    assert set(back) == {*names, "flat(2)", PROVENANCE_KEY}
+    for k, name in enumerate(names, start=1):
+        xr.testing.assert_identical(back[name]["G"], G * k)
+    xr.testing.assert_identical(back["flat(2)"], G)
+
+
+def test_provenance_key_is_reserved(tmp_path):
+    """Regression: a measurement named _provenance overwrote the provenance."""
+    G = xr.DataArray([1.0], dims="dr", name="G", coords={"dr": [1.0]})
+    with pytest.raises(ValueError, match="reserved"):
+        xrough.save_analysis(tmp_path / "p.nc", {PROVENANCE_KEY: {"G": G}})
+    assert not (tmp_path / "p.nc").exists()
+    nested = {"afm": {PROVENANCE_KEY: G}}
+    back = xrough.open_analysis(xrough.save_analysis(tmp_path / "p.nc", nested))
+    xr.testing.assert_identical(back["afm"][PROVENANCE_KEY], G)
+    assert back[PROVENANCE_KEY]["xrough_version"] == xrough.__version__
+
+
+def test_names_equal_as_strings_are_refused(tmp_path):
+    G = xr.DataArray([1.0], dims="dr", name="G", coords={"dr": [1.0]})
+    with pytest.raises(ValueError, match="same name"):
+        xrough.save_analysis(tmp_path / "s.nc", {1: G, "1": G})
+
+
+def test_public_helpers():
+    assert "safe_name" in archive.__all__

@@ -7,62 +7,412 @@ variable and coordinate (the results carry them already), and provenance at the 
 (xrough version, creation time, the ``Conventions``) and per measurement (input file name
 and SHA-256 where the topography came from a file, every parameter in the results'
 attrs). :func:`open_analysis` returns the same nested mapping, each object identical to
-what was saved.
+what was saved (:func:`xarray.testing.assert_identical`).
+
+Nothing is lost
+---------------
+- **Atomic writes.** The file is written under a temporary name in the target's
+  directory and renamed over the target only when complete (:func:`os.replace`), so a
+  failed or interrupted save leaves the previous archive at that path untouched and no
+  partial file behind.
+- **Checked before writing.** Every attribute, variable, coordinate and dimension name
+  is checked first; what NetCDF cannot hold raises a :class:`ValueError` naming the
+  object and the attribute before anything is written.
+- **Attributes keep their type.** NetCDF attributes are numbers, strings and 1-D numeric
+  arrays. Other values are stored in a NetCDF form and their Python type is recorded in
+  the attribute ``xrough_attr_types`` (a JSON object), so that they reopen as they were
+  saved: ``bool`` (stored as 0/1), ``None`` (stored as ``""``), numpy arrays of any shape
+  and size (a 1-element array no longer comes back as a scalar), lists and tuples of
+  numbers, ``bytes`` (base64), and dicts, lists of strings, nested lists, big integers
+  and strings with NUL characters (JSON text; inside such JSON values, tuples come back
+  as lists and numpy scalars as Python numbers). Complex numbers, dates, paths and other
+  objects are refused: convert them to strings or numbers first.
+- **Any measurement name.** Group names are made NetCDF-safe with :func:`safe_name`
+  (``(1).sur``, a leading ``-`` or ``.``, ``/``, control characters, trailing spaces,
+  names over 255 bytes, Unicode normalisation); the original name is kept in the group's
+  attribute ``xrough_name`` and restored by :func:`open_analysis`. Two names that map to
+  the same safe name are both kept (the later one gets a suffix ``_2``, ``_3``...).
+- **The provenance key is reserved.** :func:`open_analysis` returns the root's provenance
+  under ``"_provenance"``; a top-level entry of that name is refused (use
+  :func:`safe_name` to name measurements after files).
 """
 
 from __future__ import annotations
 
+import base64
 import datetime as _dt
+import json
+import os
+import re
+import secrets
+import unicodedata
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import xarray as xr
 
 from .._version import __version__
 
-__all__ = ["save_analysis", "open_analysis"]
+__all__ = ["save_analysis", "open_analysis", "safe_name", "PROVENANCE_KEY"]
 
-_KIND = "xrough_object"  # "DataArray" or "Dataset", so that reopening restores the type
-_NAME = "xrough_dataarray_name"
+#: Key of the root's provenance in the mapping :func:`open_analysis` returns (reserved).
+PROVENANCE_KEY = "_provenance"
+
+_KIND = "xrough_object"  # "DataArray", "Dataset" or "mapping": what a group reopens as
+_NAME = "xrough_dataarray_name"  # the DataArray's name (any type the attrs can hold)
+_VARIABLE = "xrough_dataarray_variable"  # the variable that holds the DataArray
+_ORIGINAL = "xrough_name"  # the entry's name when its group name differs
+_TYPES = "xrough_attr_types"  # JSON: attr name -> how to restore its Python type
+_DATA = "xrough_data"  # variable name of a DataArray whose name cannot be one
+
+#: Longest name, in bytes of UTF-8, that NetCDF-4 writes and reads back (NC_MAX_NAME - 1).
+_MAX_NAME_BYTES = 255
+#: Numeric dtypes NetCDF4 attributes hold natively.
+_NC_DTYPES = {np.dtype(t) for t in ("i1", "i2", "i4", "i8", "u1", "u2", "u4", "u8",
+                                    "f4", "f8")}
+_INT64 = np.iinfo(np.int64)
+_CONTROL = re.compile(r"[\x00-\x1f\x7f/]")
 
 
-def _as_dataset(obj: xr.DataArray | xr.Dataset, where: str) -> xr.Dataset:
+def _valid_first(char: str) -> bool:
+    return char == "_" or char.isalnum()
+
+
+def _is_safe(name: str) -> bool:
+    """Whether NetCDF-4 accepts ``name`` unchanged as a group, variable or attribute name."""
+    return (bool(name) and _valid_first(name[0]) and not _CONTROL.search(name)
+            and not name[-1].isspace() and unicodedata.normalize("NFC", name) == name
+            and len(name.encode("utf-8")) <= _MAX_NAME_BYTES)
+
+
+def safe_name(name: Any, taken: Any = ()) -> str:
+    """Make a NetCDF-safe name for a measurement or result, distinct from ``taken``.
+
+    Valid names are kept as they are (``a(1).sur``, ``scan 2``, ``µm``). Otherwise: the
+    name is normalised to Unicode NFC (NetCDF does the same, so two spellings of ``é``
+    would collide), ``/`` and control characters become ``_``, trailing whitespace becomes
+    ``_``, a first character that is neither a letter, a digit nor ``_`` gets a ``_`` in
+    front (``(1).sur`` -> ``_(1).sur``, ``-x`` -> ``_-x``), an empty name becomes ``_``,
+    and a name longer than 255 bytes of UTF-8 (NetCDF's limit) is shortened. A result in
+    ``taken`` or equal to the reserved ``"_provenance"`` gets a suffix ``_2``, ``_3``...
+
+    Use it to name the entries of an analysis after files: ``save_analysis`` applies it
+    to group names itself (and keeps the original names), but the keys of one mapping
+    must be distinct, and two files ``a/scan.sdf`` and ``b/scan.sur`` share the stem.
+
+    Parameters
+    ----------
+    name : object
+        The wanted name (``str(name)`` is used).
+    taken : collection of str
+        Names already in use (e.g. the keys chosen so far).
+
+    Returns
+    -------
+    str
+        A name that NetCDF-4 accepts unchanged, not in ``taken`` and not reserved.
+
+    Examples
+    --------
+    >>> safe_name("(1).sur"), safe_name("-scan"), safe_name("a/b"), safe_name("ok(1)")
+    ('_(1).sur', '_-scan', 'a_b', 'ok(1)')
+    >>> names = []
+    >>> for stem in ["scan", "scan", "_provenance"]:
+    ...     names.append(safe_name(stem, taken=names))
+    >>> names
+    ['scan', 'scan_2', '_provenance_2']
+    """
+    text = unicodedata.normalize("NFC", str(name))
+    text = _CONTROL.sub("_", text)
+    stripped = text.rstrip()
+    text = stripped + "_" * (len(text) != len(stripped))
+    if not text or not _valid_first(text[0]):
+        text = "_" + text
+    taken = set(taken) | {PROVENANCE_KEY}
+    candidate, k = _shorten(text, 0), 1
+    while candidate in taken:
+        k += 1
+        candidate = _shorten(text, len(f"_{k}")) + f"_{k}"
+    return candidate
+
+
+def _shorten(text: str, reserve: int) -> str:
+    """``text`` cut to at most 255 - ``reserve`` bytes of UTF-8, on a character boundary."""
+    limit = _MAX_NAME_BYTES - reserve
+    while len(text.encode("utf-8")) > limit:
+        text = text[:-1]
+    text = text.rstrip()
+    return text if text and not text[-1].isspace() else text + "_"
+
+
+# --- attributes ---------------------------------------------------------------------
+
+
+def _refuse(where: str, name: str, value: Any, why: str) -> ValueError:
+    return ValueError(f"cannot archive {where}: attribute {name!r} = {value!r:.80} "
+                      f"({type(value).__name__}) {why}; store it as a string, number, "
+                      "bool, None, list, dict or numeric array")
+
+
+def _json_default(value: Any) -> Any:
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
+
+
+def _to_json(value: Any, where: str, name: str) -> str:
+    def check_keys(obj):
+        if isinstance(obj, Mapping):
+            for key, item in obj.items():
+                if not isinstance(key, str):
+                    raise _refuse(where, name, value, f"has a non-string dict key {key!r}")
+                check_keys(item)
+        elif isinstance(obj, (list, tuple)):
+            for item in obj:
+                check_keys(item)
+
+    check_keys(value)
+    try:
+        return json.dumps(value, default=_json_default)
+    except (TypeError, ValueError) as err:
+        raise _refuse(where, name, value, f"cannot be stored as JSON ({err})") from None
+
+
+def _numeric_array(array: np.ndarray, where: str, name: str, value: Any) -> np.ndarray:
+    if array.dtype.kind == "b":
+        return array.astype(np.int8)
+    if array.dtype not in _NC_DTYPES:
+        raise _refuse(where, name, value, f"has dtype {array.dtype}, which NetCDF "
+                      "attributes cannot hold")
+    return array
+
+
+def _encode_value(value: Any, where: str, name: str) -> tuple[Any, Any]:
+    """NetCDF form of one attribute value and the tag that restores it (None: native)."""
+    if value is None:
+        return "", "none"
+    if isinstance(value, (bool, np.bool_)):
+        return np.int8(bool(value)), "bool"
+    if isinstance(value, str):
+        return (value, None) if "\x00" not in value else (_to_json(value, where, name), "json")
+    if isinstance(value, bytes):
+        return base64.b64encode(value).decode("ascii"), "bytes"
+    if isinstance(value, int):
+        if _INT64.min <= value <= _INT64.max:
+            return value, None
+        return _to_json(value, where, name), "json"
+    if isinstance(value, float):
+        return value, None
+    if isinstance(value, np.generic):
+        if value.dtype in _NC_DTYPES:
+            return value, None
+        raise _refuse(where, name, value, f"has dtype {value.dtype}, which NetCDF "
+                      "attributes cannot hold")
+    if isinstance(value, np.ndarray):
+        tag = {"shape": list(value.shape), "dtype": value.dtype.str}
+        if value.dtype.kind in "biuf":
+            stored = _numeric_array(value, where, name, value).ravel()
+            native = value.ndim == 1 and value.size > 1 and value.dtype.kind != "b"
+            return stored, (None if native else tag)
+        if value.dtype.kind in "USO":
+            return _to_json(value.tolist(), where, name), {**tag, "json": True}
+        raise _refuse(where, name, value, f"has dtype {value.dtype}, which NetCDF "
+                      "attributes cannot hold")
+    if isinstance(value, (list, tuple)):
+        kind = type(value).__name__ if type(value) in (list, tuple) else "list"
+        numbers = value and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                for v in value)
+        if numbers:
+            array = np.asarray(value)
+            if array.dtype in (np.dtype("i8"), np.dtype("f8")):
+                return array, kind
+        return _to_json(value, where, name), f"json_{kind}"
+    if isinstance(value, Mapping):
+        return _to_json(value, where, name), "json"
+    raise _refuse(where, name, value, "has a type NetCDF cannot hold")
+
+
+def _decode_value(value: Any, tag: Any) -> Any:
+    if tag == "none":
+        return None
+    if tag == "bool":
+        return bool(value)
+    if tag == "bytes":
+        return base64.b64decode(value)
+    if tag in ("json", "json_list"):
+        return json.loads(value)
+    if tag == "json_tuple":
+        return tuple(json.loads(value))
+    if tag in ("list", "tuple"):
+        items = np.atleast_1d(value).tolist()
+        return items if tag == "list" else tuple(items)
+    if isinstance(tag, dict):
+        dtype = np.dtype(tag["dtype"])
+        if tag.get("json"):
+            return np.asarray(json.loads(value), dtype=dtype).reshape(tag["shape"])
+        return np.asarray(value).astype(dtype).reshape(tag["shape"])
+    return value
+
+
+def _check_name(name: Any, where: str, what: str) -> None:
+    if not isinstance(name, str) or not _is_safe(name):
+        raise ValueError(f"cannot archive {where}: {what} name {name!r} is not a valid "
+                         "NetCDF name (it must start with a letter, digit or '_', contain "
+                         "no '/' or control characters, not end in a space and have at "
+                         "most 255 bytes); rename it (xrough.io.archive.safe_name)")
+
+
+def _encode_attrs(attrs: Mapping, where: str) -> dict:
+    out: dict = {}
+    types: dict = {}
+    for name, value in attrs.items():
+        _check_name(name, where, "attribute")
+        if name == _TYPES:
+            continue
+        out[name], tag = _encode_value(value, where, name)
+        if tag is not None:
+            types[name] = tag
+    if types:
+        out[_TYPES] = json.dumps(types)
+    return out
+
+
+def _decode_attrs(attrs: Mapping) -> dict:
+    attrs = dict(attrs)
+    types = json.loads(attrs.pop(_TYPES, "{}"))
+    return {k: _decode_value(v, types.get(k)) for k, v in attrs.items()}
+
+
+# --- objects ------------------------------------------------------------------------
+
+
+def _encoded(ds: xr.Dataset, where: str) -> xr.Dataset:
+    """``ds`` with every name checked and every attribute in NetCDF form (no encoding)."""
+    for dim in ds.dims:
+        _check_name(dim, where, "dimension")
+    out = ds.copy(deep=False)  # new Variable objects with their own attrs dicts
+    for name, var in out.variables.items():
+        _check_name(name, where, "variable")
+        if var.dtype.kind == "c":
+            raise ValueError(f"cannot archive {where}: variable {name!r} is complex, "
+                             "which NetCDF cannot hold; store its real and imaginary "
+                             "parts")
+        var.attrs = _encode_attrs(var.attrs, f"{where} (variable {name!r})")
+        var.encoding = {}  # no packing or chunking inherited from a source file
+    out.attrs = _encode_attrs(ds.attrs, where)
+    out.encoding = {}
+    return out
+
+
+def _as_dataset(obj: Any, where: str, extra: dict) -> xr.Dataset:
     if isinstance(obj, xr.DataArray):
-        name = obj.name if obj.name is not None else "data"
-        ds = obj.to_dataset(name=str(name), promote_attrs=False)
-        ds.attrs = {_KIND: "DataArray", _NAME: str(name)}
-        return ds
-    if isinstance(obj, xr.Dataset):
-        ds = obj.copy()
-        ds.attrs = {**obj.attrs, _KIND: "Dataset"}
-        return ds
-    raise TypeError(f"{where}: can only archive xarray DataArrays and Datasets, got "
-                    f"{type(obj).__name__}")
+        name = obj.name
+        variable = name if isinstance(name, str) and _is_safe(name) else _DATA
+        if variable in obj.coords:
+            variable = _DATA
+        ds = obj.to_dataset(name=variable, promote_attrs=False)
+        ds.attrs = {_KIND: "DataArray", _NAME: name, _VARIABLE: variable, **extra}
+    elif isinstance(obj, xr.Dataset):
+        ds = obj.copy(deep=False)
+        ds.attrs = {**obj.attrs, _KIND: "Dataset", **extra}
+    else:
+        raise TypeError(f"{where}: can only archive xarray DataArrays and Datasets, got "
+                        f"{type(obj).__name__}")
+    return _encoded(ds, where)
 
 
 def _restore(ds: xr.Dataset) -> xr.DataArray | xr.Dataset:
-    kind = ds.attrs.get(_KIND)
+    for var in ds.variables.values():
+        var.attrs = _decode_attrs(var.attrs)
+    attrs = _decode_attrs(ds.attrs)
+    attrs.pop(_ORIGINAL, None)
+    kind = attrs.pop(_KIND, None)
     if kind == "DataArray":
-        name = ds.attrs[_NAME]
-        da = ds[name]
+        name = attrs[_NAME]
+        da = ds[attrs.get(_VARIABLE, name)]  # older archives: the variable is the name
         da.name = name
         return da
-    attrs = {k: v for k, v in ds.attrs.items() if k != _KIND}
     ds = ds.copy()
     ds.attrs = attrs
     return ds
 
 
+def _group_names(mapping: Mapping, where: str) -> list[tuple[str, str, Any]]:
+    """(name, NetCDF-safe group name, value) per entry: valid names kept, all distinct."""
+    entries = [(str(key), value) for key, value in mapping.items()]
+    keys = [key for key, _ in entries]
+    if len(set(keys)) < len(keys):
+        raise ValueError(f"{where or '/'}: two entries have the same name as strings: "
+                         f"{keys}")
+    groups = {key: key for key in keys if _is_safe(key)}
+    taken = set(groups.values())
+    for key in keys:
+        if key not in groups:
+            groups[key] = safe_name(key, taken)
+            taken.add(groups[key])
+    return [(key, groups[key], value) for key, value in entries]
+
+
+def _tree(analysis: Mapping) -> dict[str, xr.Dataset]:
+    if PROVENANCE_KEY in analysis:
+        raise ValueError(f"{PROVENANCE_KEY!r} is reserved for the archive's provenance; "
+                         "give that entry another name (e.g. xrough.io.archive.safe_name"
+                         f"({PROVENANCE_KEY!r}) = {safe_name(PROVENANCE_KEY)!r})")
+    tree: dict[str, xr.Dataset] = {}
+
+    def walk(prefix: str, label: str, mapping: Mapping) -> None:
+        for key, group, value in _group_names(mapping, label):
+            where = f"{label}/{key}" if label else key
+            extra = {_ORIGINAL: key} if group != key else {}
+            path = f"{prefix}/{group}"
+            if isinstance(value, Mapping) and not isinstance(value, xr.Dataset):
+                tree[path] = xr.Dataset(attrs=_encode_attrs({_KIND: "mapping", **extra},
+                                                            where))
+                walk(path, where, value)
+            else:
+                tree[path] = _as_dataset(value, where, extra)
+
+    walk("", "", analysis)
+    return tree
+
+
+def _write_atomic(tree: xr.DataTree, path: Path) -> None:
+    """Write ``tree`` to ``path`` through a temporary file in the same directory."""
+    directory = path.parent
+    if not directory.is_dir():
+        raise FileNotFoundError(f"{path}: the directory {directory} does not exist")
+    if path.is_dir():
+        raise IsADirectoryError(f"{path} is a directory; give a file name (.nc)")
+    tmp = directory / f".{path.name}.{secrets.token_hex(6)}.tmp"
+    try:
+        tree.to_netcdf(tmp, engine="netcdf4")
+        os.replace(tmp, path)
+    except BaseException as err:
+        tmp.unlink(missing_ok=True)
+        if isinstance(err, (OSError, KeyboardInterrupt, SystemExit, MemoryError)):
+            raise
+        raise ValueError(f"{path}: could not write the archive ({type(err).__name__}: "
+                         f"{err}); any previous file at this path is unchanged") from err
+
+
 def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = None) -> Path:
-    """Write an analysis (nested mapping of results) to a NetCDF4 file.
+    """Write an analysis (nested mapping of results) to a NetCDF4 file, atomically.
 
     Parameters
     ----------
     path : str or Path
-        Output file (``.nc``).
+        Output file (``.nc``). Written under a temporary name in the same directory and
+        renamed over ``path`` when complete: a failed save leaves a previous file at
+        ``path`` unchanged.
     analysis : mapping
         ``{"topography": topo, "G": G, "fit": fit, ...}`` for one measurement, or
-        ``{"afm": {...}, "stylus": {...}}`` for several (one group each).
+        ``{"afm": {...}, "stylus": {...}}`` for several (one group each), nested to any
+        depth. Names may hold any characters (see :func:`safe_name`); the top-level key
+        ``"_provenance"`` is reserved.
     history : str, optional
         A line for the ``history`` attribute (e.g. the command that produced it).
 
@@ -75,6 +425,23 @@ def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = 
     ------
     TypeError
         An entry that is not an xarray object or a mapping.
+    ValueError
+        Before anything is written: an attribute NetCDF cannot hold (named with its
+        object), a variable, coordinate or dimension name NetCDF refuses, a complex
+        variable, the reserved key ``"_provenance"``, two keys equal as strings. While
+        writing: any failure of the NetCDF library (the previous file is kept).
+    OSError
+        The directory does not exist, ``path`` is a directory, or the disk failed.
+
+    See Also
+    --------
+    open_analysis, safe_name
+
+    Notes
+    -----
+    Attributes that NetCDF cannot hold natively (``bool``, ``None``, arrays of any shape,
+    lists, tuples, dicts, ``bytes``) are stored with a record of their type and reopen
+    identical; see the module documentation for the rules.
 
     Examples
     --------
@@ -83,26 +450,13 @@ def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = 
     ...                          spacing=1.0, unit="nm")
     >>> G = topo.rough.acf()
     >>> path = pathlib.Path(tempfile.mkdtemp()) / "analysis.nc"
-    >>> _ = xrough.save_analysis(path, {"topography": topo, "G": G})
+    >>> _ = xrough.save_analysis(path, {"(1).sur": {"topography": topo, "G": G}})
     >>> back = xrough.open_analysis(path)
-    >>> xr.testing.assert_identical(back["G"], G)
+    >>> xr.testing.assert_identical(back["(1).sur"]["G"], G)
     """
     path = Path(path)
-    tree: dict[str, xr.Dataset] = {}
-
-    def walk(prefix: str, mapping: Mapping) -> None:
-        for key, value in mapping.items():
-            key = str(key)
-            if "/" in key or not key:
-                raise ValueError(f"group names must be non-empty and contain no '/': {key!r}")
-            where = f"{prefix}/{key}"
-            if isinstance(value, Mapping) and not isinstance(value, xr.Dataset):
-                walk(where, value)
-            else:
-                tree[where] = _as_dataset(value, where)
-
-    walk("", analysis)
-    now = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+    tree = _tree(analysis)
+    now = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
     root = xr.Dataset(attrs={
         "Conventions": "CF-1.10",
         "title": "xrough analysis",
@@ -111,28 +465,42 @@ def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = 
         "history": f"{now}: {history or 'written by xrough.save_analysis'}",
     })
     dt = xr.DataTree.from_dict({"/": root, **tree})
-    dt.to_netcdf(path, engine="netcdf4")
+    _write_atomic(dt, path)
     return path
 
 
 def open_analysis(path: str | Path) -> dict:
     """Reopen a file written by :func:`save_analysis` as the same nested mapping.
 
-    The root's provenance attributes are under the key ``"_provenance"``.
+    Parameters
+    ----------
+    path : str or Path
+        A file written by :func:`save_analysis`.
+
+    Returns
+    -------
+    dict
+        The saved mapping under its original names, each object identical to what was
+        saved, and the root's provenance attributes (xrough version, creation time,
+        history, ``Conventions``) under the key ``"_provenance"``.
+
+    See Also
+    --------
+    save_analysis
     """
     path = Path(path)
     out: dict = {}
     with xr.open_datatree(path, engine="netcdf4") as dt:
-        for node in dt.subtree:
-            if node.is_root:
-                out["_provenance"] = dict(node.attrs)
-                continue
-            ds = node.to_dataset(inherit=False).load()
-            if _KIND not in ds.attrs:
-                continue  # an intermediate group
-            parts = node.path.strip("/").split("/")
-            target = out
-            for part in parts[:-1]:
-                target = target.setdefault(part, {})
-            target[parts[-1]] = _restore(ds)
+        out[PROVENANCE_KEY] = dict(dt.attrs)
+
+        def walk(node: xr.DataTree, target: dict) -> None:
+            for child in node.children.values():
+                attrs = _decode_attrs(child.attrs)
+                key = attrs.get(_ORIGINAL, child.name)
+                if attrs.get(_KIND) in ("DataArray", "Dataset"):
+                    target[key] = _restore(child.to_dataset(inherit=False).load())
+                else:  # a mapping (or an intermediate group of an older archive)
+                    walk(child, target.setdefault(key, {}))
+
+        walk(dt, out)
     return out
