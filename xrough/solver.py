@@ -9,6 +9,7 @@ topography and parameters, converts units and labels the result.
 from __future__ import annotations
 
 import os
+import time
 import warnings
 from typing import Any
 
@@ -17,7 +18,7 @@ import xarray as xr
 from tqdm.auto import tqdm
 
 from . import units as u
-from ._kernels.solver import _ElasticOperator, _solve_approach, _solve_load
+from ._kernels.solver import _coarse_start, _ElasticOperator, _solve_approach, _solve_load
 from .topography import check_valid_points, grid_of
 
 __all__ = ["solve_contact", "ConvergenceWarning"]
@@ -60,6 +61,9 @@ def solve_contact(
     max_iter: int = 10_000,
     progress: bool | None = None,
     workers: int | None = None,
+    precision: str = "mixed",
+    coarse_to_fine: int = 0,
+    timing: bool = False,
 ) -> xr.Dataset:
     r"""Solve the normal contact of an elastic half-space with a rigid rough surface.
 
@@ -92,6 +96,22 @@ def solve_contact(
         Show a tqdm bar over the iterations (default: only in an interactive terminal).
     workers : int, optional
         Threads for ``scipy.fft`` (default: all CPUs).
+    precision : {"mixed", "float64"}
+        ``"mixed"`` (default) runs the first iterations with float32 transforms, until the
+        residual is below ``max(tol, 1e-6)`` or stops decreasing, then restarts the
+        conjugation and polishes in float64 to ``tol``: the result meets ``tol`` as
+        measured in float64. Maps smaller than 256 x 256 points always use float64.
+        ``"float64"`` uses float64 throughout.
+    coarse_to_fine : int
+        Number of 2x restrictions for the initial guess (default 0: none). With ``k > 0``
+        the first load is first solved on the map averaged over 2 x 2 pixels (itself
+        started from a coarser grid, ``k`` levels in all, down to 64 points a side) and
+        the coarse pressure, repeated onto 2 x 2 pixels, starts the fine solve. The
+        solution is the same as from a cold start to within ``tol``; the iterations on
+        the coarse grids are counted in ``iterations``.
+    timing : bool
+        Add the wall-clock ``solve_time`` and ``time_per_iteration`` (off by default:
+        they differ from run to run, so results would no longer compare identical).
 
     Returns
     -------
@@ -99,17 +119,22 @@ def solve_contact(
         ``pressure`` (Pa), ``displacement`` (elastic surface displacement, height unit),
         ``gap`` (height unit) and ``contact`` (int8 mask, 1 where ``pressure > 0``) on
         ``(y, x)``; per load: ``contact_area`` (relative), ``mean_pressure`` (Pa),
-        ``approach`` (``max(h) + offset``, height unit), ``iterations``, ``converged``;
+        ``approach`` (``max(h) + offset``, height unit), ``iterations`` (coarse grids
+        included), ``converged``, ``float32_iterations``, ``coarse_iterations``,
+        ``transforms`` (forward plus inverse FFTs of the map) and, with ``timing``,
+        ``solve_time`` (s) and ``time_per_iteration`` (s);
         ``residual`` on ``iteration`` (the convergence history, NaN-padded per load).
         Attrs: ``E_star`` (Pa), ``tol``, ``max_iter``, ``method``, ``green_function``,
-        ``iterations`` (total) and, for one load, ``relative_contact_area``.
+        ``iterations`` (total), ``precision``, ``coarse_to_fine``, with ``timing``
+        ``solve_time`` (s, total), and, for one load, ``relative_contact_area``.
 
     Raises
     ------
     ValueError
         Non-positive or non-finite ``E_star`` or ``p0``, both or neither of ``p0`` and
         ``displacement``, NaN or infinite heights, a non-uniform grid, or a periodic
-        ``displacement`` at or beyond full contact.
+        ``displacement`` at or beyond full contact, an unknown ``precision`` or a
+        negative ``coarse_to_fine``.
 
     Warns
     -----
@@ -136,6 +161,12 @@ def solve_contact(
     ``max(sum|p - p_old| / sum p, rms(g on I_c and g < 0 elsewhere) / rms(h))`` and the
     iteration stops below ``tol``. A load beyond full contact simply converges to full
     contact (``contact_area = 1``).
+
+    Cost: the iterates live on the contact set only; per iteration one forward and one
+    inverse transform give ``K t``, and the displacement ``K p`` is updated linearly
+    (``u <- s (u - tau K t)``, plus the kernel of the few pixels that left or entered the
+    contact set), so a second pair of transforms is needed only in iterations where many
+    pixels change. ``transforms`` counts them.
 
     References
     ----------
@@ -164,6 +195,11 @@ def solve_contact(
         raise ValueError(f"tol must be between 0 and 1, got {tol!r}")
     if int(max_iter) < 1:
         raise ValueError(f"max_iter must be a positive integer, got {max_iter!r}")
+    if precision not in ("mixed", "float64"):
+        raise ValueError(f"precision must be 'mixed' or 'float64', got {precision!r}")
+    if int(coarse_to_fine) < 0:
+        raise ValueError(f"coarse_to_fine must be a non-negative integer, got "
+                         f"{coarse_to_fine!r}")
     hunit, lunit = grid.height_unit, grid.lateral_unit
     to_lat = u.conversion_factor(hunit, lunit)
     if p0 is not None:
@@ -192,10 +228,19 @@ def solve_contact(
     results, p_prev = [], None
     try:
         for target in targets:
+            t_start = time.perf_counter()
+            coarse_its = 0
+            if p_prev is None and load_dim == "p0" and coarse_to_fine:
+                p_prev, coarse_its = _coarse_start(
+                    h_lat, op, float(target), levels=int(coarse_to_fine), tol=float(tol),
+                    max_iter=int(max_iter), precision=precision)
             kw = {"tol": float(tol), "max_iter": int(max_iter), "p_init": p_prev,
-                  "callback": callback}
+                  "callback": callback, "precision": precision}
             out = (_solve_load(h_lat, op, float(target), **kw) if load_dim == "p0" else
                    _solve_approach(h_lat, op, float(target), **kw))
+            out["seconds"] = time.perf_counter() - t_start
+            out["coarse_iterations"] = coarse_its
+            out["iterations"] += coarse_its
             results.append(out)
             p_prev = out["pressure"]
     finally:
@@ -240,6 +285,15 @@ def solve_contact(
                            {"long_name": "conjugate-gradient iterations"}),
             "converged": (L, np.array([r["converged"] for r in results], dtype=np.int8),
                           {"long_name": "1 if the residual reached tol"}),
+            "float32_iterations": (L, np.array([r["float32_iterations"] for r in results],
+                                               dtype=np.int64),
+                                   {"long_name": "iterations with float32 transforms"}),
+            "coarse_iterations": (L, np.array([r["coarse_iterations"] for r in results],
+                                              dtype=np.int64),
+                                  {"long_name": "iterations on the coarse grids"}),
+            "transforms": (L, np.array([r["transforms"] for r in results], dtype=np.int64),
+                           {"long_name": "forward plus inverse FFTs of the map"}),
+
             "residual": (L + ("iteration",), hist, {
                 "units": "1", "long_name": "relative residual per iteration "
                 "(max of pressure change and gap error)"}),
@@ -258,8 +312,17 @@ def solve_contact(
                                "free space, Love pixel kernel, zero-padded to 2n"),
             "periodic": int(grid.periodic),
             "iterations": int(sum(r["iterations"] for r in results)),
+            "precision": precision,
+            "coarse_to_fine": int(coarse_to_fine),
         },
     )
+    if timing:
+        ds["solve_time"] = (L, np.array([r["seconds"] for r in results]), {
+            "units": "s", "long_name": "wall-clock time of the solve"})
+        ds["time_per_iteration"] = (L, np.array([r["seconds"] / max(r["iterations"], 1)
+                                                 for r in results]), {
+            "units": "s", "long_name": "wall-clock time per iteration"})
+        ds.attrs["solve_time"] = float(sum(r["seconds"] for r in results))
     if scalar:
         ds = ds.isel({load_dim: 0})
         ds.attrs["relative_contact_area"] = float(area[0])

@@ -26,6 +26,7 @@ __all__ = [
     "_pixel_influence",
     "_solve_load",
     "_solve_approach",
+    "_coarse_start",
 ]
 
 
@@ -81,6 +82,7 @@ class _ElasticOperator:
         self.workers = workers
         ny, nx = self.shape
         dy, dx = spacing
+        self.spacing = (float(dy), float(dx))
         self.length = float(np.sqrt(ny * dy * nx * dx))
         if self.periodic:
             self.fshape = self.shape
@@ -97,11 +99,58 @@ class _ElasticOperator:
             ox = np.where(ix < nx, ix, ix - 2 * nx) * dx
             k = _pixel_influence(ox[None, :], oy[:, None], dx, dy)
             self.kernel = sfft.rfft2(k, workers=workers)
+        self._kernels: dict = {}
+
+    def _real_kernel(self, dtype) -> np.ndarray:
+        """Return the displacement of a unit pressure at pixel (0, 0), on the transform grid."""
+        key = ("real", dtype)
+        if key not in self._kernels:
+            self._kernels[key] = sfft.irfft2(self.kernel, s=self.fshape,
+                                             workers=self.workers).astype(dtype)
+        return self._kernels[key]
+
+    def add_point_loads(self, u: np.ndarray, flat: np.ndarray, values: np.ndarray) -> None:
+        """Add ``K c`` to ``u`` in place for ``c`` nonzero at a few pixels only.
+
+        Each pixel adds the real-space kernel shifted to it (one pass over ``u`` per
+        pixel), which is cheaper than a pair of transforms for a handful of pixels.
+
+        Parameters
+        ----------
+        u : numpy.ndarray
+            Displacement field of the grid's shape, updated in place.
+        flat : numpy.ndarray
+            Flat indices of the loaded pixels.
+        values : numpy.ndarray
+            Pressures (over ``E*``) at those pixels.
+        """
+        k = self._real_kernel(u.dtype.type)
+        ny, nx = self.shape
+        fy, fx = self.fshape
+        for j, c in zip(flat.tolist(), values.tolist()):
+            sy, sx = divmod(j, nx)
+            for (u0, u1), (k0, k1) in (((sy, ny), (0, ny - sy)), ((0, sy), (fy - sy, fy))):
+                if u1 == u0:
+                    continue
+                for (v0, v1), (l0, l1) in (((sx, nx), (0, nx - sx)),
+                                           ((0, sx), (fx - sx, fx))):
+                    if v1 > v0:
+                        blk = u[u0:u1, v0:v1]
+                        blk += c * k[k0:k1, l0:l1]
 
     def __call__(self, p: np.ndarray) -> np.ndarray:
-        """Displacement field (same shape as ``p``) for the pressure ``p / E*``."""
+        """Displacement field (same shape as ``p``) for the pressure ``p / E*``.
+
+        The transforms run in the precision of ``p``: float32 input gives a float32
+        result (half the memory traffic of float64), anything else float64.
+        """
+        dtype = np.float32 if p.dtype == np.float32 else np.float64
+        kernel = self._kernels.get(dtype)
+        if kernel is None:
+            kernel = self._kernels[dtype] = self.kernel.astype(
+                np.result_type(self.kernel.dtype, dtype))
         ph = sfft.rfft2(p, s=self.fshape, workers=self.workers)
-        ph *= self.kernel  # ph is a fresh array: multiply in place, then let irfft2 reuse it
+        ph *= kernel  # ph is a fresh array: multiply in place, then let irfft2 reuse it
         u = sfft.irfft2(ph, s=self.fshape, workers=self.workers, overwrite_x=True)
         if not self.periodic:
             u = u[: self.shape[0], : self.shape[1]]
@@ -122,6 +171,20 @@ def _dot(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.einsum("i,i->", a.ravel(), b.ravel()))
 
 
+#: Residual at which a mixed-precision solve leaves its float32 phase (float32 transforms
+#: carry a relative error of a few 1e-7 in the displacement, so the gap error of that phase
+#: levels off near 1e-7 of the rms height, 1e-8 for the gap error alone).
+FLOAT32_TOL = 1e-6
+#: Largest number of pixels entering or leaving the contact set for which the
+#: displacement is corrected pixel by pixel instead of transformed afresh.
+POINT_LOADS_MAX = 12
+#: Maps smaller than this solve in float64 throughout (their transforms are too cheap
+#: for float32 to pay).
+MIXED_MIN_SIZE = 256 * 256
+#: Iterations without a new lowest residual after which the float32 phase ends.
+STALL = 5
+
+
 def _solve_load(
     h: np.ndarray,
     op: _ElasticOperator,
@@ -131,6 +194,7 @@ def _solve_load(
     max_iter: int,
     p_init: np.ndarray | None = None,
     callback: Callable[[int, float], None] | None = None,
+    precision: str = "mixed",
 ) -> dict:
     r"""Constrained conjugate gradients of Polonsky & Keer (1999) at mean pressure ``p0``.
 
@@ -148,83 +212,212 @@ def _solve_load(
     ``eps_p = sum|p - p_old| / sum p`` and the relative gap error
     ``eps_g = rms(g on I_c, and g < 0 elsewhere) / rms(h)``.
 
+    Implementation: the iterates ``p`` and ``t`` live on the contact set only (gathered by
+    index), so the full-map work per iteration is the transform of ``t``, one pass for the
+    gap and one comparison for the points out of contact with a negative gap. The
+    displacement ``u = K p`` is updated linearly, ``u <- s (u - tau K t)``, in iterations
+    where no point leaves or re-enters the contact set, and transformed afresh otherwise:
+    most late iterations cost one forward and one inverse transform.
+
+    Parameters
+    ----------
+    h : numpy.ndarray
+        Heights (lengths), 2-D.
+    op : _ElasticOperator
+        Green's function operator of the grid.
+    p0 : float
+        Mean pressure over ``E*``.
+    tol : float
+        Relative tolerance of the residual.
+    max_iter : int
+        Maximal number of iterations.
+    p_init : numpy.ndarray, optional
+        Initial pressure (rescaled to ``p0``); a uniform ``p0`` when absent or zero.
+    callback : callable, optional
+        Called as ``callback(iteration, residual)``.
+    precision : {"mixed", "float64"}
+        ``"mixed"`` runs the transforms in float32 until the residual falls below
+        ``max(tol, FLOAT32_TOL)`` (or stops decreasing for ``STALL`` iterations), then
+        restarts the conjugation and continues in float64 to ``tol``; maps of fewer than
+        ``MIXED_MIN_SIZE`` points use float64 throughout. ``"float64"`` uses float64
+        throughout.
+
     Returns
     -------
     dict
         ``pressure``, ``displacement``, ``gap`` (lengths), ``offset``, ``history``
-        (residual per iteration), ``iterations``, ``converged``.
+        (residual per iteration), ``iterations``, ``float32_iterations``, ``transforms``
+        (forward plus inverse FFTs), ``converged``.
     """
+    if precision not in ("mixed", "float64"):
+        raise ValueError(f"precision must be 'mixed' or 'float64', got {precision!r}")
+    if precision == "mixed" and h.size < MIXED_MIN_SIZE:
+        precision = "float64"
     n = h.size
+    shape = h.shape
     if p_init is None or not np.any(p_init > 0):
-        p = np.full(h.shape, p0, dtype=float)
+        p = np.full(shape, p0, dtype=float)
     else:
         p = np.clip(np.asarray(p_init, dtype=float), 0.0, None)
         p *= p0 / p.mean()
     scale = _gap_scale(h, p0, op)
-    # Work arrays reused across iterations. ``t`` is kept exactly zero outside the contact
-    # set ``S`` and ``w`` is the 0/1 indicator of ``S``, so sums over ``S`` become dot
-    # products over the whole array (no boolean-mask copies).
-    t = np.zeros_like(p)
-    g = np.empty_like(p)
-    tmp = np.empty_like(p)
-    p_old = np.empty_like(p)
-    w = np.empty_like(p)
-    S = np.empty(h.shape, dtype=bool)
-    mask = np.empty(h.shape, dtype=bool)
+    total = n * p0
+    idx = np.flatnonzero(p)  # the contact set, as flat indices
+    p_s = p.ravel()[idx]
+    t_s = np.zeros_like(p_s)
+    del p
+
+    def precision_state(dtype):
+        """Full-map work arrays in ``dtype`` and the displacement of the current ``p``."""
+        hh = np.ascontiguousarray(h, dtype=dtype)
+        pf = np.zeros(shape, dtype=dtype)
+        tf = np.zeros(shape, dtype=dtype)
+        pf.ravel()[idx] = p_s
+        return hh, pf, tf, op(pf), np.empty(shape, dtype=dtype), np.empty(shape, dtype=bool)
+
+    dtype = np.float32 if precision == "mixed" else np.float64
+    hh, pf, tf, u, d, below = precision_state(dtype)
+    transforms = 2
+    f32_its = 0
+    best32 = np.inf
+    stall = 0
     delta = 0.0
     g_old = 1.0
     history: list[float] = []
     converged = False
     it = 0
     for it in range(1, max_iter + 1):  # noqa: B007 - the count is reported
-        np.subtract(op(p), h, out=g)
-        np.greater(p, 0.0, out=S)
-        np.copyto(w, S)
-        n_s = int(np.count_nonzero(S))
-        g -= _dot(w, g) / n_s if n_s else np.nan
-        np.multiply(g, w, out=tmp)  # g on S, 0 elsewhere
-        G = _dot(tmp, tmp)
-        np.subtract(g, tmp, out=tmp)  # g off S, 0 on S
-        np.minimum(tmp, 0.0, out=tmp)  # g < 0 off S
-        eps_g = np.sqrt((G + _dot(tmp, tmp)) / n) / scale
-        t *= delta * (G / g_old)
-        t += g
-        t *= w
+        np.subtract(u, hh, out=d)
+        dflat = d.ravel()
+        g_s = dflat[idx].astype(float)
+        m = float(g_s.mean()) if idx.size else np.nan
+        g_s -= m
+        G = _dot(g_s, g_s)
+        np.less(d, m, out=below)
+        cand = np.flatnonzero(below)
+        off = cand[pf.ravel()[cand] <= 0]  # out of contact with a negative gap
+        g_off = dflat[off].astype(float) - m
+        eps_g = np.sqrt((G + _dot(g_off, g_off)) / n) / scale
+        t_s *= delta * (G / g_old)
+        t_s += g_s
         g_old = G if G > 0 else 1.0
-        r = op(t)
-        r -= _dot(w, r) / n_s if n_s else np.nan
-        denom = _dot(r, t)
-        np.copyto(p_old, p)
+        tflat = tf.ravel()
+        tflat[idx] = t_s
+        r = op(tf)
+        transforms += 2
+        tflat[idx] = 0.0
+        r_s = r.ravel()[idx].astype(float)
+        r_mean = float(r_s.mean()) if idx.size else np.nan
+        r_s -= r_mean
+        denom = _dot(r_s, t_s)
         if denom > 0:
-            tau = _dot(g, t) / denom
-            np.multiply(t, tau, out=tmp)
-            p -= tmp  # t = 0 off S, so only S changes
-            np.maximum(p, 0.0, out=p)
-            np.equal(p, 0.0, out=mask)
-            np.logical_and(mask, np.less(g, 0.0, out=S), out=mask)  # overlap
-            if mask.any():
+            tau = _dot(g_s, t_s) / denom
+            q_s = p_s - tau * t_s
+            np.maximum(q_s, 0.0, out=q_s)
+            zero = q_s == 0.0
+            enter_s = zero & (g_s < 0)  # clipped points with a negative gap re-enter
+            q_s[enter_s] = -tau * g_s[enter_s]
+            changed = bool(zero.any()) or off.size > 0
+            if off.size:
                 delta = 0.0
-                np.multiply(g, tau, out=tmp)
-                np.subtract(p, tmp, out=p, where=mask)
+                q_off = np.maximum(-tau * g_off, 0.0)
             else:
-                delta = 1.0
-            p *= p0 / p.mean()
-        np.subtract(p, p_old, out=tmp)
-        np.abs(tmp, out=tmp)
-        eps_p = float(np.sum(tmp)) / (n * p0)
+                q_off = g_off
+                delta = 1.0 if not enter_s.any() else 0.0
+            s = total / (float(q_s.sum()) + float(q_off.sum()))
+            q_s *= s
+            q_off *= s
+            eps_p = (float(np.abs(q_s - p_s).sum()) + float(np.abs(q_off).sum())) / total
+            if changed:
+                # c = p_new - s (p - tau t): nonzero where a point left or (re-)entered
+                ent_off = np.flatnonzero(q_off)
+                n_changed = int(np.count_nonzero(zero)) + ent_off.size
+                if n_changed <= POINT_LOADS_MAX:
+                    c_idx = np.concatenate([idx[zero], off[ent_off]])
+                    c_val = np.concatenate([q_s[zero] - s * (p_s[zero] - tau * t_s[zero]),
+                                            q_off[ent_off]])
+            if changed:
+                keep = q_s > 0
+                pflat = pf.ravel()
+                pflat[idx] = 0.0
+                if delta == 0.0:
+                    idx = np.concatenate([idx[keep], off[q_off > 0]])
+                    p_s = np.concatenate([q_s[keep], q_off[q_off > 0]])
+                    t_s = np.zeros_like(p_s)  # reset below by delta = 0
+                    order = np.argsort(idx)
+                    idx, p_s, t_s = idx[order], p_s[order], t_s[order]
+                else:
+                    idx, p_s, t_s = idx[keep], q_s[keep], t_s[keep]
+                pflat[idx] = p_s
+                if n_changed <= POINT_LOADS_MAX:  # u <- s (u - tau K t) + K c, c sparse
+                    r *= -tau
+                    u += r
+                    u *= s
+                    op.add_point_loads(u, c_idx, c_val)
+                else:
+                    u = op(pf)
+                    transforms += 2
+            else:
+                p_s = q_s
+                r *= -tau
+                u += r
+                u *= s
+        else:
+            eps_p = 0.0
         res = max(eps_p, eps_g)
         history.append(res)
         if callback is not None:
             callback(it, res)
+        if dtype == np.float32:
+            f32_its += 1
+            stall = 0 if res < best32 else stall + 1
+            best32 = min(best32, res)
+            if res < max(tol, FLOAT32_TOL) or stall >= STALL or denom <= 0:
+                dtype = np.float64
+                delta = 0.0  # restart the conjugation on the exact operator
+                hh, pf, tf, u, d, below = precision_state(dtype)
+                transforms += 2
+                continue
         if res < tol or denom <= 0:
-            outside = bool(np.any((p_old <= 0) & (g < 0)))
-            converged = res < tol or (G == 0 and not outside)
+            converged = res < tol or (G == 0 and off.size == 0)
             break
-    u = op(p)
-    S = p > 0
+    pfull = np.zeros(n)
+    pfull[idx] = p_s
+    pfull = pfull.reshape(shape)
+    u = op(pfull)
+    S = pfull > 0
     offset = float(np.mean(u[S] - h[S]))
-    return {"pressure": p, "displacement": u, "gap": u - h - offset, "offset": offset,
-            "history": np.asarray(history), "iterations": it, "converged": converged}
+    return {"pressure": pfull, "displacement": u, "gap": u - h - offset, "offset": offset,
+            "history": np.asarray(history), "iterations": it, "converged": converged,
+            "float32_iterations": f32_its, "transforms": transforms}
+
+
+def _coarse_start(h: np.ndarray, op: _ElasticOperator, p0: float, *, levels: int,
+                  tol: float, max_iter: int, precision: str) -> tuple[np.ndarray, int]:
+    """Start from the solution on grids restricted ``levels`` times by 2.
+
+    Each restriction averages 2 x 2 pixels of ``h`` (the spacing doubles); the coarse
+    solution, itself started from a coarser one, is repeated onto 2 x 2 pixels. Stops
+    early at odd sizes or below 64 points a side.
+
+    Returns
+    -------
+    tuple
+        The pressure on the grid of ``h`` (or None when no coarser grid exists) and the
+        iterations spent on the coarse grids.
+    """
+    ny, nx = h.shape
+    if levels < 1 or ny % 2 or nx % 2 or min(ny, nx) < 128:
+        return None, 0
+    hc = h.reshape(ny // 2, 2, nx // 2, 2).mean(axis=(1, 3))
+    spacing = (2 * op.spacing[0], 2 * op.spacing[1])
+    opc = _ElasticOperator(hc.shape, spacing, periodic=op.periodic, workers=op.workers)
+    p_c, its = _coarse_start(hc, opc, p0, levels=levels - 1, tol=tol, max_iter=max_iter,
+                             precision=precision)
+    out = _solve_load(hc, opc, p0, tol=tol, max_iter=max_iter, p_init=p_c,
+                      precision=precision)
+    p = np.repeat(np.repeat(out["pressure"], 2, axis=0), 2, axis=1)
+    return p, its + out["iterations"]
 
 
 def _solve_approach(
@@ -236,6 +429,7 @@ def _solve_approach(
     max_iter: int,
     p_init: np.ndarray | None = None,
     callback: Callable[[int, float], None] | None = None,
+    precision: str = "mixed",
 ) -> dict:
     r"""Contact at a prescribed approach ``delta = max(h) + offset`` (lengths).
 
@@ -256,7 +450,7 @@ def _solve_approach(
 
     def mismatch(p0: float) -> float:
         out = _solve_load(h, op, p0, tol=tol, max_iter=max_iter, p_init=state["p"],
-                          callback=callback)
+                          callback=callback, precision=precision)
         state.update(p=out["pressure"], last=out, p0=p0)
         state["iterations"] += out["iterations"]
         return (hmax + out["offset"]) - approach
