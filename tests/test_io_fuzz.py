@@ -181,7 +181,7 @@ def outcome(read, path, name: str) -> str:
 
 
 def fuzz_loop(tmp_path, fmt: str, seeds, read, mutator=mutate, n=MUTATIONS,
-              suffix=None, max_bytes=256 << 20):
+              suffix=None, max_bytes=256 << 20, sniff=None):
     """``n`` seeded mutations of the seed files; count the outcomes.
 
     Every fifth read runs under :mod:`tracemalloc` (which slows reading tenfold) and must
@@ -199,6 +199,8 @@ def fuzz_loop(tmp_path, fmt: str, seeds, read, mutator=mutate, n=MUTATIONS,
         content = mutator(seed, rng)
         path = tmp_path / f"m{i:04d}{suffix or '.' + fmt}"
         path.write_bytes(content)
+        if sniff is not None:  # format detection never fails, whatever the content
+            assert sniff(content[:4096], path) in (True, False)
         traced = i % 5 == 0
         if traced:
             tracemalloc.start()
@@ -548,17 +550,18 @@ def test_row_orientation_sur_real_file_agrees_with_the_bridge():
 
 def test_fuzz_x3p(tmp_path):
     counts = fuzz_loop(tmp_path, "x3p", [x3p_bytes(tmp_path)], x3p.read,
-                       mutator=mutate_x3p)
+                       mutator=mutate_x3p, sniff=x3p.sniff)
     assert counts["clean error"] > 0
 
 
 def test_fuzz_sur(tmp_path):
-    counts = fuzz_loop(tmp_path, "sur", [sur_bytes()], sur.read)
+    counts = fuzz_loop(tmp_path, "sur", [sur_bytes()], sur.read, sniff=sur.sniff)
     assert counts["clean error"] > 0 and sum(counts.values()) == MUTATIONS
 
 
 def test_fuzz_sdf(tmp_path):
-    counts = fuzz_loop(tmp_path, "sdf", [sdf_text_bytes(), sdf_binary_bytes()], sdf.read)
+    counts = fuzz_loop(tmp_path, "sdf", [sdf_text_bytes(), sdf_binary_bytes()], sdf.read,
+                       sniff=sdf.sniff)
     assert counts["clean error"] > 0 and sum(counts.values()) == MUTATIONS
 
 
@@ -572,13 +575,15 @@ def bounded_gwy_read(path):
 
 def test_fuzz_gwy(tmp_path):
     counts = fuzz_loop(tmp_path, "gwy", [gwy_bytes(tmp_path)], bounded_gwy_read,
-                       mutator=lambda raw, rng: mutate(raw, rng, header=len(raw)))
+                       mutator=lambda raw, rng: mutate(raw, rng, header=len(raw)),
+                       sniff=gwy.sniff)
     assert counts["clean error"] > 0
 
 
 def test_fuzz_netcdf(tmp_path):
     seeds = [netcdf_bytes(tmp_path, "NETCDF3_CLASSIC"), netcdf_bytes(tmp_path, "NETCDF3_64BIT")]
-    counts = fuzz_loop(tmp_path, "netcdf", seeds, netcdf.read, suffix=".nc")
+    counts = fuzz_loop(tmp_path, "netcdf", seeds, netcdf.read, suffix=".nc",
+                       sniff=netcdf.sniff)
     assert counts["clean error"] > 0 and sum(counts.values()) == MUTATIONS
 
 

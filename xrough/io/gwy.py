@@ -229,8 +229,10 @@ def channels(path: str | Path) -> list[dict]:
         ``unit``, ``lateral_unit`` and ``is_height`` (both are lengths).
     """
     path = Path(path)
-    return [{k: c[k] for k in ("index", "name", "unit", "lateral_unit", "is_height")}
-            for c in _fields(_load(path))]
+    check_file(path)
+    with reader_errors(path, "Gwyddion"):
+        return [{k: c[k] for k in ("index", "name", "unit", "lateral_unit", "is_height")}
+                for c in _fields(_load(path))]
 
 
 def _describe(c: dict) -> str:

@@ -120,7 +120,8 @@ def sniff(head: bytes, path: Path | None = None) -> bool:
                 return False
             with zf.open(_MAIN) as fh:
                 start = fh.read(2048)
-    except (OSError, zipfile.BadZipFile, zlib.error, RuntimeError, ValueError):
+    except (OSError, zipfile.BadZipFile, zlib.error, RuntimeError, ValueError, EOFError,
+            NotImplementedError, struct.error, KeyError):
         return False
     return b"ISO5436_2" in start
 
