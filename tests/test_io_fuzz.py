@@ -581,7 +581,8 @@ def test_fuzz_gwy(tmp_path):
 
 
 def test_fuzz_netcdf(tmp_path):
-    seeds = [netcdf_bytes(tmp_path, "NETCDF3_CLASSIC"), netcdf_bytes(tmp_path, "NETCDF3_64BIT")]
+    seeds = [netcdf_bytes(tmp_path, fmt) for fmt in ("NETCDF3_CLASSIC", "NETCDF3_64BIT",
+                                                      "NETCDF4")]
     counts = fuzz_loop(tmp_path, "netcdf", seeds, netcdf.read, suffix=".nc",
                        sniff=netcdf.sniff)
     assert counts["clean error"] > 0 and sum(counts.values()) == MUTATIONS
