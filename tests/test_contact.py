@@ -356,5 +356,5 @@ def test_every_result_plots():
     ax = G.rough.stress_acf(E_star=E_STAR).rough.plot()
     assert ax.get_yscale() == "linear"  # the stress ACF crosses zero
     assert G.rough.gradient().rough.plot().get_yscale() == "log"
-    with pytest.raises(ValueError, match="nothing to plot"):
-        G.rough.patch_radius(E_star=E_STAR, gamma=0.05).rough.plot()
+    patch_axes = G.rough.patch_radius(E_star=E_STAR, gamma=0.05).rough.plot()
+    assert patch_axes[0].get_xscale() == "log"  # a_c and a_c_upper (tests/test_plot.py)

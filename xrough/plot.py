@@ -3,29 +3,110 @@
 :func:`plot` dispatches on what the DataArray is: a topography map (image), a profile
 (line), or a function of lag ``dr`` or wavenumber ``q`` (log-log, with the standard error
 as a band when present). :func:`plot_stitched` draws several instruments' G and their
-stitched G in one figure. Every function returns the :class:`matplotlib.axes.Axes`.
+stitched G in one figure. A fit Dataset (:func:`xrough.fit_acf`) plots its model curve
+(:func:`plot_fit`), a patch-radius Dataset (:func:`xrough.patch_radius`) its two radii
+per curve (:func:`plot_patch_radius`). Every function returns the
+:class:`matplotlib.axes.Axes` (:func:`plot_dataset` an array of them).
+
+Conventions of every figure:
+
+- Units in labels are written for reading: ``um`` as ``µm`` (:func:`display_unit`); the
+  data's ``units`` attrs stay CF.
+- Lines and error bands break at gaps: NaN bins, and the bins of a stitched G that no
+  instrument covers (missing points of its log grid, ``attrs["points_per_decade"]``),
+  are never bridged by a straight line.
+- On a log axis the error band runs from ``max(G - s, G / 10)`` to ``G + s`` (``s`` the
+  standard error): where the error reaches G the lower edge is clipped at a tenth of G
+  (:data:`BAND_FLOOR`) instead of vanishing.
+- Long axis labels are wrapped to the size of their axes, so that they stay inside the
+  figure.
 """
 
 from __future__ import annotations
+
+import re
+import textwrap
 
 import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 
-from . import stitching
+from . import fitting, stitching
 
-__all__ = ["plot", "plot_topography", "plot_loglog", "plot_dataset", "plot_stitched"]
+__all__ = ["plot", "plot_topography", "plot_loglog", "plot_dataset", "plot_stitched",
+           "plot_fit", "plot_patch_radius", "display_unit", "BAND_FLOOR"]
+
+#: Lower edge of an error band on a log axis, as a fraction of the curve (G / 10).
+BAND_FLOOR = 0.1
+
+_MICRO = re.compile(r"(?<![A-Za-z])u(?=m(?![A-Za-z]))|(?<![A-Za-z])micro(?=m)")
+
+
+def display_unit(units: str) -> str:
+    """Write a CF unit string for a label: micro as ``µ`` (``um`` -> ``µm``).
+
+    Only for display; data attrs keep the CF spelling.
+
+    Parameters
+    ----------
+    units : str
+        A CF/UDUNITS unit string such as ``"um"``, ``"um2"``, ``"um-1"`` or ``"J m-2"``.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> display_unit("um"), display_unit("um2"), display_unit("um-1"), display_unit("mum")
+    ('µm', 'µm2', 'µm-1', 'mum')
+    """
+    return _MICRO.sub("µ", str(units))
 
 
 def _label(da: xr.DataArray, default: str) -> str:
     name = da.attrs.get("long_name", da.name or default)
     units = da.attrs.get("units")
-    return f"{name} ({units})" if units else str(name)
+    return f"{name} ({display_unit(units)})" if units else str(name)
+
+
+def _wrap(text: str, length_points: float, fontsize: float) -> str:
+    """``text`` wrapped to lines that fit ``length_points`` (about 0.55 em a character)."""
+    width = max(12, int(length_points / (0.55 * fontsize)))
+    return textwrap.fill(text, width=width, break_long_words=False)
+
+
+def _set_labels(ax, xlabel: str, ylabel: str) -> None:
+    """Axis labels wrapped to the axes' size, so that long ones stay inside the figure."""
+    box = ax.get_position()
+    w, h = ax.figure.get_size_inches()
+    size = ax.xaxis.label.get_fontsize()
+    ax.set_xlabel(_wrap(xlabel, box.width * w * 72, size))
+    ax.set_ylabel(_wrap(ylabel, box.height * h * 72, size))
+
+
+def _gap_breaks(da: xr.DataArray, dim: str, x: np.ndarray) -> np.ndarray:
+    """Find the indices before which a stitched curve misses bins of its log grid."""
+    ppd = da.attrs.get("points_per_decade")
+    if not da.attrs.get("stitched") or ppd is None or not np.isfinite(ppd) or x.size < 2:
+        return np.array([], dtype=int)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        k = np.log10(x) * float(ppd)
+    steps = np.diff(k)
+    return np.flatnonzero(steps > 1.5) + 1
+
+
+def _with_gaps(x: np.ndarray, arrays: list[np.ndarray], breaks: np.ndarray):
+    """Insert a NaN point at each break so that lines and bands are not bridged."""
+    if breaks.size == 0:
+        return x, arrays
+    xg = np.insert(x.astype(float), breaks, np.nan)
+    return xg, [np.insert(a.astype(float), breaks, np.nan) for a in arrays]
 
 
 def _axes(ax):
-    if ax is None:
-        _, ax = plt.subplots()
+    if ax is None:  # a new figure makes room for its labels when drawn
+        _, ax = plt.subplots(layout="constrained")
     return ax
 
 
@@ -46,8 +127,7 @@ def plot_topography(topography: xr.DataArray, *, ax=None, cmap: str = "viridis")
         flat = lines.values.reshape(-1, lines.sizes["x"])
         for row in flat:
             ax.plot(topography["x"].values, row, linewidth=0.8)
-        ax.set_xlabel(_label(topography["x"], "x"))
-        ax.set_ylabel(_label(topography, "height"))
+        _set_labels(ax, _label(topography["x"], "x"), _label(topography, "height"))
         return ax
     if topography.ndim != 2:
         raise ValueError(f"plot one map or profile at a time; got dims {topography.dims} "
@@ -59,15 +139,18 @@ def plot_topography(topography: xr.DataArray, *, ax=None, cmap: str = "viridis")
     img = ax.imshow(t.values, origin="lower", cmap=cmap, aspect="equal",  # pixel centres
                     extent=(x[0] - dx / 2, x[-1] + dx / 2, y[0] - dy / 2, y[-1] + dy / 2))
     ax.figure.colorbar(img, ax=ax, label=_label(t, "height"))
-    ax.set_xlabel(_label(t["x"], "x"))
-    ax.set_ylabel(_label(t["y"], "y"))
+    _set_labels(ax, _label(t["x"], "x"), _label(t["y"], "y"))
     return ax
 
 
 def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
     """Log-log plot of a function of ``dr`` or ``q``, with the standard error as a band.
 
-    Extra dims (e.g. ``scan``) give one line each.
+    Extra dims (e.g. ``scan``) give one line each. Lines and bands break at NaN bins and
+    at the uncovered bins of a stitched G. On a log axis the band's lower edge is
+    ``max(G - s, BAND_FLOOR * G)``: where the standard error ``s`` reaches G, the band
+    stays visible down to G / 10 instead of vanishing. The y axis is linear when the data
+    cross zero (stress ACFs).
 
     Examples
     --------
@@ -83,25 +166,28 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
     extra = [d for d in da.dims if d != dim]
     stacked = da.stack(_line=extra) if extra else da.expand_dims("_line")
     user_label = kwargs.pop("label", None)
+    values = np.asarray(da.values, dtype=float)
+    log_y = bool(np.all(values[np.isfinite(values)] > 0))  # stress ACFs cross zero
     for k in range(stacked.sizes["_line"]):
         line = stacked.isel(_line=k)
-        x = line[dim].values
-        y = line.values
+        x = np.asarray(line[dim].values, dtype=float)
+        y = np.asarray(line.values, dtype=float)
+        se = (np.asarray(line["standard_error"].values, dtype=float)
+              if error and "standard_error" in line.coords else None)
+        breaks = _gap_breaks(da, dim, x)
+        x, (y, *rest) = _with_gaps(x, [y] + ([se] if se is not None else []), breaks)
         label = user_label if k == 0 else None
         if extra:
             index = ", ".join(f"{d}={line[d].item()}" for d in extra if d in line.coords)
             label = f"{user_label} ({index})" if user_label else index
         (ln,) = ax.plot(x, y, label=label, **kwargs)
-        if error and "standard_error" in line.coords:
-            se = line["standard_error"].values
-            lo = np.where(y - se > 0, y - se, np.nan)
+        if se is not None:
+            se = rest[0]
+            lo = np.maximum(y - se, BAND_FLOOR * y) if log_y else y - se
             ax.fill_between(x, lo, y + se, color=ln.get_color(), alpha=0.25, linewidth=0)
     ax.set_xscale("log")
-    values = np.asarray(da.values, dtype=float)
-    positive = bool(np.all(values[np.isfinite(values)] > 0))
-    ax.set_yscale("log" if positive else "linear")  # stress ACFs cross zero
-    ax.set_xlabel(_label(da[dim], dim))
-    ax.set_ylabel(_label(da, da.name or ""))
+    ax.set_yscale("log" if log_y else "linear")
+    _set_labels(ax, _label(da[dim], dim), _label(da, da.name or ""))
     if extra or user_label:
         ax.legend()
     return ax
@@ -110,8 +196,29 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
 def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None):
     """One panel per variable of a result Dataset (Persson theory, energy, ...).
 
-    Variables on ``dr``, ``q`` or ``a_c`` are drawn against it (log axes); scalars are
-    skipped. Returns the array of Axes.
+    Variables on ``dr``, ``q`` or ``a_c`` are drawn against it (log axes, see
+    :func:`plot_loglog`); scalars are skipped. A fit (:func:`xrough.fit_acf`) goes to
+    :func:`plot_fit` and a patch radius (:func:`xrough.patch_radius`) to
+    :func:`plot_patch_radius`, each in one panel.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A result Dataset.
+    variables : list of str, optional
+        The variables to draw (default: every one on ``dr``, ``q`` or ``a_c``).
+    axes : array of matplotlib.axes.Axes, optional
+        Axes to draw into, one per variable (default: a new figure, three panels a row).
+
+    Returns
+    -------
+    numpy.ndarray of matplotlib.axes.Axes
+        One Axes per panel drawn.
+
+    Raises
+    ------
+    ValueError
+        Nothing in ``ds`` can be drawn.
 
     Examples
     --------
@@ -122,22 +229,179 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None):
     >>> len(axes)
     8
     """
+    if variables is None and _is_fit(ds):
+        return np.array([plot_fit(ds, ax=None if axes is None else np.ravel(axes)[0])])
+    if variables is None and _is_patch_radius(ds):
+        return np.array([plot_patch_radius(ds, ax=None if axes is None
+                                           else np.ravel(axes)[0])])
     names = [n for n in (variables or ds.data_vars)
              if any(d in ds[n].dims for d in ("dr", "q", "a_c"))]
     if not names:
-        raise ValueError("nothing to plot: no variable depends on dr, q or a_c")
+        raise ValueError("nothing to plot: no variable depends on dr, q or a_c, and the "
+                         "Dataset is neither a fit (fit_acf) nor a patch radius "
+                         "(patch_radius)")
     if axes is None:
         ncol = min(3, len(names))
         nrow = -(-len(names) // ncol)
-        _, axes = plt.subplots(nrow, ncol, figsize=(4.5 * ncol, 3.6 * nrow), squeeze=False)
+        _, axes = plt.subplots(nrow, ncol, figsize=(4.5 * ncol, 3.6 * nrow),
+                               squeeze=False, layout="constrained")
     flat = np.ravel(axes)
     for name, ax in zip(names, flat):
         plot_loglog(ds[name], ax=ax)
         ax.set_title(name)
     for ax in flat[len(names):]:
         ax.set_visible(False)
-    ax.figure.tight_layout()
+    if ax.figure.get_layout_engine() is None:  # the caller's figure: fit it now
+        ax.figure.tight_layout()
     return flat[: len(names)]
+
+
+def _is_fit(ds: xr.Dataset) -> bool:
+    return "hurst" in ds.data_vars and "model" in ds.attrs and "dr" not in ds.dims
+
+
+def _is_patch_radius(ds: xr.Dataset) -> bool:
+    return {"a_c", "a_c_upper"} <= set(ds.data_vars) and "a_c" not in ds.dims
+
+
+def _value(da: xr.DataArray, std: xr.DataArray | None) -> str:
+    text = f"{float(da):.3g}"
+    if std is not None and np.isfinite(float(std)) and float(std) > 0:
+        text += f" ± {float(std):.2g}"
+    units = da.attrs.get("units", "")
+    return f"{text} {display_unit(units)}" if units not in ("", "1") else text
+
+
+_FIT_SYMBOLS = {"hurst": "H", "sigma_h": "σ_h", "lambda_r": "λ_r", "lambda_s": "λ_s",
+                "G_sa": "G_sa"}
+
+
+def _fit_summary(fit: xr.Dataset) -> str:
+    parts = []
+    for name, symbol in _FIT_SYMBOLS.items():
+        if name in fit.data_vars and fit[name].ndim == 0:
+            std = fit.get(f"{name}_std")
+            parts.append(f"{symbol} = {_value(fit[name], std)}".replace(" ", "\u00a0"))
+    return ", ".join(parts)  # wrapped between parameters only (no-break spaces inside)
+
+
+def plot_fit(fit: xr.Dataset, *, ax=None, G: xr.DataArray | None = None, **kwargs):
+    """Plot the fitted G(dr) of :func:`xrough.fit_acf` over the fitted range, log-log.
+
+    Parameters
+    ----------
+    fit : xarray.Dataset
+        The result of :func:`xrough.fit_acf` (extra dims give one curve each).
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw into (default: a new figure).
+    G : xarray.DataArray, optional
+        The data that were fitted, drawn underneath with their error band.
+    **kwargs
+        Passed to :meth:`matplotlib.axes.Axes.plot` for the model curve.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        The model curve (:func:`xrough.model_acf`, 50 log points over ``dr_min`` to
+        ``dr_max`` of the fit), dashed, labelled with the model; the fitted parameters with
+        their standard errors in the title (one fit) or legend (several).
+
+    Examples
+    --------
+    >>> C = xrough.model_spectrum(hurst=0.8, lambda_r="1 um", lambda_s="10 nm",
+    ...                           rms_gradient=0.5, unit="nm")
+    >>> G = xrough.acf_from_spectrum(C, dr_min="1 nm", dr_max="100 um")
+    >>> ax = xrough.plot.plot_fit(G.rough.fit(), G=G)
+    >>> ax.get_title().startswith("H = 0.8")
+    True
+    """
+    ax = _axes(ax)
+    if G is not None:
+        plot_loglog(G, ax=ax, label="data", color="0.4", linewidth=1.0)
+    model = fitting.model_acf(fit)
+    name = "eq. 36" if fit.attrs.get("model") == "eq36" else "model spectrum (eq. 9)"
+    kwargs.setdefault("linestyle", "--")
+    plot_loglog(model, ax=ax, error=False, label=f"fit: {name}", **kwargs)
+    summary = _fit_summary(fit)
+    if summary:
+        width = ax.get_position().width * ax.figure.get_size_inches()[0] * 72
+        ax.set_title(_wrap(summary, width, ax.title.get_fontsize()).replace("\u00a0", " "),
+                     fontsize="medium")
+    return ax
+
+
+def plot_patch_radius(patch: xr.Dataset, *, ax=None, **kwargs):
+    """Plot the adhesive patch radii of :func:`xrough.patch_radius`, one row per curve.
+
+    Each curve (each combination of extra dims, e.g. ``scan``) is a row: a dot at ``a_c``
+    (eq. 46) and a bar to ``a_c_upper`` (eq. 44, the upper estimate), on a log axis in the
+    unit of ``dr``. An infinite radius (``gamma`` above the full-contact energy: the
+    surfaces stick everywhere) is drawn as a right-pointing triangle at the right edge and
+    labelled "inf". ``gamma`` and ``E*`` are in the title.
+
+    Parameters
+    ----------
+    patch : xarray.Dataset
+        The result of :func:`xrough.patch_radius`.
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw into (default: a new figure).
+    **kwargs
+        Passed to :meth:`matplotlib.axes.Axes.plot` for the markers.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+
+    Examples
+    --------
+    >>> C = xrough.model_spectrum(hurst=0.8, lambda_r="1 um", lambda_s="10 nm",
+    ...                           rms_gradient=0.5, unit="nm")
+    >>> G = xrough.acf_from_spectrum(C, dr_min="1 nm", dr_max="100 um")
+    >>> ax = xrough.plot.plot_patch_radius(G.rough.patch_radius(E_star="25 MPa",
+    ...                                                         gamma="1 mJ/m^2"))
+    >>> ax.get_xlabel()
+    'adhesive patch radius (nm)'
+    """
+    ax = _axes(ax)
+    a_c, upper = patch["a_c"], patch["a_c_upper"]
+    extra = list(a_c.dims)
+    a = (a_c.stack(_row=extra) if extra else a_c.expand_dims("_row")).values
+    b = (upper.stack(_row=extra) if extra else upper.expand_dims("_row")).values
+    if extra:
+        stacked = a_c.stack(_row=extra)
+        rows = [", ".join(f"{d}={stacked[d].values[i]}" for d in extra)
+                for i in range(stacked.sizes["_row"])]
+    else:
+        rows = [str(a_c.attrs.get("long_name", "a_c")).split(",")[0]]
+    y = np.arange(len(rows))
+    finite = np.concatenate([a[np.isfinite(a)], b[np.isfinite(b)]])
+    finite = finite[finite > 0]
+    lo, hi = (finite.min() / 3, finite.max() * 3) if finite.size else (1.0, 10.0)
+    edge = hi
+    kwargs.setdefault("color", "C0")
+    for i in range(len(rows)):
+        ai = a[i] if np.isfinite(a[i]) else edge
+        bi = b[i] if np.isfinite(b[i]) else edge
+        ax.plot([ai, bi], [y[i], y[i]], linewidth=2, alpha=0.5, color=kwargs["color"])
+        ax.plot([ai], [y[i]], "o", label="a_c (eq. 46)" if i == 0 else None, **kwargs)
+        ax.plot([bi], [y[i]], "|", markersize=14, markeredgewidth=2,
+                label="a_c_upper (eq. 44)" if i == 0 else None, **kwargs)
+        if not (np.isfinite(a[i]) and np.isfinite(b[i])):
+            ax.plot([edge], [y[i]], ">", markersize=9, color="k")
+            ax.annotate("inf: sticks everywhere", (edge, y[i]), xytext=(-6, 8),
+                        textcoords="offset points", ha="right", fontsize="small")
+    ax.set_xscale("log")
+    ax.set_xlim(lo, hi * 1.5)
+    ax.set_ylim(-0.8, len(rows) - 0.2)
+    ax.set_yticks(y, rows)
+    _set_labels(ax, _label(a_c, "a_c").replace(", upper estimate", ""), "")
+    gamma, E = patch.attrs.get("gamma"), patch.attrs.get("E_star")
+    if gamma is not None and E is not None:
+        ax.set_title(f"γ = {gamma:.3g} {patch.attrs.get('gamma_units', '')}, "
+                     f"E* = {E:.3g} {patch.attrs.get('E_star_units', '')}",
+                     fontsize="medium")
+    ax.legend(loc="lower right", fontsize="small")
+    return ax
 
 
 def plot_stitched(measurements, *, ax=None, error: bool = True, threshold: float = 3.0,
@@ -185,8 +449,11 @@ def plot_stitched(measurements, *, ax=None, error: bool = True, threshold: float
     ax = _axes(ax)
     curves = stitching.stitch_curves(measurements, **kwargs)
     for name in curves.measurement.values:
-        plot_loglog(curves.G.sel(measurement=name).dropna("dr"), ax=ax, label=str(name),
-                    linewidth=1.0)
+        G_one = curves.G.sel(measurement=name)
+        valid = np.flatnonzero(np.isfinite(G_one.values))
+        if valid.size:  # inside its window only; NaN bins within it stay gaps
+            G_one = G_one.isel(dr=slice(valid[0], valid[-1] + 1))
+        plot_loglog(G_one, ax=ax, label=str(name), linewidth=1.0)
     G = stitching.stitch(curves, threshold=threshold, warn=warn)
     return plot_loglog(G, ax=ax, error=error, label="stitched", color="k", linewidth=1.5,
                        zorder=3)

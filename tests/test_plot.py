@@ -1,0 +1,281 @@
+"""Figures: gaps stay gaps, error bands stay visible, labels stay inside, every result plots.
+
+Two kinds of checks. Structural ones read the artists (line segments, band polygons and
+their vertices, label extents against the figure). Image ones render the data layer
+(lines, bands, markers; text and axes hidden, so that font rendering of different
+matplotlib versions does not matter) to a small PNG with Agg and compare it with a
+committed baseline in ``tests/baseline`` (:func:`matplotlib.testing.compare.compare_images`
+with a tolerance). ``XROUGH_UPDATE_BASELINES=1 python -m pytest tests/test_plot.py``
+rewrites the baselines after an intended change.
+"""
+
+import os
+import warnings
+from pathlib import Path
+
+import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+import pytest
+import xarray as xr
+from matplotlib.testing.compare import compare_images
+
+import xrough
+from xrough import plot
+
+BASELINE = Path(__file__).parent / "baseline"
+DPI = 40
+TOLERANCE = 2.0  # RMS of the 0-255 pixel difference
+
+
+def _check_image(fig, name, tmp_path):
+    """Compare the data layer of ``fig`` with ``baseline/<name>.png``."""
+    for ax in fig.axes:
+        for text in [ax.title, *ax.texts]:
+            text.set_visible(False)
+        if ax.get_legend() is not None:
+            ax.get_legend().remove()
+        ax.set_axis_off()
+    with matplotlib.rc_context({"savefig.facecolor": "white"}):
+        actual = tmp_path / f"{name}.png"
+        fig.savefig(actual, dpi=DPI)
+    expected = BASELINE / f"{name}.png"
+    if os.environ.get("XROUGH_UPDATE_BASELINES") == "1":
+        BASELINE.mkdir(exist_ok=True)
+        expected.write_bytes(actual.read_bytes())
+    assert expected.exists(), f"no baseline {expected.name}: run with XROUGH_UPDATE_BASELINES=1"
+    result = compare_images(str(expected), str(actual), tol=TOLERANCE)
+    assert result is None, result
+
+
+def _segments(line) -> int:
+    """Number of runs of finite points in a Line2D (NaN breaks a line)."""
+    y = np.asarray(line.get_ydata(), dtype=float)
+    x = np.asarray(line.get_xdata(), dtype=float)
+    ok = np.isfinite(x) & np.isfinite(y)
+    return int(ok[0]) + int(np.sum(ok[1:] & ~ok[:-1])) if ok.size else 0
+
+
+def _inside_figure(fig, *texts):
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    box = fig.bbox
+    for text in texts:
+        if not text.get_text():
+            continue
+        ext = text.get_window_extent(renderer)
+        assert (ext.x0 >= box.x0 - 0.5 and ext.y0 >= box.y0 - 0.5
+                and ext.x1 <= box.x1 + 0.5 and ext.y1 <= box.y1 + 0.5), (
+            f"{text.get_text()!r} at {ext} outside the figure {box}")
+
+
+def _model_G(unit="nm"):
+    C = xrough.model_spectrum(hurst=0.8, lambda_r="1 um", lambda_s="10 nm",
+                              rms_gradient=0.5, unit=unit)
+    return xrough.acf_from_spectrum(C, dr_min="1 nm", dr_max="100 um",
+                                    points_per_decade=5)
+
+
+@pytest.fixture(scope="module")
+def gapped():
+    """Two instruments whose windows do not overlap, and their stitched G."""
+    prof = xrough.self_affine_surface(hurst=0.7, lambda_r="2 um", lambda_s="20 nm",
+                                      size="8 um", n=1024, rms_height="10 nm",
+                                      profile=True, seed=3, unit="nm")
+    measurements = {"fine": prof.isel(x=slice(0, 256)).assign_attrs(periodic=0),
+                    "coarse": prof.isel(x=slice(None, None, 4))}
+    windows = {"fine": (None, "100 nm"), "coarse": ("1 um", None)}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        G = xrough.stitch(measurements, windows=windows, points_per_decade=5)
+    return measurements, windows, G
+
+
+# --- gaps ---------------------------------------------------------------------------------
+
+
+def test_stitched_line_and_band_break_at_the_gap(gapped, tmp_path):
+    """Regression: the line and the band were drawn straight across the uncovered lags."""
+    _, _, G = gapped
+    dr = G.dr.values
+    assert np.any(dr[1:] / dr[:-1] > 10 ** (1.5 / 5)), "the example should have a gap"
+    ax = G.rough.plot()
+    (line,) = ax.get_lines()
+    assert _segments(line) == 2
+    (band,) = ax.collections
+    assert len(band.get_paths()) == 2
+    _check_image(ax.figure, "stitched_gap", tmp_path)
+
+
+def test_plot_stitched_keeps_gaps(gapped):
+    measurements, windows, _ = gapped
+    ax = plot.plot_stitched(measurements, windows=windows, points_per_decade=5, warn=False)
+    lines = {ln.get_label(): ln for ln in ax.get_lines()}
+    assert list(lines) == ["fine", "coarse", "stitched"]
+    assert _segments(lines["stitched"]) == 2
+    assert _segments(lines["fine"]) == _segments(lines["coarse"]) == 1
+
+
+def test_nan_bins_break_lines_and_bands():
+    G = _model_G()
+    G = G.assign_coords(standard_error=0.2 * G)
+    G[10:13] = np.nan
+    ax = G.rough.plot()
+    assert _segments(ax.get_lines()[0]) == 2
+    assert len(ax.collections[0].get_paths()) == 2
+
+
+def test_unstitched_curve_is_not_split():
+    G = _model_G()
+    ax = G.drop_vars([c for c in G.coords if c != "dr"]).rough.plot()
+    assert _segments(ax.get_lines()[0]) == 1
+
+
+# --- error band ------------------------------------------------------------------------------
+
+
+def test_error_band_stays_visible_where_the_error_reaches_G(tmp_path):
+    """Regression: the band vanished where standard_error >= G on the log axis."""
+    G = _model_G()
+    rel = np.where(np.arange(G.sizes["dr"]) % 7 < 3, 1.5, 0.3)  # 150 % error in places
+    G = G.assign_coords(standard_error=("dr", G.values * rel, {"units": "nm2"}))
+    ax = G.rough.plot()
+    (band,) = ax.collections
+    paths = band.get_paths()
+    assert len(paths) == 1  # one band over every lag
+    vertices = paths[0].vertices
+    assert np.all(np.isfinite(vertices)) and np.all(vertices[:, 1] > 0)
+    x = G.dr.values
+    assert vertices[:, 0].min() <= x.min() and vertices[:, 0].max() >= x.max()
+    floor = vertices[:, 1].min()
+    assert floor >= plot.BAND_FLOOR * G.values.min() * (1 - 1e-9)
+    _check_image(ax.figure, "band_floor", tmp_path)
+
+
+def test_error_band_not_clipped_on_linear_axes():
+    G = _model_G()
+    sacf = G.rough.stress_acf(E_star="25 MPa")
+    se = 0.5 * np.abs(sacf.values) + 1.0
+    sacf = sacf.assign_coords(standard_error=("dr", se))
+    ax = sacf.rough.plot()
+    assert ax.get_yscale() == "linear"
+    vertices = ax.collections[0].get_paths()[0].vertices
+    assert vertices[:, 1].min() < 0
+
+
+# --- labels ----------------------------------------------------------------------------------
+
+
+def test_energy_labels_inside_the_figure(tmp_path):
+    """Regression: the energy plot's y label ran off the figure."""
+    energy = _model_G().rough.energy(E_star="25 MPa")
+    axes = energy.rough.plot()
+    ax = axes[0]
+    _inside_figure(ax.figure, ax.xaxis.label, ax.yaxis.label, ax.title)
+    _check_image(ax.figure, "energy", tmp_path)
+
+
+def test_labels_inside_on_the_callers_axes():
+    G = _model_G()
+    fig, ax = plt.subplots(figsize=(3, 2.5))
+    G.rough.energy(E_star="25 MPa").rough.plot(axes=np.array([ax]))
+    _inside_figure(fig, ax.xaxis.label, ax.yaxis.label)
+
+
+@pytest.mark.parametrize("kind", ["persson", "gradient", "spectrum", "topography", "G"])
+def test_every_label_inside(kind):
+    G = _model_G()
+    objs = {
+        "persson": lambda: G.rough.persson(E_star="25 MPa", p0=[1e5, 1e6]),
+        "gradient": lambda: G.rough.gradient(method="simple"),
+        "spectrum": lambda: G.rough.spectrum(),
+        "topography": lambda: xrough.topography(np.zeros((8, 8)), spacing=1.0, unit="um"),
+        "G": lambda: G,
+    }
+    out = objs[kind]().rough.plot()
+    axes = np.ravel(out) if isinstance(out, np.ndarray) else [out]
+    for ax in axes:
+        _inside_figure(ax.figure, ax.xaxis.label, ax.yaxis.label, ax.title)
+
+
+def test_micrometres_print_as_mu():
+    """Regression: lengths printed as 'um' instead of 'µm'."""
+    topo = xrough.topography(np.zeros((4, 5)), spacing=1.0, unit="um")
+    ax = topo.rough.plot()
+    assert ax.get_xlabel() == "x position (µm)"
+    assert topo.x.attrs["units"] == "um"  # data stay CF
+    G = _model_G(unit="um")
+    ax = G.rough.plot()
+    assert "(µm)" in ax.get_xlabel() and "µm2" in ax.get_ylabel()
+    assert "um" not in ax.get_xlabel().replace("µm", "")
+    assert G.attrs["units"] == "um2" and G.dr.attrs["units"] == "um"
+    assert plot.display_unit("um") == "µm"
+    assert plot.display_unit("um2") == "µm2"
+    assert plot.display_unit("um-1") == "µm-1"
+    assert plot.display_unit("J m-2") == "J m-2"
+    assert plot.display_unit("mum") == "mum"
+
+
+# --- fits and patch radii -------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("model", ["spectrum", "eq36"])
+def test_fit_plots_its_model(model, tmp_path):
+    """Regression: fit.rough.plot() raised 'nothing to plot'."""
+    G = _model_G()
+    fit = G.rough.fit(model=model)
+    axes = fit.rough.plot()
+    assert len(axes) == 1
+    ax = axes[0]
+    (line,) = ax.get_lines()
+    x = line.get_xdata()
+    assert x.min() == pytest.approx(fit.attrs["dr_min"]) and x.max() == pytest.approx(
+        fit.attrs["dr_max"])
+    assert np.all(line.get_ydata() > 0)
+    assert ax.get_title().startswith("H = ")
+    assert "σ_h" in ax.get_title()
+    assert ax.get_xscale() == ax.get_yscale() == "log"
+    assert "fit" in ax.get_legend().get_texts()[0].get_text()
+    _inside_figure(ax.figure, ax.xaxis.label, ax.yaxis.label, ax.title)
+    if model == "spectrum":
+        _check_image(ax.figure, "fit", tmp_path)
+
+
+def test_fit_with_data_and_several_curves():
+    G = _model_G()
+    ax = plot.plot_fit(G.rough.fit(), G=G)
+    assert [ln.get_label() for ln in ax.get_lines()] == ["data", "fit: model spectrum (eq. 9)"]
+    many = xr.concat([G, 2 * G.assign_attrs(G.attrs)], dim="scan")
+    ax = many.rough.fit().rough.plot()[0]
+    assert len(ax.get_lines()) == 2
+
+
+def test_patch_radius_plots(tmp_path):
+    """Regression: patch.rough.plot() raised 'nothing to plot'."""
+    G = _model_G()
+    many = xr.concat([G, 4 * G, 100 * G], dim="scan").assign_attrs(G.attrs)
+    patch = many.rough.patch_radius(E_star="25 MPa", gamma="30 mJ/m^2")
+    ax = patch.rough.plot()[0]
+    assert ax.get_xscale() == "log"
+    assert ax.get_xlabel() == "adhesive patch radius (nm)"
+    assert len(ax.get_yticks()) == 3
+    dots = [ln for ln in ax.get_lines() if ln.get_marker() == "o"]
+    np.testing.assert_allclose(sorted(float(d.get_xdata()[0]) for d in dots),
+                               sorted(patch.a_c.values))
+    assert "γ" in ax.get_title()
+    _inside_figure(ax.figure, ax.xaxis.label, ax.yaxis.label, ax.title)
+    _check_image(ax.figure, "patch_radius", tmp_path)
+
+
+def test_infinite_patch_radius_is_marked():
+    G = _model_G()
+    patch = G.rough.patch_radius(E_star="25 MPa", gamma="10 J/m^2")
+    assert np.isinf(float(patch.a_c))
+    ax = patch.rough.plot()[0]
+    assert any("inf" in t.get_text() for t in ax.texts)
+    assert any(ln.get_marker() == ">" for ln in ax.get_lines())
+
+
+def test_other_datasets_still_say_nothing_to_plot():
+    with pytest.raises(ValueError, match="nothing to plot"):
+        xr.Dataset({"a": 1.0}).rough.plot()
