@@ -22,7 +22,8 @@ Row orientation
     for every reader is that row 0 of the returned array is ``y = 0`` and ``y = 0`` is
     the picture's *bottom* row as that software displays it, so the rows are reversed on
     read (the file's last row is ``y = 0``) and again on write: the picture is the same in
-    every program. Note that xrough's ``y`` then runs against the standard's ``CY``.
+    every program. Note that xrough's ``y`` then runs against the standard's ``CY``;
+    ``attrs["y_offset"]`` stays the file's ``CY`` offset (the position of its first row).
 Safety
     Untrusted files cannot make the reader allocate more than the header declares: the
     header may declare at most ``max_points`` points (default :data:`MAX_POINTS`), each
