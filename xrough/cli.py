@@ -37,7 +37,7 @@ from tqdm.auto import tqdm
 
 from . import units as u
 from ._version import __version__
-from .io import BRIDGE, FORMATS, detect_format, open_topography
+from .io import BRIDGE, FORMATS, detect_format, list_channels, open_topography
 from .io.archive import save_analysis
 from .preprocess import DETREND_MODES, detrend
 from .spectra import acf_from_spectrum, model_spectrum
@@ -423,25 +423,20 @@ def _demo(args: argparse.Namespace) -> int:
 def _channels(topo: xr.DataArray, path: str) -> list[dict]:
     """List the file's channels, where its format has them (else an empty list)."""
     try:
-        lister = getattr(_format_module(topo.attrs.get("format", "")), "channels", None)
-    except (ImportError, KeyError):
-        return []
-    if lister is None:
-        return []
-    try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            found = lister(path)
-    except Exception:  # noqa: BLE001 - the listing is extra information only
+            found = list_channels(path, format=topo.attrs.get("format"))
+    except (ValueError, OSError):  # the listing is extra information only
         return []
     return [{k: (v if isinstance(v, (int, float, str, bool)) or v is None else str(v))
              for k, v in c.items()} for c in found]
 
 
 def _channel_text(c: dict) -> str:
-    unit = c.get("unit") or c.get("data_unit") or "no unit"
-    kind = ", height" if c.get("is_height") else ""
-    return f"{c.get('index')}: {c.get('name')} ({unit}{kind})"
+    if c.get("description"):
+        return str(c["description"])
+    unit = c.get("unit") or "no unit"
+    return f"{c.get('index')}: {c.get('name')} ({unit}{', height' if c.get('is_height') else ''})"
 
 
 def _describe(path: str, topo: xr.DataArray, everything: bool) -> tuple[list[str], dict]:
