@@ -9,7 +9,12 @@ For each map size and case (periodic, open, open with 10 % missing points) this 
 * when SurfaceTopography is installed (``pip install xrough[bench]``), the time and memory
   of its ``autocorrelation_from_area`` on the same map and the speed-up of xrough.
 
-Each case runs in a fresh subprocess so that peak resident memory is its own.
+Method: each case and library runs in a fresh subprocess, so that peak resident memory is
+its own. Both libraries are treated alike: the first call on the map is untimed (it
+loads the libraries and builds what they cache per grid, FFT plans included; its peak
+memory above the input is the memory figure), then ``--repeats`` calls are timed. Times
+are the best of those calls, and every time and ratio is printed with its spread: the
+time's max / min, and the ratio's range from best-over-worst to worst-over-best.
 
 Usage::
 
@@ -29,7 +34,7 @@ CHILD = textwrap.dedent(
     r"""
     import json, resource, sys, time
     import numpy as np
-    n, case, what = int(sys.argv[1]), sys.argv[2], sys.argv[3]
+    n, case, what, repeats = int(sys.argv[1]), sys.argv[2], sys.argv[3], int(sys.argv[4])
 
     def rss():
         return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
@@ -51,34 +56,35 @@ CHILD = textwrap.dedent(
         ks = (n // 2,) * 2 if periodic else (n - 1,) * 2
         fshape = padded_shape((n, n), ks, periodic)
         sfft.rfft2(h[:64, :64])  # load the FFT library before measuring memory
-        base_mem = rss()
-        t0 = time.perf_counter(); topo.rough.acf(); t_first = time.perf_counter() - t0
-        out["peak_extra"] = rss() - base_mem
-        times = []
-        for _ in range(2):
-            t0 = time.perf_counter(); topo.rough.acf(); times.append(time.perf_counter() - t0)
-        out["t"] = min(times + [t_first])
-        hh = np.nan_to_num(h)
-        ft = []
-        for _ in range(3):
-            t0 = time.perf_counter(); a = sfft.rfft2(hh, s=fshape, workers=-1)
-            ft.append(time.perf_counter() - t0); del a
-        out["t_rfft"] = min(ft)
-        out["fshape"] = list(fshape)
+        call = topo.rough.acf
     else:
         from SurfaceTopography import Topography
         t = Topography(h, (float(n), float(n)), periodic=periodic)
-        base_mem = rss()
-        t0 = time.perf_counter(); t.autocorrelation_from_area(); out["t"] = time.perf_counter() - t0
-        out["peak_extra"] = rss() - base_mem
+        call = t.autocorrelation_from_area
+    base_mem = rss()
+    t0 = time.perf_counter(); call(); out["t_cold"] = time.perf_counter() - t0
+    out["peak_extra"] = rss() - base_mem
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter(); call(); times.append(time.perf_counter() - t0)
+    out["t"] = [min(times), max(times)]
+    if what == "xrough":  # the baseline, after the memory measurement
+        hh = np.nan_to_num(h)
+        ft = []
+        for _ in range(repeats + 2):
+            t0 = time.perf_counter(); a = sfft.rfft2(hh, s=fshape, workers=-1)
+            ft.append(time.perf_counter() - t0); del a
+        out["t_rfft"] = [min(ft), max(ft)]
+        out["fshape"] = list(fshape)
     out["input"] = h.nbytes
     print(json.dumps(out))
     """
 )
 
 
-def run(n: int, case: str, what: str) -> dict | None:
-    proc = subprocess.run([sys.executable, "-c", CHILD, str(n), case, what],
+def run(n: int, case: str, what: str, repeats: int) -> dict | None:
+    """Run one library on one case in a fresh subprocess; None if it is not installed."""
+    proc = subprocess.run([sys.executable, "-c", CHILD, str(n), case, what, str(repeats)],
                           capture_output=True, text=True)
     if proc.returncode != 0:
         if what == "surfacetopography" and "No module named" in proc.stderr:
@@ -88,29 +94,37 @@ def run(n: int, case: str, what: str) -> dict | None:
 
 
 def main(argv=None) -> None:
+    """Parse the arguments and print one row per size and case."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[1024, 4096, 8192])
     parser.add_argument("--cases", nargs="+", default=["periodic", "open", "masked"])
+    parser.add_argument("--repeats", type=int, default=5, help="timed calls after the first")
     parser.add_argument("--no-peer", action="store_true", help="skip SurfaceTopography")
     args = parser.parse_args(argv)
-    head = (f"{'size':>6} {'case':>9} {'FFT shape':>12} {'rfft2 s':>8} {'acf s':>7} "
-            f"{'acf/rfft2':>9} {'mem/input':>9} {'ST s':>7} {'ST/xrough':>9} {'ST mem':>7}")
-    print(head)
-    print("-" * len(head))
+
+    def ratio(a, b):  # best over best (worst case range)
+        return f"{a[0] / b[0]:.2f} ({a[0] / b[1]:.2f}-{a[1] / b[0]:.2f})"
+
+    print("| size | case | FFT shape | rfft2 s (max/min) | acf s (max/min) | acf / rfft2 "
+          "| mem / input | ST s (max/min) | ST first call s | ST / xrough | ST mem / input |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for n in args.sizes:
         for case in args.cases:
-            r = run(n, case, "xrough")
-            st = None if args.no_peer else run(n, case, "surfacetopography")
-            st_cols = (f"{st['t']:7.2f} {st['t'] / r['t']:9.2f} "
-                       f"{st['peak_extra'] / st['input']:7.1f}") if st else \
-                f"{'-':>7} {'-':>9} {'-':>7}"
+            r = run(n, case, "xrough", args.repeats)
+            st = None if args.no_peer else run(n, case, "surfacetopography", args.repeats)
+            st_cols = (f"{st['t'][0]:.3g} ({st['t'][1] / st['t'][0]:.2f}) | "
+                       f"{st['t_cold']:.3g} | {ratio(st['t'], r['t'])} | "
+                       f"{st['peak_extra'] / st['input']:.1f}") if st else "- | - | - | -"
             shape = "x".join(str(k) for k in r["fshape"])
-            print(f"{n:>6} {case:>9} {shape:>12} {r['t_rfft']:8.3f} {r['t']:7.3f} "
-                  f"{r['t'] / r['t_rfft']:9.2f} {r['peak_extra'] / r['input']:9.2f} {st_cols}",
-                  flush=True)
-    print("\nacf/rfft2: time of .rough.acf() over one rfft2 of the (padded) array; "
-          "mem/input: peak memory above the input over the input size; "
-          "ST: SurfaceTopography autocorrelation_from_area on the same map.")
+            print(f"| {n} | {case} | {shape} | {r['t_rfft'][0]:.3g} "
+                  f"({r['t_rfft'][1] / r['t_rfft'][0]:.2f}) | {r['t'][0]:.3g} "
+                  f"({r['t'][1] / r['t'][0]:.2f}) | {ratio(r['t'], r['t_rfft'])} "
+                  f"| {r['peak_extra'] / r['input']:.1f} | {st_cols} |", flush=True)
+    print("\nacf / rfft2: best time of .rough.acf() over the best rfft2 of the (padded) "
+          "array, with its range; mem / input: peak memory of the first call above the "
+          "input over the input size; ST: SurfaceTopography autocorrelation_from_area on "
+          "the same map, warmed up by one call like xrough; ST first call: that untimed "
+          "call, for reference.")
 
 
 if __name__ == "__main__":

@@ -4,7 +4,7 @@ The same problem is handed to every solver: a periodic self-affine surface (Hurs
 roll-off at L/4, short-wavelength cutoff 4 pixels) of N x N points on a square periodic
 domain of side L, pressed against a linear-elastic half-space of contact modulus ``E*``
 at the mean pressure ``p0 = 0.01 E* gbar`` (``gbar``: the rms gradient of the realised
-map). The peers are
+map), at one tolerance (``--tol``, default 1e-8). The peers are
 
 * tamaas (``tm.PolonskyKeerRey`` on a ``basic_2d`` model with ``E = E*``, ``nu = 0``;
   ``solve(p0)`` takes the mean pressure);
@@ -16,23 +16,33 @@ map). The peers are
 All three take the heights as the rigid surface, peaks towards the elastic body, and
 use the periodic Green's function ``u~ = 2 p~ / (E* |q|)``.
 
-For each size the solvers run at a ladder of tolerances (``--tols``) until the relative
-contact areas of all solvers agree to ``--agree`` (relative), each solve in a fresh
-subprocess so that the peak resident memory (``resource.getrusage``) is its own. Per
-size and tolerance the table gives time, iterations, peak memory (total, and above the
-state before the solve), contact area, and the ratio of xrough's time to the faster
-peer's. Peers that are not installed are skipped (``pip install xrough[bench]``).
+Method. One process per size, so that every solver runs in the same process state. Each
+solver is first warmed up (imported and run once on a 128^2 map); then the solvers take
+turns, ``--repeats`` rounds of one solve each, interleaved with the two-FFT floor (one
+``scipy.fft.rfft2`` plus one ``irfft2`` of the N x N float64 map with the same
+``workers``), measured five times per round. Times cover set-up and solve; the table gives
+the best time and the spread (max / min) of each, the ratio of xrough's best time to the
+faster peer's best, and xrough's time per iteration over the best floor. The relative
+contact areas must agree to ``--agree``.
+
+Memory. The peak memory of one xrough solve is measured in a fresh subprocess: the peak
+resident set size above the state before the solve (``resource``), and the peak of the
+memory allocated through Python and numpy (``tracemalloc``), both in units of the map's
+size in float64 (8 N^2 bytes). ``--peer-memory`` measures the peers' resident memory the
+same way (their allocations are invisible to tracemalloc).
+
+Peers that are not installed are skipped (``pip install xrough[bench]``).
 
 Usage::
 
-    python benchmarks/bench_solver.py                    # 256, 512, 1024, 2048
-    python benchmarks/bench_solver.py --sizes 256 512
-    python benchmarks/bench_solver.py --tols 1e-8 1e-10 --agree 1e-4
+    python benchmarks/bench_solver.py                    # 1024 and 2048
+    python benchmarks/bench_solver.py --sizes 256 512 --repeats 5
 """
 
 from __future__ import annotations
 
 import argparse
+import ctypes
 import importlib.util
 import json
 import os
@@ -40,84 +50,51 @@ import subprocess
 import sys
 import tempfile
 import textwrap
+import time
 
 import numpy as np
+from scipy import fft as sfft
+
+import xrough
 
 L = 1.0  # um, side of the periodic domain
 E_STAR = 1.0  # the problem is linear in E*: pressures are in units of E*
 HURST = 0.8
 RMS_GRADIENT = 0.1
+PEERS = ("tamaas", "ContactMechanics")
 
-CHILD = textwrap.dedent(
+MEMORY_CHILD = textwrap.dedent(
     r"""
-    import json, re, resource, sys, time
+    import json, resource, sys, tracemalloc
     import numpy as np
-    what, path, L, E, p0, tol = sys.argv[1], sys.argv[2], *map(float, sys.argv[3:7])
-
-    def rss():
-        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    sys.path.insert(0, sys.argv[5])
+    import bench_solver as b
+    what, path, p0, tol = sys.argv[1], sys.argv[2], float(sys.argv[3]), float(sys.argv[4])
+    h = np.load(path)
 
     def current():  # resident set size now (Linux), the baseline before the solve
         with open("/proc/self/statm") as f:
             return int(f.read().split()[1]) * resource.getpagesize()
 
-    h = np.load(path)
-    n = h.shape[0]
-    if what == "xrough":
-        import xrough
-        topo = xrough.topography(h, spacing=L / n, unit="um", periodic=True)
-        base = current()
-        t0 = time.perf_counter()
-        res = xrough.solve_contact(topo, E_star=E, p0=p0, tol=tol, max_iter=100_000,
-                                   progress=False)
-        dt = time.perf_counter() - t0
-        area, its = float(res.contact_area), int(res.iterations)
-        mean_p = float(res.mean_pressure)
-    elif what == "tamaas":
-        import tamaas as tm
-        tm.set_log_level(tm.LogLevel.info)  # the iteration count is only logged
-        base = current()
-        t0 = time.perf_counter()
-        model = tm.ModelFactory.createModel(tm.model_type.basic_2d, [L, L], [n, n])
-        model.E, model.nu = E, 0.0  # E* = E / (1 - nu^2)
-        solver = tm.PolonskyKeerRey(model, h, tol)
-        solver.max_iter = 100_000
-        solver.solve(p0)
-        dt = time.perf_counter() - t0
-        p = np.asarray(model.traction)
-        area, its, mean_p = float(np.mean(p > 0)), -1, float(p.mean())
-    elif what == "ContactMechanics":
-        from ContactMechanics import PeriodicFFTElasticHalfSpace
-        from ContactMechanics.Optimization import constrained_conjugate_gradients
-        base = current()
-        t0 = time.perf_counter()
-        sub = PeriodicFFTElasticHalfSpace((n, n), E, physical_sizes=(L, L))
-        res = constrained_conjugate_gradients(
-            sub, h, external_force=p0 * L * L, pentol=tol * float(h.std()),
-            forcetol=tol, thermotol=tol, maxiter=100_000)
-        dt = time.perf_counter() - t0
-        f = np.asarray(res.jac)  # pixel forces, compressive positive
-        area, its = float(np.mean(f > 0)), int(res.nit)
-        mean_p = float(f.sum() / (L * L))
-        if not res.success:
-            its = -its
-    sys.stdout.flush()
-    print("RESULT " + json.dumps({"time": dt, "iterations": its, "area": area,
-                                  "mean_p": mean_p, "peak": rss(), "base": base}))
+    b.SOLVERS[what](h[:128, :128].copy(), p0, tol)  # libraries loaded before the baseline
+    base = current()
+    tracemalloc.start()
+    b.SOLVERS[what](h, p0, tol)
+    traced = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    print("RESULT " + json.dumps({"rss": peak - base, "traced": traced}))
     """
 )
 
-PEERS = ("tamaas", "ContactMechanics")
-
 
 def installed(name: str) -> bool:
+    """Whether ``name`` can be imported."""
     return importlib.util.find_spec(name) is not None
 
 
 def surface(n: int, seed: int) -> tuple[np.ndarray, float]:
     """Heights (um) of the periodic test surface and their rms gradient."""
-    import xrough
-
     topo = xrough.self_affine_surface(
         hurst=HURST, lambda_r=L / 4, lambda_s=4 * L / n, size=L, n=n,
         rms_gradient=RMS_GRADIENT, seed=seed, unit="um")
@@ -129,27 +106,169 @@ def surface(n: int, seed: int) -> tuple[np.ndarray, float]:
     return h, gbar
 
 
-def run(what: str, path: str, p0: float, tol: float) -> dict:
+def solve_xrough(h: np.ndarray, p0: float, tol: float) -> dict:
+    """Solve with xrough; contact area, iterations and the float32 share."""
+    n = h.shape[0]
+    topo = xrough.topography(h, spacing=L / n, unit="um", periodic=True)
+    res = xrough.solve_contact(topo, E_star=E_STAR, p0=p0, tol=tol, max_iter=100_000,
+                               progress=False, workers=os.cpu_count())
+    return {"area": float(res.contact_area), "iterations": int(res.iterations),
+            "float32_iterations": int(res.float32_iterations),
+            "transforms": int(res.transforms), "converged": bool(res.converged)}
+
+
+def _captured_stderr(func):
+    """Run ``func()`` with the process's stderr (file descriptor 2, tamaas' log) as text."""
+    libc = ctypes.CDLL(None)
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile(mode="w+") as tmp:
+        os.dup2(tmp.fileno(), 2)
+        try:
+            func()
+        finally:
+            libc.fflush(None)  # C and C++ streams buffered in the library
+            sys.stderr.flush()
+            os.dup2(saved, 2)
+            os.close(saved)
+        tmp.seek(0)
+        return tmp.read()
+
+
+def solve_tamaas(h: np.ndarray, p0: float, tol: float) -> dict:
+    """Solve with tamaas' PolonskyKeerRey (the iteration count is read from its log)."""
+    import tamaas as tm  # optional peer
+
+    n = h.shape[0]
+    tm.set_log_level(tm.LogLevel.info)
+    model = tm.ModelFactory.createModel(tm.model_type.basic_2d, [L, L], [n, n])
+    model.E, model.nu = E_STAR, 0.0  # E* = E / (1 - nu^2)
+    solver = tm.PolonskyKeerRey(model, h, tol)
+    solver.max_iter = 100_000
+    log = _captured_stderr(lambda: solver.solve(p0))
+    rows = [s.split() for s in log.splitlines() if len(s.split()) == 3
+            and s.split()[0].isdigit()]
+    p = np.asarray(model.traction)
+    return {"area": float(np.mean(p > 0)), "iterations": int(rows[-1][0]) if rows else -1,
+            "converged": True}
+
+
+def solve_contactmechanics(h: np.ndarray, p0: float, tol: float) -> dict:
+    """Solve with ContactMechanics' constrained conjugate gradients."""
+    from ContactMechanics import PeriodicFFTElasticHalfSpace  # optional peer
+    from ContactMechanics.Optimization import constrained_conjugate_gradients
+
+    n = h.shape[0]
+    sub = PeriodicFFTElasticHalfSpace((n, n), E_STAR, physical_sizes=(L, L))
+    res = constrained_conjugate_gradients(
+        sub, h, external_force=p0 * L * L, pentol=tol * float(h.std()),
+        forcetol=tol, thermotol=tol, maxiter=100_000)
+    f = np.asarray(res.jac)  # pixel forces, compressive positive
+    return {"area": float(np.mean(f > 0)), "iterations": int(res.nit),
+            "converged": bool(res.success)}
+
+
+SOLVERS = {"xrough": solve_xrough, "tamaas": solve_tamaas,
+           "ContactMechanics": solve_contactmechanics}
+
+
+def fft_floor(n: int, repeats: int) -> list[float]:
+    """Times of one rfft2 plus one irfft2 of an n x n float64 map (all cores)."""
+    a = np.random.default_rng(0).standard_normal((n, n))
+    out = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        b = sfft.rfft2(a, workers=os.cpu_count())
+        sfft.irfft2(b, s=(n, n), workers=os.cpu_count(), overwrite_x=True)
+        out.append(time.perf_counter() - t0)
+    return out
+
+
+def memory(what: str, path: str, p0: float, tol: float) -> dict:
+    """Peak memory of one solve in a fresh subprocess (bytes)."""
     out = subprocess.run(
-        [sys.executable, "-c", CHILD, what, path, repr(L), repr(E_STAR), repr(p0),
-         repr(tol)], capture_output=True, text=True, check=False)
+        [sys.executable, "-c", MEMORY_CHILD, what, path, repr(p0), repr(tol),
+         os.path.dirname(os.path.abspath(__file__))],
+        capture_output=True, text=True, check=False)
     if out.returncode != 0:
         raise RuntimeError(f"{what} failed:\n{out.stderr[-2000:]}")
-    lines = out.stdout.splitlines() + out.stderr.splitlines()
-    res = json.loads(next(s for s in reversed(lines) if s.startswith("RESULT "))[7:])
-    if what == "tamaas":  # last row of the logged convergence table: "iter cost error"
-        rows = [s.split() for s in lines if len(s.split()) == 3 and s.split()[0].isdigit()]
-        res["iterations"] = int(rows[-1][0]) if rows else -1
-    return res
+    line = next(s for s in reversed(out.stdout.splitlines()) if s.startswith("RESULT "))
+    return json.loads(line[7:])
+
+
+def bench_size(n: int, args, solvers: list[str]) -> None:
+    """Time all solvers on one size in this process and print one table block."""
+    h, gbar = surface(n, args.seed)
+    p0 = 0.01 * E_STAR * gbar
+    for s in solvers:  # warm-up: imports, code paths, thread pools
+        SOLVERS[s](h[:128, :128].copy(), p0, args.tol)
+    times = {s: [] for s in solvers}
+    floor: list[float] = []
+    last = {}
+    for _ in range(args.repeats):
+        for s in solvers:
+            floor += fft_floor(n, 5)
+            t0 = time.perf_counter()
+            last[s] = SOLVERS[s](h, p0, args.tol)
+            times[s].append(time.perf_counter() - t0)
+    floor += fft_floor(n, 5)
+    f_min, f_med, f_max = min(floor), float(np.median(floor)), max(floor)
+    best = {s: min(t) for s, t in times.items()}
+    peers = [s for s in solvers if s != "xrough"]
+    faster = min(peers, key=best.get) if peers else None
+    x = last["xrough"]
+    a_ref = x["area"]
+    print(f"# N={n}: gbar={gbar:.4f}, p0={p0:.3e} E*, tol={args.tol:g}, "
+          f"{args.repeats} rounds; two-FFT floor min {f_min * 1e3:.1f} ms, median "
+          f"{f_med * 1e3:.1f} ms, max {f_max * 1e3:.1f} ms ({len(floor)} samples)")
+    print("| N | solver | best time (s) | max/min | iterations | contact area "
+          "| area diff. | xrough / faster peer (best; worst-case range) |")
+    print("|---|---|---|---|---|---|---|---|")
+    for s in solvers:
+        r = last[s]
+        d = (r["area"] - a_ref) / a_ref
+        ratio = ""
+        if s == "xrough" and faster:
+            lo = min(times["xrough"]) / max(times[faster])
+            hi = max(times["xrough"]) / min(times[faster])
+            ratio = f"{best['xrough'] / best[faster]:.3f} ({lo:.3f}-{hi:.3f}, vs {faster})"
+        its = r["iterations"]
+        if s == "xrough":
+            its = f"{its} ({r['float32_iterations']} float32)"
+        print(f"| {n} | {s} | {best[s]:.3g} | {max(times[s]) / best[s]:.2f} | {its} "
+              f"| {r['area']:.6f} | {d:+.1e} | {ratio} |", flush=True)
+    agree = max(abs(last[s]["area"] - a_ref) / a_ref for s in solvers)
+    per_it = best["xrough"] / x["iterations"]
+    print(f"# N={n}: contact areas agree to {agree:.1e} (relative; target {args.agree:g}): "
+          f"{'yes' if agree <= args.agree else 'NO'}")
+    print(f"# N={n}: xrough {per_it * 1e3:.1f} ms per iteration = {per_it / f_min:.2f} x "
+          f"the best two-FFT floor ({per_it / f_med:.2f} x the median floor; from the "
+          f"worst xrough run: {max(times['xrough']) / x['iterations'] / f_min:.2f} x); "
+          f"{x['transforms'] / x['iterations']:.2f} transforms per iteration, "
+          f"{x['float32_iterations']} of {x['iterations']} iterations in float32",
+          flush=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "h.npy")
+        np.save(path, h)
+        for s in ["xrough"] + (peers if args.peer_memory else []):
+            m = memory(s, path, p0, args.tol)
+            size = 8 * n * n
+            traced = f", traced {m['traced'] / size:.1f}" if s == "xrough" else ""
+            print(f"# N={n}: {s} peak memory of a solve / map size (8 N^2 bytes): "
+                  f"resident {m['rss'] / size:.1f}{traced}", flush=True)
 
 
 def main() -> None:
+    """Parse the arguments and run every size."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", type=int, nargs="+", default=[256, 512, 1024, 2048])
-    ap.add_argument("--tols", type=float, nargs="+", default=[1e-6, 1e-8, 1e-10])
+    ap.add_argument("--sizes", type=int, nargs="+", default=[1024, 2048])
+    ap.add_argument("--tol", type=float, default=1e-8)
+    ap.add_argument("--repeats", type=int, default=3, help="rounds of solves per size")
     ap.add_argument("--agree", type=float, default=1e-4,
-                    help="relative agreement of the contact areas to stop tightening")
+                    help="relative agreement of the contact areas required")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--peer-memory", action="store_true",
+                    help="also measure the peers' peak memory (one more solve each)")
     args = ap.parse_args()
 
     solvers = ["xrough"] + [p for p in PEERS if installed(p)]
@@ -157,37 +276,9 @@ def main() -> None:
     if missing:
         print(f"# skipped (not installed): {', '.join(missing)}")
     print(f"# cores: {os.cpu_count()}; H = {HURST}, lambda_r = L/4, lambda_s = 4 px, "
-          f"p0 = 0.01 E* gbar")
-    print("| N | tol | solver | time (s) | iterations | peak RSS (MB) | solve RSS (MB) "
-          "| contact area | rel. diff. to xrough | xrough / fastest peer |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
-    with tempfile.TemporaryDirectory() as tmp:
-        for n in args.sizes:
-            h, gbar = surface(n, args.seed)
-            path = os.path.join(tmp, f"h{n}.npy")
-            np.save(path, h)
-            p0 = 0.01 * E_STAR * gbar
-            for tol in args.tols:
-                res = {s: run(s, path, p0, tol) for s in solvers}
-                a_ref = res["xrough"]["area"]
-                peer_t = [res[s]["time"] for s in solvers if s != "xrough"]
-                ratio = (f"{res['xrough']['time'] / min(peer_t):.2f}" if peer_t else "-")
-                spread = 0.0
-                for s in solvers:
-                    r = res[s]
-                    d = (r["area"] - a_ref) / a_ref
-                    spread = max(spread, abs(d))
-                    print(f"| {n} | {tol:.0e} | {s} | {r['time']:.3g} | {r['iterations']} "
-                          f"| {r['peak'] / 2**20:.0f} | {(r['peak'] - r['base']) / 2**20:.0f} "
-                          f"| {r['area']:.6f} | {d:+.1e} "
-                          f"| {ratio if s == 'xrough' else ''} |", flush=True)
-                if spread <= args.agree:
-                    print(f"# N={n}: contact areas agree to {spread:.1e} (relative) at "
-                          f"tol={tol:g}; gbar={gbar:.4f}", flush=True)
-                    break
-            else:
-                print(f"# N={n}: best agreement {spread:.1e} (relative) at the tightest "
-                      "tolerance", flush=True)
+          f"p0 = 0.01 E* gbar; xrough {xrough.__version__}")
+    for n in args.sizes:
+        bench_size(n, args, solvers)
 
 
 if __name__ == "__main__":
