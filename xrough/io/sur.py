@@ -13,8 +13,9 @@ negated and, for 2 and 3, is mirrored left-right or upside-down, as MountainsMap
 The header's float32 values are taken at their shortest decimal form (a Z spacing stored
 as the float32 nearest to ``1e-7`` is 1e-07, not 1.0000000116860974e-07).
 
-Row orientation: the points are stored line after line and MountainsMap, Gwyddion and
-SurfaceTopography show the first line at the *top* of the image. xrough's rule for every
+Row orientation: the points are stored line after line; Gwyddion and SurfaceTopography
+(whose rows xrough's bridge reverses) keep that order with the first line at the *top* of
+the image, and Gwyddion applies the inversion flag to that picture. xrough's rule for every
 reader is that row 0 of the returned array is ``y = 0`` and ``y = 0`` is the picture's
 *bottom* row as that software displays it, so the lines are reversed on read (the last
 stored line is ``y = 0``), after the inversion flag has been applied.

@@ -16,14 +16,15 @@ Reading
     position of the first point on the instrument's stage) are kept in
     ``attrs["x_offset"]`` and ``attrs["y_offset"]`` (metres).
 Row orientation
-    ISO 25178-72 numbers the points row by row, the first row at ``CY`` offset, and leaves
-    the orientation of the picture to the software. Gwyddion, MountainsMap and
-    SurfaceTopography show the file's first row at the *top* of the image. xrough's rule
-    for every reader is that row 0 of the returned array is ``y = 0`` and ``y = 0`` is
-    the picture's *bottom* row as that software displays it, so the rows are reversed on
-    read (the file's last row is ``y = 0``) and again on write: the picture is the same in
-    every program. Note that xrough's ``y`` then runs against the standard's ``CY``;
-    ``attrs["y_offset"]`` stays the file's ``CY`` offset (the position of its first row).
+    ISO 25178-72 numbers the points row by row, the first row at the ``CY`` offset, and
+    leaves the orientation of the picture to the software. Gwyddion and SurfaceTopography
+    (whose rows xrough's bridge reverses) show the file's first row at the *top* of the
+    image, like row 0 of a ``.gwy`` file. xrough's rule for every reader is that row 0 of
+    the returned array is ``y = 0`` and ``y = 0`` is the picture's *bottom* row as that
+    software displays it, so the rows are reversed on read (the file's last row is
+    ``y = 0``) and again on write: the picture is the same in every program. xrough's
+    ``y`` then runs against the standard's ``CY``; ``attrs["y_offset"]`` stays the file's
+    ``CY`` offset (the position of its first row).
 Safety
     Untrusted files cannot make the reader allocate more than the header declares: the
     header may declare at most ``max_points`` points (default :data:`MAX_POINTS`), each
