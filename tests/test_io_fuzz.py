@@ -417,6 +417,28 @@ def test_x3p_compression_ratio_no_data_reaches_is_refused(tmp_path):
         x3p.read(path)
 
 
+def test_x3p_large_member_expanding_a_hundredfold_needs_max_points(tmp_path):
+    """A 2 MB archive whose data member claims 288 MB, consistent with its header."""
+    noise = np.random.default_rng(0).integers(0, 256, 2 << 20, dtype=np.uint8).tobytes()
+    path = x3p_with_members(tmp_path / "large.x3p", (6000, 6000),
+                            {"bindata/data.bin": noise})
+    raw = bytearray(path.read_bytes())
+    with zipfile.ZipFile(path) as zf:
+        info = zf.getinfo("bindata/data.bin")
+    for offset in (info.header_offset + 22, raw.rindex(b"PK\x01\x02") + 24):
+        struct.pack_into("<I", raw, offset, 6000 * 6000 * 8)
+    path.write_bytes(bytes(raw))
+
+    def read():
+        with pytest.raises(ValueError, match=r"large\.x3p: the point data .* more than "
+                                             r"100-fold, .* pass max_points= to read it"):
+            x3p.read(path)
+
+    assert peak_bytes(read) < 4 << 20
+    with pytest.raises(ValueError, match=r"large\.x3p: .*(corrupted|truncated)"):
+        x3p.read(path, max_points=10**8)  # read on request: the stream ends too early
+
+
 def test_x3p_datalist_claiming_more_points_allocates_nothing(tmp_path):
     """A ``<DataList>`` of 5 points under a header claiming 3000 x 3000 (72 MB)."""
     datalist = "<DataList>" + "<Datum>1e-6</Datum>" * 5 + "</DataList>"

@@ -66,6 +66,9 @@ MAX_POINTS = 2**31
 #: Deflate does not compress real data by more than about 1000:1; a member claiming more
 #: is a zip bomb or a corrupted archive.
 _MAX_RATIO = 1100
+#: Unless the caller sets ``max_points``, a member expanding more than ``_LARGE_RATIO``-fold
+#: to more than ``_LARGE_SIZE`` bytes is refused too: measured heights hardly compress.
+_LARGE_RATIO, _LARGE_SIZE = 100, 256 << 20
 #: Upper bound on the uncompressed size of ``main.xml`` and of the checksum file.
 _MAX_XML = 2**31
 _MAX_CHECKSUM_FILE = 1 << 16
@@ -261,8 +264,13 @@ def _text(elem, *names) -> str | None:
     return node.text.strip()
 
 
-def _member(zf: zipfile.ZipFile, name: str, path: Path, what: str, limit: int) -> bytes:
-    """Extract one member, never decompressing more than ``limit`` bytes."""
+def _member(zf: zipfile.ZipFile, name: str, path: Path, what: str, limit: int,
+            trusted: bool = False) -> bytes:
+    """Extract one member, never decompressing more than ``limit`` bytes.
+
+    ``trusted`` (the caller set ``max_points``) lifts the rule on large members that
+    expand more than ``_LARGE_RATIO``-fold.
+    """
     try:
         info = zf.getinfo(name)
     except KeyError:
@@ -276,6 +284,12 @@ def _member(zf: zipfile.ZipFile, name: str, path: Path, what: str, limit: int) -
         raise ValueError(f"{path.name}: the {what} {name!r} claims to expand "
                          f"{info.compress_size} bytes to {info.file_size}, a compression "
                          "ratio no measured data reaches (zip bomb or corrupted archive)")
+    if (not trusted and info.compress_type != zipfile.ZIP_STORED
+            and info.file_size > max(_LARGE_SIZE, _LARGE_RATIO * info.compress_size)):
+        raise ValueError(f"{path.name}: the {what} {name!r} expands {info.compress_size} "
+                         f"bytes to {info.file_size}, more than {_LARGE_RATIO}-fold, which "
+                         "measured heights do not (zip bomb?); pass max_points= to read it "
+                         "anyway")
     try:
         with zf.open(info) as fh:
             data = fh.read(limit + 1)
@@ -464,7 +478,8 @@ def _read(path: Path, verify_checksums: bool, max_points: int | None):
         if link is not None:
             name = _text(link, "PointDataLink") or _DATA_MEMBER
             dtype = _DTYPES[cz["dtype"]]
-            raw = _member(zf, name, path, "point data", n * dtype.itemsize)
+            raw = _member(zf, name, path, "point data", n * dtype.itemsize,
+                          trusted=max_points is not None)
             if verify_checksums:
                 _check_md5(raw, _text(link, "MD5ChecksumPointData"), path, name)
             if len(raw) != n * dtype.itemsize:
