@@ -265,6 +265,23 @@ def test_channel_on_a_format_without_channels_is_a_clear_error(files, monkeypatc
     assert "afm.nc" in err and "--channel" in err and "TypeError" not in err
 
 
+def test_errors_name_the_command_line_options_not_the_api_keywords(files, monkeypatch,
+                                                                   capsys):
+    """Advice such as 'pass unit=' or 'open_topography(path, resample=True)' is the
+    API's; on the command line it is --unit and --resample."""
+    x = np.sort(np.random.default_rng(0).uniform(0, 10, 200))
+    np.savetxt(files / "nonuniform.txt", np.c_[x, np.sin(x)])
+    status, _, err = run("info", "nonuniform.txt", cwd=files, monkeypatch=monkeypatch,
+                         capsys=capsys)
+    assert status == 1 and "--unit" in err and "unit=" not in err
+    status, _, err = run("acf", "nonuniform.txt", "--unit", "um", "-o", "nu.nc", cwd=files,
+                         monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 1 and "--resample" in err and "resample=True" not in err
+    status, out, err = run("acf", "nonuniform.txt", "--unit", "um", "--resample", "-o",
+                           "nu.nc", cwd=files, monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 0, err
+
+
 def test_wrong_format_is_a_one_line_error(files, monkeypatch, capsys):
     status, _, err = run("info", "afm.nc", "--format", "sdf", cwd=files,
                          monkeypatch=monkeypatch, capsys=capsys)

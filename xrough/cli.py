@@ -182,6 +182,19 @@ def _common_units(curves: list[xr.DataArray]) -> tuple[str, str]:
 # --------------------------------------------------------------------- files in, out
 
 
+_API_HINTS = ((re.compile(r"open_topography\(path, resample=True\)|\bresample=True"),
+               "--resample"),
+              (re.compile(r"\b(unit|height_unit|size|channel|format|height_scale)="),
+               lambda m: "--" + m.group(1).replace("_", "-") + " "))
+
+
+def _cli_words(text: str) -> str:
+    """Say ``--unit 'nm'`` where a message of the API says ``unit='nm'``."""
+    for pattern, replacement in _API_HINTS:
+        text = pattern.sub(replacement, text)
+    return re.sub(r"(?<=\S) {2,}", " ", text)
+
+
 def _fail(where: str, err: BaseException | str) -> CLIError:
     """Return a :class:`CLIError` whose one-line message names ``where``."""
     text = str(err).strip().splitlines()[0] if str(err).strip() else ""
@@ -191,6 +204,7 @@ def _fail(where: str, err: BaseException | str) -> CLIError:
             text = strerror.lower()
         if not text or not isinstance(err, (ValueError, OSError)):
             text = f"{type(err).__name__}{': ' + text if text else ''}"
+    text = _cli_words(text)
     name = Path(where).name
     if where in text or (name and name in text):
         return CLIError(text)
