@@ -484,6 +484,26 @@ def test_sur_compressed_bomb_is_capped(tmp_path):
     assert peak_bytes(read_declared) < 4 << 20
 
 
+def test_sur_compressed_data_expanding_a_hundredfold_needs_max_points(tmp_path):
+    """Header and directory agree on 80 million points (320 MB) from 1 MB of streams."""
+    good = bytearray(sur_object(np.arange(4).reshape(2, 2), compressed=True, bits=32))
+    struct.pack_into("<iii", good, 108, 10000, 8000, 80_000_000)
+    stream = bytes(1 << 20)
+    path = tmp_path / "large.sur"
+    path.write_bytes(bytes(good[:512]) + struct.pack("<III", 1, 320_000_000, len(stream))
+                     + stream)
+
+    def read():
+        with pytest.raises(ValueError, match=r"large\.sur: object 0: 1048576 bytes of "
+                                             r"compressed data are to expand to 320000000, "
+                                             r"more than 100-fold"):
+            sur.read(path)
+
+    assert peak_bytes(read) < 4 << 20
+    with pytest.raises(ValueError, match=r"large\.sur: object 0 has corrupted compressed"):
+        sur.read(path, max_points=10**8)  # read on request: not a zlib stream
+
+
 def test_sur_header_claiming_too_many_points_is_refused(tmp_path):
     good = bytearray(sur_object(np.arange(4).reshape(2, 2), compressed=True))
     struct.pack_into("<iii", good, 108, 60000, 60000, 60000 * 60000 - 2**32)

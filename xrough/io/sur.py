@@ -46,6 +46,7 @@ __all__ = ["sniff", "read", "OBJECT_TYPES"]
 
 _MAGICS = (b"DIGITAL SURF", b"DSCOMPRESSED")
 _HEADER_SIZE = 512
+_LARGE_RATIO, _LARGE_SIZE = 100, 256 << 20
 #: Object ("studiable") types of MountainsMap.
 OBJECT_TYPES = {
     0: "unknown", 1: "profile", 2: "surface", 3: "binary image", 4: "series of profiles",
@@ -133,8 +134,13 @@ def _header(raw: bytes, pos: int, path: Path, index: int) -> dict:
     return h
 
 
-def _points(raw: bytes, h: dict, path: Path, index: int, decode: bool):
-    """Return the object's raw points (if ``decode``) and the position after them."""
+def _points(raw: bytes, h: dict, path: Path, index: int, decode: bool,
+            trusted: bool = False):
+    """Return the object's raw points (if ``decode``) and the position after them.
+
+    Compressed data expanding more than ``_LARGE_RATIO``-fold to more than
+    ``_LARGE_SIZE`` bytes is refused unless ``trusted`` (the caller set ``max_points``).
+    """
     dtype = np.dtype("<i2" if h["point_size"] == 16 else "<i4")
     start = h["data_start"]
     count = h["n_points"] * (max(h["w_size"], 1) if h["object_type"] in (20, 21) else 1)
@@ -160,6 +166,12 @@ def _points(raw: bytes, h: dict, path: Path, index: int, decode: bool):
                          f"{sum(sizes[::2])} bytes by their directory, {count} points of "
                          f"{h['point_size']} bits need {expected} (corrupted file)")
     pos = start + 4 + 8 * n_streams
+    packed = sum(sizes[1::2])
+    if decode and not trusted and expected > max(_LARGE_SIZE, _LARGE_RATIO * packed):
+        raise ValueError(f"{path.name}: object {index}: {packed} bytes of compressed data "
+                         f"are to expand to {expected}, more than {_LARGE_RATIO}-fold, "
+                         "which measured heights do not (a corrupted or malicious file?); "
+                         "pass max_points= to read it anyway")
     chunks = []
     for raw_size, zip_size in zip(sizes[::2], sizes[1::2]):
         if len(raw) < pos + zip_size:
@@ -286,7 +298,7 @@ def _read(path: Path, index: int, max_points: int | None):
         raise ValueError(f"{path.name}: object {index} is a {kind}, not heights; choose "
                          "another object with index=")
     check_points(path, h["n_points"], max_points, f"object {index}")
-    points, _ = _points(raw, h, path, index, decode=True)
+    points, _ = _points(raw, h, path, index, decode=True, trusted=max_points is not None)
 
     dz = _f32(h["dz"])
     heights = points.astype(float) * dz
