@@ -40,6 +40,15 @@ the same quantity rounded to seven digits and is not used. If the Z scale names 
 scale, the hard value's own unit is the height unit. Channels whose unit is not a length
 (phase, amplitude error...) are listed but cannot be read as topographies.
 
+Sizes: the data length of each image must be ``Samps/line x Number of lines x
+Bytes/pixel``. When it is not, but the scan list's resolution fits, the image is read with
+the scan list's points over the stated ``Scan Size``, with a ``UserWarning`` and
+``attrs["header_inconsistency"]``; any other mismatch is an error naming the file.
+
+Channels: :func:`channels` lists them, :func:`default_channel` names the one read without
+``channel=``; two different height quantities on the main scan line (``Height`` and
+``ZSensor``) make that choice ambiguous and :func:`read` warns.
+
 Orientation: lines are kept in file order, the first stored line at ``y = 0`` (the bottom
 of the image as the instrument displays it; Gwyddion and SurfaceTopography flip the rows
 because their row 0 is the top). Lateral sizes come from ``Scan Size`` (fast axis ``x``,

@@ -18,8 +18,16 @@ Header lines (with or without ``#``/``%`` comment markers) of the forms ``key: v
 ``key = value`` or ``key,value`` (CSV exports such as Bruker Dektak) become attributes, and
 the usual keys give sizes and units: ``Width``/``Height`` and ``Value units`` (Gwyddion
 ASCII export), ``x-length``/``y-length``, ``x-unit``/``z-unit``, ``unit``, ``pixel size``...
-A line of column names just above the data (``Lateral um,Raw Micrometer`` or
-``x [mm]  h [nm]``) gives the unit of each column.
+A line of column names just above the data (``Lateral um,Raw Micrometer``,
+``x [mm]  h [nm]`` or ``[mm];[mm]``) gives the unit of each column. A header scale factor
+such as ``height conversion factor (-> m)=6.30079e-008`` multiplies the raw heights and
+gives their unit. A header that states the size (or the points) of a map along x and y
+makes the block a matrix whatever its number of columns.
+
+Header-stated sizes are checked against the data, never silently spread over fewer
+points: stated point counts must match, a profile must cover the stated ``Length``, and a
+matrix whose header gives width and height must have square pixels (a file cut at a line
+boundary would not); ``size=``/``spacing=`` state rectangular pixels explicitly.
 
 Profiles whose ``x`` column is uniform within the precision it is printed with are read on
 a uniform grid (the spacing from a least-squares fit of the positions). Others are
