@@ -200,6 +200,29 @@ def test_detrend_defaults_to_a_plane_for_maps_and_a_line_for_profiles(files, mon
                                .drop_attrs())
 
 
+def test_implausible_heights_are_flagged(files, monkeypatch, capsys):
+    """Heights 1.6e7 times too large gave v_el = 6.8e13 J/m^2 without a word."""
+    status, out, err = run("report", "afm.nc", "--height-scale", "1.6e7", "--E-star",
+                           E_STAR, "--p0", P0, "--json", "-o", "steep.nc", cwd=files,
+                           monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 0
+    assert "afm.nc: rms gradient" in err and "--height-unit" in err
+    assert len(err.strip().splitlines()) == 1  # one line, no numpy noise
+    assert "steeper than any measured surface" in json.loads(out)["measurements"][0][
+        "warnings"][0]
+
+
+def test_demo_runs_small(files, monkeypatch, capsys):
+    status, out, err = run("demo", "-n", "64", "--pairs", "1000", "-o", "demo", cwd=files,
+                           monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 0, err
+    assert "Traceback" not in err and all(line.startswith("xrough: warning: ")
+                                          for line in err.splitlines())
+    assert re.search(r"rms height [\d.]+ nm \(model [\d.]+ nm\)", out)
+    assert (files / "demo" / "demo.png").exists() and not list(
+        (files / "demo").glob(".*.tmp"))
+
+
 def test_report_json(files, monkeypatch, capsys):
     status, out, err = run("report", "afm.nc", "--E-star", E_STAR, "--p0", P0, "--json",
                            "-o", "rj.nc", cwd=files, monkeypatch=monkeypatch, capsys=capsys)

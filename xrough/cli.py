@@ -338,15 +338,30 @@ def _group_names(paths: list[str]) -> list[str]:
     return unique
 
 
+#: numpy's floating-point warnings inside the computation: not news for the user.
+_NUMERIC_NOISE = re.compile(r"encountered in|Mean of empty slice|Degrees of freedom <= 0")
+#: An rms gradient above this (a slope of 84 degrees) means heights in the wrong unit.
+_STEEPEST = 10.0
+
+
 def _warn(where: str, caught) -> list[str]:
     """Print caught warnings as one line each on stderr; return their texts."""
     texts = []
     for w in caught:
         text = " ".join(str(w.message).split())
+        if _NUMERIC_NOISE.search(text):
+            continue
         if text not in texts:
             texts.append(text)
             print(f"xrough: warning: {where}: {text}", file=sys.stderr)
     return texts
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Show a warning outside a file's processing as one line on stderr."""
+    text = " ".join(str(message).split())
+    if not _NUMERIC_NOISE.search(text):
+        print(f"xrough: warning: {text}", file=sys.stderr)
 
 
 def _emit_json(obj: dict) -> None:
@@ -418,9 +433,10 @@ def _demo(args: argparse.Namespace) -> int:
     rows = [
         ("Hurst exponent H (fit)", f"{float(fit.hurst):.3f} +- {float(fit.hurst_std):.3f}",
          f"{args.hurst}"),
-        ("rms height sigma_h (fit)", _show(fit.sigma_h),
+        ("rms height sigma_h (fit)", _show(fit.sigma_h, none="no plateau"),
          _text(topo.attrs["rms_height"], topo.attrs["units"])),
-        ("roll-off wavelength lambda_r (fit)", _show(fit.lambda_r), _text(2, "um")),
+        ("roll-off wavelength lambda_r (fit)", _show(fit.lambda_r, none="no roll-off"),
+         _text(2, "um")),
         ("elastic energy of full contact", _show(energy.v_el), ""),
         (f"contact area at dr = {_show(finest.dr)}", _show(finest.a_r), ""),
         (f"contact stress at dr = {_show(finest.dr)}", _show(finest.sigma_c), ""),
@@ -669,6 +685,12 @@ def _report(args: argparse.Namespace) -> int:
                  "energy": G.rough.energy(E_star=E_star)}
         if gamma is not None:
             found["patch"] = G.rough.patch_radius(E_star=E_star, gamma=gamma)
+        steepest = float(gbar.max())
+        if steepest > _STEEPEST:
+            warnings.warn(f"rms gradient {steepest:.3g}: steeper than any measured surface "
+                          "(a slope of 84 degrees is 10); are the heights in the unit the "
+                          "file states? (--height-unit, --height-scale)", UserWarning,
+                          stacklevel=2)
         return found
 
     measured = _measure_all(args, analyse)
@@ -789,7 +811,10 @@ def main(argv: list[str] | None = None) -> int:
     matplotlib.use("Agg")  # figures go to files
     args = _parser().parse_args(argv)
     try:
-        return args.func(args)
+        with warnings.catch_warnings():
+            warnings.simplefilter("default")  # shown once each, as one line
+            warnings.showwarning = _show_warning
+            return args.func(args)
     except KeyboardInterrupt:
         print("xrough: interrupted", file=sys.stderr)
         return 130
