@@ -6,12 +6,15 @@ project's own writers), so these tests run everywhere; the real instrument files
 only where marked ``data``.
 """
 
+import io
 import re
 import struct
+import tracemalloc
 import warnings
 from pathlib import Path
 
 import numpy as np
+import numpy.lib.format as npformat
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -577,3 +580,23 @@ def test_written_and_read_back_by_both_readers_keeps_a_corner_feature(tmp_path, 
         bridged = open_topography(path, format=xrough.io.BRIDGE)
     assert peak(native) == pytest.approx((2e-6, 1e-6))
     assert peak(bridged) == pytest.approx((2e-6, 1e-6))
+
+
+
+def test_npy_declaring_more_data_than_the_file_holds_allocates_nothing(tmp_path):
+    buffer = io.BytesIO()
+    npformat.write_array_header_1_0(buffer, {"descr": "<f8", "fortran_order": False,
+                                             "shape": (30000, 30000)})
+    path = tmp_path / "bomb.npy"
+    path.write_bytes(buffer.getvalue() + bytes(800))
+    tracemalloc.start()
+    try:
+        with pytest.raises(ValueError, match=r"bomb\.npy: truncated or damaged file: the "
+                                             r"header declares shape \(30000, 30000\)"):
+            open_topography(path, size="1 um", unit="nm")
+        peak_bytes = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak_bytes < 50e6
+    np.save(path, np.arange(12.0).reshape(3, 4))
+    assert open_topography(path, size="1 um", unit="nm").shape == (3, 4)

@@ -9,6 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import numpy.lib.format as npformat
 import xarray as xr
 
 from ..topography import topography
@@ -33,6 +34,33 @@ def sniff(head: bytes, path: Path) -> bool:
     bool
     """
     return head.startswith(_MAGIC)
+
+
+def _check_size(path: Path) -> None:
+    """Refuse a header that declares more data than the file holds, before allocating."""
+    name = path.name
+    try:
+        with open(path, "rb") as fh:
+            version = npformat.read_magic(fh)
+            if version == (1, 0):
+                shape, _, dtype = npformat.read_array_header_1_0(fh)
+            else:
+                shape, _, dtype = npformat.read_array_header_2_0(fh)
+            offset = fh.tell()
+    except FileNotFoundError:
+        raise
+    except (ValueError, OSError, EOFError, SyntaxError, TypeError) as err:
+        raise ValueError(f"{name}: cannot read as a NumPy .npy array: damaged header "
+                         f"({err})") from None
+    if dtype.hasobject:
+        raise ValueError(f"{name}: the array holds Python objects, not numbers (refused: "
+                         "loading them would run code)")
+    needed = int(np.prod(shape, dtype=object)) * dtype.itemsize
+    available = path.stat().st_size - offset
+    if needed > available:
+        raise ValueError(f"{name}: truncated or damaged file: the header declares shape "
+                         f"{tuple(shape)} of {dtype} ({needed} bytes) but the file holds "
+                         f"{available} bytes of data")
 
 
 def read(path, *, spacing=None, size=None, unit: str | None = None,
@@ -75,6 +103,7 @@ def read(path, *, spacing=None, size=None, unit: str | None = None,
     """
     path = Path(path)
     name = path.name
+    _check_size(path)
     try:
         arr = np.load(path, allow_pickle=False)
     except FileNotFoundError:
