@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import numpy.lib.format as npformat
 import pytest
+import xarray as xr
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_io_afm import make_ibw
@@ -23,9 +24,10 @@ from test_io_afm import make_ibw
 import xrough
 from conftest import data_path
 from xrough.io import detect_format, ibw, list_channels, nanoscope, open_topography, text
+from xrough.io.backend import XroughBackendEntrypoint
 from xrough.topography import grid_of
 
-FUZZ = settings(max_examples=150, derandomize=True, deadline=None, database=None,
+FUZZ = settings(max_examples=200, derandomize=True, deadline=None, database=None,
                 suppress_health_check=[HealthCheck.function_scoped_fixture,
                                        HealthCheck.too_slow])
 
@@ -600,3 +602,26 @@ def test_npy_declaring_more_data_than_the_file_holds_allocates_nothing(tmp_path)
     assert peak_bytes < 50e6
     np.save(path, np.arange(12.0).reshape(3, 4))
     assert open_topography(path, size="1 um", unit="nm").shape == (3, 4)
+
+
+@FUZZ
+@given(data=st.data())
+def test_fuzz_npy_reader(tmp_path_factory, data):
+    buffer = io.BytesIO()
+    np.save(buffer, np.arange(24.0).reshape(4, 6))
+    blob = _mutate(buffer.getvalue(), data)
+    path = tmp_path_factory.mktemp("fuzz") / "h.npy"
+    path.write_bytes(blob)
+    topo = _outcome(path, size="6 um", unit="nm")
+    if topo is not None:
+        assert topo.size * topo.dtype.itemsize <= len(blob)
+
+
+def test_xarray_backend_passes_the_text_encoding(tmp_path):
+    path = tmp_path / "latin.txt"
+    path.write_bytes("# Width: 2 µm\n# Height: 2 µm\n# Value units: nm\n1 2\n3 4\n"
+                     .encode("latin-1"))
+    ds = xr.open_dataset(path, engine=XroughBackendEntrypoint, encoding="latin-1")
+    assert ds["height"].x.attrs["units"] == "um"
+    with pytest.raises(ValueError, match=r"latin\.txt: cannot decode the file as 'ascii'"):
+        xr.open_dataset(path, engine=XroughBackendEntrypoint, encoding="ascii")

@@ -57,7 +57,7 @@ class XroughBackendEntrypoint(BackendEntrypoint):
     open_dataset_parameters = (
         "filename_or_obj", "drop_variables", "format", "size", "unit", "height_unit",
         "height_scale", "periodic", "channel", "resample", "spacing", "variable", "group",
-        "layout", "column",
+        "layout", "column", "encoding", "index",
     )
 
     def open_dataset(self, filename_or_obj, *, drop_variables=None, format=None, size=None,
