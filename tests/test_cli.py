@@ -402,6 +402,11 @@ def test_output_into_a_missing_folder_is_created(files, monkeypatch, capsys):
     (("report", "afm.nc", "--E-star", "25 nm", "--p0", "1MPa"), "not a pressure"),
     (("report", "afm.nc", "--E-star", "25MPa", "--p0", "1MPa", "--gamma", "1 m"),
      "--gamma"),
+    (("report", "afm.nc", "--E-star", "1e300", "--p0", "1MPa"), "--E-star"),
+    (("acf", "afm.nc", "--height-scale", "nan"), "--height-scale"),
+    (("acf", "profile.nc", "--direction", "y"), "--direction 'x'"),
+    (("acf", "afm.nc", "--points-per-decade", "inf"), "--points-per-decade"),
+    (("info", "."), "is a directory"),
 ])
 def test_bad_input_exits_1_with_a_one_line_reason(files, monkeypatch, capsys, args,
                                                   message):

@@ -184,8 +184,9 @@ def _common_units(curves: list[xr.DataArray]) -> tuple[str, str]:
 
 _API_HINTS = ((re.compile(r"open_topography\(path, resample=True\)|\bresample=True"),
                "--resample"),
-              (re.compile(r"\b(unit|height_unit|size|channel|format|height_scale)="),
-               lambda m: "--" + m.group(1).replace("_", "-") + " "))
+              (re.compile(r"\b(unit|height_unit|size|channel|format|height_scale|direction)="),
+               lambda m: "--" + m.group(1).replace("_", "-") + " "),
+              (re.compile(r"(?<![-\w])points_per_decade\b"), "--points-per-decade"))
 
 
 def _cli_words(text: str) -> str:
@@ -204,7 +205,7 @@ def _fail(where: str, err: BaseException | str) -> CLIError:
             text = strerror.lower()
         if not text or not isinstance(err, (ValueError, OSError)):
             text = f"{type(err).__name__}{': ' + text if text else ''}"
-    text = _cli_words(text)
+    text = _cli_words(text).removeprefix(": ")  # a reader naming a folder's empty name
     name = Path(where).name
     if where in text or (name and name in text):
         return CLIError(text)
@@ -235,6 +236,9 @@ def _channel_value(text: str) -> int | str:
 
 def _open(path: str, args: argparse.Namespace) -> xr.DataArray:
     """Read a topography with the command's options; errors name the file."""
+    scale = args.height_scale
+    if scale is not None and not (np.isfinite(scale) and scale != 0):
+        raise CLIError(f"--height-scale {scale}: must be a finite, non-zero number")
     size = None
     if getattr(args, "size", None):
         parts = [p.strip() for p in args.size.split(",")]
@@ -669,10 +673,18 @@ def _report_figure(measured: list[dict], p0_text: str):
     return fig
 
 
+def _si(text: str) -> str | float:
+    """Read a plain number as SI (as the API does); anything else keeps its unit."""
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
 def _report(args: argparse.Namespace) -> int:
-    E_star = u.positive_si(args.E_star, "[pressure]", what="--E-star")
-    p0 = u.positive_si(args.p0, "[pressure]", what="--p0")
-    gamma = (u.positive_si(args.gamma, "[mass] / [time] ** 2", what="--gamma")
+    E_star = u.positive_si(_si(args.E_star), "[pressure]", what="--E-star")
+    p0 = u.positive_si(_si(args.p0), "[pressure]", what="--p0")
+    gamma = (u.positive_si(_si(args.gamma), "[mass] / [time] ** 2", what="--gamma")
              if args.gamma else None)
     out = _output(args.output)
     png = out.with_suffix(".png")
