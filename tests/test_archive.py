@@ -188,7 +188,8 @@ _names = st.from_regex(r"[A-Za-z][A-Za-z0-9_]{0,8}", fullmatch=True).filter(
 
 
 @settings(max_examples=40, deadline=None,
-          suppress_health_check=[HealthCheck.function_scoped_fixture])
+          suppress_health_check=[HealthCheck.function_scoped_fixture,
+                                 HealthCheck.too_slow])
 @given(attrs=st.dictionaries(_names, _values, max_size=5),
        coord_attrs=st.dictionaries(_names, _values, max_size=3))
 def test_attrs_of_every_type_round_trip(tmp_path, attrs, coord_attrs):
