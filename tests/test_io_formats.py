@@ -625,3 +625,29 @@ def test_xarray_backend_passes_the_text_encoding(tmp_path):
     assert ds["height"].x.attrs["units"] == "um"
     with pytest.raises(ValueError, match=r"latin\.txt: cannot decode the file as 'ascii'"):
         xr.open_dataset(path, engine=XroughBackendEntrypoint, encoding="ascii")
+
+
+def test_ibw_height_and_zsensor_is_ambiguous(tmp_path):
+    chans = [{"index": k, "name": n, "unit": u, "is_height": u == "m"}
+             for k, (n, u) in enumerate([("HeightTrace", "m"), ("HeightRetrace", "m"),
+                                         ("ZSensorTrace", "m"), ("PhaseTrace", "deg")])]
+    path = tmp_path / "asylum.ibw"
+    with pytest.warns(UserWarning, match=r"asylum\.ibw: several height channels "
+                                         r"\('HeightTrace', 'HeightRetrace', "
+                                         r"'ZSensorTrace'\); reading 0.*channel="):
+        assert ibw._default(path, chans, "", warn=True)["name"] == "HeightTrace"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert ibw._default(path, chans[:2], "", warn=True)["index"] == 0
+
+
+@pytest.mark.data
+def test_list_channels_of_igor_and_bridge_files():
+    listed = list_channels(data_path("instruments", "spot_1-1000nm.ibw"))
+    assert listed[0]["description"] == "0: HeightTrace [m] height (default)"
+    assert listed[4]["description"] == "4: PhaseTrace [deg]"
+    pytest.importorskip("SurfaceTopography")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        bridged = list_channels(data_path("instruments", "plu-1.plu"))
+    assert sum(c["default"] for c in bridged) == 1

@@ -31,7 +31,8 @@ from .. import units as u
 from ..topography import topography
 from .text import _nonuniform as build
 
-__all__ = ["available", "sniff", "read", "read_with_surfacetopography", "channels", "info_attrs"]
+__all__ = ["available", "sniff", "read", "read_with_surfacetopography", "channels",
+           "default_channel", "info_attrs"]
 
 _INSTALL_HINT = ("reading this format needs SurfaceTopography: pip install xrough[formats] "
                  "(or pip install SurfaceTopography)")
@@ -218,6 +219,28 @@ def channels(path) -> list[dict]:
         return [{"index": c.index, "name": c.name, "unit": c.unit, "data_unit": c.data_unit,
                  "is_height": bool(getattr(c, "is_height_channel", True))}
                 for c in reader.channels]
+    finally:
+        _close(reader)
+
+
+def default_channel(path) -> int:
+    """Index of the channel SurfaceTopography reads without ``channel=``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file, in any format SurfaceTopography reads.
+
+    Returns
+    -------
+    int
+    """
+    st = _import()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        reader = st.open_topography(str(path))
+    try:
+        return int(reader.default_channel.index)
     finally:
         _close(reader)
 
