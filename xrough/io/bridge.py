@@ -9,9 +9,11 @@ into an xrough topography: heights as a ``(y, x)`` map or ``(x,)`` profile, the 
 size and unit the file states, and the file's metadata (the items that are numbers or
 text, flattened) in ``attrs``.
 
-SurfaceTopography follows Gwyddion's orientation: its row 0 is the *top* of the image.
-xrough's row 0 is at ``y = 0`` and plots at the bottom, so rows are reversed (as xrough's
-native Gwyddion, Nanoscope and Igor readers do): the picture is the same in every program.
+SurfaceTopography follows Gwyddion's orientation for every format: its row 0 is the *top*
+of the image. xrough's row 0 is at ``y = 0`` and plots at the bottom, so rows are reversed
+(as xrough's native readers of formats stored top line first do: Gwyddion, X3P, SDF, SUR,
+text): the native readers and the bridge agree row by row, and the picture is the same in
+every program.
 
 :func:`xrough.io.open_topography` falls back to this bridge when no native reader
 recognises a file and SurfaceTopography is installed.
