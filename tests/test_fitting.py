@@ -9,8 +9,6 @@ eq. 36 itself, and synthetic surfaces drawn from the model spectrum.
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 import xarray as xr
@@ -599,17 +597,13 @@ def test_spectrum_fit_synthetic_surface_fixed_moduli(rolloff, H):
     # Tolerances: the acceptance criterion, H within 0.03 and sigma_h within 3 %, and 5 %
     # for the cutoffs.
     topo, G = synthetic_acf(H, rolloff, 3, random_amplitudes=False)
-    t0 = time.perf_counter()
     p = fit_acf(G, rolloff=rolloff, lambda_0=512)
-    elapsed = time.perf_counter() - t0
     assert p.attrs["weighting"].startswith("standard_error")
     np.testing.assert_allclose(float(p.hurst), H, rtol=0, atol=0.03)
     np.testing.assert_allclose(float(p.sigma_h), topo.attrs["rms_height"], rtol=0.03, atol=0)
     np.testing.assert_allclose(float(p.lambda_r), 64, rtol=0.05, atol=0)
     np.testing.assert_allclose(float(p.lambda_s), 4, rtol=0.05, atol=0)
-    # measured 0.04-0.08 s per fit (sharp), 0.09-0.17 s (smooth); the requirement is
-    # < 1 s, checked on the sharp shape (a 6-fold margin for a loaded machine)
-    assert elapsed < 1.0 or rolloff == "smooth"
+    # run time (0.04-0.17 s per fit) is measured in benchmarks/bench_spectra.py, not here
 
 
 @pytest.mark.parametrize("rolloff", ROLLOFFS)

@@ -14,7 +14,6 @@ import struct
 import subprocess
 import sys
 import threading
-import time
 import tracemalloc
 import zipfile
 import zlib
@@ -379,9 +378,7 @@ def test_x3p_zip_bomb_is_refused_before_decompression(tmp_path):
                                              r" holds 67108864 bytes, more than the 800"):
             x3p.read(bomb)
 
-    start = time.perf_counter()
-    assert peak_bytes(read) < 4 << 20
-    assert time.perf_counter() - start < 5
+    assert peak_bytes(read) < 4 << 20  # refused from the header, nothing inflated
 
 
 def test_x3p_member_lying_about_its_size_is_capped(tmp_path):
