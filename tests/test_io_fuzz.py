@@ -29,6 +29,7 @@ from test_io_x3p_sdf_sur import SDF_HEADER, sur_object
 import xrough
 from conftest import data_path
 from xrough.io import gwy, netcdf, sdf, sur, x3p
+from xrough.io._common import reader_errors
 
 MUTATIONS = 1000
 #: Outcome counts of the loop tests, per format (printed with ``-s``).
@@ -527,7 +528,7 @@ def test_third_party_errors_are_wrapped_in_words(tmp_path):
     path.write_bytes(rezip_x3p(path.read_bytes(), xml, fix_checksum=True))
     with pytest.raises(ValueError, match=r"utf\.x3p: main\.xml is not well-formed XML"):
         x3p.read(path)
-    with pytest.raises(ValueError) as err, x3p.reader_errors(tmp_path / "z.sdf", "SDF"):
+    with pytest.raises(ValueError) as err, reader_errors(tmp_path / "z.sdf", "SDF"):
         raise zlib.error("invalid stored block lengths")
     assert str(err.value).startswith("z.sdf: cannot read as SDF: corrupted compressed data")
 

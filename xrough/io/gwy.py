@@ -37,8 +37,7 @@ import numpy as np
 
 from .. import units as u
 from ..topography import grid_of, topography
-from ._common import fail
-from .x3p import check_file, reader_errors
+from ._common import check_file, fail, reader_errors
 
 __all__ = ["sniff", "read", "write", "channels"]
 

@@ -35,7 +35,7 @@ from igor2 import binarywave
 
 from .. import units as u
 from ..topography import topography
-from ._common import fail, naming, select_channel
+from ._common import fail, reader_errors, select_channel
 
 __all__ = ["sniff", "read", "channels", "default_channel"]
 
@@ -352,7 +352,7 @@ def read(path: str | Path, *, channel: str | int | None = None, unit: str | None
         unsupported wave, corrupted or truncated file (the message names the file).
     """
     path = Path(path)
-    with naming(path):
+    with reader_errors(path, "Igor binary wave"):
         return _read(path, channel, unit, height_unit)
 
 

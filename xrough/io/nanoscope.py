@@ -66,7 +66,7 @@ import numpy as np
 
 from .. import units as u
 from ..topography import topography
-from ._common import fail, naming, select_channel
+from ._common import fail, reader_errors, select_channel
 
 __all__ = ["sniff", "read", "channels", "default_channel", "parse_value"]
 
@@ -503,7 +503,7 @@ def read(path: str | Path, *, channel: str | int | None = None):
         file and the problem).
     """
     path = Path(path)
-    with naming(path):
+    with reader_errors(path, "Nanoscope"):
         return _read(path, channel)
 
 

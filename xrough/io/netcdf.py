@@ -27,7 +27,7 @@ import xarray as xr
 
 from .. import units as u
 from ..topography import topography
-from .x3p import check_file, reader_errors
+from ._common import check_file, reader_errors
 
 __all__ = ["sniff", "read", "write"]
 

@@ -31,7 +31,7 @@ of the returned array is ``y = 0`` and ``y = 0`` is the picture's *bottom* row a
 software displays it, so the profiles are reversed on read (the last profile is ``y = 0``).
 
 Safety: the number of points the header declares is checked against the data the file
-holds, and against ``max_points`` (default :data:`xrough.io.x3p.MAX_POINTS`), before any
+holds, and against ``max_points`` (default :data:`xrough.io._common.MAX_POINTS`), before any
 array is allocated; every failure is a ``ValueError`` naming the file.
 """
 
@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from ..topography import topography
-from .x3p import check_file, check_points, reader_errors
+from ._common import check_file, check_points, reader_errors
 
 __all__ = ["sniff", "read"]
 
@@ -148,7 +148,7 @@ def read(path: str | Path, *, max_points: int | None = None):
     path : str or Path
         The ``.sdf`` file.
     max_points : int, optional
-        Refuse a header declaring more points (default :data:`xrough.io.x3p.MAX_POINTS`).
+        Refuse a header declaring more points (default :data:`xrough.io._common.MAX_POINTS`).
 
     Returns
     -------

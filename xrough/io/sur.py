@@ -21,7 +21,7 @@ reader is that row 0 of the returned array is ``y = 0`` and ``y = 0`` is the pic
 stored line is ``y = 0``), after the inversion flag has been applied.
 
 Safety: the points a header declares are checked against the file's size (plain data) or
-against ``max_points`` (default :data:`xrough.io.x3p.MAX_POINTS`) and the stream
+against ``max_points`` (default :data:`xrough.io._common.MAX_POINTS`) and the stream
 directory (compressed data, each stream inflated with a cap at the size the directory
 states) before anything is allocated; every failure is a ``ValueError`` naming the file.
 
@@ -40,7 +40,7 @@ import numpy as np
 
 from .. import units as u
 from ..topography import topography
-from .x3p import check_file, check_points, reader_errors
+from ._common import check_file, check_points, reader_errors
 
 __all__ = ["sniff", "read", "OBJECT_TYPES"]
 
@@ -221,7 +221,7 @@ def read(path: str | Path, *, index: int = 0, max_points: int | None = None):
         read, counting from 0.
     max_points : int, optional
         Refuse an object declaring more points (default
-        :data:`xrough.io.x3p.MAX_POINTS`), a guard against corrupted headers.
+        :data:`xrough.io._common.MAX_POINTS`), a guard against corrupted headers.
 
     Returns
     -------

@@ -46,7 +46,7 @@ import xarray as xr
 
 from .. import units as u
 from ..topography import grid_of, topography
-from ._common import naming
+from ._common import reader_errors
 
 __all__ = ["sniff", "read", "write", "looks_binary"]
 
@@ -693,7 +693,7 @@ def read(path, *, unit: str | None = None, height_unit: str | None = None, spaci
     [5.0, 6.0, 7.0, 8.0]
     """
     path = Path(path)
-    with naming(path):
+    with reader_errors(path, "text"):
         return _read(path, unit=unit, height_unit=height_unit, spacing=spacing, size=size,
                      resample=resample, layout=layout, column=column, encoding=encoding)
 

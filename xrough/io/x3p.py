@@ -42,7 +42,6 @@ Writing
 
 from __future__ import annotations
 
-import contextlib
 import datetime
 import hashlib
 import re
@@ -56,13 +55,10 @@ import numpy as np
 
 from .. import units as u
 from ..topography import grid_of, topography
+from ._common import check_file, check_points, reader_errors
 
-__all__ = ["sniff", "read", "write", "NAMESPACE", "MAX_POINTS", "check_file",
-           "check_points", "reader_errors"]
+__all__ = ["sniff", "read", "write", "NAMESPACE"]
 
-#: Largest number of points a reader of this package's native formats (X3P, SUR, SDF)
-#: accepts unless the caller passes ``max_points=``: a larger header is taken as corrupted.
-MAX_POINTS = 2**31
 #: Deflate does not compress real data by more than about 1000:1; a member claiming more
 #: is a zip bomb or a corrupted archive.
 _MAX_RATIO = 1100
@@ -132,113 +128,6 @@ def sniff(head: bytes, path: Path | None = None) -> bool:
 
 
 # ------------------------------------------------------------------ shared safety rules
-
-#: Third-party exceptions and what they mean in a file reader, in words.
-_ERROR_WORDS = (
-    (UnicodeError, "text that is not validly encoded"),
-    (ElementTree.ParseError, "malformed XML"),
-    (zlib.error, "corrupted compressed data"),
-    (zipfile.BadZipFile, "a corrupted zip archive"),
-    (struct.error, "a truncated or corrupted binary structure"),
-    (EOFError, "data that ends too early (truncated file)"),
-    (ZeroDivisionError, "a zero size or spacing"),
-    (OverflowError, "a number out of range"),
-    (MemoryError, "sizes too large for memory"),
-    (RecursionError, "structures nested too deeply"),
-    (KeyError, "a missing entry"),
-    (IndexError, "a missing entry"),
-)
-
-
-def check_file(path: Path) -> None:
-    """Raise ``FileNotFoundError`` or ``IsADirectoryError`` unless ``path`` is a file.
-
-    Examples
-    --------
-    >>> check_file(Path("no-such-file.x3p"))
-    Traceback (most recent call last):
-    ...
-    FileNotFoundError: no such file: no-such-file.x3p
-    """
-    if path.is_dir():
-        raise IsADirectoryError(f"{path.name}: is a directory, not a file")
-    if not path.is_file():
-        raise FileNotFoundError(f"no such file: {path}")
-
-
-def check_points(path: Path, n: int, max_points: int | None, what: str) -> None:
-    """Refuse a header that declares more than ``max_points`` points.
-
-    Parameters
-    ----------
-    path : Path
-        The file, named in the message.
-    n : int
-        The number of points the header declares.
-    max_points : int or None
-        The limit (``None``: :data:`MAX_POINTS`).
-    what : str
-        What declares them, for the message.
-
-    Raises
-    ------
-    ValueError
-        ``n > max_points``.
-
-    Examples
-    --------
-    >>> check_points(Path("a.sur"), 10, 100, "the header")
-    >>> check_points(Path("a.sur"), 60000 * 60000, None, "the header")
-    Traceback (most recent call last):
-    ...
-    ValueError: a.sur: the header declares 3600000000 points, more than ...
-    """
-    limit = MAX_POINTS if max_points is None else int(max_points)
-    if n > limit:
-        raise ValueError(f"{path.name}: {what} declares {n} points, more than the limit of "
-                         f"{limit} (a corrupted header? pass max_points= to read a larger "
-                         "file)")
-
-
-@contextlib.contextmanager
-def reader_errors(path: Path, description: str):
-    """Turn every error raised inside the block into a ``ValueError`` naming the file.
-
-    ``FileNotFoundError`` and ``IsADirectoryError`` pass unchanged, a ``ValueError``
-    that already starts with the file's name too; other errors of a reader choking on a
-    corrupted file (``zlib.error``, ``struct.error``, ``UnicodeDecodeError``, XML errors,
-    ``ZeroDivisionError``, ``OverflowError``, ``MemoryError``...) are re-raised as
-    ``ValueError("<file>: cannot read as <description>: <what is wrong>")``.
-
-    Parameters
-    ----------
-    path : Path
-        The file.
-    description : str
-        The format, for the message.
-
-    Examples
-    --------
-    >>> with reader_errors(Path("scan.sur"), "Digital Surf SUR"):
-    ...     1 / 0
-    Traceback (most recent call last):
-    ...
-    ValueError: scan.sur: cannot read as Digital Surf SUR: a zero size or spacing ...
-    """
-    prefix = f"{path.name}:"
-    try:
-        yield
-    except (FileNotFoundError, IsADirectoryError):
-        raise
-    except Exception as err:  # noqa: BLE001 - a corrupted file fails in many ways
-        if isinstance(err, ValueError) and not isinstance(err, UnicodeError):
-            if str(err).startswith(prefix):
-                raise
-            raise ValueError(f"{prefix} {err}") from err
-        words = next((w for kind, w in _ERROR_WORDS if isinstance(err, kind)),
-                     "a corrupted file")
-        raise ValueError(f"{prefix} cannot read as {description}: {words} "
-                         f"({type(err).__name__}: {err})") from err
 
 
 # ---------------------------------------------------------------------------- reading
