@@ -49,6 +49,7 @@ def files(tmp_path_factory):
     xrough.topography(topo.values[0], spacing="31.25 nm", unit="um",
                       height_unit="nm").to_netcdf(folder / "profile.nc")
     header = {f"header_entry_{k:03d}": f"value {k}" for k in range(300)}
+    header.update(not_measured=np.nan, count=np.int64(7))
     xrough.topography(topo.values[:64, :64], spacing="31.25 nm", unit="nm",
                       attrs=header).to_netcdf(folder / "long_header.nc")
     (folder / "broken.nc").write_bytes(b"CDF\x01" + b"\x00" * 20)
@@ -258,6 +259,11 @@ def test_info_is_short_and_all_prints_the_header(files, monkeypatch, capsys):
     status, out, _ = run("info", "long_header.nc", "--all", cwd=files,
                          monkeypatch=monkeypatch, capsys=capsys)
     assert len(out.splitlines()) > 300 and "header_entry_150: value 150" in out
+    status, out, _ = run("info", "long_header.nc", "--all", "--json", cwd=files,
+                         monkeypatch=monkeypatch, capsys=capsys)
+    attrs = json.loads(out)["files"][0]["attrs"]  # NaN and numpy values as plain JSON
+    assert attrs["not_measured"] is None
+    assert attrs["count"] == 7 and attrs["header_entry_150"] == "value 150"
 
 
 def test_info_units_size_and_json(files, monkeypatch, capsys):

@@ -368,8 +368,23 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
         print(f"xrough: warning: {text}", file=sys.stderr)
 
 
+def _jsonable(obj):
+    """Plain JSON values: numpy scalars and arrays as numbers and lists, NaN as null."""
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, (np.ndarray, np.generic)):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, float):
+        return obj if np.isfinite(obj) else None
+    if obj is None or isinstance(obj, (str, int, bool)):
+        return obj
+    return str(obj)
+
+
 def _emit_json(obj: dict) -> None:
-    print(json.dumps(obj, indent=2, allow_nan=False, default=str))
+    print(json.dumps(_jsonable(obj), indent=2, allow_nan=False))
 
 
 # -------------------------------------------------------------------------- commands
