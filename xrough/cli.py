@@ -118,11 +118,6 @@ def _text(value: float, unit: str, *, digits: int = 4, none: str = "inf") -> str
     return f"{q.magnitude:.{digits}g} {q.units:~P}"
 
 
-def _length_text(value: float, unit: str, *, none: str = "inf") -> str:
-    """Format a length with a readable prefix (``12.3 nm``, not ``1.23e-08 m``)."""
-    return _text(value, unit, none=none)
-
-
 def _units_of(da: xr.DataArray) -> str:
     return str(da.attrs.get("units", "1"))
 
@@ -810,13 +805,17 @@ def _parser() -> argparse.ArgumentParser:
         file_options(p)
         p.add_argument("-o", "--output", default=f"xrough-{name}.nc",
                        help="NetCDF output (its folder is created if missing)")
-        p.add_argument("--direction", default="radial", choices=["radial", "x", "y"])
-        p.add_argument("--points-per-decade", type=float, default=10)
+        p.add_argument("--direction", default="radial", choices=["radial", "x", "y"],
+                       help="lags in all directions (default) or along x or y only")
+        p.add_argument("--points-per-decade", type=float, default=10,
+                       help="log-spaced bins of G per decade of lag (default 10)")
         if name == "report":
             p.add_argument("--E-star", required=True, dest="E_star",
-                           help="contact modulus, e.g. 25MPa")
-            p.add_argument("--p0", required=True, help="mean pressure, e.g. 0.1MPa")
-            p.add_argument("--gamma", help="work of adhesion, e.g. 50mJ/m^2")
+                           help="contact modulus, e.g. 25MPa (a plain number is in Pa)")
+            p.add_argument("--p0", required=True,
+                           help="mean pressure, e.g. 0.1MPa (a plain number is in Pa)")
+            p.add_argument("--gamma", help="work of adhesion, e.g. 50mJ/m^2 (a plain "
+                           "number is in J/m^2); adds the adhesive patch radius")
         p.set_defaults(func=func)
     return parser
 
