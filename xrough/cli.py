@@ -38,7 +38,7 @@ from tqdm.auto import tqdm
 from . import units as u
 from ._version import __version__
 from .io import BRIDGE, FORMATS, detect_format, list_channels, open_topography
-from .io.archive import save_analysis
+from .io.archive import safe_name, save_analysis
 from .preprocess import DETREND_MODES, detrend
 from .spectra import acf_from_spectrum, model_spectrum
 from .synthetic import self_affine_surface
@@ -303,38 +303,20 @@ def _write_atomic(path: Path, write: Callable[[Path], object]) -> None:
         raise
 
 
-def _safe_name(text: str) -> str:
-    """Make a NetCDF-legal group name: ``[A-Za-z0-9_.+-]``, starting alphanumeric."""
-    name = re.sub(r"[^A-Za-z0-9_.+-]+", "_", text)
-    name = re.sub(r"_+", "_", name).strip("_.+-")
-    return name or "measurement"
-
-
 def _group_names(paths: list[str]) -> list[str]:
     """Return unique, NetCDF-safe group names for the measurements in ``paths``.
 
-    The file stem, made safe; files with the same stem get their parent folder's name in
-    front (``a_scan``, ``b_scan``), and a counter where that is not enough. Names never
-    start with ``_`` (reserved for the archive's ``_provenance``).
+    The file stem; files with the same stem get their parent folder's name in front
+    (``a_scan``, ``b_scan``); :func:`xrough.io.archive.safe_name` makes each name legal
+    and distinct (and never the reserved ``_provenance``).
     """
-    stems = [_safe_name(Path(p).stem) for p in paths]
-    names = []
+    stems = [Path(p).stem for p in paths]
+    names: list[str] = []
     for p, stem in zip(paths, stems):
-        if stems.count(stem) > 1:
-            parent = Path(p).resolve().parent.name
-            stem = _safe_name(f"{parent}_{stem}") if parent else stem
-        names.append(stem)
-    seen: dict[str, int] = {}
-    unique = []
-    for name in names:
-        if names.count(name) > 1:
-            seen[name] = seen.get(name, 0) + 1
-            name = f"{name}_{seen[name]}"
-        unique.append(name)
-    while len(set(unique)) < len(unique):  # a counter name collides with a file's own name
-        unique = [n if unique.count(n) == 1 or k == unique.index(n) else f"{n}_{k + 1}"
-                  for k, n in enumerate(unique)]
-    return unique
+        parent = Path(p).resolve().parent.name
+        wanted = f"{parent}_{stem}" if stems.count(stem) > 1 and parent else stem
+        names.append(safe_name(wanted, names))
+    return names
 
 
 #: numpy's floating-point warnings inside the computation: not news for the user.
