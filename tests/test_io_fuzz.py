@@ -15,6 +15,7 @@ import subprocess
 import sys
 import threading
 import tracemalloc
+import warnings
 import zipfile
 import zlib
 from collections import Counter
@@ -24,11 +25,13 @@ import pytest
 import xarray as xr
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from test_io_afm import make_ibw
+from test_io_formats import TEXT_SEEDS, bump, make_nanoscope
 from test_io_x3p_sdf_sur import SDF_HEADER, sur_object
 
 import xrough
 from conftest import data_path
-from xrough.io import gwy, netcdf, sdf, sur, x3p
+from xrough.io import gwy, ibw, nanoscope, netcdf, sdf, sur, text, x3p
 from xrough.io._common import reader_errors
 
 MUTATIONS = 1000
@@ -673,3 +676,32 @@ def test_fuzz_hypothesis(tmp_path_factory, fmt):
         outcome(read, path, fmt)
 
     check()
+
+
+# ------------------------------------------- 1000 mutations of the other native readers
+
+
+def test_fuzz_nanoscope(tmp_path):
+    seed = make_nanoscope([("Height", bump(6, 8), {}), ("ZSensor", bump(6, 8), {})],
+                          scan_list_res=(6, 8))
+    with warnings.catch_warnings():  # two height channels: the ambiguity warning
+        warnings.simplefilter("ignore", UserWarning)
+        counts = fuzz_loop(tmp_path, "spm", [seed], nanoscope.read, sniff=nanoscope.sniff)
+    assert counts["clean error"] > 0
+
+
+def test_fuzz_ibw(tmp_path):
+    seed = make_ibw(np.arange(30.0).reshape(6, 5), (1e-9, 2e-9))
+    counts = fuzz_loop(tmp_path, "ibw", [seed], ibw.read, sniff=ibw.sniff)
+    assert counts["clean error"] > 0
+
+
+def test_fuzz_text(tmp_path):
+    seeds = [TEXT_SEEDS[name] for name in sorted(TEXT_SEEDS) if not name.endswith(".xyz")]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        # a non-uniform profile is a correct read of text: resampled to check it
+        counts = fuzz_loop(tmp_path, "txt", seeds, lambda p: text.read(p, resample=True),
+                           mutator=lambda raw, rng: mutate(raw, rng, header=len(raw)),
+                           sniff=text.sniff)
+    assert counts["clean error"] > 0
