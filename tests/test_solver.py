@@ -1,6 +1,5 @@
 """Reference contact solver: analytic solutions (Westergaard, Hertz) and contracts."""
 
-import time
 
 import numpy as np
 import pytest
@@ -281,12 +280,10 @@ def test_dask_input_is_computed():
     assert res.pressure.chunks is None
 
 
-def test_timing_budget():
-    # a 256^2 self-affine surface at p0 = 0.01 E* gbar solves in well under 10 s
+def test_self_affine_surface_converges():
+    # a 256^2 self-affine surface at p0 = 0.01 E* gbar (run time: benchmarks/bench_solver.py)
     topo = xrough.self_affine_surface(hurst=0.8, lambda_r="2 um", lambda_s="0.08 um",
                                       size="8 um", n=256, rms_gradient=0.5, seed=1,
                                       unit="um")
-    t = time.perf_counter()
     res = solve_contact(topo, E_star=E_STAR, p0=0.01 * E_STAR * 0.5, progress=False)
-    assert time.perf_counter() - t < 10
     assert int(res.converged) == 1 and 0 < res.attrs["relative_contact_area"] < 0.1
