@@ -358,3 +358,19 @@ def test_every_result_plots():
     assert G.rough.gradient().rough.plot().get_yscale() == "log"
     patch_axes = G.rough.patch_radius(E_star=E_STAR, gamma=0.05).rough.plot()
     assert patch_axes[0].get_xscale() == "log"  # a_c and a_c_upper (tests/test_plot.py)
+
+
+def test_a_given_fit_is_reused_with_the_same_numbers():
+    """persson fits G once (sigma_quick and the gradient share it): same numbers as fitting
+    inside the gradient kernel, to round-off (the same least-squares fit, run twice)."""
+    topo = xrough.self_affine_surface(hurst=0.8, lambda_r="2 um", lambda_s="0.1 um",
+                                      size="8 um", n=256, rms_gradient=0.5, seed=2,
+                                      unit="nm")
+    G = topo.rough.acf()
+    fit = G.rough.fit()
+    for method in ("auto", "fit"):
+        xr.testing.assert_allclose(G.rough.gradient(method=method),
+                                   G.rough.gradient(method=method, fit=fit), rtol=1e-10)
+    own = G.rough.persson(E_star=E_STAR, p0=1e5, variables=("a_r",))  # no sigma_quick
+    shared = G.rough.persson(E_star=E_STAR, p0=1e5)
+    xr.testing.assert_allclose(own.a_r, shared.a_r, rtol=1e-10)

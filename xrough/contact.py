@@ -432,7 +432,10 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     method = "none"
     if set(wanted) - {"sigma_quick"}:  # everything else needs gbar(dr)
         if gradient is None:
-            gradient = rms_gradient(G, method=gradient_method)
+            if "sigma_quick" in wanted and gradient_method in ("auto", "fit"):
+                fit = fit_acf(G) if fit is None else fit  # one fit for both
+            gradient = rms_gradient(G, method=gradient_method,
+                                    fit=fit if gradient_method in ("auto", "fit") else None)
         method = str(gradient.attrs.get("method", "given"))
         gbar = _gradient_on(gradient, G, spec)
         with np.errstate(divide="ignore", invalid="ignore"):

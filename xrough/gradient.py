@@ -82,7 +82,8 @@ def _strip(da: xr.DataArray) -> xr.DataArray:
     return da.drop_vars([c for c in da.coords if c != "dr" and "dr" in da[c].dims])
 
 
-def rms_gradient(G: xr.DataArray, *, method: str = "auto") -> xr.DataArray:
+def rms_gradient(G: xr.DataArray, *, method: str = "auto",
+                 fit: xr.Dataset | None = None) -> xr.DataArray:
     r"""Scale-dependent rms gradient ``gbar(dr)`` (eq. 26 or its approximations).
 
     Parameters
@@ -92,16 +93,21 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto") -> xr.DataArray:
     method : {'auto', 'exact', 'simple', 'fit'}
         Eq. 26 via the spectrum from eq. 10/11; ``sqrt(4 G / dr^2)``; or from the fit of G
         (eq. 26 of the fitted spectrum, or eq. 37/38 for eq. 36). ``'auto'`` (default)
-        takes ``'exact'`` where G supports it on at least half of its lags, else ``'fit'``,
-        else ``'simple'``, and says which in ``attrs["method"]`` (with
-        ``attrs["fallback_reason"]``).
+        decides per curve: ``'exact'`` where G determines it and the fit on the other lags
+        (``'exact+fit'``), the fit everywhere when the exact gradient covers fewer than half
+        of the lags, ``'simple'`` only if the fit fails. The coordinate
+        ``gradient_method`` records the route (CF flags); for one curve
+        ``attrs["method"]`` and ``attrs["fallback_reason"]`` say it in words.
+    fit : xarray.Dataset, optional
+        A :func:`xrough.fit_acf` result of this G, reused by ``'fit'`` and ``'auto'``
+        instead of fitting again.
 
     Returns
     -------
     xarray.DataArray
-        ``gbar`` on ``dr`` (dimensionless, ``units="1"``), ``attrs["method"]`` and the
-        paper equation. ``"exact"`` returns only the lags where G supports the spectrum
-        (see :func:`xrough.rms_gradient_exact`); the others return every lag of G.
+        ``gbar`` on every lag of ``G`` (dimensionless, ``units="1"``), NaN where the
+        method does not determine it (``'exact'`` outside the range G supports, see
+        :func:`xrough.rms_gradient_exact`), ``attrs["method"]`` and the paper equation.
 
     Raises
     ------
@@ -138,8 +144,8 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto") -> xr.DataArray:
         out = xr.apply_ufunc(kernels.simple_gradient, xr.DataArray(dr, dims="dr"), Gl,
                              dask="parallelized", output_dtypes=[float], keep_attrs=False)
     elif method == "fit":
-        params = fit_acf(G)
-        out = gradient_from_fit(params, G["dr"].isel(dr=dr > 0)).reindex(dr=G["dr"].values)
+        params = fit_acf(G) if fit is None else fit
+        out = _fitted_on_lags(params, G)
         if params.attrs.get("model") != "spectrum":
             extra_attrs["equation"] = "eq. 37/38 with the fit of eq. 36"
     elif method == "exact":
@@ -147,7 +153,7 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto") -> xr.DataArray:
                              kwargs={"dr": dr, **_EXACT_DEFAULTS}, **common)
         extra_attrs["note"] = "NaN where G does not determine gbar (see rms_gradient_exact)"
     else:
-        out, info = _auto(G, Gl, _noise(G), spec)
+        out, info = _auto(G, Gl, _noise(G), spec, fit)
         extra_attrs.update(info)
     out = out.transpose(..., "dr").assign_coords(G["dr"].coords)
     out = out.drop_vars([c for c in out.coords if c not in out.dims and c != "dr"
@@ -162,30 +168,47 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto") -> xr.DataArray:
     return out
 
 
-def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec) -> tuple:
-    """``method='auto'``: one kernel per curve, exact where it covers, else fit, else simple."""
+def _fitted_on_lags(params: xr.Dataset, G: xr.DataArray) -> xr.DataArray:
+    """Gbar of a fit on every lag of G (NaN at a ``dr = 0`` bin)."""
+    positive = G["dr"].isel(dr=G["dr"].values > 0)
+    return gradient_from_fit(params, positive).reindex(dr=G["dr"].values)
+
+
+def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec,
+          params: xr.Dataset | None) -> tuple:
+    """``method='auto'``: one kernel per curve, exact where it covers, else fit, else simple.
+
+    With ``params`` (a fit of G) its gradient is the fallback; otherwise the kernel fits a
+    curve only when the exact gradient leaves lags open.
+    """
     dr = spec.dr
     weighted = "standard_error" in G.coords
     se = (_strip(G.coords["standard_error"].broadcast_like(G)) * spec.g_factor
           if weighted else xr.ones_like(Gl))
     use = dr > 0
-    fit = None
-    if np.count_nonzero(use) >= 5:
-        dr_ref = reference_lag(dr[use], spec.length_unit)
-        fixed, _ = fixed_spectrum(None, spec.length_unit, np.inf)
-        fit = {"use": use, "dr_ref": dr_ref, "weighted": weighted, "fixed": fixed,
-               "rolloff": "sharp", "lambda_0": np.inf, "unit": spec.unit_str}
-        fit_gradient = {"dr_ref": dr_ref, "lam_0": np.inf, "rolloff": "sharp",
-                        "g_factor": 1.0}
+    fit = fit_gradient = None
+    if params is not None:
+        fitted = _strip(_fitted_on_lags(params, G).drop_vars(
+            [c for c in params.coords if c not in params.dims], errors="ignore"))
     else:
-        fit_gradient = None
+        fitted = xr.full_like(Gl, np.nan)
+        if np.count_nonzero(use) >= 5:
+            dr_ref = reference_lag(dr[use], spec.length_unit)
+            fixed, _ = fixed_spectrum(None, spec.length_unit, np.inf)
+            fit = {"use": use, "dr_ref": dr_ref, "weighted": weighted, "fixed": fixed,
+                   "rolloff": "sharp", "lambda_0": np.inf, "unit": spec.unit_str}
+            fit_gradient = {"dr_ref": dr_ref, "lam_0": np.inf, "rolloff": "sharp",
+                            "g_factor": 1.0}
+    if fitted.chunks is None and Gl.chunks is not None:
+        fitted = fitted.chunk()
 
-    def kernel(g, s, n):
-        return kernels.auto_gradient(g, s, n, dr=dr, exact=_EXACT_DEFAULTS, fit=fit,
+    def kernel(g, s, n, f):
+        return kernels.auto_gradient(g, s, n, None if params is None else f, dr=dr,
+                                     exact=_EXACT_DEFAULTS, fit=fit,
                                      fit_gradient=fit_gradient)
 
     out, code, n_exact = xr.apply_ufunc(
-        kernel, Gl, _strip(se), noise, input_core_dims=[["dr"]] * 3,
+        kernel, Gl, _strip(se), noise, fitted.transpose(*Gl.dims), input_core_dims=[["dr"]] * 4,
         output_core_dims=[["dr"], [], []], vectorize=True, dask="parallelized",
         output_dtypes=[float, np.int8, np.int64], keep_attrs=False)
     code = code.assign_attrs(

@@ -111,13 +111,14 @@ def exact_on_lags(g, noise, *, dr, smooth, support_rtol, interpolation,
     return out
 
 
-def auto_gradient(g, se, noise, *, dr, exact: dict, fit: dict | None,
+def auto_gradient(g, se, noise, fitted=None, *, dr, exact: dict, fit: dict | None,
                   fit_gradient: dict | None) -> tuple[np.ndarray, int, int]:
     """Gbar of one curve by the first route that covers it, and the route's code.
 
     The exact gradient where G determines it; if that is fewer than half of the valid
     lags, the fitted spectrum's gradient everywhere; the fit also fills the lags the exact
     gradient leaves open (code 3); the ballistic form where no fit succeeds.
+    ``fitted``: the gradient of a fit already made on the lags ``dr`` (then no fit runs);
     ``exact``: options of :func:`exact_on_lags`; ``fit``/``fit_gradient``: options of
     :func:`~xrough._kernels.fitting.fit_spectrum_kernel` and
     :func:`~xrough._kernels.fitting.fitted_spectrum_gradient` (None: no fit).
@@ -128,7 +129,8 @@ def auto_gradient(g, se, noise, *, dr, exact: dict, fit: dict | None,
     if covered.sum() == valid.sum():
         return out, 0, int(covered.sum())
     use_exact = 2 * covered.sum() >= valid.sum()
-    fitted = _fit_gradient(g, se, dr, fit, fit_gradient)
+    if fitted is None:
+        fitted = _fit_gradient(g, se, dr, fit, fit_gradient)
     if fitted is not None and np.all(np.isfinite(fitted[valid])):
         if use_exact:
             return np.where(covered, out, np.where(valid, fitted, np.nan)), 3, int(covered.sum())
