@@ -77,10 +77,6 @@ def _laplacian(G_si: xr.DataArray, error: xr.DataArray | None, spec: AcfSpec) ->
     return _per_curve(k.laplacian_curve, G_si, error, dr=spec.dr * spec.to_m)
 
 
-def _lags(G: xr.DataArray, spec: AcfSpec) -> dict:
-    return lag_coord(spec.dr, spec.unit_str)
-
-
 def _own_attrs(func):
     """Run ``func`` with xarray's attrs propagation off: each result sets its own attrs."""
     @functools.wraps(func)
@@ -254,7 +250,8 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
     spec = check_acf(G)
     G_si, error = _si(G, spec)
     full = (E / 2) ** 2 * _laplacian(G_si, error, spec)
-    out = full.transpose(..., "dr").assign_coords({**_own_coords(G), **_lags(G, spec)})
+    out = full.transpose(..., "dr").assign_coords(
+        {**_own_coords(G), **lag_coord(spec.dr, spec.unit_str)})
     out.name = "G_sigma"
     out.attrs = result_attrs(G, units="Pa2", long_name="stress autocorrelation function",
                              derivative=_DERIVATIVE,
@@ -497,7 +494,7 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
             units=G.attrs["units"], long_name="displacement autocorrelation function",
             equation=f"eq. 34 with W of eq. 49 ({theory})")
     out = {name: v.transpose("p0", ..., "dr") for name, v in out.items()}
-    coords = {**_own_coords(G), **_lags(G, spec),
+    coords = {**_own_coords(G), **lag_coord(spec.dr, spec.unit_str),
               "p0": ("p0", np.atleast_1d(p0s), {"units": "Pa", "long_name": "mean pressure"})}
     ds = xr.Dataset(out, coords=coords, attrs=result_attrs(
         G, E_star=E, E_star_units="Pa", kappa=float(kappa), theory=theory,

@@ -17,9 +17,7 @@ import xarray as xr
 from scipy import special
 
 from . import units as u
-from ._kernels.contact import KAPPA_PERSSON
-from ._kernels.contact import contact_area as _contact_area
-from ._kernels.contact import improved_area as _improved_area
+from ._kernels.contact import KAPPA_PERSSON, contact_area, improved_area
 from .contact import THEORIES, persson, stress_acf
 from .correlation import height_difference_acf
 from .gradient import rms_gradient
@@ -287,8 +285,8 @@ def compare_with_simulation(
     p0_coord = ("p0", p0s, {"units": "Pa", "long_name": "mean pressure"})
     dr_coord = ("dr", dr, {"units": lunit, "long_name": "lag distance"})
     S_part = S_sim.isel(p0=slice(0, n)).assign_coords(p0=p0_coord)
-    a_r = _contact_area(p_star, kappa_used)
-    a_ri = _improved_area(p_star, a_r)
+    a_r = contact_area(p_star, kappa_used)
+    a_ri = improved_area(p_star, a_r)
     g_th, gam_th, area_th = [], [], []
     for name in names:
         ds = persson(G, E_star=E, p0=p0s, theory=name, kappa=kappa_used, gradient=gbar,
@@ -321,7 +319,7 @@ def compare_with_simulation(
         "a_r": (("p0",), a_r, {"units": "1", "long_name": "predicted relative contact area",
                                "equation": "eq. 29: erf(sqrt(pi) kappa p* / 2)",
                                "kappa": kappa_used}),
-        "a_r_persson": (("p0",), _contact_area(p_star, KAPPA_PERSSON), {
+        "a_r_persson": (("p0",), contact_area(p_star, KAPPA_PERSSON), {
             "units": "1", "long_name": "Persson's relative contact area",
             "equation": "eq. 29 with kappa = sqrt(8/pi)", "kappa": KAPPA_PERSSON}),
         "a_ri": (("p0",), a_ri, {"units": "1", "long_name":
