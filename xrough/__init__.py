@@ -15,6 +15,7 @@ physical units on data and coordinates; the ``.rough`` accessor chains the steps
 from . import (
     accessor,  # noqa: F401  (registers .rough)
     plot,
+    quality,
     units,
 )
 from ._version import __version__
@@ -43,6 +44,7 @@ from .preprocess import (
     reliability_window,
     reliable,
 )
+from .quality import QualityWarning
 from .solver import ConvergenceWarning, solve_contact
 from .spectra import (
     acf_from_spectrum,
@@ -78,6 +80,8 @@ __all__ = [
     "open_topography",
     "patch_radius",
     "persson",
+    "quality",
+    "QualityWarning",
     "rms_gradient",
     "rms_gradient_exact",
     "save_analysis",

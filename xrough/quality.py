@@ -1,0 +1,291 @@
+"""Quality of a result: one convention for numbers that may mean nothing.
+
+A fit that did not converge, a gradient taken from a failed fit or a G whose arithmetic
+overflowed returns numbers all the same. xrough marks such results rather than present
+them as findings, in one way for every result (see docs/quality.md):
+
+``attrs["quality"]``
+    ``"good"``, ``"questionable"`` or ``"failed"`` (:data:`LEVELS`): the worst level of
+    the checks the result passed through. On a lazy (dask) result whose per-curve checks
+    run at compute time it is absent (or the level of the checks that did not need the
+    data); :func:`worst` computes the whole answer.
+``attrs["quality_notes"]``
+    why, in words, ``"; "``-joined (each note names the check, what it found and what to
+    do); ``""`` for a good result.
+coordinate ``quality_flag``
+    the level per curve as an integer (0 good, 1 questionable, 2 failed; CF
+    ``flag_values``/``flag_meanings``), on the extra dims of the result (0-d for one
+    curve); computed with the result, so it is lazy where the result is.
+:class:`QualityWarning`
+    emitted once per marked result, naming the result, the problem and what to do.
+
+Numbers that mean nothing (a fit parameter of a failed fit, a cutoff far outside the
+measured lags) are NaN, never a plausible-looking value; the notes say why.
+
+All attributes are str, so a NetCDF archive keeps them; the flag is an ``int8`` coordinate.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Iterable
+
+import numpy as np
+import xarray as xr
+
+__all__ = ["LEVELS", "QualityWarning", "FLAG", "SEPARATOR", "level_code", "worst", "mark",
+           "mark_curves", "flag_coord", "notes_of"]
+
+#: The levels, best first; the integer code of a level is its index.
+LEVELS = ("good", "questionable", "failed")
+#: Name of the per-curve flag coordinate.
+FLAG = "quality_flag"
+#: Separator of the notes in ``attrs["quality_notes"]``.
+SEPARATOR = "; "
+
+
+class QualityWarning(UserWarning):
+    """A result is questionable or failed; its ``quality_notes`` attribute says why.
+
+    Silence it with ``warnings.filterwarnings("ignore", category=xrough.QualityWarning)``
+    (the attributes and the ``quality_flag`` coordinate are set all the same).
+    """
+
+
+def level_code(level) -> int:
+    """Return the integer code (0, 1, 2) of a level given by name or code.
+
+    Parameters
+    ----------
+    level : {'good', 'questionable', 'failed'} or int
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> level_code("questionable"), level_code(2)
+    (1, 2)
+    """
+    if isinstance(level, str):
+        if level not in LEVELS:
+            raise ValueError(f"quality level must be one of {LEVELS}, got {level!r}")
+        return LEVELS.index(level)
+    code = int(level)
+    if not 0 <= code < len(LEVELS):
+        raise ValueError(f"quality code must be 0, 1 or 2, got {level!r}")
+    return code
+
+
+def _codes_of(item) -> list[int]:
+    """Codes of one item of :func:`worst` (a level, a result, or an iterable of them)."""
+    if item is None:
+        return []
+    if isinstance(item, (str, int, np.integer)):
+        return [level_code(item)]
+    if isinstance(item, (xr.DataArray, xr.Dataset)):
+        codes = []
+        if "quality" in item.attrs and item.attrs["quality"] in LEVELS:
+            codes.append(level_code(item.attrs["quality"]))
+        if FLAG in item.coords and item[FLAG].size:
+            codes.append(int(np.nanmax(np.asarray(item[FLAG].values))))
+        return codes
+    if isinstance(item, np.ndarray):
+        return [int(np.max(item))] if item.size else []
+    if isinstance(item, Iterable):
+        return [c for x in item for c in _codes_of(x)]
+    return [level_code(item)]
+
+
+def worst(*items) -> str:
+    """Return the worst level among levels, codes, arrays of codes or results.
+
+    A result (DataArray or Dataset) counts with its ``attrs["quality"]`` and its
+    ``quality_flag`` coordinate (computed if lazy); nothing known counts as good.
+
+    Parameters
+    ----------
+    *items : str, int, ndarray, DataArray, Dataset, or iterables of these
+
+    Returns
+    -------
+    {'good', 'questionable', 'failed'}
+
+    Examples
+    --------
+    >>> worst("good", "questionable"), worst(), worst([0, 2])
+    ('questionable', 'good', 'failed')
+    """
+    codes = _codes_of(items)
+    return LEVELS[max(codes, default=0)]
+
+
+def notes_of(obj: xr.DataArray | xr.Dataset) -> list[str]:
+    """Return the notes of a result as a list (empty when it is good or unmarked).
+
+    Examples
+    --------
+    >>> import xarray as xr
+    >>> notes_of(xr.DataArray(1.0, attrs={"quality_notes": "a; b"}))
+    ['a', 'b']
+    """
+    text = str(obj.attrs.get("quality_notes", ""))
+    return [n for n in text.split(SEPARATOR) if n]
+
+
+def flag_coord(codes, *, what: str) -> xr.DataArray:
+    """Build the ``quality_flag`` coordinate from integer codes (0, 1, 2; lazy allowed).
+
+    Parameters
+    ----------
+    codes : xarray.DataArray or array_like of int
+        One level code per curve (on the extra dims of the result; 0-d for one curve).
+    what : str
+        The result it rates, for ``long_name``.
+
+    Returns
+    -------
+    xarray.DataArray
+        ``int8``, with CF ``flag_values`` and ``flag_meanings`` and ``units = "1"``.
+
+    Examples
+    --------
+    >>> flag = flag_coord([0, 2], what="fit")
+    >>> flag.attrs["flag_meanings"], flag.dtype.name
+    ('good questionable failed', 'int8')
+    """
+    da = codes if isinstance(codes, xr.DataArray) else xr.DataArray(np.asarray(codes))
+    da = da.astype(np.int8)
+    da.attrs = {"long_name": f"quality of the {what} (per curve)", "units": "1",
+                "flag_values": np.arange(len(LEVELS), dtype=np.int8),
+                "flag_meanings": " ".join(LEVELS)}
+    da.name = FLAG
+    return da
+
+
+def _join(old: str, new: str) -> str:
+    parts = [n for n in str(old).split(SEPARATOR) if n]
+    for n in new.split(SEPARATOR):
+        if n and n not in parts:
+            parts.append(n)
+    return SEPARATOR.join(parts)
+
+
+def _warn(what: str, level: str, text: str, stacklevel: int) -> None:
+    warnings.warn(f"{what} is {level}: {text}", QualityWarning, stacklevel=stacklevel + 1)
+
+
+def mark(obj, reason: str, *, level: str = "questionable", what: str,
+         warn: bool = True, stacklevel: int = 2):
+    """Mark a whole result (every curve of it) and warn once.
+
+    ``attrs["quality"]`` becomes the worse of its level and ``level``, ``reason`` is
+    appended to ``attrs["quality_notes"]``, the ``quality_flag`` coordinate (if any) is
+    raised to ``level`` on every curve, and a :class:`QualityWarning` says
+    ``"<what> is <level>: <reason>"``.
+
+    Parameters
+    ----------
+    obj : xarray.DataArray or xarray.Dataset
+        The result (not modified: a shallow copy is returned).
+    reason : str
+        What the check found and what to do, e.g. ``"reduced chi^2 = 597 > 30: the model
+        does not describe G; use model='eq36'"``.
+    level : {'questionable', 'failed'}
+        ``'failed'``: the numbers mean nothing (set them NaN); ``'questionable'``: they
+        may be biased or uncertain beyond their stated error.
+    what : str
+        The result named in the warning, e.g. ``"fit_acf (model 'spectrum')"``.
+    warn : bool
+        Emit the warning (False when the caller warns once for several marks).
+    stacklevel : int
+        Of the warning, counted from the caller of :func:`mark`.
+
+    Returns
+    -------
+    Same type as ``obj``.
+
+    Examples
+    --------
+    >>> import warnings, xarray as xr
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     r = mark(xr.DataArray(1.0), "no plateau in G", what="sigma_h")
+    >>> r.attrs["quality"], r.attrs["quality_notes"], caught[0].category.__name__
+    ('questionable', 'no plateau in G', 'QualityWarning')
+    """
+    code = level_code(level)
+    out = obj.copy()
+    new = worst(out.attrs.get("quality", "good"), code)
+    out.attrs["quality"] = new
+    out.attrs["quality_notes"] = _join(out.attrs.get("quality_notes", ""), reason)
+    if FLAG in out.coords:
+        flag = out[FLAG]
+        raised = np.maximum(flag, np.int8(code)).astype(np.int8)
+        out = out.assign_coords({FLAG: raised.assign_attrs(flag.attrs)})
+    if warn and code > 0:
+        _warn(what, LEVELS[code], reason, stacklevel)
+    return out
+
+
+def mark_curves(obj, codes, *, what: str, notes: str = "", warn: bool = True,
+                stacklevel: int = 2):
+    """Attach the per-curve level codes of a result, and rate it when they are computed.
+
+    The ``quality_flag`` coordinate becomes the worse of its codes and ``codes``. When the
+    codes are numpy (not dask), ``attrs["quality"]`` is set to their worst, ``notes`` is
+    appended and, if that is not good, one :class:`QualityWarning` is emitted. When they
+    are lazy, only the coordinate is set and ``attrs["quality_notes"]`` says where to look.
+
+    Parameters
+    ----------
+    obj : xarray.DataArray or xarray.Dataset
+        The result.
+    codes : xarray.DataArray of int
+        0, 1 or 2 per curve (dims: the extra dims of ``obj``; 0-d for one curve).
+    what : str
+        The result named in the warning and the flag's ``long_name``.
+    notes : str
+        What was found (``"; "``-joined), used when the worst code is not 0.
+    warn : bool
+        Emit the warning.
+    stacklevel : int
+        Of the warning, counted from the caller.
+
+    Returns
+    -------
+    Same type as ``obj``.
+
+    Examples
+    --------
+    >>> import warnings, xarray as xr
+    >>> G = xr.DataArray([[1.0, 2.0], [1.0, 2.0]], dims=("scan", "dr"))
+    >>> codes = xr.DataArray([0, 2], dims="scan")
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("ignore")
+    ...     r = mark_curves(G, codes, what="fit", notes="scan 1: failed")
+    >>> r.attrs["quality"], r.quality_flag.values.tolist()
+    ('failed', [0, 2])
+    """
+    codes = codes if isinstance(codes, xr.DataArray) else xr.DataArray(np.asarray(codes))
+    out = obj.copy()
+    if FLAG in out.coords:
+        codes = np.maximum(out[FLAG].drop_vars(FLAG, errors="ignore"), codes)
+    out = out.assign_coords({FLAG: flag_coord(codes, what=what)})
+    if out[FLAG].chunks is not None:
+        out.attrs["quality_notes"] = _join(
+            out.attrs.get("quality_notes", ""),
+            f"{what}: per-curve quality in coordinate {FLAG} (known once computed; "
+            "xrough.quality.worst(result) computes it)")
+        out.attrs.pop("quality", None)
+        return out
+    code = int(np.max(out[FLAG].values)) if out[FLAG].size else 0
+    level = worst(out.attrs.get("quality", "good"), code)
+    out.attrs["quality"] = level
+    out.attrs.setdefault("quality_notes", "")
+    if code > 0 and notes:
+        out.attrs["quality_notes"] = _join(out.attrs["quality_notes"], notes)
+        if warn:
+            _warn(what, LEVELS[code], notes, stacklevel)
+    return out
