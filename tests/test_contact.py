@@ -66,31 +66,45 @@ def _integral_g_over_r2(G, a):
     return np.trapezoid(g * np.exp(-x), x) + float(G[0]) / float(G.dr[0])
 
 
-@pytest.mark.parametrize("hurst, rolloff", [(0.8, "smooth"), (0.5, "sharp"),
-                                            (0.3, "smooth")])
-def test_full_contact_stress_acf_equals_fft_stress_field(hurst, rolloff):
-    """Eq. 24 from G equals the ACF of the exact stress field (qE*/2) h~(q).
+def _stress_field_acf(topo, points_per_decade):
+    """<s(r) s(r + dr)> of the exact full-contact stress field (q E*/2) h~(q), binned as G.
 
-    The stress ACF crosses zero, so the error is measured against its value at zero,
-    G_sigma(0): within 5 % from 2 pixels to L/8 (measured <= 2 %).
+    Returned with the field's variance G_sigma(0): the stress values are stored as
+    "heights" of a topography, and <s s'> = var - G_s(dr) from the field's own G.
     """
-    topo = _surface(hurst, rolloff)
     q, hq = _fourier(topo)
     n = topo.sizes["x"]
     stress = sfft.ifft2(q * E_STAR / 2 * hq * n**2).real  # q in nm-1, h in nm: Pa
-    field = xrough.topography(stress, spacing=1.0, unit="nm", height_unit="m",
-                              periodic=True)  # stress values stored as "heights"
+    field = xrough.topography(stress, spacing=float(topo.x[1] - topo.x[0]), unit="nm",
+                              height_unit="m", periodic=True)
     var = stress.var()
-    G_stress = var - field.rough.acf()  # <s(r) s(r + dr)> from the stress field's own G
-    S = topo.rough.acf().rough.stress_acf(E_star=E_STAR)
+    return var - field.rough.acf(points_per_decade=points_per_decade), var
+
+
+@pytest.mark.parametrize("points_per_decade", [10, 20, 40])
+@pytest.mark.parametrize("hurst, rolloff", [(0.8, "smooth"), (0.5, "sharp"),
+                                            (0.8, "sharp"), (0.5, "smooth"),
+                                            (0.3, "smooth")])
+def test_full_contact_stress_acf_equals_fft_stress_field(hurst, rolloff, points_per_decade):
+    """Eq. 24 from G equals the ACF of the exact stress field at every bin density.
+
+    The stress ACF crosses zero, so the error is measured against its value at zero,
+    G_sigma(0): within 3 % from 2 pixels to L/8 at 10, 20 and 40 points per decade
+    (lambda_s = 4 px; measured 0.4-1.7 %, also for lambda_s = 2 and 8 px and on 1024^2
+    maps). A spline smoothed by cross-validation alone followed the scatter of lattice
+    distances in fine bins: 9-11 % at 40 points per decade.
+    """
+    topo = xrough.self_affine_surface(hurst=hurst, lambda_r=128, lambda_s=4, size=512,
+                                      n=512, rms_gradient=0.1, seed=1, unit="nm",
+                                      rolloff=rolloff)
+    G_stress, var = _stress_field_acf(topo, points_per_decade)
+    S = topo.rough.acf(points_per_decade=points_per_decade).rough.stress_acf(E_star=E_STAR)
     sel = (S.dr >= 2) & (S.dr <= 512 / 8)
     diff = (S - G_stress.values)[sel] / var
-    assert np.all(np.abs(diff.values) < 0.05), diff.values
-    assert S.attrs["units"] == "Pa2" and "spline" in S.attrs["derivative"]
-    # at one pixel too, and G_sigma there is close to its dr -> 0 value (E*/2)^2 gbar^2
-    gbar2 = (q**2 * np.abs(hq) ** 2).sum()
+    assert np.all(np.abs(diff.values) < 0.03), diff.values
+    assert S.attrs["units"] == "Pa2" and "0.05 decades" in S.attrs["derivative"]
+    # at one pixel, below the first bin's neighbours: within 5 % (measured <= 3.6 %)
     assert abs(float(S[0]) - float(G_stress[0])) < 0.05 * var
-    assert float(S[0]) == pytest.approx((E_STAR / 2) ** 2 * gbar2, rel=0.1)
 
 
 def test_stress_variance_of_exact_model_g():

@@ -9,8 +9,9 @@ A G sampled on (log-spaced) lags is continued as
 * a constant ``G = G_last`` beyond the last sample (the surface is flat at larger scales).
 
 Derivatives, which amplify noise, come from a smoothing spline of ``ln G`` against
-``ln r`` weighted by the per-bin relative standard error, with the smoothing chosen by
-generalised cross-validation; the 2D radial Laplacian is then
+``ln r`` weighted by the per-bin relative standard error, whose smoothing length is fixed
+in ``ln r`` (:data:`SMOOTHING_DECADES`; the same for every binning) or larger where
+generalised cross-validation asks for it; the 2D radial Laplacian is then
 ``(1/r) d/dr (r dG/dr) = G (y'' + y'^2) / r^2`` with ``y = ln G``, ``x = ln r``.
 """
 
@@ -20,6 +21,12 @@ import numpy as np
 from scipy.interpolate import make_smoothing_spline
 
 __all__ = ["AcfCurve", "acf_problem", "require_acf"]
+
+#: Smoothing length of the derivatives of G, in decades of dr (a spline penalty
+#: ``lam = (samples per unit ln dr) * (0.05 ln 10)^4``): fine enough for the roll-offs
+#: of a surface (G's log-slope turns over about half a decade), coarse enough that the
+#: scatter of lattice distances in bins finer than 20 per decade is not read as curvature.
+SMOOTHING_DECADES = 0.05
 
 #: A G whose last third lies this factor below its first third (medians) is a height ACF.
 DECREASE = 1.1
@@ -80,6 +87,14 @@ def require_acf(dr: np.ndarray, g: np.ndarray, *, min_bins: int = 2) -> None:
     problem = acf_problem(dr, g, min_bins=min_bins)
     if problem:
         raise ValueError(f"G {problem}")
+
+
+def _roughness(spline, x: np.ndarray) -> float:
+    """``int y''^2 dx`` of a cubic spline over the samples ``x`` (Simpson per interval)."""
+    mid = 0.5 * (x[1:] + x[:-1])
+    d2 = spline.derivative(2)
+    return float(np.sum(np.diff(x) * (d2(x[:-1]) ** 2 + 4 * d2(mid) ** 2 + d2(x[1:]) ** 2))
+                 / 6)
 
 
 class AcfCurve:
@@ -160,17 +175,29 @@ class AcfCurve:
 
     # -- smooth derivatives -------------------------------------------------------------
     def _smooth(self):
-        if self._spline is None:
+        """Return the smoothing spline of ``ln G`` against ``ln dr`` (None below 5 samples).
+
+        Its smoothing is the larger of a fixed length in ``ln dr``
+        (:data:`SMOOTHING_DECADES`, the same for every binning, so that lattice jitter of
+        fine bins is not read as curvature) and what generalised cross-validation asks
+        for given the standard errors (noisy G); "larger" is decided by the roughness
+        ``int y''^2 dx``, which falls monotonically with the smoothing parameter.
+        """
+        if self._spline is None and self.x.size >= 5:
             w = None
             if self.error is not None:
                 rel = np.maximum(self.error / self.g, 1e-12)
                 w = 1.0 / rel**2
                 w = w / w.mean()
-            n = self.x.size
-            if n >= 5:
-                self._spline = make_smoothing_spline(self.x, self.y, w=w)
-            else:  # too few bins to smooth: the interpolating log-log polygon
-                self._spline = None
+            span = self.x[-1] - self.x[0]
+            density = (self.x.size - 1) / span  # samples per unit ln(dr)
+            lam = density * (SMOOTHING_DECADES * np.log(10)) ** 4
+            fixed = make_smoothing_spline(self.x, self.y, w=w, lam=lam)
+            self._spline = fixed
+            if w is not None:
+                gcv = make_smoothing_spline(self.x, self.y, w=w)
+                if _roughness(gcv, self.x) < _roughness(fixed, self.x):
+                    self._spline = gcv
         return self._spline
 
     def log_slopes(self, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
