@@ -7,6 +7,7 @@ import xarray as xr
 from scipy import integrate
 
 import xrough
+from xrough._kernels import solver as solver_kernels
 from xrough._kernels.solver import _pixel_influence
 from xrough.solver import ConvergenceWarning, solve_contact
 
@@ -148,6 +149,22 @@ def test_coarse_to_fine_same_solution_as_cold_start():
     np.testing.assert_array_equal(c2f.contact, cold.contact)
     np.testing.assert_allclose(c2f.pressure, cold.pressure, rtol=0, atol=1e-5 * p0)
     np.testing.assert_allclose(c2f.gap, cold.gap, rtol=0, atol=1e-7 * float(topo.std()))
+
+
+def test_proportioning_same_solution_fewer_iterations(monkeypatch):
+    # overlapping points enter late (proportioning); the solution is that of plain
+    # Polonsky-Keer (every overlap enters at once) to the tolerance, in fewer iterations
+    topo = self_affine_512()
+    p0 = 0.01 * 0.1 * E_STAR
+    tol = 1e-9
+    prop = solve_contact(topo, E_star=E_STAR, p0=p0, tol=tol, progress=False)
+    monkeypatch.setattr(solver_kernels, "PROPORTION", 0.0)
+    plain = solve_contact(topo, E_star=E_STAR, p0=p0, tol=tol, progress=False)
+    assert int(prop.deferred_entries) > 0 and int(plain.deferred_entries) == 0
+    assert int(prop.converged) == 1 and int(prop.iterations) < int(plain.iterations)
+    np.testing.assert_array_equal(prop.contact, plain.contact)
+    np.testing.assert_allclose(prop.pressure, plain.pressure, rtol=0, atol=1e-5 * p0)
+    np.testing.assert_allclose(prop.gap, plain.gap, rtol=0, atol=1e-7 * float(topo.std()))
 
 
 def test_not_converged_warns():
