@@ -51,6 +51,21 @@ def check_topography(topography: xr.DataArray):
     return grid, h
 
 
+def _fields(results: list[dict], key: str, factor: float) -> np.ndarray:
+    """Stack the field ``key`` of every load, times ``factor``, releasing the originals.
+
+    One load gives a view of its own array, scaled in place: no copy of the map.
+    """
+    if len(results) == 1:
+        out = results[0][key][None]
+    else:
+        out = np.stack([r[key] for r in results])
+    for r in results:
+        r[key] = None
+    out *= factor
+    return out
+
+
 def solve_contact(
     topography: xr.DataArray,
     *,
@@ -62,7 +77,7 @@ def solve_contact(
     progress: bool | None = None,
     workers: int | None = None,
     precision: str = "mixed",
-    coarse_to_fine: int = 0,
+    coarse_to_fine: int = 1,
     timing: bool = False,
 ) -> xr.Dataset:
     r"""Solve the normal contact of an elastic half-space with a rigid rough surface.
@@ -103,12 +118,13 @@ def solve_contact(
         measured in float64. Maps smaller than 256 x 256 points always use float64.
         ``"float64"`` uses float64 throughout.
     coarse_to_fine : int
-        Number of 2x restrictions for the initial guess (default 0: none). With ``k > 0``
-        the first load is first solved on the map averaged over 2 x 2 pixels (itself
-        started from a coarser grid, ``k`` levels in all, down to 64 points a side) and
-        the coarse pressure, repeated onto 2 x 2 pixels, starts the fine solve. The
-        solution is the same as from a cold start to within ``tol``; the iterations on
-        the coarse grids are counted in ``iterations``.
+        Number of 2x restrictions for the initial guess of the first load (default 1; 0:
+        a cold start from a uniform pressure). With ``k > 0`` the first load is first
+        solved on the map averaged over 2 x 2 pixels (itself started from a coarser grid,
+        ``k`` levels in all, down to 64 points a side), to a loose tolerance
+        (``max(tol, 1e-3)``), and the coarse pressure, repeated onto 2 x 2 pixels, starts
+        the fine solve. The solution is the same as from a cold start to within ``tol``;
+        the iterations on the coarse grids are counted in ``iterations``.
     timing : bool
         Add the wall-clock ``solve_time`` and ``time_per_iteration`` (off by default:
         they differ from run to run, so results would no longer compare identical).
@@ -226,7 +242,7 @@ def solve_contact(
     scalar = np.ndim(values) == 0
     workers = workers if workers is not None else (os.cpu_count() or 1)
     op = _ElasticOperator(h.shape, grid.spacing, periodic=grid.periodic, workers=workers)
-    h_lat = h * to_lat
+    h_lat = h * to_lat if to_lat != 1 else h
 
     bar = _progress_bar(progress, "contact")
     callback = None if bar is None else (lambda it, res: (
@@ -269,21 +285,20 @@ def solve_contact(
     L = (load_dim,)
     yx = ("y", "x")
     area = np.array([np.mean(r["pressure"] > 0) for r in results])
+    mean_p = np.array([r["pressure"].mean() for r in results]) * E
+    pressure = _fields(results, "pressure", E)
     ds = xr.Dataset(
         {
-            "pressure": (L + yx, np.stack([r["pressure"] for r in results]) * E, {
-                "units": "Pa", "long_name": "contact pressure"}),
-            "displacement": (L + yx, np.stack([r["displacement"] for r in results])
-                             * from_lat, {"units": hunit, "long_name":
-                                          "elastic surface displacement"}),
-            "gap": (L + yx, np.stack([r["gap"] for r in results]) * from_lat, {
+            "pressure": (L + yx, pressure, {"units": "Pa", "long_name": "contact pressure"}),
+            "displacement": (L + yx, _fields(results, "displacement", from_lat), {
+                "units": hunit, "long_name": "elastic surface displacement"}),
+            "gap": (L + yx, _fields(results, "gap", from_lat), {
                 "units": hunit, "long_name": "gap between the surfaces"}),
-            "contact": (L + yx, np.stack([r["pressure"] > 0 for r in results])
-                        .astype(np.int8), {"units": "1", "long_name": "contact mask"}),
+            "contact": (L + yx, (pressure > 0).view(np.int8), {
+                "units": "1", "long_name": "contact mask"}),
             "contact_area": (L, area, {"units": "1",
                                        "long_name": "relative contact area"}),
-            "mean_pressure": (L, np.array([r["pressure"].mean() for r in results]) * E, {
-                "units": "Pa", "long_name": "mean pressure"}),
+            "mean_pressure": (L, mean_p, {"units": "Pa", "long_name": "mean pressure"}),
             "approach": (L, (h_lat.max() + np.array([r["offset"] for r in results]))
                          * from_lat, {"units": hunit, "long_name":
                                       "approach from first contact, max(h) + offset"}),

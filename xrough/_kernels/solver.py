@@ -159,7 +159,7 @@ class _ElasticOperator:
 
 def _gap_scale(h: np.ndarray, p0: float, op: _ElasticOperator) -> float:
     """Length that normalises the gap error: rms height, else the elastic scale."""
-    rms = float(np.sqrt(np.mean((h - h.mean()) ** 2)))
+    rms = float(np.std(h))
     return rms if rms > 0 else float(np.max(np.abs(op(np.full(h.shape, p0))))) or 1.0
 
 
@@ -186,6 +186,8 @@ MIXED_MIN_SIZE = 256 * 256
 #: what holds the residual up, so only ``4 * STALL`` such iterations end the phase).
 STALL = 5
 STALL_BELOW = 1e-4
+#: Tolerance of the coarse-grid solves of the coarse-to-fine start.
+COARSE_TOL = 1e-3
 #: Proportioning constant ``Gamma`` (Dostal's MPRGP): points out of contact with a
 #: negative gap enter the contact set (and reset the conjugation) only in iterations
 #: where their gap error exceeds ``Gamma`` times the gap error on the contact set.
@@ -374,6 +376,7 @@ def _solve_load(
                     u *= s
                     op.add_point_loads(u, c_idx, c_val)
                 else:
+                    r = u = None  # released before the new transform pair
                     u = op(pf)
                     transforms += 2
             else:
@@ -383,6 +386,7 @@ def _solve_load(
                 u *= s
         else:
             eps_p = 0.0
+        r = None  # K t is spent: one map fewer at the next transform
         res = max(eps_p, eps_g)
         history.append(res)
         if callback is not None:
@@ -395,19 +399,22 @@ def _solve_load(
             if res < max(tol, FLOAT32_TOL) or stalled or denom <= 0:
                 dtype = np.float64
                 delta = 0.0  # restart the conjugation on the exact operator
+                hh = pf = tf = u = d = below = r = None  # free float32 before float64
                 hh, pf, tf, u, d, below = precision_state(dtype)
                 transforms += 2
                 continue
         if res < tol or denom <= 0:
             converged = res < tol or (G == 0 and off.size == 0)
             break
+    hh = pf = tf = u = d = below = r = None  # the work arrays go before the result
     pfull = np.zeros(n)
     pfull[idx] = p_s
     pfull = pfull.reshape(shape)
-    u = op(pfull)
-    S = pfull > 0
-    offset = float(np.mean(u[S] - h[S]))
-    return {"pressure": pfull, "displacement": u, "gap": u - h - offset, "offset": offset,
+    u = np.ascontiguousarray(op(pfull))  # open maps: not a view of the padded grid
+    gap = np.subtract(u, h)
+    offset = float(np.mean(gap.ravel()[idx]))
+    gap -= offset
+    return {"pressure": pfull, "displacement": u, "gap": gap, "offset": offset,
             "history": np.asarray(history), "iterations": it, "converged": converged,
             "float32_iterations": f32_its, "transforms": transforms,
             "deferred_entries": deferred}
@@ -419,7 +426,9 @@ def _coarse_start(h: np.ndarray, op: _ElasticOperator, p0: float, *, levels: int
 
     Each restriction averages 2 x 2 pixels of ``h`` (the spacing doubles); the coarse
     solution, itself started from a coarser one, is repeated onto 2 x 2 pixels. Stops
-    early at odd sizes or below 64 points a side.
+    early at odd sizes or below 64 points a side. The coarse grids are solved only to
+    ``max(tol, COARSE_TOL)``: their solution differs from the fine one by far more than
+    that anyway (the contact edges move by a pixel), so a tighter solve buys nothing.
 
     Returns
     -------
@@ -435,7 +444,7 @@ def _coarse_start(h: np.ndarray, op: _ElasticOperator, p0: float, *, levels: int
     opc = _ElasticOperator(hc.shape, spacing, periodic=op.periodic, workers=op.workers)
     p_c, its = _coarse_start(hc, opc, p0, levels=levels - 1, tol=tol, max_iter=max_iter,
                              precision=precision)
-    out = _solve_load(hc, opc, p0, tol=tol, max_iter=max_iter, p_init=p_c,
+    out = _solve_load(hc, opc, p0, tol=max(tol, COARSE_TOL), max_iter=max_iter, p_init=p_c,
                       precision=precision)
     p = np.repeat(np.repeat(out["pressure"], 2, axis=0), 2, axis=1)
     return p, its + out["iterations"]
