@@ -157,16 +157,66 @@ def test_partial_contact_stress_acf(theory):
     G = topo.rough.acf()
     full = G.rough.stress_acf(E_star=E_STAR)
     p0 = 0.01 * E_STAR * 0.3
-    ds = G.rough.persson(E_star=E_STAR, p0=p0, theory=theory, gradient_method="simple")
+    ds = G.rough.persson(E_star=E_STAR, p0=p0, theory=theory, gradient_method="simple",
+                         smooth_full=False)
     w = ds.a_r if theory == "persson" else ds.a_r**2 / ds.a_ri
     np.testing.assert_allclose(ds.G_sigma.values, p0**2 + full.values * w.values, rtol=1e-12)
     partial = G.rough.stress_acf(E_star=E_STAR, p0=p0, theory=theory,
-                                 gradient_method="simple")
+                                 gradient_method="simple", smooth_full=False)
     np.testing.assert_allclose(partial.values, ds.G_sigma.values, rtol=1e-12)
     a0 = ds.a_r[0] if theory == "persson" else ds.a_ri[0]
     np.testing.assert_allclose(ds.Gamma_sigma.values, ds.G_sigma.values / float(a0),
                                rtol=1e-12)
     np.testing.assert_allclose(ds.G_du.values, G.values * w.values, rtol=1e-12)
+
+
+@pytest.mark.parametrize("hurst, rolloff", [(0.8, "sharp"), (0.5, "smooth"), (0.3, "sharp")])
+def test_partial_contact_full_acf_without_roll_off_ringing(hurst, rolloff):
+    """Section 3.7: G_sigma_full continued by dr^-4 beyond its roll-off, unchanged before.
+
+    Eq. 24 of a model G changes sign near lambda_r / 3 and rings beyond; the smoothed
+    version used in partial contact keeps eq. 24 exactly up to lambda_r / 10, is positive
+    beyond 10 lambda_s (H = 0.3 rings at lambda_s: that sign change is physical and kept),
+    and falls as dr^-4 at large dr.
+    """
+    C = xrough.model_spectrum(hurst=hurst, lambda_r="10 um", lambda_s="10 nm",
+                              rms_gradient=1.0, unit="um", rolloff=rolloff)
+    G = xrough.acf_from_spectrum(C, dr_min="1 nm", dr_max="1 mm")
+    full = G.rough.stress_acf(E_star=E_STAR)
+    assert float(full.min()) < 0  # the ringing the smoothing removes
+    p0 = 1e-4 * E_STAR
+    kw = dict(E_star=E_STAR, p0=p0, gradient_method="simple", variables=("G_sigma", "a_r"))
+    smooth = G.rough.persson(**kw)
+    exact = G.rough.persson(**kw, smooth_full=False)
+    rest = (smooth.G_sigma - p0**2) / smooth.a_r  # G_sigma_full as used
+    assert np.all(rest.values[G.dr.values > 0.1] > 0)
+    before = G.dr <= 1.0
+    np.testing.assert_allclose(smooth.G_sigma[before], exact.G_sigma[before], rtol=1e-12)
+    far = rest.sel(dr=[100.0, 1000.0], method="nearest")
+    slope = np.log(float(far[1] / far[0])) / np.log(float(far.dr[1] / far.dr[0]))
+    assert slope == pytest.approx(-4.0, abs=1e-6)  # p0^2 / a_r adds 1e-8
+    assert "dr^-4" in smooth.G_sigma.attrs["equation"]
+
+
+@pytest.mark.parametrize("theory", ["persson", "modified"])
+def test_eq51_is_the_small_pressure_asymptote(theory):
+    """Eq. 51 against the full eq. 47/48 deep in a self-affine range at small p*.
+
+    lambda_r / lambda_s = 1e6 and p* = 1e-5: Gamma_sigma / Gamma_sigma_sa within 5 % of 1
+    from 10 lambda_s to lambda_r / 1000 (measured 0.99-1.03); the remainder is the
+    crossovers of the model G (the smooth roll-off bends G decades below lambda_r) and the
+    fitted H (0.693 for 0.7).
+    """
+    C = xrough.model_spectrum(hurst=0.7, lambda_r="1 mm", lambda_s="1 nm",
+                              rms_gradient=0.5, unit="um", rolloff="smooth")
+    G = xrough.acf_from_spectrum(C, dr_min="0.1 nm", dr_max="100 mm", points_per_decade=10)
+    fit = xrough.fit_acf(G, rolloff="smooth")
+    ds = G.rough.persson(E_star=E_STAR, p0=1e-5 * 0.5 * E_STAR, theory=theory, fit=fit)
+    mid = (G.dr >= 0.01) & (G.dr <= 1)
+    ratio = (ds.Gamma_sigma / ds.Gamma_sigma_sa)[mid].values
+    np.testing.assert_allclose(ratio, 1.0, atol=0.05)
+    w = 1.0 if theory == "persson" else 2 / np.pi
+    assert f"w = {w:.4g}" in ds.Gamma_sigma_sa.attrs["equation"]
 
 
 def test_patch_radius_on_model_g():

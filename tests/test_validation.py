@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 import xarray as xr
+from scipy.special import erf
 
 import xrough
 from xrough._kernels.contact import contact_area
@@ -46,23 +47,79 @@ def test_partial_contact_kappa_and_area(comparison):
     c = comparison
     kappa = c.attrs["kappa"]
     assert c.attrs["kappa_fitted"] == 1 and 1.5 < kappa < 2.8
-    assert float(c.a_r[0]) == pytest.approx(float(c.contact_area[0]), rel=1e-9)
+    assert float(c.a_r_kappa[0]) == pytest.approx(float(c.contact_area[0]), rel=1e-9)
     ratio = float(c.contact_area[1]) / (kappa * float(c.p_star[1]))
     assert 0.9 < ratio < 1.1
-    assert np.all(c.a_r_persson < 0.8 * c.contact_area)  # Persson's kappa is too small
+    # the paper's a_r is Persson's, sqrt(8/pi) p* at small load, and too small here
+    np.testing.assert_allclose(c.a_r, contact_area(c.p_star, np.sqrt(8 / np.pi)), rtol=1e-12)
+    assert np.all(c.a_r < 0.8 * c.contact_area)
     assert np.all(c.converged == 1)
-    # the partial-contact stress ACF: within 25 % of <p^2> (measured 2-16 %)
+    assert list(c.theory.values) == ["persson", "modified", "persson_kappa"]
+    np.testing.assert_allclose(c.area_error.sel(theory="persson_kappa"),
+                               c.a_r_kappa / c.contact_area - 1)
+    # the partial-contact stress ACF: within 25 % of <p^2> (measured 2-16 %), on every
+    # lag of the error range
     assert float(c.stress_error.max()) < 0.25
     assert c.area_error.dims == ("theory", "p0")
+    assert np.all(c.stress_error_coverage == 1.0) and c.attrs["quality"] == "good"
+
+
+def test_paper_theories_do_not_depend_on_kappa():
+    """Eq. 48-50 by hand: the original and modified theories use Persson's kappa only.
+
+    A fitted kappa (2.5 here) entering W = a_r^2 / a_ri made the modified G_sigma - p0^2
+    grow as kappa^2, 2.5x the paper's; now only "persson_kappa" uses it.
+    """
+    topo = _surface(seed=2)
+    kw = dict(E_star=E_STAR, p0=[1e3, 1e4], full_contact=False, smooth_full=False)
+    fitted = compare_with_simulation(topo, **kw)
+    given = compare_with_simulation(topo, **kw, kappa=5.0)
+    for name in ("persson", "modified"):
+        xr.testing.assert_identical(fitted.Gamma_sigma.sel(theory=name),
+                                    given.Gamma_sigma.sel(theory=name))
+    assert not np.allclose(fitted.G_sigma.sel(theory="persson_kappa"),
+                           given.G_sigma.sel(theory="persson_kappa"), equal_nan=True)
+    # by hand, from G, gbar(dr) and eq. 24 (without the ringing removal)
+    G = xrough.height_difference_acf(topo, points_per_decade=10, progress=False)
+    gbar = xrough.rms_gradient(G).values
+    full = xrough.stress_acf(G, E_star=E_STAR).values
+    p0 = np.array([1e3, 1e4])[:, None]
+    p_star = p0 / (E_STAR * gbar)
+    a_r = erf(np.sqrt(2) * p_star)  # eq. 29, kappa = sqrt(8/pi)
+    a_ri = (1 - a_r**2) * erf(np.sqrt(np.pi) * p_star) + a_r**3  # eq. 50
+    g_sigma = p0**2 + full * a_r**2 / a_ri  # eq. 48-49, modified
+    first = np.flatnonzero(np.isfinite(gbar))[0]
+    gamma = g_sigma / a_ri[:, first:first + 1]  # eq. 47, modified
+    got = fitted.Gamma_sigma.sel(theory="modified").values
+    np.testing.assert_allclose(got, gamma, rtol=1e-10)
+    # and the original theory: W = a_r, divided by a_r(0)
+    got = fitted.Gamma_sigma.sel(theory="persson").values
+    np.testing.assert_allclose(got, (p0**2 + full * a_r) / a_r[:, first:first + 1],
+                               rtol=1e-10)
+
+
+def test_stress_error_reports_its_coverage():
+    """Lags without a prediction (no exact gradient there) are counted and said."""
+    with pytest.warns(xrough.QualityWarning, match="stress_error_coverage"):
+        c = compare_with_simulation(_surface(seed=2), E_star=E_STAR, p0=[1e3],
+                                    gradient_method="exact", full_contact=False,
+                                    theory="modified", error_range=(2, 128))
+    cov = float(c.stress_error_coverage.squeeze())
+    sel = (c.dr >= c.attrs["error_dr_min"]) & (c.dr <= c.attrs["error_dr_max"])
+    expected = np.isfinite(c.G_sigma.squeeze()[sel]).mean()
+    assert cov == pytest.approx(float(expected)) and cov < 1
+    assert c.attrs["quality"] == "questionable"
 
 
 def test_given_kappa_and_single_theory():
     c = compare_with_simulation(_surface(seed=2), E_star="1 MPa", p0="2 kPa",
-                                theory="persson", kappa=2.0, full_contact=False)
+                                theory="persson_kappa", kappa=2.0, full_contact=False)
     assert c.attrs["kappa"] == 2.0 and c.attrs["kappa_fitted"] == 0
-    assert list(c.theory.values) == ["persson"] and "G_sigma_full" not in c
-    assert float(c.a_r[0]) == pytest.approx(
+    assert list(c.theory.values) == ["persson_kappa"] and "G_sigma_full" not in c
+    assert float(c.a_r_kappa[0]) == pytest.approx(
         float(contact_area(c.p_star[0], 2.0)))
+    assert float(c.area_error[0, 0]) == pytest.approx(
+        float(c.a_r_kappa[0] / c.contact_area[0] - 1))
 
 
 def test_units_and_netcdf_round_trip(comparison, tmp_path):

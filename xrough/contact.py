@@ -70,12 +70,15 @@ def _per_curve(func, *arrays, out: dict[str, int] | None = None, **kwargs):
         keep_attrs=False)
 
 
-def _laplacian(G_si: xr.DataArray, error: xr.DataArray | None, spec: AcfSpec) -> xr.DataArray:
-    """Laplacian of G (dimensionless) on its lags, per curve."""
+def _laplacian(G_si: xr.DataArray, error: xr.DataArray | None, spec: AcfSpec, *,
+               smooth_tail: bool = False) -> xr.DataArray:
+    """Laplacian of G (dimensionless) on its lags, per curve; optionally without ringing."""
+    dr = spec.dr * spec.to_m
     if error is None:
-        return _per_curve(lambda g, dr: k.laplacian_curve(g, None, dr=dr), G_si,
-                          dr=spec.dr * spec.to_m)
-    return _per_curve(k.laplacian_curve, G_si, error, dr=spec.dr * spec.to_m)
+        lap = _per_curve(lambda g, dr: k.laplacian_curve(g, None, dr=dr), G_si, dr=dr)
+    else:
+        lap = _per_curve(k.laplacian_curve, G_si, error, dr=dr)
+    return _per_curve(k.smooth_tail, lap, G_si, dr=dr) if smooth_tail else lap
 
 
 def _own_attrs(func):
@@ -181,7 +184,7 @@ def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Datas
 @_own_attrs
 def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "persson",
                gradient: xr.DataArray | None = None, kappa: float = KAPPA_PERSSON,
-               gradient_method: str = "auto") -> xr.DataArray:
+               gradient_method: str = "auto", smooth_full: bool = True) -> xr.DataArray:
     r"""Stress autocorrelation function in full (eq. 24) or partial contact (eq. 30/48).
 
     Full contact (exact within linear elasticity, the ``p0^2`` offset left out):
@@ -220,6 +223,9 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
     gradient_method : {'auto', 'exact', 'simple', 'fit'}
         How ``gbar`` is obtained when ``gradient`` is not given
         (see :func:`xrough.rms_gradient`).
+    smooth_full : bool
+        In partial contact, replace ``G_sigma_full`` beyond its roll-off by a steep power
+        law, as the paper does (see :func:`xrough.persson`); no effect in full contact.
 
     Returns
     -------
@@ -248,7 +254,8 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
     E = u.positive_si(E_star, _PRESSURE, what="E_star")
     if p0 is not None:
         ds = persson(G, E_star=E, p0=p0, theory=theory, gradient=gradient, kappa=kappa,
-                     gradient_method=gradient_method, variables=("G_sigma",))
+                     gradient_method=gradient_method, variables=("G_sigma",),
+                     smooth_full=smooth_full)
         out = ds["G_sigma"]
         out.attrs = {**ds.attrs, **out.attrs}  # provenance, E_star, theory and the variable's
         return out
@@ -316,7 +323,9 @@ def stress_acf_from_spectrum(C: xr.DataArray, dr: Any, *, E_star: Any) -> xr.Dat
 
 
 PERSSON_VARIABLES = ("p_star", "a_r", "a_ri", "sigma_c", "sigma_quick", "G_sigma",
-                     "Gamma_sigma", "G_du")
+                     "Gamma_sigma", "Gamma_sigma_sa", "G_du")
+#: The outputs that need the fit of G.
+_NEED_FIT = ("sigma_quick", "Gamma_sigma_sa")
 
 
 def _gradient_on(gradient: xr.DataArray, G: xr.DataArray, spec: AcfSpec) -> xr.DataArray:
@@ -350,7 +359,7 @@ def _first_finite(values: np.ndarray) -> np.ndarray:
 def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
             kappa: float = KAPPA_PERSSON, gradient: xr.DataArray | None = None,
             gradient_method: str = "auto", variables: tuple[str, ...] | None = None,
-            fit: xr.Dataset | None = None) -> xr.Dataset:
+            fit: xr.Dataset | None = None, smooth_full: bool = True) -> xr.Dataset:
     r"""Real-space Persson theory of partial contact as a function of resolution ``dr``.
 
     Wherever Persson theory evaluates a function of wavenumber at resolution ``2 pi / q``,
@@ -365,9 +374,18 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
       ``lambda_r`` (eq. 41) and ``E* sqrt(c_ro(H)) lambda_r sigma_h / dr^2`` beyond it
       (eq. 42), or ``p0`` where that is larger, with ``H``, ``sigma_h``, ``lambda_r`` from
       :func:`xrough.fit_acf` (or ``fit``);
-    - ``G_sigma = p0^2 + (E*/2)^2 Laplacian(G) W`` (eq. 30/48), ``W = a_r`` or
-      ``a_r^2 / a_ri`` (eq. 49);
+    - ``G_sigma = p0^2 + G_sigma_full W`` (eq. 30/48), ``W = a_r`` or ``a_r^2 / a_ri``
+      (eq. 49), with ``G_sigma_full = (E*/2)^2 Laplacian(G)`` (eq. 24). As in the paper
+      (section 3.7), ``G_sigma_full`` is continued beyond its roll-off by a steep power
+      law ``dr^-4`` from where it first falls faster than that or changes sign,
+      searching from where G reaches a quarter of its largest value (``smooth_full``): in
+      partial contact the coupling of modes smears out the ringing of the full-contact
+      ACF, whose sign changes the simulation does not show;
     - ``Gamma_sigma = G_sigma / a(dr -> 0)`` (eq. 47, ``a = a_r`` or ``a_ri``);
+    - ``Gamma_sigma_sa``: eq. 51, the small-pressure asymptote of ``Gamma_sigma`` in the
+      self-affine range, ``w E*^2 H^2 gbar(0) sqrt(G / c_sa(H)) / dr`` with ``w = 1``
+      (original weighting, independent of ``kappa``) or ``kappa^2 / 4`` (modified:
+      ``2 / pi`` for Persson's ``kappa``), ``H`` from the fit;
     - ``G_du = G W`` (eq. 34), the displacement ACF.
 
     Parameters
@@ -392,7 +410,11 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
         Only these outputs (others are not computed); default all of
         ``p_star, a_r, a_ri, sigma_c, sigma_quick, G_sigma, Gamma_sigma, G_du``.
     fit : xarray.Dataset, optional
-        Precomputed :func:`xrough.fit_acf` result for ``sigma_quick``.
+        Precomputed :func:`xrough.fit_acf` result for ``sigma_quick`` and
+        ``Gamma_sigma_sa``.
+    smooth_full : bool
+        Continue ``G_sigma_full`` beyond its roll-off by ``dr^-4`` (the paper's choice for
+        partial contact); False keeps eq. 24 with its ringing.
 
     Returns
     -------
@@ -434,7 +456,7 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     method = "none"
     if set(wanted) - {"sigma_quick"}:  # everything else needs gbar(dr)
         if gradient is None:
-            if "sigma_quick" in wanted and gradient_method in ("auto", "fit"):
+            if set(_NEED_FIT) & set(wanted) and gradient_method in ("auto", "fit"):
                 fit = fit_acf(G) if fit is None else fit  # one fit for both
             gradient = rms_gradient(G, method=gradient_method,
                                     fit=fit if gradient_method in ("auto", "fit") else None)
@@ -476,16 +498,19 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
         out["sigma_quick"] = np.maximum(est, p0_da).assign_attrs(
             units="Pa", long_name="quick estimate of the mean contact stress",
             equation="eq. 41 (dr < lambda_r), eq. 42 (dr > lambda_r), at least p0")
+    if {"Gamma_sigma", "Gamma_sigma_sa"} & set(wanted):
+        gbar0 = xr.apply_ufunc(_first_finite, gbar, input_core_dims=[["dr"]],
+                               dask="parallelized", output_dtypes=[float])
     if "G_sigma" in wanted or "Gamma_sigma" in wanted:
-        full = (E / 2) ** 2 * _laplacian(G_si, error, spec)
+        full = (E / 2) ** 2 * _laplacian(G_si, error, spec, smooth_tail=smooth_full)
         g_sigma = p0_da**2 + full * weight
+        tail = (f"G_sigma_full beyond its roll-off continued by dr^-{k.STEEP_DECAY:g}"
+                if smooth_full else "G_sigma_full of eq. 24 as is")
         if "G_sigma" in wanted:
             out["G_sigma"] = g_sigma.assign_attrs(
                 units="Pa2", long_name="stress autocorrelation function",
-                equation=f"eq. 30/48 with W of eq. 49 ({theory})")
+                equation=f"eq. 30/48 with W of eq. 49 ({theory}); {tail}")
         if "Gamma_sigma" in wanted:
-            gbar0 = xr.apply_ufunc(_first_finite, gbar, input_core_dims=[["dr"]],
-                                   dask="parallelized", output_dtypes=[float])
             p_zero = p0_da / (E * gbar0)
             a0 = k.contact_area(p_zero, kappa)
             if theory == "modified":
@@ -493,7 +518,20 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
             out["Gamma_sigma"] = (g_sigma / a0).assign_attrs(
                 units="Pa2", long_name="reduced stress autocorrelation function",
                 equation=f"eq. 47 ({theory}: divided by "
-                f"{'a_ri' if theory == 'modified' else 'a_r'} at the smallest dr)")
+                f"{'a_ri' if theory == 'modified' else 'a_r'} at the smallest dr); {tail}")
+    if "Gamma_sigma_sa" in wanted:
+        if fit is None:
+            fit = fit_acf(G)
+        hurst = fit["hurst"].drop_vars([c for c in fit["hurst"].coords
+                                        if c not in fit["hurst"].dims])
+        w = 1.0 if theory == "persson" else float(kappa) ** 2 / 4
+        out["Gamma_sigma_sa"] = xr.apply_ufunc(
+            k.stress_asymptote, dr_m, G_si, hurst, gbar0, dask="parallelized",
+            output_dtypes=[float], keep_attrs=False,
+            kwargs={"E_star": E, "weight": w}).expand_dims(p0=p0_da.sizes["p0"]).assign_attrs(
+            units="Pa2", long_name="small-pressure asymptote of the reduced stress ACF",
+            equation=f"eq. 51: w E*^2 H^2 gbar(0) sqrt(G / c_sa(H)) / dr, w = {w:.4g} "
+            f"({theory}); self-affine range, p* -> 0")
     if "G_du" in wanted:
         out["G_du"] = (_strip(G) * weight).assign_attrs(
             units=G.attrs["units"], long_name="displacement autocorrelation function",

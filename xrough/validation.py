@@ -16,14 +16,20 @@ import numpy as np
 import xarray as xr
 from scipy import special
 
+from . import quality
 from . import units as u
 from ._kernels.contact import KAPPA_PERSSON, contact_area, improved_area
 from .contact import THEORIES, persson, stress_acf
 from .correlation import height_difference_acf
+from .fitting import fit_acf
 from .gradient import rms_gradient
 from .solver import check_topography, solve_contact
 
-__all__ = ["compare_with_simulation", "fit_kappa"]
+__all__ = ["compare_with_simulation", "fit_kappa", "VALIDATION_THEORIES"]
+
+#: The paper's two theories (Persson's kappa) and the original theory with the kappa
+#: fitted to the simulation (or given), named as such.
+VALIDATION_THEORIES = (*THEORIES, "persson_kappa")
 
 #: Full-contact load: this factor times the smallest load that closes every gap.
 FULL_CONTACT_MARGIN = 1.05
@@ -67,10 +73,10 @@ def fit_kappa(contact_area: float, p_star: float) -> float:
 
 def _theories(theory) -> tuple[str, ...]:
     names = (theory,) if isinstance(theory, str) else tuple(theory)
-    bad = [t for t in names if t not in THEORIES]
+    bad = [t for t in names if t not in VALIDATION_THEORIES]
     if bad or not names or len(set(names)) != len(names):
-        raise ValueError(f"theory must be one or several distinct of {THEORIES}, "
-                         f"got {theory!r}")
+        raise ValueError(f"theory must be one or several distinct of "
+                         f"{VALIDATION_THEORIES}, got {theory!r}")
     return names
 
 
@@ -123,9 +129,10 @@ def compare_with_simulation(
     *,
     E_star: Any,
     p0: Any,
-    theory: str | tuple[str, ...] = ("persson", "modified"),
+    theory: str | tuple[str, ...] = VALIDATION_THEORIES,
     kappa: float | None = None,
     full_contact: bool = True,
+    smooth_full: bool = True,
     error_range: tuple[Any, Any] | None = None,
     gradient_method: str = "auto",
     acf_kwargs: dict | None = None,
@@ -149,23 +156,37 @@ def compare_with_simulation(
        height-difference ACF of the pressure field on the same lag bins as ``G``
        (the full-contact one without the ``p0^2`` offset, as eq. 24).
     4. Predictions from ``G``: eq. 24 in full contact; :func:`xrough.persson` per theory
-       (``G_sigma`` of eq. 30/48 with ``W = a_r`` or ``a_r^2 / a_ri``) and the areas
-       ``a_r(0)`` (eq. 29), ``a_ri(0)`` (eq. 50) at the smallest lag.
+       (``G_sigma`` of eq. 30/48, ``Gamma_sigma`` of eq. 47 and its small-pressure
+       asymptote eq. 51) and the areas ``a_r(0)`` (eq. 29), ``a_ri(0)`` (eq. 50) at the
+       smallest lag.
+
+    The theories, as the paper defines them and one named variant:
+
+    ``"persson"``
+        the original theory: ``W = a_r`` with Persson's ``a_r = erf(sqrt(2) p*)``
+        (``kappa = sqrt(8/pi)``);
+    ``"modified"``
+        ``W = a_r^2 / a_ri`` (eq. 49-50) with the same ``a_r``, ``Gamma_sigma`` divided by
+        ``a_ri(0)``;
+    ``"persson_kappa"``
+        the original theory with ``a_r = erf(sqrt(pi) kappa p* / 2)`` and the ``kappa``
+        fitted to the simulation (or given): a correction of the contact area that is not
+        the paper's theory, reported under its own name.
 
     ``kappa=None`` fits the slope of eq. 29 to the simulation at the smallest load:
     ``kappa = 2 erfinv(a_sim) / (sqrt(pi) p*)`` (:func:`fit_kappa`), which is
     ``a_sim / p*`` for a small area. Pick the smallest load so that ``a_sim`` is a few
     percent but covers many pixels (at least ~100 contact points): the fit then measures
-    the physical slope rather than the discretisation. The fitted value enters ``a_r``
-    and the ``persson`` theory; ``a_ri`` (the modified theory) has its own small-load slope
-    2 and depends on ``kappa`` only at order ``p*^2``. Persson's ``a_r`` with
-    ``kappa = sqrt(8/pi)`` is always reported as ``a_r_persson``.
+    the physical slope rather than the discretisation. ``kappa`` enters only
+    ``"persson_kappa"`` and ``a_r_kappa``.
 
     Errors: ``area_error = a_theory / a_sim - 1`` per load (``a_r`` for "persson",
-    ``a_ri`` for "modified"); ``stress_error`` (``stress_error_rms``) is the largest (rms)
-    ``|G_sigma - G_sigma_sim|`` over ``error_range`` divided by the simulated
-    ``G_sigma(dr -> 0)``, i.e. ``<p^2>`` of the field (the stress variance in full
-    contact).
+    ``a_ri`` for "modified", ``a_r_kappa`` for "persson_kappa"); ``stress_error``
+    (``stress_error_rms``) is the largest (rms) ``|G_sigma - G_sigma_sim|`` over
+    ``error_range`` divided by the simulated ``G_sigma(dr -> 0)``, i.e. ``<p^2>`` of the
+    field (the stress variance in full contact), over the lags where the theory predicts
+    a value; ``stress_error_coverage`` is the share of the lags in ``error_range`` that
+    have one (a :class:`xrough.QualityWarning` says when it is below 1).
 
     Parameters
     ----------
@@ -177,11 +198,14 @@ def compare_with_simulation(
     p0 : float, str, Quantity or sequence of them
         Mean pressures of partial contact (Pa for numbers), > 0.
     theory : str or tuple of str
-        Any of ``"persson"`` (original weighting, eq. 49) and ``"modified"``.
+        Any of ``"persson"``, ``"modified"`` and ``"persson_kappa"`` (above).
     kappa : float, optional
-        Slope of eq. 29; ``None`` fits it (above).
+        Slope of eq. 29 for ``"persson_kappa"``; ``None`` fits it (above).
     full_contact : bool
         Also solve just beyond full contact and compare with eq. 24.
+    smooth_full : bool
+        Continue ``G_sigma_full`` beyond its roll-off by a steep power law in partial
+        contact, as the paper does (:func:`xrough.persson`).
     error_range : pair of float, str or Quantity, optional
         Lags over which the stress-ACF errors are taken (numbers in the lateral unit);
         default two pixels to an eighth of the map's smaller side.
@@ -201,19 +225,23 @@ def compare_with_simulation(
         On ``p0`` (Pa), ``dr`` (lateral unit) and ``theory``:
 
         - ``contact_area`` (p0): simulated relative area; ``p_star`` (p0);
-        - ``a_r``, ``a_r_persson``, ``a_ri`` (p0): predicted areas at ``dr -> 0``;
+        - ``a_r`` (Persson's ``kappa``), ``a_r_kappa`` (fitted or given ``kappa``),
+          ``a_ri`` (p0): predicted areas at ``dr -> 0``;
         - ``area_error`` (theory, p0);
         - ``G_sigma_sim`` (p0, dr), ``G_sigma`` (theory, p0, dr) in Pa^2 (NaN on lags
           where ``gbar`` is not defined, e.g. below the exact gradient's support);
-          ``Gamma_sigma_sim = G_sigma_sim / a_sim`` and ``Gamma_sigma`` (eq. 47);
-        - ``stress_error``, ``stress_error_rms`` (theory, p0);
+          ``Gamma_sigma_sim = G_sigma_sim / a_sim``, ``Gamma_sigma`` (eq. 47) and
+          ``Gamma_sigma_sa`` (eq. 51);
+        - ``stress_error``, ``stress_error_rms``, ``stress_error_coverage``
+          (theory, p0);
         - with ``full_contact``: ``G_sigma_full_sim``, ``G_sigma_full`` (dr, Pa^2),
           ``full_contact_error``, ``full_contact_error_rms``, ``full_contact_area`` and
           the load ``p0_full`` (Pa);
         - ``iterations``, ``converged`` (p0) of the solver.
 
-        Attrs: ``E_star`` (Pa), ``kappa``, ``kappa_fitted`` (1/0), ``kappa_persson``,
-        ``gbar0``, ``error_dr_min``/``error_dr_max`` (lateral unit), ``theories``.
+        Attrs: ``E_star`` (Pa), ``kappa`` (of ``"persson_kappa"``), ``kappa_fitted``
+        (1/0), ``kappa_persson``, ``gbar0``, ``error_dr_min``/``error_dr_max`` (lateral
+        unit), ``theories``, and the quality attrs of :mod:`xrough.quality`.
 
     Raises
     ------
@@ -227,10 +255,11 @@ def compare_with_simulation(
     >>> topo = xrough.self_affine_surface(hurst=0.8, lambda_r=32, lambda_s=4, size=64,
     ...                                   n=64, rms_gradient=0.1, seed=3, unit="nm",
     ...                                   rolloff="smooth")
-    >>> cmp = compare_with_simulation(topo, E_star="1 MPa", p0=[2e3, 1e4],
-    ...                               theory="modified")
+    >>> cmp = compare_with_simulation(topo, E_star="1 MPa", p0=[2e3, 1e4])
     >>> cmp.G_sigma.dims, cmp.G_sigma.attrs["units"], cmp.contact_area.attrs["units"]
     (('theory', 'p0', 'dr'), 'Pa2', '1')
+    >>> cmp.theory.values.tolist()
+    ['persson', 'modified', 'persson_kappa']
     >>> 1.0 < cmp.attrs["kappa"] < 3.5, float(cmp.full_contact_area)
     (True, 1.0)
     """
@@ -266,8 +295,10 @@ def compare_with_simulation(
     area_sim = sim["contact_area"].values
 
     n = len(p0s)
-    if kappa is None:
+    if kappa is None and ("persson_kappa" in names or 0 < area_sim[0] < 1):
         kappa_used, fitted = fit_kappa(float(area_sim[0]), float(p_star[0])), 1
+    elif kappa is None:  # not asked for, and not measurable at this load
+        kappa_used, fitted = np.nan, 0
     else:
         kappa_used, fitted = float(kappa), 0
 
@@ -285,25 +316,31 @@ def compare_with_simulation(
     p0_coord = ("p0", p0s, {"units": "Pa", "long_name": "mean pressure"})
     dr_coord = ("dr", dr, {"units": lunit, "long_name": "lag distance"})
     S_part = S_sim.isel(p0=slice(0, n)).assign_coords(p0=p0_coord)
-    a_r = contact_area(p_star, kappa_used)
+    a_r = contact_area(p_star, KAPPA_PERSSON)
+    a_r_kappa = contact_area(p_star, kappa_used)
     a_ri = improved_area(p_star, a_r)
-    g_th, gam_th, area_th = [], [], []
+    areas = {"persson": a_r, "modified": a_ri, "persson_kappa": a_r_kappa}
+    wanted = ("G_sigma", "Gamma_sigma", "Gamma_sigma_sa")
+    fit = fit_acf(G)
+    predicted = {v: [] for v in wanted}
     for name in names:
-        ds = persson(G, E_star=E, p0=p0s, theory=name, kappa=kappa_used, gradient=gbar,
-                     variables=("G_sigma", "Gamma_sigma"))
+        ds = persson(G, E_star=E, p0=p0s, theory=name.removesuffix("_kappa"),
+                     kappa=kappa_used if name == "persson_kappa" else KAPPA_PERSSON,
+                     gradient=gbar, fit=fit, variables=wanted, smooth_full=smooth_full)
         if ds.sizes.get("p0") is None:
             ds = ds.expand_dims("p0")
         ds = ds.reindex(dr=G["dr"].values, method="nearest", tolerance=1e-9 * dr[-1])
-        g_th.append(ds["G_sigma"].transpose("p0", "dr").values)  # NaN off gbar's lags
-        gam_th.append(ds["Gamma_sigma"].transpose("p0", "dr").values)
-        area_th.append(a_r if name == "persson" else a_ri)
-    g_th, gam_th, area_th = np.stack(g_th), np.stack(gam_th), np.stack(area_th)
+        for v in wanted:  # NaN off gbar's lags
+            predicted[v].append(ds[v].transpose("p0", "dr").values)
+    g_th, gam_th, gam_sa = (np.stack(predicted[v]) for v in wanted)
+    area_th = np.stack([areas[name] for name in names])
     coords = {"theory": ("theory", np.array(names, dtype=object),
-                         {"long_name": "weighting of eq. 49"}),
+                         {"long_name": "theory of partial contact (see attrs)"}),
               "p0": p0_coord, "dr": dr_coord}
     G_sigma = xr.DataArray(g_th, dims=("theory", "p0", "dr"), coords=coords)
     mean_sq = (sim["pressure"].values[:n] ** 2).mean(axis=(1, 2))  # G_sigma_sim(0)
     err_max, err_rms = _errors(G_sigma - S_part.values, mean_sq[None, :, None], sel)
+    coverage = np.isfinite(g_th[..., sel]).mean(axis=-1)
 
     with np.errstate(divide="ignore", invalid="ignore"):
         area_err = area_th / area_sim[None, :n] - 1
@@ -316,18 +353,20 @@ def compare_with_simulation(
         "contact_area": (("p0",), area_sim[:n], {
             "units": "1", "long_name": "simulated relative contact area",
             "source": sim_attrs}),
-        "a_r": (("p0",), a_r, {"units": "1", "long_name": "predicted relative contact area",
-                               "equation": "eq. 29: erf(sqrt(pi) kappa p* / 2)",
-                               "kappa": kappa_used}),
-        "a_r_persson": (("p0",), contact_area(p_star, KAPPA_PERSSON), {
-            "units": "1", "long_name": "Persson's relative contact area",
-            "equation": "eq. 29 with kappa = sqrt(8/pi)", "kappa": KAPPA_PERSSON}),
+        "a_r": (("p0",), a_r, {"units": "1", "long_name": "Persson's relative contact area",
+                               "equation": "eq. 29: erf(sqrt(2) p*), kappa = sqrt(8/pi)",
+                               "kappa": KAPPA_PERSSON}),
+        "a_r_kappa": (("p0",), a_r_kappa, {
+            "units": "1", "long_name": "relative contact area with the fitted kappa"
+            if fitted else "relative contact area with the given kappa",
+            "equation": "eq. 29: erf(sqrt(pi) kappa p* / 2)", "kappa": kappa_used}),
         "a_ri": (("p0",), a_ri, {"units": "1", "long_name":
-                                 "improved relative contact area", "equation": "eq. 50"}),
+                                 "improved relative contact area",
+                                 "equation": "eq. 50 with Persson's a_r"}),
         "area_error": (("theory", "p0"), area_err, {
             "units": "1", "long_name": "relative error of the predicted contact area",
-            "definition": "a_theory / a_sim - 1, a_theory = a_r (persson) or a_ri "
-            "(modified)"}),
+            "definition": "a_theory / a_sim - 1, a_theory = a_r (persson), a_ri "
+            "(modified) or a_r_kappa (persson_kappa)"}),
         "G_sigma_sim": (("p0", "dr"), S_part.values, {
             "units": "Pa2", "long_name": "simulated stress autocorrelation function",
             "definition": "<p^2> - G_p(dr), G_p the height-difference ACF of the pressure",
@@ -341,12 +380,18 @@ def compare_with_simulation(
         "Gamma_sigma": (("theory", "p0", "dr"), gam_th, {
             "units": "Pa2", "long_name": "predicted reduced stress ACF",
             "equation": "eq. 47 (divided by a_r(0), modified: a_ri(0))"}),
+        "Gamma_sigma_sa": (("theory", "p0", "dr"), gam_sa, {
+            "units": "Pa2", "long_name": "small-pressure asymptote of the reduced stress "
+            "ACF", "equation": "eq. 51 (self-affine range)"}),
         "stress_error": (("theory", "p0"), err_max.values, {
             **err_attrs, "long_name": "largest stress-ACF error relative to G_sigma_sim(0)",
             "definition": "max |G_sigma - G_sigma_sim| / G_sigma_sim(dr -> 0) over "
             "error_dr_min <= dr <= error_dr_max"}),
         "stress_error_rms": (("theory", "p0"), err_rms.values, {
             **err_attrs, "long_name": "rms stress-ACF error relative to G_sigma_sim(0)"}),
+        "stress_error_coverage": (("theory", "p0"), coverage, {
+            **err_attrs, "long_name": "share of the lags in the error range where the "
+            "theory predicts G_sigma"}),
         "iterations": (("p0",), sim["iterations"].values[:n], {
             "long_name": "conjugate-gradient iterations"}),
         "converged": (("p0",), sim["converged"].values[:n], {
@@ -393,6 +438,19 @@ def compare_with_simulation(
         "error_dr_min": float(lo), "error_dr_max": float(hi), "error_dr_units": lunit,
         "theories": ", ".join(names), "periodic": int(grid.periodic),
         "kappa_definition": "fitted: 2 erfinv(a_sim) / (sqrt(pi) p*) at the smallest "
-        "load (about a_sim / p*)" if fitted else "given",
+        "load (about a_sim / p*)" if fitted else "given" if kappa is not None else
+        "not fitted (contact area 0 or 1 at the smallest load)",
+        "kappa_used_by": "persson_kappa and a_r_kappa only; the persson and modified "
+        "theories use kappa = sqrt(8/pi) as the paper defines them",
     }
+    ds.attrs.setdefault("quality", "good")
+    ds.attrs.setdefault("quality_notes", "")
+    short = coverage < 1
+    if short.any():
+        worst_theory = names[int(np.argmin(coverage.min(axis=1)))]
+        ds = quality.mark(
+            ds, f"the theories predict G_sigma on only {coverage.min():.0%} of the lags in "
+            f"the error range ({worst_theory}: the rms gradient is not determined on the "
+            "others); stress_error covers those lags only (stress_error_coverage)",
+            what="compare_with_simulation", stacklevel=2)
     return ds

@@ -14,11 +14,16 @@ from scipy import optimize, special
 from .acf_curve import AcfCurve, require_acf
 from .shape_factors import rolloff_factor, self_affine_factor
 
-__all__ = ["KAPPA_PERSSON", "contact_area", "improved_area", "quick_stress",
-           "energy_curve", "laplacian_curve", "patch_radius_curve"]
+__all__ = ["KAPPA_PERSSON", "STEEP_DECAY", "contact_area", "improved_area",
+           "quick_stress", "stress_asymptote", "energy_curve", "laplacian_curve",
+           "smooth_tail", "patch_radius_curve"]
 
 #: Persson's small-pressure slope of the contact area, ``a_r ~ kappa p*`` (eq. 29).
 KAPPA_PERSSON = float(np.sqrt(8 / np.pi))
+
+#: Power law ``dr^-STEEP_DECAY`` that replaces the full-contact stress ACF beyond its
+#: roll-off in partial contact (the paper's "steep power law", section 3.7).
+STEEP_DECAY = 4.0
 
 
 # ---------------------------------------------------------------------------------------
@@ -48,6 +53,19 @@ def quick_stress(dr, g, hurst, sigma_h, lambda_r, E_star, rolloff: str = "sharp"
     return np.where(dr < lambda_r, sa, ro)
 
 
+def stress_asymptote(dr, g, hurst, gbar0, E_star, weight=1.0):
+    """Eq. 51: ``Gamma_sigma ~ w E*^2 H^2 gbar(0) sqrt(G / c_sa(H)) / dr`` (Pa^2).
+
+    The small-pressure limit of eq. 47/48 in the self-affine range, from
+    ``G_sigma_full = (E*/2)^2 (2H)^2 G / dr^2``, ``gbar^2(dr) = c_sa G / dr^2`` and
+    ``a_r -> kappa p*``: ``w = 1`` for the original weighting (``kappa`` cancels) and
+    ``w = kappa^2 / 4`` for the modified one (``2 / pi`` for Persson's ``kappa``).
+    """
+    h = np.clip(hurst, 1e-3, 1 - 1e-3)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return weight * E_star**2 * h**2 * gbar0 * np.sqrt(g / self_affine_factor(h)) / dr
+
+
 # ---------------------------------------------------------------------------------------
 # one curve
 # ---------------------------------------------------------------------------------------
@@ -73,6 +91,36 @@ def laplacian_curve(g, error, *, dr) -> np.ndarray:
     out = np.full(dr.shape, np.nan)
     positive = dr > 0
     out[positive] = curve.laplacian(dr[positive])
+    return out
+
+
+def smooth_tail(lap, g, *, dr, steep: float = STEEP_DECAY) -> np.ndarray:
+    """Remove the roll-off ringing of the full-contact stress ACF (paper, section 3.7).
+
+    ``lap`` (the Laplacian of G on ``dr``, NaN allowed) is kept up to ``r_c`` and
+    continued as ``lap(r_c) (dr / r_c)^-steep`` beyond. ``r_c`` is the last lag before the
+    curve first falls faster than ``dr^-steep`` or stops being positive, searched from
+    where G reaches a quarter of its largest value, i.e. in the roll-off, not among the
+    sign changes of a sharp short-wavelength cutoff at ``lambda_s`` (which are physical:
+    small H puts the stress at the smallest scales). A curve without such a lag is
+    returned unchanged.
+    """
+    lap = np.asarray(lap, dtype=float)
+    g = np.asarray(g, dtype=float)
+    out = lap.copy()
+    ok = np.flatnonzero(np.isfinite(lap) & np.isfinite(g) & (dr > 0))
+    if ok.size < 2:
+        return out
+    after = ok[g[ok] >= 0.25 * np.max(g[ok])]
+    for prev, k in zip(after[:-1], after[1:]):
+        if not lap[prev] > 0:
+            break  # already not positive where the search starts: leave it alone
+        falls = lap[k] <= 0 or (np.log(lap[k] / lap[prev]) / np.log(dr[k] / dr[prev])
+                                <= -steep)
+        if falls:
+            beyond = dr > dr[prev]
+            out[beyond] = lap[prev] * (dr[beyond] / dr[prev]) ** -steep
+            break
     return out
 
 
