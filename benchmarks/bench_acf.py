@@ -9,12 +9,14 @@ For each map size and case (periodic, open, open with 10 % missing points) this 
 * when SurfaceTopography is installed (``pip install xrough[bench]``), the time and memory
   of its ``autocorrelation_from_area`` on the same map and the speed-up of xrough.
 
-Method: each case and library runs in a fresh subprocess, so that peak resident memory is
-its own. Both libraries are treated alike: the first call on the map is untimed (it
-loads the libraries and builds what they cache per grid, FFT plans included; its peak
-memory above the input is the memory figure), then ``--repeats`` calls are timed. Times
-are the best of those calls, and every time and ratio is printed with its spread: the
-time's max / min, and the ratio's range from best-over-worst to worst-over-best.
+Method: like with like. All timings of one size and case come from one process, in
+which both libraries and the baseline are warmed up by one untimed call each (imports,
+per-grid caches, FFT plans), then take turns for ``--repeats`` rounds of one call each,
+so that they see the same process state and load. Times are the best of the rounds and
+every ratio is printed as best over best, with its range (best over worst to worst over
+best), and as the median of the ratios within a round. Memory is measured apart: the
+peak resident memory of the first call on the map in a fresh process, above the state
+before the call (library and FFT library loaded), as a multiple of the input size.
 
 Usage::
 
@@ -28,66 +30,87 @@ import argparse
 import json
 import subprocess
 import sys
-import textwrap
 
-CHILD = textwrap.dedent(
-    r"""
-    import json, resource, sys, time
-    import numpy as np
-    n, case, what, repeats = int(sys.argv[1]), sys.argv[2], sys.argv[3], int(sys.argv[4])
+import numpy as np
 
-    def rss():
-        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
-
-    rng = np.random.default_rng(0)
-    h = np.empty((n, n))
-    for row in range(0, n, 256):  # fill without full-size temporaries
-        h[row:row + 256] = rng.standard_normal((min(256, n - row), n))
-        if case == "masked":
-            blk = h[row:row + 256]
-            blk[rng.random(blk.shape) < 0.1] = np.nan
-    periodic = case == "periodic"
-    out = {}
-    if what == "xrough":
-        import xrough
-        from scipy import fft as sfft
-        from xrough._kernels.pairs import padded_shape
-        topo = xrough.topography(h, spacing=1.0, unit="nm", periodic=periodic)
-        ks = (n // 2,) * 2 if periodic else (n - 1,) * 2
-        fshape = padded_shape((n, n), ks, periodic)
-        sfft.rfft2(h[:64, :64])  # load the FFT library before measuring memory
-        call = topo.rough.acf
-    else:
-        from SurfaceTopography import Topography
-        t = Topography(h, (float(n), float(n)), periodic=periodic)
-        call = t.autocorrelation_from_area
-    base_mem = rss()
-    t0 = time.perf_counter(); call(); out["t_cold"] = time.perf_counter() - t0
-    out["peak_extra"] = rss() - base_mem
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter(); call(); times.append(time.perf_counter() - t0)
-    out["t"] = [min(times), max(times)]
-    if what == "xrough":  # the baseline, after the memory measurement
-        hh = np.nan_to_num(h)
-        ft = []
-        for _ in range(repeats + 2):
-            t0 = time.perf_counter(); a = sfft.rfft2(hh, s=fshape, workers=-1)
-            ft.append(time.perf_counter() - t0); del a
-        out["t_rfft"] = [min(ft), max(ft)]
-        out["fshape"] = list(fshape)
-    out["input"] = h.nbytes
-    print(json.dumps(out))
-    """
-)
+SETUP = r"""
+import json, resource, sys, time
+import numpy as np
+n, case = int(sys.argv[1]), sys.argv[2]
+rng = np.random.default_rng(0)
+h = np.empty((n, n))
+for row in range(0, n, 256):  # fill without full-size temporaries
+    h[row:row + 256] = rng.standard_normal((min(256, n - row), n))
+    if case == "masked":
+        blk = h[row:row + 256]
+        blk[rng.random(blk.shape) < 0.1] = np.nan
+periodic = case == "periodic"
 
 
-def run(n: int, case: str, what: str, repeats: int) -> dict | None:
-    """Run one library on one case in a fresh subprocess; None if it is not installed."""
-    proc = subprocess.run([sys.executable, "-c", CHILD, str(n), case, what, str(repeats)],
+def rss():
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+
+
+def xrough_call():
+    import xrough
+    return xrough.topography(h, spacing=1.0, unit="nm", periodic=periodic).rough.acf
+
+
+def st_call():
+    from SurfaceTopography import Topography
+    return Topography(h, (float(n), float(n)), periodic=periodic).autocorrelation_from_area
+"""
+
+#: Memory: one library in a fresh process; the peak resident memory of its first call on
+#: the map above the state before it (libraries and the FFT library already loaded).
+MEMORY_CHILD = SETUP + r"""
+from scipy import fft as sfft
+sfft.rfft2(h[:64, :64])
+call = xrough_call() if sys.argv[3] == "xrough" else st_call()
+base = rss()
+t0 = time.perf_counter(); call(); t_first = time.perf_counter() - t0
+print(json.dumps({"peak_extra": rss() - base, "t_first": t_first, "input": h.nbytes}))
+"""
+
+#: Time: every library in one process, each warmed up by one call, then ``repeats``
+#: interleaved rounds of one call each and of the rfft2 baseline.
+TIME_CHILD = SETUP + r"""
+from scipy import fft as sfft
+from xrough._kernels.pairs import padded_shape
+repeats, peer = int(sys.argv[3]), sys.argv[4] == "1"
+ks = (n // 2,) * 2 if periodic else (n - 1,) * 2
+fshape = padded_shape((n, n), ks, periodic)
+hh = np.nan_to_num(h)
+calls = {"xrough": xrough_call()}
+if peer:
+    try:
+        calls["st"] = st_call()
+    except ImportError:
+        pass
+
+
+def baseline():
+    a = sfft.rfft2(hh, s=fshape, workers=-1)
+    del a
+
+
+calls["rfft"] = baseline
+for call in calls.values():  # warm-up: imports, caches, FFT plans
+    call()
+times = {k: [] for k in calls}
+for _ in range(repeats):
+    for k, call in calls.items():
+        t0 = time.perf_counter(); call(); times[k].append(time.perf_counter() - t0)
+print(json.dumps({"times": times, "fshape": list(fshape)}))
+"""
+
+
+def _child(script: str, *args) -> dict | None:
+    """Run a child script; None when its library is not installed."""
+    proc = subprocess.run([sys.executable, "-c", script, *map(str, args)],
                           capture_output=True, text=True)
     if proc.returncode != 0:
-        if what == "surfacetopography" and "No module named" in proc.stderr:
+        if "No module named 'SurfaceTopography'" in proc.stderr:
             return None
         raise RuntimeError(proc.stderr)
     return json.loads(proc.stdout.strip().splitlines()[-1])
@@ -98,33 +121,41 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[1024, 4096, 8192])
     parser.add_argument("--cases", nargs="+", default=["periodic", "open", "masked"])
-    parser.add_argument("--repeats", type=int, default=5, help="timed calls after the first")
+    parser.add_argument("--repeats", type=int, default=5, help="timed rounds after warm-up")
     parser.add_argument("--no-peer", action="store_true", help="skip SurfaceTopography")
     args = parser.parse_args(argv)
 
-    def ratio(a, b):  # best over best (worst case range)
-        return f"{a[0] / b[0]:.2f} ({a[0] / b[1]:.2f}-{a[1] / b[0]:.2f})"
+    def ratio(a, b):  # best over best (worst-case range); median of the per-round ratios
+        rounds = [x / y for x, y in zip(a, b)]
+        return (f"{min(a) / min(b):.2f} ({min(a) / max(b):.2f}-{max(a) / min(b):.2f}); "
+                f"{np.median(rounds):.2f}")
+
+    def spread(t):
+        return f"{min(t):.3g} ({max(t) / min(t):.2f})"
 
     print("| size | case | FFT shape | rfft2 s (max/min) | acf s (max/min) | acf / rfft2 "
-          "| mem / input | ST s (max/min) | ST first call s | ST / xrough | ST mem / input |")
+          "| mem / input | ST s (max/min) | ST / xrough | ST first call s | ST mem / input |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for n in args.sizes:
         for case in args.cases:
-            r = run(n, case, "xrough", args.repeats)
-            st = None if args.no_peer else run(n, case, "surfacetopography", args.repeats)
-            st_cols = (f"{st['t'][0]:.3g} ({st['t'][1] / st['t'][0]:.2f}) | "
-                       f"{st['t_cold']:.3g} | {ratio(st['t'], r['t'])} | "
-                       f"{st['peak_extra'] / st['input']:.1f}") if st else "- | - | - | -"
-            shape = "x".join(str(k) for k in r["fshape"])
-            print(f"| {n} | {case} | {shape} | {r['t_rfft'][0]:.3g} "
-                  f"({r['t_rfft'][1] / r['t_rfft'][0]:.2f}) | {r['t'][0]:.3g} "
-                  f"({r['t'][1] / r['t'][0]:.2f}) | {ratio(r['t'], r['t_rfft'])} "
-                  f"| {r['peak_extra'] / r['input']:.1f} | {st_cols} |", flush=True)
-    print("\nacf / rfft2: best time of .rough.acf() over the best rfft2 of the (padded) "
-          "array, with its range; mem / input: peak memory of the first call above the "
-          "input over the input size; ST: SurfaceTopography autocorrelation_from_area on "
-          "the same map, warmed up by one call like xrough; ST first call: that untimed "
-          "call, for reference.")
+            t = _child(TIME_CHILD, n, case, args.repeats, int(not args.no_peer))
+            times = t["times"]
+            mem = _child(MEMORY_CHILD, n, case, "xrough")
+            st = None if args.no_peer or "st" not in times else _child(
+                MEMORY_CHILD, n, case, "st")
+            x, f = times["xrough"], times["rfft"]
+            st_cols = (f"{spread(times['st'])} | {ratio(times['st'], x)} | "
+                       f"{st['t_first']:.3g} | {st['peak_extra'] / st['input']:.1f}"
+                       ) if st else "- | - | - | -"
+            shape = "x".join(str(k) for k in t["fshape"])
+            print(f"| {n} | {case} | {shape} | {spread(f)} | {spread(x)} | {ratio(x, f)} "
+                  f"| {mem['peak_extra'] / mem['input']:.1f} | {st_cols} |", flush=True)
+    print("\nAll timings of a row come from one process: every library warmed up by one "
+          "call, then interleaved rounds of one call each. acf / rfft2 and ST / xrough: "
+          "best over best (range best/worst to worst/best); median of the ratios within "
+          "a round. mem / input: peak resident memory of the first call in a fresh "
+          "process above the state before it, over the input size; ST first call: the "
+          "time of that call, for reference.")
 
 
 if __name__ == "__main__":

@@ -18,12 +18,21 @@ use the periodic Green's function ``u~ = 2 p~ / (E* |q|)``.
 
 Method. One process per size, so that every solver runs in the same process state. Each
 solver is first warmed up (imported and run once on a 128^2 map); then the solvers take
-turns, ``--repeats`` rounds of one solve each, interleaved with the two-FFT floor (one
-``scipy.fft.rfft2`` plus one ``irfft2`` of the N x N float64 map with the same
-``workers``), measured five times per round. Times cover set-up and solve; the table gives
-the best time and the spread (max / min) of each, the ratio of xrough's best time to the
-faster peer's best, and xrough's time per iteration over the best floor. The relative
-contact areas must agree to ``--agree``.
+turns, ``--repeats`` rounds of one solve each. Times cover set-up and solve. Each
+solver's row gives its best and median time and the spread (max / min). The ratio of
+xrough to the faster peer is given three ways: best over best with its worst-case range
+(best over the peer's worst to worst over the peer's best), and the median and range of
+the ratios within each round (both solves of a round ran minutes apart at most, under
+the same load).
+
+Two-FFT floor. Right before and right after each xrough solve, a block of as many
+``scipy.fft.rfft2`` plus ``irfft2`` pairs of the N x N float64 map (same ``workers``) as
+xrough took fine-grid iterations runs back to back, so that the floor is measured over a
+similar stretch of time and load as the solve (a single pair's best time catches quiet
+moments a long solve cannot). xrough's time per fine-grid iteration (the whole solve,
+coarse grid included, over the fine-grid iterations) is divided by the mean pair time
+of the two blocks; the median and range over the rounds are printed, and for reference
+the ratio to the best single pair.
 
 Memory. The peak memory of one xrough solve is measured in a fresh subprocess: the peak
 resident set size above the state before the solve (``resource``), and the peak of the
@@ -107,12 +116,14 @@ def surface(n: int, seed: int) -> tuple[np.ndarray, float]:
 
 
 def solve_xrough(h: np.ndarray, p0: float, tol: float) -> dict:
-    """Solve with xrough; contact area, iterations and the float32 share."""
+    """Solve with xrough; contact area, iterations, the float32 share and transforms."""
     n = h.shape[0]
     topo = xrough.topography(h, spacing=L / n, unit="um", periodic=True)
     res = xrough.solve_contact(topo, E_star=E_STAR, p0=p0, tol=tol, max_iter=100_000,
                                progress=False, workers=os.cpu_count())
+    coarse = int(res.coarse_iterations)
     return {"area": float(res.contact_area), "iterations": int(res.iterations),
+            "fine_iterations": int(res.iterations) - coarse, "coarse_iterations": coarse,
             "float32_iterations": int(res.float32_iterations),
             "transforms": int(res.transforms), "converged": bool(res.converged)}
 
@@ -173,7 +184,7 @@ SOLVERS = {"xrough": solve_xrough, "tamaas": solve_tamaas,
 
 
 def fft_floor(n: int, repeats: int) -> list[float]:
-    """Times of one rfft2 plus one irfft2 of an n x n float64 map (all cores)."""
+    """Times of single pairs of one rfft2 plus one irfft2 of an n x n float64 map."""
     a = np.random.default_rng(0).standard_normal((n, n))
     out = []
     for _ in range(repeats):
@@ -182,6 +193,21 @@ def fft_floor(n: int, repeats: int) -> list[float]:
         sfft.irfft2(b, s=(n, n), workers=os.cpu_count(), overwrite_x=True)
         out.append(time.perf_counter() - t0)
     return out
+
+
+def fft_floor_block(n: int, pairs: int) -> float:
+    """Mean time of one rfft2 plus irfft2 pair over ``pairs`` pairs run back to back."""
+    a = np.random.default_rng(0).standard_normal((n, n))
+    t0 = time.perf_counter()
+    for _ in range(pairs):
+        b = sfft.rfft2(a, workers=os.cpu_count())
+        sfft.irfft2(b, s=(n, n), workers=os.cpu_count(), overwrite_x=True)
+    return (time.perf_counter() - t0) / pairs
+
+
+def spread(values: list[float]) -> str:
+    """Median and range of ``values`` as text."""
+    return f"{np.median(values):.2f} ({min(values):.2f}-{max(values):.2f})"
 
 
 def memory(what: str, path: str, p0: float, tol: float) -> dict:
@@ -203,27 +229,36 @@ def bench_size(n: int, args, solvers: list[str]) -> None:
     for s in solvers:  # warm-up: imports, code paths, thread pools
         SOLVERS[s](h[:128, :128].copy(), p0, args.tol)
     times = {s: [] for s in solvers}
-    floor: list[float] = []
+    per_it_floor: list[float] = []  # xrough per fine iteration / floor pair, per round
+    single: list[float] = []
     last = {}
+    pairs = 100  # floor pairs per block: xrough's fine iterations once known
     for _ in range(args.repeats):
         for s in solvers:
-            floor += fft_floor(n, 5)
+            if s == "xrough":
+                before = fft_floor_block(n, pairs)
             t0 = time.perf_counter()
             last[s] = SOLVERS[s](h, p0, args.tol)
             times[s].append(time.perf_counter() - t0)
-    floor += fft_floor(n, 5)
-    f_min, f_med, f_max = min(floor), float(np.median(floor)), max(floor)
+            if s == "xrough":
+                after = fft_floor_block(n, pairs)
+                x = last[s]
+                per_it_floor.append(times[s][-1] / x["fine_iterations"] / (
+                    0.5 * (before + after)))
+                pairs = x["fine_iterations"]
+                single += fft_floor(n, 3)
     best = {s: min(t) for s, t in times.items()}
+    med = {s: float(np.median(t)) for s, t in times.items()}
     peers = [s for s in solvers if s != "xrough"]
     faster = min(peers, key=best.get) if peers else None
     x = last["xrough"]
     a_ref = x["area"]
     print(f"# N={n}: gbar={gbar:.4f}, p0={p0:.3e} E*, tol={args.tol:g}, "
-          f"{args.repeats} rounds; two-FFT floor min {f_min * 1e3:.1f} ms, median "
-          f"{f_med * 1e3:.1f} ms, max {f_max * 1e3:.1f} ms ({len(floor)} samples)")
-    print("| N | solver | best time (s) | max/min | iterations | contact area "
-          "| area diff. | xrough / faster peer (best; worst-case range) |")
-    print("|---|---|---|---|---|---|---|---|")
+          f"{args.repeats} rounds, all solvers warm, interleaved")
+    print("| N | solver | best time (s) | median (s) | max/min | iterations | contact area "
+          "| area diff. | xrough / faster peer: best/best (range); per round median "
+          "(range) |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for s in solvers:
         r = last[s]
         d = (r["area"] - a_ref) / a_ref
@@ -231,22 +266,30 @@ def bench_size(n: int, args, solvers: list[str]) -> None:
         if s == "xrough" and faster:
             lo = min(times["xrough"]) / max(times[faster])
             hi = max(times["xrough"]) / min(times[faster])
-            ratio = f"{best['xrough'] / best[faster]:.3f} ({lo:.3f}-{hi:.3f}, vs {faster})"
+            rounds = [a / b for a, b in zip(times["xrough"], times[faster])]
+            ratio = (f"{best['xrough'] / best[faster]:.3f} ({lo:.3f}-{hi:.3f}); "
+                     f"{np.median(rounds):.3f} ({min(rounds):.3f}-{max(rounds):.3f}) "
+                     f"vs {faster}")
         its = r["iterations"]
         if s == "xrough":
-            its = f"{its} ({r['float32_iterations']} float32)"
-        print(f"| {n} | {s} | {best[s]:.3g} | {max(times[s]) / best[s]:.2f} | {its} "
-              f"| {r['area']:.6f} | {d:+.1e} | {ratio} |", flush=True)
+            its = (f"{r['fine_iterations']} + {r['coarse_iterations']} coarse "
+                   f"({r['float32_iterations']} float32)")
+        print(f"| {n} | {s} | {best[s]:.3g} | {med[s]:.3g} | {max(times[s]) / best[s]:.2f} "
+              f"| {its} | {r['area']:.6f} | {d:+.1e} | {ratio} |", flush=True)
     agree = max(abs(last[s]["area"] - a_ref) / a_ref for s in solvers)
-    per_it = best["xrough"] / x["iterations"]
     print(f"# N={n}: contact areas agree to {agree:.1e} (relative; target {args.agree:g}): "
           f"{'yes' if agree <= args.agree else 'NO'}")
-    print(f"# N={n}: xrough {per_it * 1e3:.1f} ms per iteration = {per_it / f_min:.2f} x "
-          f"the best two-FFT floor ({per_it / f_med:.2f} x the median floor; from the "
-          f"worst xrough run: {max(times['xrough']) / x['iterations'] / f_min:.2f} x); "
-          f"{x['transforms'] / x['iterations']:.2f} transforms per iteration, "
-          f"{x['float32_iterations']} of {x['iterations']} iterations in float32",
+    per_it = best["xrough"] / x["fine_iterations"]
+    print(f"# N={n}: xrough {per_it * 1e3:.1f} ms per fine iteration (best run) = "
+          f"{spread(per_it_floor)} x the two-FFT floor measured around each solve "
+          f"(median (range) over rounds; {per_it / min(single):.2f} x the best single "
+          f"pair, {min(single) * 1e3:.1f} ms); "
+          f"{x['transforms'] / x['fine_iterations']:.2f} transforms per fine iteration",
           flush=True)
+    for s in peers:
+        r = last[s]
+        print(f"# N={n}: {s} {best[s] / r['iterations'] * 1e3:.1f} ms per iteration "
+              f"(best run; xrough {per_it * 1e3:.1f} ms)")
     with tempfile.TemporaryDirectory() as tmp:
         path = os.path.join(tmp, "h.npy")
         np.save(path, h)
