@@ -195,7 +195,9 @@ def topography(
     ----------
     heights : array_like, pint.Quantity or xarray.DataArray
         2D ``(y, x)`` map or 1D ``(x,)`` profile; NaN marks missing points. A DataArray
-        may have extra leading dims (a stack of scans) and keeps its coords and attrs.
+        may have extra leading dims (a stack of scans) and keeps its coords and attrs;
+        a quantified one (pint Quantities as data or coordinates, as pint-xarray's
+        ``.pint.quantify()`` makes) is dequantified into ``units`` attributes.
     spacing : float, str, Quantity or pair of them, optional
         Grid spacing ``(dy, dx)`` or one value for both; plain numbers are in ``unit``.
     size : float, str, Quantity or pair of them, optional
@@ -236,7 +238,9 @@ def topography(
     (('y', 'x'), 'nm', 'nm', 2.0)
     """
     if isinstance(heights, xr.DataArray):
-        da = heights.copy()
+        # a quantified DataArray (pint Quantity data, e.g. from pint-xarray) comes in here
+        # once: its units move to the 'units' attributes every later step reads
+        da = u.dequantify(heights).copy()
         if da.dtype.kind in "iu":
             da = da.astype(float)
         if unit is not None or height_unit is not None:

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 import pint
+import xarray as xr
 
 __all__ = [
     "ureg",
@@ -36,7 +37,13 @@ __all__ = [
     "conversion_factor",
     "multiply_units",
     "power_units",
+    "is_quantified",
+    "dequantify",
 ]
+
+# CF/UDUNITS writes "m2", "m-2", "J m-2"; pint wants "m**2", "m**-2", "J*m**-2".
+_NUMBER_UNIT = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*)$")
+_CF_TOKEN = re.compile(r"^([A-Za-zµμ_%]+)(\^|\*\*)?(-?\d+)?$")
 
 #: The registry xrough uses everywhere.  Quantities from another registry are converted
 #: through their string representation.
@@ -45,10 +52,6 @@ try:  # the parsed definitions are cached on disk: a tenth of the start-up time
 except OSError:  # pragma: no cover - read-only home
     ureg = pint.UnitRegistry()
 ureg.formatter.default_format = "~"
-
-# CF/UDUNITS writes "m2", "m-2", "J m-2"; pint wants "m**2", "m**-2", "J*m**-2".
-_NUMBER_UNIT = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*)$")
-_CF_TOKEN = re.compile(r"^([A-Za-zµμ_%]+)(\^|\*\*)?(-?\d+)?$")
 
 
 def _cf_to_pint(text: str) -> str:
@@ -61,6 +64,7 @@ def _cf_to_pint(text: str) -> str:
     out = [f"{m.group(1)}**{m.group(3)}" if m.group(3) is not None else m.group(1)
            for m in matches]
     return "*".join(out)
+
 
 
 def parse_units(units: str | pint.Unit, *, what: str = "units") -> pint.Unit:
@@ -135,6 +139,11 @@ def units_of(obj: Any, *, what: str | None = None) -> pint.Unit:
     """
     name = what or getattr(obj, "name", None) or "data"
     units = getattr(obj, "attrs", {}).get("units")
+    if units is None and is_quantified(obj):
+        raise ValueError(
+            f"{name!s} holds a pint Quantity (a quantified DataArray, e.g. from "
+            "pint-xarray's .pint.quantify()); xrough keeps units in the 'units' attribute: "
+            "pass xrough.units.dequantify(da) (or da.pint.dequantify())")
     if units is None:
         hint = (f"da.coords[{obj.name!r}].attrs['units'] = 'nm'" if str(name).startswith(
             "coordinate") else "da.attrs['units'] = 'nm'")
@@ -194,6 +203,8 @@ def quantity(value: Any, *, default_units: str | pint.Unit = "", what: str = "va
         if value._REGISTRY is not ureg:  # noqa: SLF001
             return ureg.Quantity(value.magnitude, str(value.units))
         return value
+    if is_quantified(value) and hasattr(value, "dims"):  # before .values: no unit stripping
+        return quantity(value.data, what=what)
     if _is_dataarray(value):
         units = value.attrs.get("units")
         magnitude = np.asarray(value.values)
@@ -443,3 +454,74 @@ def power_units(units: str | pint.Unit, exponent: float) -> str:
     """CF string of a unit raised to a power. ``power_units("nm", 2) == "nm2"``."""
     u = parse_units(units) if isinstance(units, str) else units
     return format_units(u**exponent)
+
+
+def is_quantified(obj: Any) -> bool:
+    """Whether an xarray object (or any object with ``.data``) holds a pint Quantity.
+
+    Examples
+    --------
+    >>> import xarray as xr
+    >>> is_quantified(xr.DataArray(ureg.Quantity([1.0, 2.0], "nm"), dims="x"))
+    True
+    >>> is_quantified(xr.DataArray([1.0, 2.0], dims="x", attrs={"units": "nm"}))
+    False
+    """
+    return isinstance(getattr(obj, "data", None), pint.Quantity)
+
+
+def _dequantify_variable(var: Any) -> Any:
+    if not isinstance(var.data, pint.Quantity):
+        return var
+    q = var.data
+    out = var.copy(deep=False, data=q.magnitude)
+    out.attrs = {**var.attrs, "units": format_units(q.units)}
+    return out
+
+
+def dequantify(obj: Any) -> Any:
+    """Move pint Quantities out of the data into CF ``units`` attributes.
+
+    The inverse of pint-xarray's ``.pint.quantify()`` for xrough's purposes, without
+    needing pint-xarray: a DataArray, Dataset or DataTree whose data variables or
+    coordinates hold pint Quantities (of any registry) comes back with plain (numpy or
+    dask) data and a ``units`` attribute on each of them, as every xrough function
+    expects. Objects without Quantities are returned unchanged.
+
+    Parameters
+    ----------
+    obj : xarray.DataArray, xarray.Dataset or xarray.DataTree
+
+    Returns
+    -------
+    The same kind of object.
+
+    Examples
+    --------
+    >>> import xarray as xr
+    >>> da = xr.DataArray(ureg.Quantity([1.0, 2.0], "um**2"), dims="dr",
+    ...                   coords={"dr": ("dr", [1.0, 2.0], {"units": "um"})})
+    >>> plain = dequantify(da)
+    >>> plain.attrs["units"], type(plain.data).__name__
+    ('um2', 'ndarray')
+    """
+    if isinstance(obj, xr.DataTree):
+        return obj.map_over_datasets(dequantify)
+    if isinstance(obj, xr.Dataset):
+        if not any(isinstance(v.data, pint.Quantity) for v in obj.variables.values()):
+            return obj
+        # indexed coordinates hold plain values (pint-xarray keeps their units in the
+        # index); rebuild from the variables so that no pint data survives
+        variables = {k: _dequantify_variable(v) for k, v in obj.variables.items()}
+        coords = {k: variables[k] for k in obj.coords}
+        data_vars = {k: variables[k] for k in obj.data_vars}
+        return xr.Dataset(data_vars, coords=coords, attrs=obj.attrs)
+    if isinstance(obj, xr.DataArray):
+        if not is_quantified(obj) and not any(is_quantified(c) for c in obj.coords.values()):
+            return obj
+        name = obj.name if obj.name is not None else "__xrough_data__"
+        ds = dequantify(obj.to_dataset(name=name))
+        out = ds[name]
+        out.name = obj.name
+        return out
+    raise TypeError(f"dequantify: expected an xarray object, got {type(obj).__name__}")
