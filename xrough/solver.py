@@ -112,10 +112,13 @@ def solve_contact(
     workers : int, optional
         Threads for ``scipy.fft`` (default: all CPUs).
     precision : {"mixed", "float64"}
-        ``"mixed"`` (default) runs the first iterations with float32 transforms, until the
-        residual is below ``max(tol, 1e-6)`` or stops decreasing, then restarts the
-        conjugation and polishes in float64 to ``tol``: the result meets ``tol`` as
-        measured in float64. Maps smaller than 256 x 256 points always use float64.
+        ``"mixed"`` (default) runs the first iterations in float32, until the residual
+        is below ``max(tol, 1e-6)`` or stops decreasing, then restarts the conjugation
+        on the float64 displacement and polishes to ``tol`` with float64 displacements
+        and gaps (only the transform of the search direction stays float32; the final
+        residual is checked on a displacement transformed afresh in float64): the
+        result meets ``tol`` as measured in float64. Maps smaller than 256 x 256 points
+        always use float64.
         ``"float64"`` uses float64 throughout.
     coarse_to_fine : int
         Number of 2x restrictions for the initial guess of the first load (default 1; 0:
@@ -308,7 +311,7 @@ def solve_contact(
                           {"long_name": "1 if the residual reached tol"}),
             "float32_iterations": (L, np.array([r["float32_iterations"] for r in results],
                                                dtype=np.int64),
-                                   {"long_name": "iterations with float32 transforms"}),
+                                   {"long_name": "iterations of the float32 phase"}),
             "coarse_iterations": (L, np.array([r["coarse_iterations"] for r in results],
                                               dtype=np.int64),
                                   {"long_name": "iterations on the coarse grids"}),

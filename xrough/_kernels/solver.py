@@ -163,6 +163,31 @@ def _gap_scale(h: np.ndarray, p0: float, op: _ElasticOperator) -> float:
     return rms if rms > 0 else float(np.max(np.abs(op(np.full(h.shape, p0))))) or 1.0
 
 
+def _gap(u: np.ndarray, h: np.ndarray, pf: np.ndarray, idx: np.ndarray, d: np.ndarray,
+         below: np.ndarray) -> tuple:
+    """Mean-shifted gap on the contact set and at the overlapping points out of contact.
+
+    ``d`` and ``below`` are work arrays of the map's shape (``u``'s and bool dtype).
+
+    Returns
+    -------
+    tuple
+        ``g_s`` (gap on ``idx`` minus its mean ``m``, float64), ``m``, ``off`` (flat
+        indices out of contact, ``pf <= 0``, with a gap below ``m``), ``g_off`` (their
+        shifted gaps, negative), ``G = sum g_s^2`` and ``G_off = sum g_off^2``.
+    """
+    np.subtract(u, h, out=d)
+    dflat = d.ravel()
+    g_s = dflat[idx].astype(float)
+    m = float(g_s.mean()) if idx.size else np.nan
+    g_s -= m
+    np.less(d, m, out=below)
+    cand = np.flatnonzero(below)
+    off = cand[pf.ravel()[cand] <= 0]
+    g_off = dflat[off].astype(float) - m
+    return g_s, m, off, g_off, _dot(g_s, g_s), _dot(g_off, g_off)
+
+
 def _dot(a: np.ndarray, b: np.ndarray) -> float:
     """Sum of ``a * b`` over all elements.
 
@@ -249,11 +274,15 @@ def _solve_load(
     callback : callable, optional
         Called as ``callback(iteration, residual)``.
     precision : {"mixed", "float64"}
-        ``"mixed"`` runs the transforms in float32 until the residual falls below
+        ``"mixed"`` runs everything in float32 until the residual falls below
         ``max(tol, FLOAT32_TOL)`` (or stops decreasing for ``STALL`` iterations), then
-        restarts the conjugation and continues in float64 to ``tol``; maps of fewer than
-        ``MIXED_MIN_SIZE`` points use float64 throughout. ``"float64"`` uses float64
-        throughout.
+        restarts the conjugation on the float64 displacement ``u = K p`` and continues
+        to ``tol``: the displacement, the gap and every transform of ``p`` are float64,
+        only the transform of the direction ``t`` stays float32 (its rounding enters
+        ``u`` as a few 1e-7 of each step, far below the gap error). A residual below
+        ``tol`` is confirmed on ``u`` transformed afresh in float64 before the solve
+        stops. Maps of fewer than ``MIXED_MIN_SIZE`` points use float64 throughout.
+        ``"float64"`` uses float64 throughout.
 
     Returns
     -------
@@ -281,16 +310,17 @@ def _solve_load(
     t_s = np.zeros_like(p_s)
     del p
 
-    def precision_state(dtype):
-        """Full-map work arrays in ``dtype`` and the displacement of the current ``p``."""
+    def precision_state(dtype, t_dtype):
+        """Work arrays in ``dtype`` (``t_dtype`` for the direction) and ``u = K p``."""
         hh = np.ascontiguousarray(h, dtype=dtype)
         pf = np.zeros(shape, dtype=dtype)
-        tf = np.zeros(shape, dtype=dtype)
+        tf = np.zeros(shape, dtype=t_dtype)
         pf.ravel()[idx] = p_s
         return hh, pf, tf, op(pf), np.empty(shape, dtype=dtype), np.empty(shape, dtype=bool)
 
     dtype = np.float32 if precision == "mixed" else np.float64
-    hh, pf, tf, u, d, below = precision_state(dtype)
+    hh, pf, tf, u, d, below = precision_state(dtype, dtype)
+    exact = True  # whether u = K p to the precision of u (false after float32 updates)
     transforms = 2
     f32_its = 0
     best32 = np.inf
@@ -302,17 +332,7 @@ def _solve_load(
     converged = False
     it = 0
     for it in range(1, max_iter + 1):  # noqa: B007 - the count is reported
-        np.subtract(u, hh, out=d)
-        dflat = d.ravel()
-        g_s = dflat[idx].astype(float)
-        m = float(g_s.mean()) if idx.size else np.nan
-        g_s -= m
-        G = _dot(g_s, g_s)
-        np.less(d, m, out=below)
-        cand = np.flatnonzero(below)
-        off = cand[pf.ravel()[cand] <= 0]  # out of contact with a negative gap
-        g_off = dflat[off].astype(float) - m
-        G_off = _dot(g_off, g_off)
+        g_s, m, off, g_off, G, G_off = _gap(u, hh, pf, idx, d, below)
         eps_g = np.sqrt((G + G_off) / n) / scale
         if off.size and G_off <= PROPORTION**2 * G:
             # proportioning: while the gradient on the contact set dominates, keep the
@@ -375,15 +395,18 @@ def _solve_load(
                     u += r
                     u *= s
                     op.add_point_loads(u, c_idx, c_val)
+                    exact = exact and r.dtype == u.dtype
                 else:
                     r = u = None  # released before the new transform pair
                     u = op(pf)
                     transforms += 2
+                    exact = True
             else:
                 p_s = q_s
                 r *= -tau
                 u += r
                 u *= s
+                exact = exact and r.dtype == u.dtype
         else:
             eps_p = 0.0
         r = None  # K t is spent: one map fewer at the next transform
@@ -398,11 +421,23 @@ def _solve_load(
             stalled = stall >= (STALL if best32 < STALL_BELOW else 4 * STALL)
             if res < max(tol, FLOAT32_TOL) or stalled or denom <= 0:
                 dtype = np.float64
-                delta = 0.0  # restart the conjugation on the exact operator
+                delta = 0.0  # restart the conjugation on the exact displacement
                 hh = pf = tf = u = d = below = r = None  # free float32 before float64
-                hh, pf, tf, u, d, below = precision_state(dtype)
+                hh, pf, tf, u, d, below = precision_state(dtype, np.float32)
                 transforms += 2
+                exact = True
                 continue
+        if res < tol and not exact:
+            # u carries the float32 rounding of the steps' K t (a few 1e-7 of the
+            # steps, far below tol): check the residual on the exact displacement
+            u = None
+            pf.ravel()[idx] = p_s  # pf holds p only as of the last contact-set change
+            u = op(pf)
+            transforms += 2
+            exact = True
+            _, _, _, _, G_v, G_off_v = _gap(u, hh, pf, idx, d, below)
+            res = max(eps_p, np.sqrt((G_v + G_off_v) / n) / scale)
+            history[-1] = res
         if res < tol or denom <= 0:
             converged = res < tol or (G == 0 and off.size == 0)
             break
