@@ -218,7 +218,8 @@ def write_api_modules() -> None:
 
 write_api_modules()
 
-# Tutorials and examples read real instrument files from ../shared/data beside the
-# repository when it exists; the build never needs them.
-os.environ.setdefault("MPLBACKEND", "Agg")
+# The tutorials' kernels inherit this environment: their figures are notebook outputs only
+# with the inline backend (an MPLBACKEND=Agg from the shell would leave the pages without
+# figures). sphinx-gallery switches its own process to agg for the examples.
+os.environ["MPLBACKEND"] = "module://matplotlib_inline.backend_inline"
 
