@@ -195,11 +195,14 @@ def _progress_bar(total: int, progress, desc: str):
                 leave=False)
 
 
-def _fft_kernel(h: np.ndarray, *, plan: _Plan, workers: int, progress) -> tuple:
-    """Map (..., *core) heights to pair sums, pair counts per kept bin and valid points."""
+def _fft_kernel(h: np.ndarray, scale, *, plan: _Plan, workers: int, progress) -> tuple:
+    """Map (..., *core) heights to pair sums, pair counts per kept bin and valid points.
+
+    The sums are those of ``h / scale`` (see :func:`_height_scale`).
+    """
     ncore = len(plan.shape)
     batch = h.shape[: h.ndim - ncore]
-    flat = h.reshape((-1,) + plan.shape)
+    flat = h.reshape((-1,) + plan.shape) / float(np.max(scale))
     idx, _, _ = _geometry(plan.shape[-plan.lag_axes:], plan.spacing, plan.periodic, plan.ks,
                           tuple(plan.edges.tolist()))
     nb = len(plan.edges) - 1
@@ -238,11 +241,12 @@ def _few_points_message(index: int, batch: tuple[int, ...]) -> str:
     return f"topography has fewer than 2 valid (non-NaN) points{where}"
 
 
-def _random_kernel(h: np.ndarray, seeds: np.ndarray, *, plan: _Plan, n_per_bin: int,
+def _random_kernel(h: np.ndarray, seeds: np.ndarray, scale, *, plan: _Plan, n_per_bin: int,
                    progress) -> tuple:
+    """Sum G, G^2 and count random pairs of ``h / scale`` per kept bin."""
     ncore = len(plan.shape)
     batch = h.shape[: h.ndim - ncore]
-    flat = h.reshape((-1,) + plan.shape)
+    flat = h.reshape((-1,) + plan.shape) / float(np.max(scale))
     if np.isinf(flat).any():
         raise ValueError("heights contain infinite values; mark missing points as NaN")
     nvalid = np.isfinite(flat).reshape(flat.shape[0], -1).sum(axis=1)
@@ -275,6 +279,41 @@ def _area_variance(g, pairs, valid, *, dr, pixel_area, geometry):
         area = float(valid[k][0]) * pixel_area
         out[k] = g_variance(dr, g[k], pairs[k], area=area, pixel_area=pixel_area,
                             geometry=geometry)
+    return out
+
+
+def _height_scale(da: xr.DataArray) -> xr.DataArray:
+    """Return the power of two nearest the largest ``|h|`` (1 for none), lazily for dask.
+
+    G is computed from ``h / scale`` and multiplied by ``scale^2``, so that no square of a
+    height overflows or underflows on the way.
+    """
+    peak = abs(da).max(skipna=True)
+    return xr.apply_ufunc(_power_of_two, peak, dask="parallelized", output_dtypes=[float])
+
+
+def _power_of_two(peak):
+    peak = np.asarray(peak, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        exponent = np.where(np.isfinite(peak) & (peak > 0), np.round(np.log2(peak)), 0.0)
+    return np.ldexp(1.0, exponent.astype(int))
+
+
+def _scale_back(values, scale, *, power: int, height_unit: str):
+    """``values * scale^power``, or a clear error where that leaves the float64 range."""
+    values = np.asarray(values, dtype=float)
+    exponent = int(np.round(np.log2(float(np.max(scale))))) * power
+    with np.errstate(over="ignore", under="ignore"):
+        out = np.ldexp(values, exponent)
+    lost = np.isfinite(values) & (values != 0) & ~(np.isfinite(out) & (out != 0))
+    if np.any(lost):
+        decade = np.log10(np.max(np.abs(values[lost]))) + exponent * np.log10(2.0)
+        raise ValueError(
+            f"heights of about 1e{exponent / power * np.log10(2.0):.0f} {height_unit} make "
+            f"G reach about 1e{decade:.0f} {u.power_units(height_unit, 2)}, outside the "
+            "range of float64 numbers (1e-308 to 1.8e308): check the height scale of the "
+            "data (a wrong unit or scale factor), or express the heights in a unit that "
+            "brings them nearer to 1")
     return out
 
 
@@ -437,9 +476,11 @@ def height_difference_acf(
     workers = workers if workers is not None else (os.cpu_count() or 1)
     common = dict(input_core_dims=[list(plan.core_dims)], dask="parallelized",
                   dask_gufunc_kwargs={"output_sizes": {"dr": nb}}, keep_attrs=False)
+    scale = _height_scale(da)
+    common["input_core_dims"] = [list(plan.core_dims), []]
     if estimator == "fft":
         sums, counts, valid = xr.apply_ufunc(
-            _fft_kernel, da, output_core_dims=[["dr"], ["dr"], []],
+            _fft_kernel, da, scale, output_core_dims=[["dr"], ["dr"], []],
             output_dtypes=[float, float, float],
             kwargs={"plan": plan, "workers": workers, "progress": progress}, **common)
         gsum, gsq = 0.5 * sums, None
@@ -450,9 +491,9 @@ def height_difference_acf(
         nmaps = int(np.prod([da.sizes[d] for d in extra])) if extra else 1
         seeds = np.random.SeedSequence(seed).generate_state(nmaps, dtype=np.uint64)
         seeds = xr.DataArray(seeds.reshape([da.sizes[d] for d in extra]), dims=extra)
-        common["input_core_dims"] = [list(plan.core_dims), []]
+        common["input_core_dims"] = [list(plan.core_dims), [], []]
         gsum, gsq, counts, valid = xr.apply_ufunc(
-            _random_kernel, da, seeds, output_core_dims=[["dr"], ["dr"], ["dr"], []],
+            _random_kernel, da, seeds, scale, output_core_dims=[["dr"], ["dr"], ["dr"], []],
             output_dtypes=[float, float, float, float],
             kwargs={"plan": plan, "n_per_bin": max(1, int(n_pairs) // nb),
                     "progress": progress}, **common)
@@ -476,6 +517,11 @@ def height_difference_acf(
         sampling = np.sqrt(var / (counts - 1).where(counts > 1))
     total = np.sqrt(area_var + sampling.fillna(0.0) ** 2).where(has)
     hunit = grid.height_unit
+    # back from h / scale (everything above is in scaled heights)
+    G, total, sampling = (xr.apply_ufunc(
+        _scale_back, x, scale, dask="parallelized", output_dtypes=[float],
+        kwargs={"power": 2, "height_unit": hunit}, keep_attrs=False)
+        for x in (G, total, sampling))
     G = G.assign_coords(
         dr=("dr", dr, {"units": grid.lateral_unit, "long_name": "lag distance"}),
         pair_count=counts.astype(np.int64).assign_attrs(

@@ -52,13 +52,20 @@ import numpy as np
 import pint
 import xarray as xr
 
+from . import quality
 from . import units as u
 from ._kernels.fitting import (
+    CHI2_QUESTIONABLE,
     EQ36_OUTPUTS,
     FLAGS,
     H_BOUNDS,
+    MISFIT_FAILED,
+    MISFIT_QUESTIONABLE,
     MODELS,
+    OTHER_BETTER,
+    OUTSIDE,
     PARAMETERS,  # noqa: F401  (the fitted parameters, public here)
+    PROBLEMS,
     SPECTRUM_OUTPUTS,
     SPECTRUM_PARAMETERS,  # noqa: F401
     fit_eq36_kernel,
@@ -68,7 +75,7 @@ from ._kernels.fitting import (
 from ._kernels.shape_factors import ROLLOFFS
 from .acf import check_acf, lag_coord, result_attrs
 
-__all__ = ["fit_acf", "model_acf"]
+__all__ = ["fit_acf", "model_acf", "describe_problems"]
 
 _FIXABLE = ("sigma_h", "hurst", "C_b")
 _SPECTRUM_FIXABLE = ("hurst", "lambda_r", "lambda_s")
@@ -174,6 +181,84 @@ def fixed_spectrum(fix, lateral: pint.Unit, lambda_0: float) -> tuple[np.ndarray
     if not np.isnan(out[1]) and out[2] >= out[1]:
         raise ValueError("fix: lambda_s must be shorter than lambda_r")
     return out, ", ".join(text) or "none"
+
+
+def _problem_text(name: str, v: dict) -> str:
+    """One problem of a fit in words; ``v`` holds the numbers of one fit, or is empty."""
+    one = bool(v)
+    if name == "poor_fit":
+        found = (f"reduced chi^2 = {v['chi2']:.3g} > {CHI2_QUESTIONABLE:g}, rms misfit of "
+                 f"ln G = {v['misfit']:.2g}" if one else
+                 f"reduced chi^2 > {CHI2_QUESTIONABLE:g} and rms misfit of ln G > "
+                 f"{MISFIT_QUESTIONABLE:g}")
+        return (f"the model misses G beyond its errors ({found}): the parameters carry a "
+                "model bias that their std does not include")
+    if name == "failed_fit":
+        found = f" = {v['misfit']:.2g}" if one else ""
+        return (f"the model does not describe G (rms misfit of ln G{found} > "
+                f"{MISFIT_FAILED:g}): its parameters are NaN")
+    if name == "hurst_at_bound":
+        return (f"H ended on its bound {H_BOUNDS[0]:g} or {H_BOUNDS[1]:g}: G follows no "
+                "power law dr^(2H) with 0 < H < 1 over the lags (e.g. G ~ dr^2 from a tilt "
+                "or a curvature, or a plateau); detrend, or fit a narrower dr range")
+    if name == "other_model_better":
+        found = f" (reduced chi^2 = {v['chi2_eq36']:.3g})" if one else ""
+        return (f"eq. 36 fits G more than {OTHER_BETTER:g} times better{found}: use "
+                "fit_acf(G, model='eq36')")
+    if name == "no_self_affine_range":
+        return ("the fitted cutoffs leave no self-affine range inside the lags (lambda_s "
+                "beyond the largest lag, lambda_r below the smallest, or lambda_r < 2 "
+                "lambda_s): H and the amplitude are not determined and are NaN; detrend "
+                "(a tilt makes G ~ dr^2) or measure a wider range of lags")
+    if name == "outside_range":
+        return (f"lambda_r lies more than {OUTSIDE:g} times beyond the largest lag: an "
+                "extrapolation, not a measurement")
+    return "the fit gave no finite H, chi^2 or sigma_h: its parameters are NaN"
+
+
+def describe_problems(bits: int, numbers: dict | None = None) -> str:
+    """Say in words what the problem bits of a fit (variable ``fit_problems``) mean.
+
+    Parameters
+    ----------
+    bits : int
+        Bit k set for problem k of :data:`xrough._kernels.fitting.PROBLEMS`.
+    numbers : dict, optional
+        ``chi2``, ``misfit``, ``chi2_eq36`` and ``weighted`` of one fit, quoted in the
+        text.
+
+    Returns
+    -------
+    str
+        One sentence per problem, ``"; "``-joined (empty for 0).
+
+    Examples
+    --------
+    >>> describe_problems(4)[:28]
+    'H ended on its bound 0.01 or'
+    """
+    names = [name for k, name in enumerate(PROBLEMS) if int(bits) >> k & 1]
+    if "failed_fit" in names and "poor_fit" in names:
+        names.remove("poor_fit")
+    return quality.SEPARATOR.join(_problem_text(name, numbers or {}) for name in names)
+
+
+def _fit_notes(ds: xr.Dataset, bits: np.ndarray, model: str, weighted: bool) -> str:
+    """Describe computed fits: the numbers of one fit, or the count of curves per problem."""
+    bits = np.asarray(bits, dtype=np.int64)
+    if bits.ndim == 0:
+        eq36 = float(ds.reduced_chi2_eq36) if model == "spectrum" else np.nan
+        return describe_problems(int(bits), {"chi2": float(ds.reduced_chi2),
+                                             "misfit": float(ds.rms_misfit),
+                                             "chi2_eq36": eq36, "weighted": weighted})
+    parts = []
+    failed = bits >> PROBLEMS.index("failed_fit") & 1
+    for k, name in enumerate(PROBLEMS):
+        hit = int(np.count_nonzero((bits >> k & 1) & (1 - failed if name == "poor_fit"
+                                                       else 1)))
+        if hit:
+            parts.append(f"{hit} of {bits.size} curves: " + describe_problems(1 << k))
+    return quality.SEPARATOR.join(parts)
 
 
 # --------------------------------------------------------------------------------------
@@ -452,7 +537,8 @@ def fit_acf(
     else:
         spec["lambda_r"] = (1.0, lat_s, "roll-off wavelength 2 pi / q_r")
         spec["lambda_s"] = (1.0, lat_s, "short-wavelength cutoff 2 pi / q_s (upper bound "
-                                        "where lambda_s_resolved = 0)")
+                                        "where lambda_s_resolved = 0; NaN: no bound "
+                                        "within the lags)")
         spec["C_r"] = (1.0 / g_factor, u.format_units(g_unit * lateral**2),
                        "plateau of the spectrum, C(q -> 0)")
     data = {}
@@ -463,6 +549,17 @@ def fit_acf(
     data["reduced_chi2"] = _variable(part["reduced_chi2"], "1",
                                      "reduced chi^2 of the fit (log residuals)")
     data["n_bins"] = _variable(part["n_bins"].astype(np.int64), "1", "number of bins fitted")
+    data["rms_misfit"] = _variable(part["rms_misfit"], "1",
+                                   "rms of ln G_model - ln G over the bins (weighted as the "
+                                   "fit): the typical relative misfit of G")
+    if model == "spectrum":
+        data["reduced_chi2_eq36"] = _variable(
+            part["reduced_chi2_eq36"], "1",
+            "reduced chi^2 of eq. 36 on the same bins (the fit's starting point)")
+    data["fit_problems"] = part["fit_problems"].astype(np.int16).assign_attrs(
+        long_name="checks of the fit that failed (bit per check; see docs/quality.md)",
+        units="1", flag_masks=" ".join(str(1 << k) for k in range(len(PROBLEMS))),
+        flag_meanings=" ".join(PROBLEMS))
     used = dr[use]
     attrs = {
         "long_name": ("fit of the three-regime form of G" if model == "eq36"
@@ -511,7 +608,10 @@ def fit_acf(
     if model == "spectrum":
         ds = ds.assign_coords(lambda_0=((), kwargs["lambda_0"], {
             "units": lat_s, "long_name": "long-wavelength cutoff of the model (inf: none)"}))
-    return ds
+    lazy = part["quality"].chunks is not None
+    notes = "" if lazy else _fit_notes(ds, ds["fit_problems"].values, model, weighted)
+    return quality.mark_curves(ds, part["quality"], what=f"fit_acf (model {model!r})",
+                               notes=notes, stacklevel=2)
 
 
 # --------------------------------------------------------------------------------------

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from . import quality
 from . import units as u
 from ._kernels import gradient as kernels
 from ._kernels.binning import log_range
@@ -34,6 +35,7 @@ from ._kernels.shape_factors import ROLLOFFS, rolloff_factor, self_affine_factor
 from ._kernels.spectral_models import model_gradient2
 from .acf import check_acf, lag_coord, result_attrs
 from .fitting import (
+    describe_problems,
     fit_acf,
     fit_in_lateral,
     fit_lags,
@@ -58,6 +60,8 @@ _EQUATIONS = {
     "fit": "eq. 26 of the fitted model spectrum",
     "exact+fit": "eq. 26 with C(q) from eq. 10/11 where G determines it, eq. 26 of the "
                  "fitted model spectrum on the other lags",
+    "exact+simple": "eq. 26 with C(q) from eq. 10/11 where G determines it, gbar^2 ~ "
+                    "4 G(dr) / dr^2 on the other lags",
 }
 
 
@@ -140,6 +144,9 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto",
                   vectorize=True, dask="parallelized", output_dtypes=[float],
                   keep_attrs=False)
     extra_attrs: dict = {}
+    extra = [d for d in Gl.dims if d != "dr"]
+    level = xr.DataArray(np.zeros([Gl.sizes[d] for d in extra], dtype=np.int8), dims=extra)
+    notes = ""  # 'simple' and 'exact' are what they say: good
     if method == "simple":
         out = xr.apply_ufunc(kernels.simple_gradient, xr.DataArray(dr, dims="dr"), Gl,
                              dask="parallelized", output_dtypes=[float], keep_attrs=False)
@@ -148,16 +155,22 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto",
         out = _fitted_on_lags(params, G)
         if params.attrs.get("model") != "spectrum":
             extra_attrs["equation"] = "eq. 37/38 with the fit of eq. 36"
+        if quality.FLAG in params.coords:
+            level = params[quality.FLAG].drop_vars(
+                [c for c in params.coords if c not in params.dims], errors="ignore")
+            notes = "from the fit of G: " + params.attrs.get("quality_notes", "")
     elif method == "exact":
         out = xr.apply_ufunc(kernels.exact_on_lags, Gl, _noise(G),
                              kwargs={"dr": dr, **_EXACT_DEFAULTS}, **common)
         extra_attrs["note"] = "NaN where G does not determine gbar (see rms_gradient_exact)"
     else:
-        out, info = _auto(G, Gl, _noise(G), spec, fit)
+        out, info, level, notes = _auto(G, Gl, _noise(G), spec, fit)
         extra_attrs.update(info)
     out = out.transpose(..., "dr").assign_coords(G["dr"].coords)
     out = out.drop_vars([c for c in out.coords if c not in out.dims and c != "dr"
                          and c != "gradient_method"], errors="ignore")
+    level = level.drop_vars([c for c in level.coords if c not in level.dims],
+                            errors="ignore")
     out.name = "gbar"
     attrs = {"units": "1", "long_name": "scale-dependent rms gradient",
              "equation": _EQUATIONS.get(method, "eq. 26 (route per curve: see "
@@ -165,7 +178,8 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto",
              "method": method}
     attrs.update(extra_attrs)
     out.attrs = result_attrs(G, **attrs)
-    return out
+    return quality.mark_curves(out, level, what=f"rms_gradient (method {method!r})",
+                               notes=notes, stacklevel=2)
 
 
 def _fitted_on_lags(params: xr.Dataset, G: xr.DataArray) -> xr.DataArray:
@@ -207,26 +221,73 @@ def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec,
                                      exact=_EXACT_DEFAULTS, fit=fit,
                                      fit_gradient=fit_gradient)
 
-    out, code, n_exact = xr.apply_ufunc(
+    out, code, n_exact, bits, level = xr.apply_ufunc(
         kernel, Gl, _strip(se), noise, fitted.transpose(*Gl.dims), input_core_dims=[["dr"]] * 4,
-        output_core_dims=[["dr"], [], []], vectorize=True, dask="parallelized",
-        output_dtypes=[float, np.int8, np.int64], keep_attrs=False)
+        output_core_dims=[["dr"], [], [], [], []], vectorize=True, dask="parallelized",
+        output_dtypes=[float, np.int8, np.int64, np.int16, np.int8], keep_attrs=False)
     code = code.assign_attrs(
         long_name="route of the rms gradient per curve", units="1",
-        flag_values="0 1 2 3", flag_meanings=" ".join(kernels.AUTO_METHODS))
+        flag_values=" ".join(str(k) for k in range(len(kernels.AUTO_METHODS))),
+        flag_meanings=" ".join(kernels.AUTO_METHODS))
     out = out.assign_coords(gradient_method=code)
+    if params is not None and quality.FLAG in params.coords:  # the given fit's own rating
+        uses_fit = (code == 1) | (code == 3)
+        given = params[quality.FLAG].drop_vars(
+            [c for c in params.coords if c not in params.dims], errors="ignore")
+        level = xr.where(uses_fit, np.maximum(level, given), level).astype(np.int8)
     info: dict = {}
-    if code.chunks is None and code.ndim == 0:  # one curve, computed: say which route
-        taken = kernels.AUTO_METHODS[int(code)]
-        info["method"] = taken
-        info["equation"] = _EQUATIONS[taken]
-        if taken != "exact":
-            n_valid = int(np.count_nonzero(np.isfinite(Gl.values) & use))
-            reason = f"exact: determined on {int(n_exact)} of {n_valid} lags only"
-            if taken == "simple":
-                reason += "; fit: failed or not finite on every lag"
-            info["fallback_reason"] = reason
-    return out, info
+    notes = ""
+    if code.chunks is None:  # computed: say which route, and why
+        n_valid = np.count_nonzero(np.isfinite(Gl.values) & use, axis=-1)
+        reasons = np.vectorize(_route_reason, otypes=[object])(
+            code.values, n_exact.values, n_valid, bits.values, level.values,
+            params is not None)
+        notes = _curve_notes(reasons, level.values)
+        if code.ndim == 0:
+            taken = kernels.AUTO_METHODS[int(code)]
+            info["method"] = taken
+            info["equation"] = _EQUATIONS[taken]
+            if taken != "exact":
+                info["fallback_reason"] = str(reasons)
+            if params is not None and int(level) and code in (1, 3):
+                notes = quality.SEPARATOR.join(
+                    [notes, "the given fit: " + params.attrs.get("quality_notes", "")])
+    return out, info, level, notes
+
+
+def _route_reason(code: int, n_exact: int, n_valid: int, bits: int, level: int,
+                  given: bool) -> str:
+    """Why ``method='auto'`` took route ``code`` for one curve, in words."""
+    taken = kernels.AUTO_METHODS[code]
+    if taken == "exact":
+        return ""
+    reason = f"exact: determined on {n_exact} of {n_valid} lags only"
+    if taken in ("fit", "exact+fit"):
+        where = "the other lags" if taken == "exact+fit" else "every lag"
+        reason += f"; eq. 26 of the fitted model spectrum on {where}"
+        if level and bits > 0:
+            reason += " from a questionable fit: " + describe_problems(bits)
+        return reason
+    fit_text = ("the given fit failed (see its quality_notes)" if given else
+                "failed: " + describe_problems(bits) if bits > 0 else
+                "not possible (fewer than 5 lags)" if bits < 0 else "failed")
+    where = "the other lags" if taken == "exact+simple" else "every lag"
+    return (f"{reason}; fit: {fit_text}; so the ballistic approximation sqrt(4 G)/dr on "
+            f"{where}, which holds only where G ~ dr^2 (dr well below lambda_s) and "
+            "misjudges gbar elsewhere")
+
+
+def _curve_notes(reasons: np.ndarray, level: np.ndarray) -> str:
+    """Join the reasons of the curves rated questionable or failed (counted if many)."""
+    reasons, level = np.asarray(reasons, dtype=object), np.asarray(level)
+    if reasons.ndim == 0:
+        return str(reasons) if int(level) else ""
+    counts: dict = {}
+    for text, lev in zip(reasons.ravel(), level.ravel()):
+        if lev:
+            counts[text] = counts.get(text, 0) + 1
+    return quality.SEPARATOR.join(f"{k} of {reasons.size} curves: {text}"
+                                  for text, k in counts.items())
 
 
 def rms_gradient_exact(

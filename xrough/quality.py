@@ -6,14 +6,15 @@ them as findings, in one way for every result (see docs/quality.md):
 
 ``attrs["quality"]``
     ``"good"``, ``"questionable"`` or ``"failed"`` (:data:`LEVELS`): the worst level of
-    the checks the result passed through. On a lazy (dask) result whose per-curve checks
-    run at compute time it is absent (or the level of the checks that did not need the
-    data); :func:`worst` computes the whole answer.
+    the checks of a result of one curve.  A result of many curves (extra dims such as
+    ``scan``), or a lazy (dask) one, has it only from checks that did not need the data
+    (the same with numpy and dask); its verdict per curve is the coordinate below, and
+    :func:`worst` reads (computes) it.
 ``attrs["quality_notes"]``
     why, in words, ``"; "``-joined (each note names the check, what it found and what to
     do); ``""`` for a good result.
 coordinate ``quality_flag``
-    the level per curve as an integer (0 good, 1 questionable, 2 failed; CF
+    the level per curve as an ``int8`` (0 good, 1 questionable, 2 failed; CF
     ``flag_values``/``flag_meanings``), on the extra dims of the result (0-d for one
     curve); computed with the result, so it is lazy where the result is.
 :class:`QualityWarning`
@@ -147,7 +148,9 @@ def flag_coord(codes, *, what: str) -> xr.DataArray:
     Returns
     -------
     xarray.DataArray
-        ``int8``, with CF ``flag_values`` and ``flag_meanings`` and ``units = "1"``.
+        ``int8``, with ``flag_values`` (``"0 1 2"``, spelled as a string like every
+        flag attribute of xrough, so that attrs compare with ``==``), ``flag_meanings``
+        and ``units = "1"``.
 
     Examples
     --------
@@ -157,8 +160,8 @@ def flag_coord(codes, *, what: str) -> xr.DataArray:
     """
     da = codes if isinstance(codes, xr.DataArray) else xr.DataArray(np.asarray(codes))
     da = da.astype(np.int8)
-    da.attrs = {"long_name": f"quality of the {what} (per curve)", "units": "1",
-                "flag_values": np.arange(len(LEVELS), dtype=np.int8),
+    da.attrs = {"long_name": f"quality of {what} per curve", "units": "1",
+                "flag_values": " ".join(str(k) for k in range(len(LEVELS))),
                 "flag_meanings": " ".join(LEVELS)}
     da.name = FLAG
     return da
@@ -173,7 +176,8 @@ def _join(old: str, new: str) -> str:
 
 
 def _warn(what: str, level: str, text: str, stacklevel: int) -> None:
-    warnings.warn(f"{what} is {level}: {text}", QualityWarning, stacklevel=stacklevel + 1)
+    # + 2: this function and mark / mark_curves
+    warnings.warn(f"{what}: {level}: {text}", QualityWarning, stacklevel=stacklevel + 2)
 
 
 def mark(obj, reason: str, *, level: str = "questionable", what: str,
@@ -183,7 +187,7 @@ def mark(obj, reason: str, *, level: str = "questionable", what: str,
     ``attrs["quality"]`` becomes the worse of its level and ``level``, ``reason`` is
     appended to ``attrs["quality_notes"]``, the ``quality_flag`` coordinate (if any) is
     raised to ``level`` on every curve, and a :class:`QualityWarning` says
-    ``"<what> is <level>: <reason>"``.
+    ``"<what>: <level>: <reason>"``.
 
     Parameters
     ----------
@@ -200,7 +204,8 @@ def mark(obj, reason: str, *, level: str = "questionable", what: str,
     warn : bool
         Emit the warning (False when the caller warns once for several marks).
     stacklevel : int
-        Of the warning, counted from the caller of :func:`mark`.
+        Of the warning, counted from the caller of :func:`mark` (1: that caller; 2,
+        the default: its caller, the user of a public function).
 
     Returns
     -------
@@ -231,12 +236,17 @@ def mark(obj, reason: str, *, level: str = "questionable", what: str,
 
 def mark_curves(obj, codes, *, what: str, notes: str = "", warn: bool = True,
                 stacklevel: int = 2):
-    """Attach the per-curve level codes of a result, and rate it when they are computed.
+    """Attach the per-curve level codes of a result; rate a single computed curve.
 
-    The ``quality_flag`` coordinate becomes the worse of its codes and ``codes``. When the
-    codes are numpy (not dask), ``attrs["quality"]`` is set to their worst, ``notes`` is
-    appended and, if that is not good, one :class:`QualityWarning` is emitted. When they
-    are lazy, only the coordinate is set and ``attrs["quality_notes"]`` says where to look.
+    The ``quality_flag`` coordinate becomes the worse of its codes and ``codes`` (lazy
+    where they are).  Then:
+
+    * one curve (0-d codes), computed: ``attrs["quality"]`` is set to its level and, if
+      that is not good, ``notes`` appended and one :class:`QualityWarning` emitted;
+    * many curves: the attrs hold no per-curve verdict (so that a dask result and its
+      numpy twin have the same attrs); ``attrs["quality_notes"]`` says where the verdict
+      is, and when the codes are computed and not all good, one warning gives ``notes``;
+    * one lazy curve: as many curves, without the warning.
 
     Parameters
     ----------
@@ -251,7 +261,7 @@ def mark_curves(obj, codes, *, what: str, notes: str = "", warn: bool = True,
     warn : bool
         Emit the warning.
     stacklevel : int
-        Of the warning, counted from the caller.
+        Of the warning, counted as for :func:`mark`.
 
     Returns
     -------
@@ -260,12 +270,17 @@ def mark_curves(obj, codes, *, what: str, notes: str = "", warn: bool = True,
     Examples
     --------
     >>> import warnings, xarray as xr
-    >>> G = xr.DataArray([[1.0, 2.0], [1.0, 2.0]], dims=("scan", "dr"))
-    >>> codes = xr.DataArray([0, 2], dims="scan")
+    >>> G = xr.DataArray([1.0, 2.0], dims="dr")
     >>> with warnings.catch_warnings():
     ...     warnings.simplefilter("ignore")
-    ...     r = mark_curves(G, codes, what="fit", notes="scan 1: failed")
-    >>> r.attrs["quality"], r.quality_flag.values.tolist()
+    ...     r = mark_curves(G, xr.DataArray(2), what="fit", notes="no plateau")
+    >>> r.attrs["quality"], r.attrs["quality_notes"], int(r.quality_flag)
+    ('failed', 'no plateau', 2)
+    >>> many = xr.DataArray([[1.0, 2.0], [1.0, 2.0]], dims=("scan", "dr"))
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("ignore")
+    ...     r = mark_curves(many, xr.DataArray([0, 2], dims="scan"), what="fit")
+    >>> worst(r), r.quality_flag.values.tolist()
     ('failed', [0, 2])
     """
     codes = codes if isinstance(codes, xr.DataArray) else xr.DataArray(np.asarray(codes))
@@ -273,16 +288,19 @@ def mark_curves(obj, codes, *, what: str, notes: str = "", warn: bool = True,
     if FLAG in out.coords:
         codes = np.maximum(out[FLAG].drop_vars(FLAG, errors="ignore"), codes)
     out = out.assign_coords({FLAG: flag_coord(codes, what=what)})
-    if out[FLAG].chunks is not None:
+    flag = out[FLAG]
+    if flag.ndim or flag.chunks is not None:
         out.attrs["quality_notes"] = _join(
             out.attrs.get("quality_notes", ""),
-            f"{what}: per-curve quality in coordinate {FLAG} (known once computed; "
-            "xrough.quality.worst(result) computes it)")
-        out.attrs.pop("quality", None)
+            f"{what}: quality per curve in coordinate {FLAG} (xrough.quality.worst(result) "
+            "gives the worst)")
+        if flag.chunks is None and notes and warn:
+            code = int(np.max(flag.values)) if flag.size else 0
+            if code:
+                _warn(what, LEVELS[code], notes, stacklevel)
         return out
-    code = int(np.max(out[FLAG].values)) if out[FLAG].size else 0
-    level = worst(out.attrs.get("quality", "good"), code)
-    out.attrs["quality"] = level
+    code = int(flag.values)
+    out.attrs["quality"] = worst(out.attrs.get("quality", "good"), code)
     out.attrs.setdefault("quality_notes", "")
     if code > 0 and notes:
         out.attrs["quality_notes"] = _join(out.attrs["quality_notes"], notes)

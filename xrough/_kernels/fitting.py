@@ -32,6 +32,9 @@ __all__ = [
     "EQ36_OUTPUTS",
     "SPECTRUM_OUTPUTS",
     "H_BOUNDS",
+    "PROBLEMS",
+    "PROBLEM_LEVELS",
+    "fit_problems",
     "fit_eq36_kernel",
     "fit_spectrum_kernel",
     "fitted_spectrum_acf",
@@ -40,11 +43,38 @@ __all__ = [
 
 MODELS = ("spectrum", "eq36")
 PARAMETERS = ("sigma_h", "G_sa", "hurst", "C_b", "lambda_r")
-EQ36_OUTPUTS = (*PARAMETERS, *(f"{p}_std" for p in PARAMETERS), "reduced_chi2", "n_bins")
+EQ36_OUTPUTS = (*PARAMETERS, *(f"{p}_std" for p in PARAMETERS), "reduced_chi2", "n_bins",
+                "rms_misfit", "fit_problems", "quality")
 SPECTRUM_PARAMETERS = ("sigma_h", "G_sa", "hurst", "lambda_r", "lambda_s", "C_r")
 FLAGS = ("lambda_r_resolved", "lambda_s_resolved")
 SPECTRUM_OUTPUTS = (*SPECTRUM_PARAMETERS, *(f"{p}_std" for p in SPECTRUM_PARAMETERS),
-                    "reduced_chi2", "n_bins", *FLAGS)
+                    "reduced_chi2", "n_bins", *FLAGS, "rms_misfit", "reduced_chi2_eq36",
+                    "fit_problems", "quality")
+#: The checks of a fit (bit k of ``fit_problems``) and the quality level each implies
+#: (1 questionable, 2 failed; see :func:`fit_problems`).
+PROBLEM_LEVELS = {
+    "poor_fit": 1,              # the model misses G beyond its errors and by > 10 % rms
+    "failed_fit": 2,            # ... and by more than 20 % rms
+    "hurst_at_bound": 1,        # H ended on its bound 0.01 or 0.99
+    "other_model_better": 1,    # chi^2 > 10 and eq. 36 has a 3 times smaller one
+    "no_self_affine_range": 2,  # the cutoffs leave no self-affine range inside the lags
+    "outside_range": 1,         # lambda_r more than 10 times beyond the largest lag
+    "not_finite": 2,            # H, chi^2 or sigma_h undefined
+}
+PROBLEMS = tuple(PROBLEM_LEVELS)
+#: A fit is poor (questionable) when its reduced chi^2 exceeds CHI2_QUESTIONABLE (the
+#: model misses G by more than 3 standard errors rms) and its rms misfit of ln G exceeds
+#: MISFIT_QUESTIONABLE (10 %: a smaller misfit moves gbar ~ G^(1/2), and what follows
+#: from it, by less than 5 %, and the tiny errors of a large map alone must not flag a
+#: fit); unweighted (no standard errors to judge by), only a failure counts.  A poor fit
+#: whose misfit exceeds MISFIT_FAILED (20 %) has failed.  See docs/quality.md for the
+#: measurements behind them.
+CHI2_QUESTIONABLE = 10.0
+MISFIT_QUESTIONABLE, MISFIT_FAILED = 0.1, 0.2
+#: The other model is "clearly better" when its reduced chi^2 is this many times smaller.
+OTHER_BETTER = 3.0
+#: A cutoff more than this factor outside the fitted lags is an extrapolation.
+OUTSIDE = 10.0
 #: Bounds of H in the fit (the model degenerates at H = 0 and H = 1).
 H_BOUNDS = (0.01, 0.99)
 #: Hurst exponents tried for the starting point (linear least squares at each).
@@ -63,6 +93,16 @@ _QUADRATURE = {"t_split": 32.0, "order": 10, "panels_per_decade": 4.0}
 #: A cutoff is resolved when its eta (eps) exceeds this many standard deviations and
 #: _MIN_EFFECT (a relative change of G below 1e-6 is no cutoff, even in exact data).
 _SIGNIFICANCE, _MIN_EFFECT = 2.0, 1e-6
+#: A first fit of the spectrum that is poor (reduced chi^2 above CHI2_QUESTIONABLE or
+#: above that of eq. 36; unweighted, rms misfit above _RESTART_MISFIT) restarts from the
+#: _N_RESTARTS best points of this grid of ``[H, ln eta, ln eps]``: on self-affine
+#: surfaces whose cutoffs are one decade apart (e.g. 1024^2 with lambda_r = 20 and
+#: lambda_s = 2 pixels) the start from eq. 36 can end in a local minimum with lambda_s
+#: beyond lambda_r, H = 0.15 and a reduced chi^2 of 1e4.
+_GRID = (np.array([0.1, 0.3, 0.5, 0.7, 0.9]), np.array([-4.0, -1.0, 2.0, 5.0]),
+         np.array([-4.0, -1.0, 2.0, 5.0]))
+_N_RESTARTS = 3
+_RESTART_MISFIT = 0.03
 
 
 # --------------------------------------------------------------------------------------
@@ -83,6 +123,15 @@ def _select(G, se, use, weighted, dr, unit, what):
         raise ValueError(f"standard_error must be positive where G is fitted, got "
                          f"{se[k]:g} at dr = {dr[k]:g} {unit} (or use weights=None)")
     return sel
+
+
+def _rms_misfit(r, w):
+    """Weighted rms of ``ln G_model - ln G`` from the residuals ``r = (...) / w``.
+
+    Each bin counts with ``1/w^2`` (``w``: standard error of ``ln G``; 1 unweighted), so
+    that noisy bins do not dominate; the value is the typical relative misfit of G.
+    """
+    return float(np.sqrt(np.sum(r**2) / np.sum(1.0 / w**2)))
 
 
 def _check_count(n, p, what):
@@ -173,8 +222,11 @@ def _jacobian(theta, x, w):
     return np.column_stack(cols) / (total * w)[:, None]
 
 
-def fit_eq36_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, unit):
-    """Fit eq. 36 to one G (all lengths in one unit); returns the values of ``EQ36_OUTPUTS``."""
+def fit_eq36_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, unit, check=True):
+    """Fit eq. 36 to one G (all lengths in one unit); returns the values of ``EQ36_OUTPUTS``.
+
+    ``check=False`` keeps the parameters of a failed fit (a starting point needs them).
+    """
     free, n, p, x, G_sel, G_ref, w = _fit_data(G, se, dr=dr, use=use, dr_ref=dr_ref,
                                                weighted=weighted, fixed=fixed, unit=unit,
                                                what="eq. 36")
@@ -217,7 +269,7 @@ def fit_eq36_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, unit):
     cov_free *= chi2 if not weighted else max(1.0, chi2)
     cov = np.zeros((4, 4))
     cov[np.ix_(free, free)] = cov_free
-    var = np.diag(cov)
+    var = np.maximum(np.diag(cov), 0.0)  # round-off of a singular covariance
 
     ln_a, H, b, s = theta
     G_sa = G_ref * np.exp(-ln_a)
@@ -236,10 +288,18 @@ def fit_eq36_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, unit):
         lam_std = lam * np.sqrt(max(grad @ cov @ grad, 0.0))
     else:
         sigma_h, sigma_std, lam, lam_std = np.inf, np.nan, np.inf, np.nan
-    values = [sigma_h, G_sa, H, C_b, lam]
-    stds = [sigma_std, G_sa * np.sqrt(var[0]), np.sqrt(var[1]),
-            np.sqrt(var[2]) * dr_ref**2 / G_ref, lam_std]
-    return np.array([*values, *stds, chi2, n], dtype=float)
+    values = np.array([sigma_h, G_sa, H, C_b, lam])
+    stds = np.array([sigma_std, G_sa * np.sqrt(var[0]), np.sqrt(var[1]),
+                     np.sqrt(var[2]) * dr_ref**2 / G_ref, lam_std])
+    rms_misfit = _rms_misfit(_residuals(theta, x, y, w), w)
+    bits, code = fit_problems(chi2, rms_misfit, H, weighted=weighted, dr_min=x[0] * dr_ref,
+                              dr_max=x[-1] * dr_ref, sigma_h=sigma_h, lambda_r=lam,
+                              lambda_s=0.0, r_ok=s > 0, s_ok=False,
+                              hurst_free=bool(free[1]))
+    if code == 2 and check:  # the numbers mean nothing (but a fixed value stays)
+        keep = np.array([np.isfinite(fixed[2]), False, not free[1], not free[2], False])
+        values[~keep], stds[~keep] = np.nan, np.nan
+    return np.array([*values, *stds, chi2, n, rms_misfit, bits, code], dtype=float)
 
 
 # --------------------------------------------------------------------------------------
@@ -298,23 +358,29 @@ def _spectrum_moments(c, H, q_r, q_s, q_0, rolloff):
 
 def _spectrum_start(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, unit, G_ref, x_lo,
                     x_hi):
-    """Start ``[ln(G_sa/G_ref), H, ln eta, ln eps]`` from the fit of eq. 36."""
+    """Start ``[ln(G_sa/G_ref), H, ln eta, ln eps]`` from the fit of eq. 36, and its chi^2.
+
+    The reduced chi^2 of eq. 36 (inf when it cannot be fitted) is the yardstick of
+    :func:`fit_problems`: the model spectrum should fit a self-affine G at least as well.
+    """
     try:
         out = fit_eq36_kernel(G, se, dr=dr, use=use, dr_ref=dr_ref, weighted=weighted,
                               fixed=np.array([fixed[0], np.nan, np.nan]), rolloff=rolloff,
-                              unit=unit)
+                              unit=unit, check=False)
     except ValueError:  # too few bins for eq. 36 (the spectrum has fixed cutoffs)
         H = 0.5 if np.isnan(fixed[0]) else fixed[0]
-        out = [np.nan, G_ref, H, 0.0, np.inf]
+        out = [np.nan, G_ref, H, 0.0, np.inf] + [np.nan] * 5 + [np.inf]
     _, G_sa, H, C_b, lam = out[:5]
+    chi2 = float(out[len(PARAMETERS) * 2])
     H = float(np.clip(H, 0.05, 0.95))
-    ln_eta = (2 - 2 * H) * np.log(x_hi * dr_ref / lam) if np.isfinite(lam) else -5.0
+    ln_eta = ((2 - 2 * H) * np.log(x_hi * dr_ref / lam) if np.isfinite(lam) and lam > 0
+              else -5.0)
     ln_eps = -5.0
     if C_b > 0:  # gbar^2(0) = 4/C_b = (K/I) q_s^(2-2H)/(2-2H) for q_s >> q_r
         K = G_sa / dr_ref ** (2 * H)
         q_s = (4.0 / C_b * self_affine_constant(H) * (2 - 2 * H) / K) ** (1 / (2 - 2 * H))
         ln_eps = 2 * H * np.log(2 * np.pi / q_s / dr_ref / x_lo)
-    return np.array([np.log(G_sa / G_ref), H, ln_eta, ln_eps])
+    return np.array([np.log(G_sa / G_ref), H, ln_eta, ln_eps]), chi2
 
 
 def _gradients(physical, pvec, values, free, sd, grad):
@@ -331,6 +397,23 @@ def _gradients(physical, pvec, values, free, sd, grad):
             hi_p = pvec.copy()
             hi_p[k] += h
             grad[:, k] = (physical(hi_p) - values) / h
+
+
+def _grid_starts(theta, free, lower, upper, x, ly, w, cutoffs, lam_0, rolloff):
+    """Return the best starting points of :data:`_GRID` (free parameters), best first."""
+    axes = [g if free[k + 1] else np.array([theta[k + 1]]) for k, g in enumerate(_GRID)]
+    trials = []
+    for H, le, lp in ((a, b, c) for a in axes[0] for b in axes[1] for c in axes[2]):
+        t = np.clip(np.array([0.0, H, le, lp]), lower + 1e-3, upper - 1e-3)
+        lr, ls = cutoffs(t)
+        with np.errstate(all="ignore"):
+            d = np.log(_acf_shape(x, t[1], lr, ls, lam_0, rolloff)) - ly
+        if not np.all(np.isfinite(d)):
+            continue
+        t[0] = -np.sum(d / w**2) / np.sum(1.0 / w**2)  # the best amplitude
+        trials.append((float(np.sum(((t[0] + d) / w) ** 2)), t))
+    trials.sort(key=lambda item: item[0])
+    return [t for _, t in trials[:_N_RESTARTS]]
 
 
 def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lambda_0, unit):
@@ -360,9 +443,9 @@ def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lam
         lr, ls = cutoffs(t)
         return (t[0] + np.log(_acf_shape(x, t[1], lr, ls, lam_0, rolloff)) - ly) / w
 
-    theta = _spectrum_start(G, se, dr=dr, use=use, dr_ref=dr_ref, weighted=weighted,
-                            fixed=fixed, rolloff=rolloff, unit=unit, G_ref=G_ref,
-                            x_lo=x_lo, x_hi=x_hi)
+    theta, chi2_eq36 = _spectrum_start(G, se, dr=dr, use=use, dr_ref=dr_ref,
+                                       weighted=weighted, fixed=fixed, rolloff=rolloff,
+                                       unit=unit, G_ref=G_ref, x_lo=x_lo, x_hi=x_hi)
     if not free[1]:
         theta[1] = fixed[0]
     span = 2 * np.log(10 * x_hi / x_lo)
@@ -423,26 +506,54 @@ def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lam
 
     dof = n - p
     index = {k: i for i, k in enumerate(np.flatnonzero(free))}
-    active = free.copy()
-    moved = True
-    for _ in range(3):  # refit after dropping cutoffs that the data do not resolve
-        if moved:
-            theta = optimise(theta, active)
-        J, r = linear_jacobian(theta)
-        chi2 = float(np.sum(r**2)) / dof
-        # unweighted: the residual scatter sets the error scale; weighted: the standard
-        # errors do, inflated when the model does not describe the data within them
-        cov_free = np.linalg.pinv(J.T @ J) * (max(1.0, chi2) if weighted else chi2)
-        moved = False
-        for k in (2, 3):
-            if not active[k] or (k == 2 and np.isfinite(lam_0)):
-                continue
-            v, s = np.exp(theta[k]), np.sqrt(max(cov_free[index[k], index[k]], 0.0))
-            if not v > max(_SIGNIFICANCE * s, _MIN_EFFECT):
-                moved |= theta[k] > _LN_FLOOR + 1e-9
-                theta[k], active[k] = _LN_FLOOR, False
-        if not moved:
-            break
+
+    def solve(theta):
+        """Optimise from ``theta``, refitting after dropping cutoffs the data do not resolve."""
+        active = free.copy()
+        moved = True
+        for _ in range(3):
+            if moved:
+                theta = optimise(theta, active)
+            J, r = linear_jacobian(theta)
+            chi2 = float(np.sum(r**2)) / dof
+            # unweighted: the residual scatter sets the error scale; weighted: the standard
+            # errors do, inflated when the model does not describe the data within them
+            cov_free = np.linalg.pinv(J.T @ J) * (max(1.0, chi2) if weighted else chi2)
+            moved = False
+            lr, ls = cutoffs(theta)
+            # a cutoff beyond a decade outside the lags is an extrapolation: not resolved
+            far = {2: lr > OUTSIDE * x_hi, 3: ls < x_lo / OUTSIDE}
+            for k in (2, 3):
+                if not active[k] or (k == 2 and np.isfinite(lam_0)):
+                    continue
+                v, s = np.exp(theta[k]), np.sqrt(max(cov_free[index[k], index[k]], 0.0))
+                if far[k] or not v > max(_SIGNIFICANCE * s, _MIN_EFFECT):
+                    moved |= theta[k] > _LN_FLOOR + 1e-9
+                    theta[k], active[k] = _LN_FLOOR, False
+            if not moved:
+                break
+        return theta, active, cov_free, chi2
+
+    def misfit(theta):
+        return _rms_misfit(residuals(theta), w)
+
+    theta, active, cov_free, chi2 = solve(theta)
+
+    def poor(theta, chi2):
+        return chi2 > chi2_eq36 or (chi2 > CHI2_QUESTIONABLE if weighted
+                                    else misfit(theta) > _RESTART_MISFIT)
+
+    if np.any(free[1:]) and poor(theta, chi2):
+        # a poor fit may sit in a local minimum (e.g. lambda_s beyond lambda_r): restart
+        # from the best points of a coarse grid (amplitude solved for at each)
+        for start in _grid_starts(theta, free, lower, upper, x, ly, w, cutoffs, lam_0,
+                                  rolloff):
+            candidate = solve(start)
+            if candidate[3] < chi2 * (1 - 1e-6):
+                theta, active, cov_free, chi2 = candidate
+            if not poor(theta, chi2):
+                break
+    rms_misfit = misfit(theta)
 
     cov = np.zeros((4, 4))
     cov[np.ix_(free, free)] = cov_free
@@ -457,7 +568,7 @@ def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lam
     def physical(pv):
         """``[ln sigma_h, ln G_sa, H, ln lambda_r, ln lambda_s, ln C_r]`` (lateral unit)."""
         a, H, eta, eps = pv
-        with np.errstate(divide="ignore", over="ignore"):
+        with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
             lr, ls = cutoffs([a, H, np.log(eta), np.log(eps)])
             lr, ls = lr * dr_ref, ls * dr_ref
             c = 2 * np.pi * G_ref * np.exp(a) / dr_ref ** (2 * H) / self_affine_constant(H)
@@ -490,7 +601,56 @@ def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lam
         out[3], std[3] = fixed[1], 0.0
     if not free[3]:
         out[4], std[4] = fixed[2], 0.0
-    return np.array([*out, *std, chi2, n, resolved_r, resolved_s], dtype=float)
+    lo, hi = x_lo * dr_ref, x_hi * dr_ref
+    if free[3] and not resolved_s and out[4] > hi:  # a bound beyond the lags says nothing
+        out[4] = np.nan
+    bits, code = fit_problems(chi2, rms_misfit, out[2], weighted=weighted, dr_min=lo,
+                              dr_max=hi, sigma_h=out[0], lambda_r=out[3], lambda_s=out[4],
+                              r_ok=resolved_r and free[2], s_ok=resolved_s and free[3],
+                              hurst_free=bool(free[1]), chi2_other=chi2_eq36)
+    if code == 2:  # the numbers mean nothing (but a fixed value stays what it was)
+        keep = np.array([False, False, not free[1], not free[2], not free[3], False])
+        out[~keep], std[~keep] = np.nan, np.nan
+    return np.array([*out, *std, chi2, n, resolved_r, resolved_s, rms_misfit, chi2_eq36,
+                     bits, code], dtype=float)
+
+
+# --------------------------------------------------------------------------------------
+# the checks of a fit
+# --------------------------------------------------------------------------------------
+def fit_problems(chi2, rms_misfit, hurst, *, weighted, dr_min, dr_max, sigma_h, lambda_r,
+                 lambda_s, r_ok, s_ok, hurst_free, chi2_other=np.inf) -> tuple[int, int]:
+    """Return the problems of one fit (bits of :data:`PROBLEMS`) and its quality code.
+
+    Code 0 good, 1 questionable, 2 failed (see :mod:`xrough.quality`).  ``dr_min``,
+    ``dr_max``: the fitted lags; ``lambda_r``/``lambda_s`` (same unit) count only where
+    ``r_ok``/``s_ok`` (resolved, fitted); ``chi2_other``: reduced chi^2 of the other
+    model on the same bins (inf: none).  Thresholds: :data:`CHI2_QUESTIONABLE`,
+    :data:`MISFIT_QUESTIONABLE`, :data:`MISFIT_FAILED`,
+    :data:`OTHER_BETTER`, :data:`OUTSIDE`.
+    """
+    found = set()
+    # unweighted, no standard errors say what misfit the data allow: only a failure counts
+    poor = rms_misfit > (MISFIT_QUESTIONABLE if weighted else MISFIT_FAILED) and (
+        chi2 > CHI2_QUESTIONABLE or not weighted)
+    if poor:
+        found.add("poor_fit")
+    if poor and rms_misfit > MISFIT_FAILED:
+        found.add("failed_fit")
+    if hurst_free and not H_BOUNDS[0] + 1e-3 < hurst < H_BOUNDS[1] - 1e-3:
+        found.add("hurst_at_bound")
+    if chi2 > CHI2_QUESTIONABLE and chi2_other * OTHER_BETTER < chi2:
+        found.add("other_model_better")
+    if (r_ok and lambda_r <= dr_min) or (s_ok and lambda_s >= dr_max) or (
+            r_ok and s_ok and lambda_r < 2.0 * lambda_s):
+        found.add("no_self_affine_range")
+    if r_ok and lambda_r > OUTSIDE * dr_max:
+        found.add("outside_range")
+    if not (np.isfinite(hurst) and np.isfinite(chi2)) or np.isnan(sigma_h):
+        found.add("not_finite")
+    bits = sum(1 << k for k, name in enumerate(PROBLEMS) if name in found)
+    code = max((PROBLEM_LEVELS[name] for name in found), default=0)
+    return bits, code
 
 
 # --------------------------------------------------------------------------------------

@@ -4,7 +4,8 @@
   where the data determine it;
 * :func:`auto_gradient`: the exact gradient where it covers at least half of the lags of G,
   else eq. 26 of the fitted model spectrum, else the ballistic ``sqrt(4 G / dr^2)``; the
-  per-curve choice is returned as a code (:data:`AUTO_METHODS`).
+  per-curve choice is returned as a code (:data:`AUTO_METHODS`), with the problems of the
+  fit and a quality code (:mod:`xrough.quality`).
 
 All lengths in one unit; G in its square.
 """
@@ -28,7 +29,7 @@ __all__ = ["AUTO_METHODS", "exact_gradient", "exact_support", "exact_on_lags", "
            "simple_gradient"]
 
 #: Codes of the route :func:`auto_gradient` took, per curve.
-AUTO_METHODS = ("exact", "fit", "simple", "exact+fit")
+AUTO_METHODS = ("exact", "fit", "simple", "exact+fit", "exact+simple")
 
 
 def _cumulative(q, values):
@@ -112,45 +113,61 @@ def exact_on_lags(g, noise, *, dr, smooth, support_rtol, interpolation,
 
 
 def auto_gradient(g, se, noise, fitted=None, *, dr, exact: dict, fit: dict | None,
-                  fit_gradient: dict | None) -> tuple[np.ndarray, int, int]:
-    """Gbar of one curve by the first route that covers it, and the route's code.
+                  fit_gradient: dict | None) -> tuple[np.ndarray, int, int, int, int]:
+    """Gbar of one curve by the first route that covers it, the route, and why.
 
     The exact gradient where G determines it; if that is fewer than half of the valid
     lags, the fitted spectrum's gradient everywhere; the fit also fills the lags the exact
-    gradient leaves open (code 3); the ballistic form where no fit succeeds.
+    gradient leaves open (code 3); the ballistic form where no fit succeeds (code 2, or 4
+    on the lags the exact gradient leaves open).  A fit that its checks rate failed
+    (:func:`~xrough._kernels.fitting.fit_problems`) counts as no fit.
     ``fitted``: the gradient of a fit already made on the lags ``dr`` (then no fit runs);
     ``exact``: options of :func:`exact_on_lags`; ``fit``/``fit_gradient``: options of
     :func:`~xrough._kernels.fitting.fit_spectrum_kernel` and
     :func:`~xrough._kernels.fitting.fitted_spectrum_gradient` (None: no fit).
+
+    Returns ``(gbar, route, n_exact, fit_problems, quality)``: the route's code in
+    :data:`AUTO_METHODS`, the number of lags the exact gradient covers, the problem bits of
+    the fit made here (-1: none made) and the quality code (0 good; 1 questionable: the
+    fit was questionable or the ballistic form was used; 2 failed: no lag determined).
     """
     valid = np.isfinite(g) & (dr > 0)
     out = exact_on_lags(g, noise, dr=dr, **exact)
     covered = np.isfinite(out) & valid
-    if covered.sum() == valid.sum():
-        return out, 0, int(covered.sum())
-    use_exact = 2 * covered.sum() >= valid.sum()
+    n_exact = int(covered.sum())
+    if n_exact == valid.sum():
+        return out, 0, n_exact, -1, 0
+    use_exact = 2 * n_exact >= valid.sum()
+    bits, fit_code = -1, 0
     if fitted is None:
-        fitted = _fit_gradient(g, se, dr, fit, fit_gradient)
+        fitted, bits, fit_code = _fit_gradient(g, se, dr, fit, fit_gradient)
     if fitted is not None and np.all(np.isfinite(fitted[valid])):
         if use_exact:
-            return np.where(covered, out, np.where(valid, fitted, np.nan)), 3, int(covered.sum())
-        return np.where(valid, fitted, np.nan), 1, int(covered.sum())
+            return (np.where(covered, out, np.where(valid, fitted, np.nan)), 3, n_exact, bits,
+                    fit_code)
+        return np.where(valid, fitted, np.nan), 1, n_exact, bits, fit_code
+    simple = simple_gradient(dr, g)
     if use_exact:
-        return (np.where(covered, out, np.where(valid, simple_gradient(dr, g), np.nan)), 0,
-                int(covered.sum()))
-    return np.where(valid, simple_gradient(dr, g), np.nan), 2, int(covered.sum())
+        gbar = np.where(covered, out, np.where(valid, simple, np.nan))
+        route = 4
+    else:
+        gbar, route = np.where(valid, simple, np.nan), 2
+    return gbar, route, n_exact, bits, 1 if np.any(np.isfinite(gbar)) else 2
 
 
 def _fit_gradient(g, se, dr, fit, fit_gradient):
-    """Gbar of the model spectrum fitted to one G, or None if the fit fails."""
+    """Gbar of the model spectrum fitted to one G (None if it fails), its problems, quality."""
     if fit is None:
-        return None
+        return None, -1, 0
     try:
         params = dict(zip(SPECTRUM_OUTPUTS, fit_spectrum_kernel(g, se, dr=dr, **fit)))
     except (ValueError, FloatingPointError, np.linalg.LinAlgError):
-        return None
-    with np.errstate(divide="ignore", invalid="ignore"):
+        return None, -1, 2
+    bits, code = int(params["fit_problems"]), int(params["quality"])
+    if code == 2:
+        return None, bits, code
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         return fitted_spectrum_gradient(
             params["hurst"], params["G_sa"], params["lambda_r"], params["lambda_s"],
             params["lambda_r_resolved"], params["lambda_s_resolved"],
-            dr=np.where(dr > 0, dr, np.nan), **fit_gradient)
+            dr=np.where(dr > 0, dr, np.nan), **fit_gradient), bits, code
