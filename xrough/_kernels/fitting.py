@@ -378,8 +378,11 @@ def _spectrum_start(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, unit, G
     ln_eps = -5.0
     if C_b > 0:  # gbar^2(0) = 4/C_b = (K/I) q_s^(2-2H)/(2-2H) for q_s >> q_r
         K = G_sa / dr_ref ** (2 * H)
-        q_s = (4.0 / C_b * self_affine_constant(H) * (2 - 2 * H) / K) ** (1 / (2 - 2 * H))
-        ln_eps = 2 * H * np.log(2 * np.pi / q_s / dr_ref / x_lo)
+        with np.errstate(over="ignore", divide="ignore", under="ignore"):
+            q_s = (4.0 / C_b * self_affine_constant(H) * (2 - 2 * H) / K) ** (
+                1 / (2 - 2 * H))
+            ln_eps = 2 * H * np.log(2 * np.pi / q_s / dr_ref / x_lo)
+        ln_eps = ln_eps if np.isfinite(ln_eps) else -5.0
     return np.array([np.log(G_sa / G_ref), H, ln_eta, ln_eps]), chi2
 
 
