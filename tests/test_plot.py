@@ -258,7 +258,8 @@ def test_patch_radius_plots(tmp_path):
     """Regression: patch.rough.plot() raised 'nothing to plot'."""
     G = _model_G()
     many = xr.concat([G, 4 * G, 100 * G], dim="scan").assign_attrs(G.attrs)
-    patch = many.rough.patch_radius(E_star="25 MPa", gamma="30 mJ/m^2")
+    with pytest.warns(xrough.QualityWarning, match="below the smallest lag"):
+        patch = many.rough.patch_radius(E_star="25 MPa", gamma="30 mJ/m^2")  # 100 G
     ax = patch.rough.plot()[0]
     assert ax.get_xscale() == "log"
     assert ax.get_xlabel() == "adhesive patch radius (nm)"

@@ -1,5 +1,7 @@
 """Contact theories from G against the boundary-element solver (compare_with_simulation)."""
 
+import warnings
+
 import numpy as np
 import pytest
 import xarray as xr
@@ -72,8 +74,10 @@ def test_paper_theories_do_not_depend_on_kappa():
     """
     topo = _surface(seed=2)
     kw = dict(E_star=E_STAR, p0=[1e3, 1e4], full_contact=False, smooth_full=False)
-    fitted = compare_with_simulation(topo, **kw)
-    given = compare_with_simulation(topo, **kw, kappa=5.0)
+    with warnings.catch_warnings():  # eq. 24 as is rings below 0: NaN there, checked below
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        fitted = compare_with_simulation(topo, **kw)
+        given = compare_with_simulation(topo, **kw, kappa=5.0)
     for name in ("persson", "modified"):
         xr.testing.assert_identical(fitted.Gamma_sigma.sel(theory=name),
                                     given.Gamma_sigma.sel(theory=name))
@@ -88,14 +92,17 @@ def test_paper_theories_do_not_depend_on_kappa():
     a_r = erf(np.sqrt(2) * p_star)  # eq. 29, kappa = sqrt(8/pi)
     a_ri = (1 - a_r**2) * erf(np.sqrt(np.pi) * p_star) + a_r**3  # eq. 50
     g_sigma = p0**2 + full * a_r**2 / a_ri  # eq. 48-49, modified
+    g_sigma[g_sigma < 0] = np.nan  # a stress ACF of compressive stresses is never < 0
     first = np.flatnonzero(np.isfinite(gbar))[0]
     gamma = g_sigma / a_ri[:, first:first + 1]  # eq. 47, modified
     got = fitted.Gamma_sigma.sel(theory="modified").values
     np.testing.assert_allclose(got, gamma, rtol=1e-10)
+    assert np.isfinite(gamma).mean() > 0.7  # the comparison is not of NaN with NaN
     # and the original theory: W = a_r, divided by a_r(0)
+    g_sigma = p0**2 + full * a_r
+    g_sigma[g_sigma < 0] = np.nan
     got = fitted.Gamma_sigma.sel(theory="persson").values
-    np.testing.assert_allclose(got, (p0**2 + full * a_r) / a_r[:, first:first + 1],
-                               rtol=1e-10)
+    np.testing.assert_allclose(got, g_sigma / a_r[:, first:first + 1], rtol=1e-10)
 
 
 def test_stress_error_reports_its_coverage():

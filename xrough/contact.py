@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from . import quality
 from . import units as u
 from ._kernels import contact as k
 from ._kernels.contact import KAPPA_PERSSON
@@ -33,6 +34,8 @@ __all__ = ["elastic_energy", "stress_acf", "stress_acf_from_spectrum", "persson"
 THEORIES = ("persson", "modified")
 _ENERGY = "[mass] / [time] ** 2"
 _PRESSURE = "[pressure]"
+#: Share of v_el from a continuation of G beyond the data above which v_el is questionable.
+EXTRAPOLATED = 0.25
 _DERIVATIVE = ("Laplacian of a smoothing spline of ln G against ln dr: smoothing length "
                "0.05 decades of dr, more where cross-validation on the standard errors "
                "asks for it")
@@ -92,7 +95,42 @@ def _own_attrs(func):
 
 def _own_coords(G: xr.DataArray) -> dict:
     """G's coords that are not per bin (extra dims, scalars such as gradient_method)."""
-    return {c: v for c, v in G.coords.items() if "dr" not in v.dims}
+    return {c: v for c, v in G.coords.items()
+            if "dr" not in v.dims and c != quality.FLAG}
+
+
+def _rate(result, checks, *, what: str, inherited=()):
+    """Rate a result per curve: ``checks`` are ``(mask, level, note)``, one mask per curve.
+
+    A curve gets the worst level of the checks its mask fires and of the ``inherited``
+    inputs (a gradient or fit with their own ``quality_flag``); on numpy results the
+    notes of the checks that fired (and the inputs' notes) are joined and warned once.
+    """
+    codes = xr.DataArray(np.int8(0))
+    notes, remarks = [], []  # remarks: notes of checks at level "good" (no warning)
+    lazy = any(mask.chunks is not None for mask, _, _ in checks)
+    for mask, level, note in checks:
+        codes = np.maximum(codes, xr.where(mask, np.int8(quality.level_code(level)),
+                                           np.int8(0)))
+        if not lazy and bool(mask.any()):
+            (remarks if level == "good" else notes).append(note)
+    for source in inherited:
+        if source is None:
+            continue
+        if quality.FLAG in source.coords:
+            flag = source[quality.FLAG]
+            codes = np.maximum(codes, flag.drop_vars(
+                [c for c in flag.coords if c not in flag.dims]))
+        elif source.attrs.get("quality") in quality.LEVELS:
+            codes = np.maximum(codes, np.int8(quality.level_code(source.attrs["quality"])))
+        if source.attrs.get("quality_notes"):
+            notes.append(f"{source.attrs['quality_notes']}")
+    out = quality.mark_curves(result, codes.astype(np.int8), what=what,
+                              notes=quality.SEPARATOR.join(notes), stacklevel=4)
+    if out[quality.FLAG].ndim == 0:  # one curve: its remarks too (many: the flags only)
+        for remark in remarks:
+            out = quality.mark(out, remark, level="good", what=what)
+    return out
 
 
 # ---------------------------------------------------------------------------------------
@@ -157,7 +195,7 @@ def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Datas
     quarter = E / 4
     part = {"v_el": quarter * res.isel(k=0), "below": res.isel(k=1), "above": res.isel(k=2),
             "patch": quarter * res.isel(k=slice(3, None)).rename(k="a_c")}
-    return xr.Dataset(
+    ds = xr.Dataset(
         {
             "v_el": part["v_el"].assign_attrs(
                 units="J m-2", long_name="areal elastic energy of full contact",
@@ -176,6 +214,15 @@ def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Datas
                                                long_name="patch radius")},
         attrs=result_attrs(G, E_star=E, E_star_units="Pa"),
     )
+    return _rate(ds, [
+        (part["below"] > EXTRAPOLATED, "questionable",
+         f"more than {EXTRAPOLATED:.0%} of v_el comes from below the smallest lag, where G "
+         "is continued as dr^2: the energy is set by scales finer than the data "
+         "(H < 0.5 puts it at the smallest scales); measure finer, or read v_el as a "
+         "lower bound"),
+        (part["above"] > EXTRAPOLATED, "questionable",
+         f"more than {EXTRAPOLATED:.0%} of v_el comes from beyond the largest lag, where G "
+         "is continued flat: measure larger scales")], what="elastic_energy")
 
 
 # ---------------------------------------------------------------------------------------
@@ -268,7 +315,10 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
     out.attrs = result_attrs(G, units="Pa2", long_name="stress autocorrelation function",
                              derivative=_DERIVATIVE,
                              equation="eq. 24 (full contact, p0^2 offset left out)")
-    return out
+    few = (G > 0).sum("dr") < 5
+    return _rate(out, [(few, "questionable", "fewer than 5 valid bins: the Laplacian is "
+                        "that of the log-log polygon through them, not of a smoothed G; "
+                        "use more points per decade")], what="stress_acf")
 
 
 def stress_acf_from_spectrum(C: xr.DataArray, dr: Any, *, E_star: Any) -> xr.DataArray:
@@ -453,6 +503,7 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     p0_da = xr.DataArray(np.atleast_1d(p0s), dims="p0")
     dr_m = xr.DataArray(spec.dr * spec.to_m, dims="dr")
     out: dict[str, xr.DataArray] = {}
+    checks: list = []
     method = "none"
     if set(wanted) - {"sigma_quick"}:  # everything else needs gbar(dr)
         if gradient is None:
@@ -504,6 +555,13 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     if "G_sigma" in wanted or "Gamma_sigma" in wanted:
         full = (E / 2) ** 2 * _laplacian(G_si, error, spec, smooth_tail=smooth_full)
         g_sigma = p0_da**2 + full * weight
+        negative = g_sigma < 0  # <s(r) s(r+dr)> of compressive stresses is never < 0
+        checks.append((negative.any("dr"), "questionable",
+                       "G_sigma < 0 at some lags (set NaN): the stress ACF of a contact "
+                       "without adhesion cannot be negative; the Laplacian of G is "
+                       "negative there beyond what W[a_r] can weight (noisy or detrended "
+                       "G, or ringing of a sharp cutoff)"))
+        g_sigma = g_sigma.where(~negative)
         tail = (f"G_sigma_full beyond its roll-off continued by dr^-{k.STEEP_DECAY:g}"
                 if smooth_full else "G_sigma_full of eq. 24 as is")
         if "G_sigma" in wanted:
@@ -546,7 +604,10 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
         "where the rms gradient is not determined"))
     if not many:
         ds = ds.isel(p0=0)
-    return ds
+        checks = [(mask.isel(p0=0), level, note) for mask, level, note in checks]
+    return _rate(ds, checks, what="persson", inherited=(
+        gradient if set(wanted) - {"sigma_quick"} else None,
+        fit if set(_NEED_FIT) & set(wanted) else None))
 
 
 # ---------------------------------------------------------------------------------------
@@ -562,7 +623,9 @@ def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
 
     with ``v_el(a_c) = (E*/4) int_0^{a_c} G(r)/r^2 dr``. When ``gamma`` exceeds the energy
     of full contact, no finite radius solves the equation and the result is ``inf`` (the
-    surfaces stick everywhere).
+    surfaces stick everywhere; ``attrs["quality_notes"]`` says so). A radius beyond the
+    lags of G rests on its continuation and is flagged questionable
+    (:mod:`xrough.quality`).
 
     Parameters
     ----------
@@ -603,8 +666,10 @@ def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
     res = _per_curve(k.patch_radius_curve, G_si, out={"k": 2}, dr=spec.dr * spec.to_m,
                      E_star=E, gamma=gam) / spec.to_m
     unit = spec.unit_str
-    return xr.Dataset(
-        {"a_c": res.isel(k=0).assign_attrs(
+    a_c, upper = res.isel(k=0), res.isel(k=1)
+    lags = spec.dr[spec.dr > 0]
+    ds = xr.Dataset(
+        {"a_c": a_c.assign_attrs(
             units=unit, long_name="adhesive patch radius",
             equation="eq. 46: gamma = v_el(a_c) + E* G(a_c) / (8 a_c)"),
          "a_c_upper": res.isel(k=1).assign_attrs(
@@ -612,3 +677,15 @@ def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
             equation="eq. 44: gamma = v_el(a_c)")},
         coords=_own_coords(G),
         attrs=result_attrs(G, E_star=E, E_star_units="Pa", gamma=gam, gamma_units="J m-2"))
+    finite = np.isfinite(a_c)
+    return _rate(ds, [
+        (np.isinf(a_c), "good",
+         f"a_c = inf: gamma = {gam:.3g} J m-2 exceeds the elastic energy of full contact "
+         "v_el (elastic_energy(G)), so no patch stops growing: adhesion closes the whole "
+         "gap and the surfaces stick everywhere"),
+        (finite & (upper > lags[-1]), "questionable",
+         "a_c (or its upper estimate) lies beyond the largest lag of G, where G is "
+         "continued flat: measure larger scales to confirm it"),
+        (finite & (a_c < lags[0]), "questionable",
+         "a_c lies below the smallest lag of G, where G is continued as dr^2: measure "
+         "finer scales to confirm it")], what="patch_radius")

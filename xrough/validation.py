@@ -252,8 +252,8 @@ def compare_with_simulation(
 
     Examples
     --------
-    >>> topo = xrough.self_affine_surface(hurst=0.8, lambda_r=32, lambda_s=4, size=64,
-    ...                                   n=64, rms_gradient=0.1, seed=3, unit="nm",
+    >>> topo = xrough.self_affine_surface(hurst=0.8, lambda_r=64, lambda_s=4, size=128,
+    ...                                   n=128, rms_gradient=0.1, seed=3, unit="nm",
     ...                                   rolloff="smooth")
     >>> cmp = compare_with_simulation(topo, E_star="1 MPa", p0=[2e3, 1e4])
     >>> cmp.G_sigma.dims, cmp.G_sigma.attrs["units"], cmp.contact_area.attrs["units"]
@@ -274,7 +274,9 @@ def compare_with_simulation(
 
     # --- G, gbar and the reduced pressure ---------------------------------------------
     G = height_difference_acf(topography, progress=False, **acf_kwargs)
-    gbar = rms_gradient(G, method=gradient_method)
+    fit = fit_acf(G)  # one fit for the gradient and eq. 51
+    gbar = rms_gradient(G, method=gradient_method,
+                        fit=fit if gradient_method in ("auto", "fit") else None)
     gbar0 = _gbar0(h * u.conversion_factor(hunit, lunit), grid.spacing, grid.periodic,
                    gbar)
     p_star = p0s / (E * gbar0)
@@ -321,7 +323,6 @@ def compare_with_simulation(
     a_ri = improved_area(p_star, a_r)
     areas = {"persson": a_r, "modified": a_ri, "persson_kappa": a_r_kappa}
     wanted = ("G_sigma", "Gamma_sigma", "Gamma_sigma_sa")
-    fit = fit_acf(G)
     predicted = {v: [] for v in wanted}
     for name in names:
         ds = persson(G, E_star=E, p0=p0s, theory=name.removesuffix("_kappa"),

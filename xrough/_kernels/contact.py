@@ -39,18 +39,23 @@ def improved_area(p_star, a_r):
     return (1 - a_r**2) * special.erf(np.sqrt(np.pi) * p_star) + a_r**3
 
 
+def _hurst_or_nan(hurst):
+    """H clipped into (0, 1) for the shape factors; a failed fit's NaN H stays NaN later."""
+    return np.clip(np.where(np.isfinite(hurst), hurst, 0.5), 1e-3, 1 - 1e-3)
+
+
 def quick_stress(dr, g, hurst, sigma_h, lambda_r, E_star, rolloff: str = "sharp"):
     """Eq. 41 below ``lambda_r`` and eq. 42 beyond it: quick mean contact stress (Pa).
 
     ``E* sqrt(c_sa(H) G) / dr`` and ``E* sqrt(c_ro(H)) lambda_r sigma_h / dr^2``.
     """
-    h = np.clip(hurst, 1e-3, 1 - 1e-3)
+    h = _hurst_or_nan(hurst)
     c_sa = self_affine_factor(h)
     c_ro = rolloff_factor(h, rolloff=rolloff)
     with np.errstate(divide="ignore", invalid="ignore"):
         sa = E_star * np.sqrt(c_sa * g) / dr
         ro = E_star * np.sqrt(c_ro) * lambda_r * sigma_h / dr**2
-    return np.where(dr < lambda_r, sa, ro)
+    return np.where(np.isfinite(hurst), np.where(dr < lambda_r, sa, ro), np.nan)
 
 
 def stress_asymptote(dr, g, hurst, gbar0, E_star, weight=1.0):
@@ -61,9 +66,10 @@ def stress_asymptote(dr, g, hurst, gbar0, E_star, weight=1.0):
     ``a_r -> kappa p*``: ``w = 1`` for the original weighting (``kappa`` cancels) and
     ``w = kappa^2 / 4`` for the modified one (``2 / pi`` for Persson's ``kappa``).
     """
-    h = np.clip(hurst, 1e-3, 1 - 1e-3)
+    h = _hurst_or_nan(hurst)
     with np.errstate(divide="ignore", invalid="ignore"):
-        return weight * E_star**2 * h**2 * gbar0 * np.sqrt(g / self_affine_factor(h)) / dr
+        value = weight * E_star**2 * h**2 * gbar0 * np.sqrt(g / self_affine_factor(h)) / dr
+    return np.where(np.isfinite(hurst), value, np.nan)
 
 
 # ---------------------------------------------------------------------------------------
