@@ -64,6 +64,9 @@ nb_execution_timeout = 300
 nb_execution_raise_on_error = True
 nb_execution_show_tb = True
 nb_merge_streams = True
+# xrough's progress bars are Jupyter widgets in a kernel; a static page keeps no widget
+# state, so load no widget manager (it would only report missing models)
+nb_ipywidgets_js: dict = {}
 
 # --- API reference ------------------------------------------------------------------------
 # the stubs of the generated sections too (autosummary reads only the files it is given)
