@@ -443,3 +443,27 @@ def test_installed_command_runs(files):
                          cwd=files, capture_output=True, text=True, timeout=300)
     assert res.returncode == 1 and res.stderr.startswith("xrough: error: ")
     assert len(res.stderr.strip().splitlines()) == 1
+
+
+def test_report_prints_quality_notes_not_flagged_numbers(files, monkeypatch, capsys):
+    """A map on a steep tilt (2 nm per nm), not detrended: G ~ dr^2 over all lags, so the
+    fit has no self-affine range; its H, sigma_h and lambda_r were printed as findings."""
+    topo = surface()
+    xrough.topography(topo.values + 2.0 * topo.x.values[None, :], spacing="31.25 nm",
+                      unit="um", height_unit="nm").to_netcdf(files / "tilted_map.nc")
+    status, out, err = run("report", "tilted_map.nc", "--detrend", "none", "--E-star", E_STAR,
+                           "--p0", P0, "-o", "tilted.nc", cwd=files,
+                           monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 0
+    row = table(out)[0]
+    fit = xrough.open_analysis(files / "tilted.nc")["tilted_map"]["fit"]
+    assert fit.attrs["quality"] == "failed"
+    assert row["H"] == row["sigma_h"] == row["lambda_r"] == "failed"
+    notes = out[out.index("quality ("):]
+    assert "tilted_map: fit failed: " in notes and fit.attrs["quality_notes"] in notes
+    assert "QualityWarning" not in err and "fit_acf" not in err  # said once, on stdout
+    status, out, _ = run("report", "tilted_map.nc", "--detrend", "none", "--E-star",
+                         E_STAR, "--p0", P0, "--json", "-o", "tilted.nc", cwd=files,
+                         monkeypatch=monkeypatch, capsys=capsys)
+    quality = json.loads(out)["measurements"][0]["quality"]
+    assert quality["fit"]["level"] == "failed" and quality["fit"]["notes"]

@@ -40,6 +40,7 @@ from ._version import __version__
 from .io import BRIDGE, FORMATS, detect_format, list_channels, open_topography
 from .io.archive import safe_name, save_analysis
 from .preprocess import DETREND_MODES, detrend
+from .quality import QualityWarning, notes_of, worst
 from .spectra import acf_from_spectrum, model_spectrum
 from .synthetic import self_affine_surface
 
@@ -326,11 +327,15 @@ _STEEPEST = 10.0
 
 
 def _warn(where: str, caught) -> list[str]:
-    """Print caught warnings as one line each on stderr; return their texts."""
+    """Print caught warnings as one line each on stderr; return their texts.
+
+    Quality warnings are left out: the results carry them (``quality_notes``), and the
+    report prints them under its table.
+    """
     texts = []
     for w in caught:
         text = " ".join(str(w.message).split())
-        if _NUMERIC_NOISE.search(text):
+        if _NUMERIC_NOISE.search(text) or issubclass(w.category, QualityWarning):
             continue
         if text not in texts:
             texts.append(text)
@@ -616,24 +621,46 @@ _COLUMNS = ("measurement", "sigma_h", "H", "lambda_r", "rms grad", "v_el", "a_r"
             "sigma_c", "at dr", "patch radius")
 
 
+#: The results of a report row whose quality is shown, by their key in the results.
+_RATED = {"fit": "fit", "gradient": "rms gradient", "persson": "Persson theory",
+          "energy": "elastic energy", "patch": "patch radius"}
+
+
+def _quality(results: dict) -> dict:
+    """``{key: (level, notes)}`` of the rated results (see :mod:`xrough.quality`)."""
+    return {key: (worst(results[key]), notes_of(results[key]))
+            for key in _RATED if key in results}
+
+
+def _rated(text: str, level: str) -> str:
+    """Format a cell: the number if good, marked ``?`` if questionable, else ``failed``."""
+    return {"good": text, "questionable": f"{text} ?"}.get(level, "failed")
+
+
 def _row(m: dict, gamma: bool) -> tuple[tuple[str, ...], dict]:
     """Return a row of the report table and its JSON record."""
     r = m["results"]
     fit, gbar, contact, energy = r["fit"], r["gradient"], r["persson"], r["energy"]
+    levels = {key: level for key, (level, _) in _quality(r).items()}
     finest = contact.isel(dr=0)
     patch, patch_json = "-", None
     if gamma:
         a_c = r["patch"].a_c
-        patch = _show(a_c, none="none: sticks everywhere")
+        patch = _rated(_show(a_c, none="none: sticks everywhere"), levels["patch"])
         patch_json = _number(a_c)
-    row = (m["name"], _show(fit.sigma_h, none="no plateau"),
-           f"{float(fit.hurst):.3f}+-{float(fit.hurst_std):.3f}",
-           _show(fit.lambda_r, none="no roll-off"), _show(gbar.isel(dr=0), digits=3),
-           _show(energy.v_el, digits=3), _show(finest.a_r, digits=3),
-           _show(finest.sigma_c, digits=3), _show(finest.dr), patch)
+    lf, lg, lp = levels["fit"], levels["gradient"], levels["persson"]
+    row = (m["name"], _rated(_show(fit.sigma_h, none="no plateau"), lf),
+           _rated(f"{float(fit.hurst):.3f}+-{float(fit.hurst_std):.3f}", lf),
+           _rated(_show(fit.lambda_r, none="no roll-off"), lf),
+           _rated(_show(gbar.isel(dr=0), digits=3), lg),
+           _rated(_show(energy.v_el, digits=3), levels["energy"]),
+           _rated(_show(finest.a_r, digits=3), lp),
+           _rated(_show(finest.sigma_c, digits=3), lp), _show(finest.dr), patch)
     record = {
         "name": m["name"], "file": m["file"], "detrend": m["detrend"],
         "warnings": m["warnings"],
+        "quality": {key: {"level": level, "notes": notes}
+                    for key, (level, notes) in _quality(r).items()},
         "sigma_h": {**_number(fit.sigma_h), "std": _finite(fit.sigma_h_std)},
         "hurst": {**_number(fit.hurst), "std": _finite(fit.hurst_std)},
         "lambda_r": {**_number(fit.lambda_r), "std": _finite(fit.lambda_r_std)},
@@ -719,6 +746,12 @@ def _report(args: argparse.Namespace) -> int:
     for row in rows:
         print("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())
     modes = sorted({m["detrend"] for m in measured})
+    notes = [f"  {m['name']}: {_RATED[key]} {level}: {'; '.join(text)}"
+             for m in measured for key, (level, text) in _quality(m["results"]).items()
+             if level != "good"]
+    if notes:
+        print("quality (a number marked ? is questionable; failed: it means nothing):")
+        print("\n".join(notes))
     print(f"detrend before G: {', '.join(modes)} (--detrend to change); rms grad, "
           "a_r and sigma_c "
           "at the finest resolution where the rms gradient is determined (column 'at dr'); "
