@@ -1,6 +1,8 @@
 """Contact theories from G against the boundary-element solver (compare_with_simulation)."""
 
+import importlib.util
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -160,3 +162,21 @@ def test_fit_kappa():
     assert fit_kappa(0.02, 0.01) == pytest.approx(2.0, rel=1e-3)
     with pytest.raises(ValueError):
         fit_kappa(0.0, 0.01)
+
+
+def test_validation_study_runs_at_reduced_size(tmp_path, capsys):
+    """benchmarks/validation_study.py end to end at CI size: runs, cache, tables, figures."""
+    path = Path(__file__).parents[1] / "benchmarks" / "validation_study.py"
+    spec = importlib.util.spec_from_file_location("validation_study", path)
+    study = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(study)
+    argv = ["--n", "256", "--lambda-s", "4", "8", "--seeds", "1", "--hurst", "0.8",
+            "--loads", "0.01", "0.1", "--out", str(tmp_path)]
+    table = study.main(argv)
+    assert (tmp_path / "tables.md").read_text().strip() == table.strip()
+    for name in ("fig5_full_contact.png", "fig67_partial_contact.png", "area_kappa.png"):
+        assert (tmp_path / name).stat().st_size > 10_000
+    assert len(list((tmp_path / "runs").glob("*.nc"))) == 2
+    assert "| 0.8 | 4 | 0.01 |" in table and "kappa_inf" in table
+    # a second call reads the cache and gives the same tables
+    assert study.main([*argv, "--summary-only"]) == table
