@@ -31,8 +31,10 @@ xrough took fine-grid iterations runs back to back, so that the floor is measure
 similar stretch of time and load as the solve (a single pair's best time catches quiet
 moments a long solve cannot). xrough's time per fine-grid iteration (the whole solve,
 coarse grid included, over the fine-grid iterations) is divided by the mean pair time
-of the two blocks; the median and range over the rounds are printed, and for reference
-the ratio to the best single pair.
+of the two blocks; the median and range over the rounds are printed, also in CPU time
+(the process's CPU time over all threads, for the solve and for the floor blocks), which
+other jobs on the machine disturb less than wall-clock time, and for reference the
+ratio to the best single pair.
 
 Memory. The peak memory of one xrough solve is measured in a fresh subprocess: the peak
 resident set size above the state before the solve (``resource``), and the peak of the
@@ -195,14 +197,14 @@ def fft_floor(n: int, repeats: int) -> list[float]:
     return out
 
 
-def fft_floor_block(n: int, pairs: int) -> float:
-    """Mean time of one rfft2 plus irfft2 pair over ``pairs`` pairs run back to back."""
+def fft_floor_block(n: int, pairs: int) -> tuple[float, float]:
+    """Mean wall-clock and CPU time of one rfft2 plus irfft2 pair over ``pairs`` pairs."""
     a = np.random.default_rng(0).standard_normal((n, n))
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     for _ in range(pairs):
         b = sfft.rfft2(a, workers=os.cpu_count())
         sfft.irfft2(b, s=(n, n), workers=os.cpu_count(), overwrite_x=True)
-    return (time.perf_counter() - t0) / pairs
+    return (time.perf_counter() - t0) / pairs, (time.process_time() - c0) / pairs
 
 
 def spread(values: list[float]) -> str:
@@ -230,6 +232,7 @@ def bench_size(n: int, args, solvers: list[str]) -> None:
         SOLVERS[s](h[:128, :128].copy(), p0, args.tol)
     times = {s: [] for s in solvers}
     per_it_floor: list[float] = []  # xrough per fine iteration / floor pair, per round
+    per_it_cpu: list[float] = []  # the same in CPU time (all threads) of this process
     single: list[float] = []
     last = {}
     pairs = 100  # floor pairs per block: xrough's fine iterations once known
@@ -237,14 +240,17 @@ def bench_size(n: int, args, solvers: list[str]) -> None:
         for s in solvers:
             if s == "xrough":
                 before = fft_floor_block(n, pairs)
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             last[s] = SOLVERS[s](h, p0, args.tol)
             times[s].append(time.perf_counter() - t0)
+            cpu = time.process_time() - c0
             if s == "xrough":
                 after = fft_floor_block(n, pairs)
                 x = last[s]
                 per_it_floor.append(times[s][-1] / x["fine_iterations"] / (
-                    0.5 * (before + after)))
+                    0.5 * (before[0] + after[0])))
+                per_it_cpu.append(cpu / x["fine_iterations"] / (
+                    0.5 * (before[1] + after[1])))
                 pairs = x["fine_iterations"]
                 single += fft_floor(n, 3)
     best = {s: min(t) for s, t in times.items()}
@@ -286,6 +292,8 @@ def bench_size(n: int, args, solvers: list[str]) -> None:
           f"pair, {min(single) * 1e3:.1f} ms); "
           f"{x['transforms'] / x['fine_iterations']:.2f} transforms per fine iteration",
           flush=True)
+    print(f"# N={n}: in CPU time (all threads of this process, less sensitive to other "
+          f"jobs on the machine): {spread(per_it_cpu)} x the floor", flush=True)
     for s in peers:
         r = last[s]
         print(f"# N={n}: {s} {best[s] / r['iterations'] * 1e3:.1f} ms per iteration "
@@ -310,12 +318,14 @@ def main() -> None:
     ap.add_argument("--agree", type=float, default=1e-4,
                     help="relative agreement of the contact areas required")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--peers", nargs="*", default=list(PEERS),
+                    help="peers to run (default: all installed; none for xrough alone)")
     ap.add_argument("--peer-memory", action="store_true",
                     help="also measure the peers' peak memory (one more solve each)")
     args = ap.parse_args()
 
-    solvers = ["xrough"] + [p for p in PEERS if installed(p)]
-    missing = [p for p in PEERS if p not in solvers]
+    solvers = ["xrough"] + [p for p in args.peers if installed(p)]
+    missing = [p for p in args.peers if p not in solvers]
     if missing:
         print(f"# skipped (not installed): {', '.join(missing)}")
     print(f"# cores: {os.cpu_count()}; H = {HURST}, lambda_r = L/4, lambda_s = 4 px, "
