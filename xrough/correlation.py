@@ -421,7 +421,9 @@ def height_difference_acf(
     ------
     ValueError
         Invalid topography (dims, units, spacing, fewer than 2 valid points), unknown
-        options, an empty lag range, chunked core dims.
+        options, an empty lag range, chunked core dims; heights so large or small that G
+        leaves the float64 range (G is computed from heights scaled by a power of two,
+        so anything short of that is exact; raised at compute time for dask input).
 
     See Also
     --------

@@ -352,6 +352,13 @@ def fit_acf(
         (spectrum) and, for a single fit, ``reduced_chi2`` and (spectrum)
         ``ballistic_regime`` and ``plateau`` ("resolved" or why not).
 
+        Quality (docs/quality.md): ``rms_misfit`` (rms of ``ln G_model - ln G``, weighted
+        as the fit), ``reduced_chi2_eq36`` (spectrum: eq. 36 on the same bins),
+        ``fit_problems`` (one bit per failed check, CF ``flag_masks``), the coordinate
+        ``quality_flag`` (0 good, 1 questionable, 2 failed) and, for a single computed
+        fit, the attrs ``quality`` and ``quality_notes``.  The parameters of a failed
+        fit are NaN (fixed values kept); a :class:`xrough.QualityWarning` says why.
+
     Raises
     ------
     ValueError
@@ -411,6 +418,19 @@ def fit_acf(
     ``lambda_r_resolved = 0``) and ``sigma_h`` is that of the truncated power law.  The
     standard deviations of the other parameters include the freedom of the unresolved
     cutoff (its column of ``J``), e.g. a ``lambda_s`` just below the data.
+
+    *Checks* (docs/quality.md).  A fit is questionable when its reduced chi^2 exceeds
+    10 and its rms misfit of ``ln G`` 10 % (failed above 20 %; unweighted: failed above
+    20 %, nothing questionable), when ``H`` ends on a bound, when (spectrum) eq. 36 fits
+    with a 3 times smaller reduced chi^2 (the note recommends ``model='eq36'``; the
+    model asked for is kept), or when a resolved ``lambda_r`` lies more than 10 times
+    beyond the largest lag; it has failed when its cutoffs leave no self-affine range
+    inside the lags.  A cutoff more than a decade outside the lags counts as unresolved,
+    and an unresolved ``lambda_s`` whose upper bound lies beyond the lags is NaN.  A
+    poor first fit of the spectrum (reduced chi^2 above 10 or above that of eq. 36)
+    restarts from the 3 best points of a grid of ``H``, ``ln eta``, ``ln eps`` and keeps
+    the best: with cutoffs one decade apart the start from eq. 36 can end in a local
+    minimum (``H`` near 0.1, ``lambda_s`` beyond ``lambda_r``).
 
     *Which model.*  Eq. 36 approaches the self-affine law as ``dr^(2H-2)`` from the
     ballistic side and as ``dr^(2H)`` from the plateau side, whereas G of eq. 35 does so

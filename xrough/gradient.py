@@ -99,9 +99,10 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto",
         (eq. 26 of the fitted spectrum, or eq. 37/38 for eq. 36). ``'auto'`` (default)
         decides per curve: ``'exact'`` where G determines it and the fit on the other lags
         (``'exact+fit'``), the fit everywhere when the exact gradient covers fewer than half
-        of the lags, ``'simple'`` only if the fit fails. The coordinate
-        ``gradient_method`` records the route (CF flags); for one curve
-        ``attrs["method"]`` and ``attrs["fallback_reason"]`` say it in words.
+        of the lags, ``'simple'`` only if the fit fails (``'exact+simple'`` where the
+        exact gradient covers part of the lags); a fit whose checks failed counts as no
+        fit. The coordinate ``gradient_method`` records the route (CF flags); for one
+        curve ``attrs["method"]`` and ``attrs["fallback_reason"]`` say it in words.
     fit : xarray.Dataset, optional
         A :func:`xrough.fit_acf` result of this G, reused by ``'fit'`` and ``'auto'``
         instead of fitting again.
@@ -111,7 +112,11 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto",
     xarray.DataArray
         ``gbar`` on every lag of ``G`` (dimensionless, ``units="1"``), NaN where the
         method does not determine it (``'exact'`` outside the range G supports, see
-        :func:`xrough.rms_gradient_exact`), ``attrs["method"]`` and the paper equation.
+        :func:`xrough.rms_gradient_exact`), ``attrs["method"]`` and the paper equation,
+        and the quality marks of docs/quality.md: the coordinate ``quality_flag`` and,
+        for one computed curve, ``attrs["quality"]``/``["quality_notes"]`` (``'auto'``:
+        questionable where the fit was questionable or the ballistic form was used;
+        ``'fit'``: the fit's flag; ``'exact'``, ``'simple'``: good).
 
     Raises
     ------
