@@ -805,6 +805,9 @@ def height_difference_acf_tiled(
     lazy = isinstance(data, dsa.Array)
     arr = data if lazy else dsa.from_array(np.asarray(data), chunks=(tile, tile))
     arr = arr.astype(np.float64)
+    # heights scaled by a power of two (see _height_scale), G scaled back below
+    scale = abs(arr).max().map_blocks(_power_of_two, dtype=float)
+    arr = arr / scale
     stats = arr.map_blocks(point_stats, new_axis=0, chunks=((3,),) + arr.chunks,
                            dtype=float)
     planes, idxs = [], []
@@ -816,6 +819,10 @@ def height_difference_acf_tiled(
     out = dask.delayed(_assemble)(planes, idxs=idxs, assign=assign, keep=keep, nb=nb, dr=dr,
                                   pixel_area=grid.pixel_area)
     res = dsa.from_delayed(out, shape=(3, int(keep.sum())), dtype=float)
+    hunit = grid.height_unit
+    back = [dsa.map_blocks(_scale_back, res[k], scale, power=2, height_unit=hunit,
+                           dtype=float) for k in (0, 2)]
+    res = dsa.stack([back[0], res[1], back[1]])
     if not lazy:
         show = progress if progress is not None else sys.stderr.isatty()
         if show:
@@ -823,7 +830,6 @@ def height_difference_acf_tiled(
                 res = res.compute()
         else:
             res = res.compute()
-    hunit = grid.height_unit
     h2 = u.power_units(hunit, 2)
     G = xr.DataArray(
         res[0], dims=("dr",), name="G",
