@@ -61,9 +61,12 @@ def test_quantified_topography_enters_once(results):
 
 def test_quantified_input_elsewhere_says_what_to_do(results):
     quantified = results["topography"].pint.quantify(unit_registry=REGISTRY)
+    # the accessor dequantifies; the functions say what to do
+    xr.testing.assert_identical(quantified.rough.acf(), results["G"])
     with pytest.raises(ValueError, match="dequantify"):
-        quantified.rough.acf()
+        xrough.height_difference_acf(quantified)
     G = results["G"].pint.quantify(unit_registry=REGISTRY)
+    xr.testing.assert_identical(G.rough.fit(), results["fit"])
     with pytest.raises(ValueError, match="dequantify"):
         xrough.fit_acf(G)
     xr.testing.assert_identical(dequantify(G).rough.fit(), results["fit"])
