@@ -169,14 +169,16 @@ def test_solve_contact_is_unit_invariant(case, unit):
     unit (the same numbers up to round-off in every unit) and stops at tol = 1e-8; the
     pressure vanishes at the contact edges and the gap inside the contact, hence the
     absolute part. The residual history is a relative change of the pressure of order
-    tol, so its own round-off is ~1e-16/1e-8: rtol 1e-5. Measured: 1e-11 on the fields.
+    tol; the search direction is transformed in float32 (rounding ~1e-7 of each step,
+    docs/solver.md), so the history near tol agrees to ~1e-7/1e-8 relative: rtol 1e-3
+    (measured 6e-5). Measured: 1e-11 on the fields.
     """
     f = FROM_NM[unit]
     topo = _topo_nm(64)
     ref = SOLVER[case](topo, 1.0)
     got = SOLVER[case](in_length_unit(topo, unit), f)
     assert_same_physics(ref, got, rtol=1e-9, atol_frac=1e-9,
-                        tolerances={"residual": (1e-5, 0.0)})
+                        tolerances={"residual": (1e-3, 0.0)})
     assert_same_attrs(ref, got, "nm", unit)
 
 
