@@ -548,14 +548,8 @@ def spectrum(
     at the smallest lags and a plateau at the largest give nearly all of
     ``[2 pi / dr_max, 2 pi / dr_min]`` (less where ``C`` drops to 0); a ``G`` that is
     still self-affine at ``dr_min`` or still rising at ``dr_max`` gives less, or nothing.
-    Below the roll-off (the maximum of ``q^2 C``) ``C`` must also change by at most
-    ``support_rtol |C|`` when G is sampled half as densely: the kink of a sharp roll-off
-    rings in G beyond ``lambda_r``, and the logarithmic grid then misses C far below
-    ``q_r`` by 10-30 % at 10-20 points per decade while the extrapolation variants agree
-    (sharp eq. 35, H = 0.8: largest error inside the supported range 3.9 / 1.4 / 0.8 % at
-    10 / 20 / 40 per decade, 31 / 13 / 2 % before this check). Above the roll-off the
-    scatter of lattice distances between bins of a measured G would count as that error,
-    so the interpolation near ``q_s`` (next paragraph) is not measured by the rule.
+    The rule measures what the extrapolation leaves open, not the interpolation error
+    (next paragraph).
 
     **Accuracy** (docs/spectra.md): with noise-free ``G`` sampled at 20 points per decade,
     ``C`` is accurate to ~1e-5 where it is smooth.  A jump of ``C`` (the cutoff ``q_s`` of

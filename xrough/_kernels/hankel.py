@@ -1018,32 +1018,7 @@ def spectrum_support_kernel(
     change = np.max(np.abs(extrapolated - base), axis=0)
     if noisy.shape[0]:
         change = np.maximum(change, np.std(noisy, axis=0))
-    change = np.maximum(change, _rolloff_interpolation_change(q, r, g, base, options))
     with np.errstate(divide="ignore", invalid="ignore"):
         change = np.where(base > 0, change / base, np.inf)
     return supported_interval(q, change, rtol, envelope=_ENVELOPE)
-
-
-def _rolloff_interpolation_change(q, r, g, base, options) -> np.ndarray:
-    """How much C below its roll-off changes when G is sampled half as densely.
-
-    A kink of C at the roll-off ``q_r`` (the sharp eq. 35) rings in G beyond ``lambda_r``
-    as ``dr^-5/2``, which a logarithmic grid samples too coarsely: C far below ``q_r`` is
-    then off by 10-30 % at 10-20 samples per decade while the extrapolation variants
-    agree. C from every other sample (ends kept) differs from C by about that error.
-    Only ``q`` below the maximum of ``q^2 C`` (the roll-off) is checked: above it, the
-    scatter of lattice distances between neighbouring bins of a measured G would count
-    as interpolation error.
-    """
-    half = np.unique(np.r_[0:r.size:2, r.size - 1])
-    out = np.zeros_like(base)
-    if half.size < 4 or not np.any(base > 0):
-        return out
-    smooth = options.get("smooth")
-    g_used = g if smooth is None else smooth_acf_kernel(r, g, smooth)
-    interp = {k: v for k, v in options.items() if k == "interpolation"}
-    coarse = spectrum_from_acf_kernel(q, r[half], g_used[half], **interp)
-    below = q <= q[np.argmax(np.where(base > 0, q**2 * base, -np.inf))]
-    out[below] = np.abs(coarse - base)[below]
-    return out
 
