@@ -168,6 +168,7 @@ def test_sur_file_spectrum_fit_is_not_stuck():
 def test_real_files_with_meaningless_cutoffs():
     """plu-1.plu as read (tilted): lambda_s = 1.1 m for a 1.3 mm scan was reported as
     resolved; sdf-1.sdf (plane removed): an 'upper bound' lambda_s = 191 m for 6 um."""
+    pytest.importorskip("SurfaceTopography")  # reads .plu (the formats extra)
     with pytest.warns(xrough.QualityWarning, match="no self-affine range"):
         fit = xrough.fit_acf(xrough.open_topography(_needs("plu-1.plu")).rough.acf())
     assert fit.attrs["quality"] == "failed" and np.isnan(float(fit.lambda_s))

@@ -196,7 +196,7 @@ def _start(x, y, w, free, theta):
         else:
             rhs -= theta[3]
         A = np.column_stack(cols) * scale[:, None]
-        coef, _ = optimize.nnls(A, rhs * scale)
+        coef = _nonnegative_lstsq(A, rhs * scale)
         trial = theta.copy()
         trial[1] = H
         for k, c in zip(names, coef):
@@ -206,6 +206,18 @@ def _start(x, y, w, free, theta):
         if cost < best_cost:
             best, best_cost = trial, cost
     return best
+
+
+def _nonnegative_lstsq(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``argmin |A c - b|`` with ``c >= 0``.
+
+    scipy 1.12-1.13's ``nnls`` can stop at its iteration cap with a RuntimeError on
+    nearly collinear columns; the bounded least squares of ``lsq_linear`` then solves it.
+    """
+    try:
+        return optimize.nnls(A, b)[0]
+    except RuntimeError:
+        return optimize.lsq_linear(A, b, bounds=(0.0, np.inf)).x
 
 
 def _residuals(theta, x, y, w):
