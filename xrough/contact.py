@@ -117,14 +117,9 @@ def _rate(result, checks, *, what: str, inherited=()):
     for source in inherited:
         if source is None:
             continue
-        if quality.FLAG in source.coords:
-            flag = source[quality.FLAG]
-            codes = np.maximum(codes, flag.drop_vars(
-                [c for c in flag.coords if c not in flag.dims]))
-        elif source.attrs.get("quality") in quality.LEVELS:
-            codes = np.maximum(codes, np.int8(quality.level_code(source.attrs["quality"])))
+        codes = np.maximum(codes, quality.flag_of(source))
         if source.attrs.get("quality_notes"):
-            notes.append(f"{source.attrs['quality_notes']}")
+            notes.append(source.attrs["quality_notes"])
     out = quality.mark_curves(result, codes.astype(np.int8), what=what,
                               notes=quality.SEPARATOR.join(notes), stacklevel=4)
     if out[quality.FLAG].ndim == 0:  # one curve: its remarks too (many: the flags only)

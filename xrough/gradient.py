@@ -161,8 +161,7 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto",
         if params.attrs.get("model") != "spectrum":
             extra_attrs["equation"] = "eq. 37/38 with the fit of eq. 36"
         if quality.FLAG in params.coords:
-            level = params[quality.FLAG].drop_vars(
-                [c for c in params.coords if c not in params.dims], errors="ignore")
+            level = quality.flag_of(params)
             notes = "from the fit of G: " + params.attrs.get("quality_notes", "")
     elif method == "exact":
         out = xr.apply_ufunc(kernels.exact_on_lags, Gl, _noise(G),
@@ -237,8 +236,7 @@ def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec,
     out = out.assign_coords(gradient_method=code)
     if params is not None and quality.FLAG in params.coords:  # the given fit's own rating
         uses_fit = (code == 1) | (code == 3)
-        given = params[quality.FLAG].drop_vars(
-            [c for c in params.coords if c not in params.dims], errors="ignore")
+        given = quality.flag_of(params)
         level = xr.where(uses_fit, np.maximum(level, given), level).astype(np.int8)
     info: dict = {}
     notes = ""

@@ -35,7 +35,7 @@ import numpy as np
 import xarray as xr
 
 __all__ = ["LEVELS", "QualityWarning", "FLAG", "SEPARATOR", "level_code", "worst", "mark",
-           "mark_curves", "flag_coord", "notes_of"]
+           "mark_curves", "flag_coord", "flag_of", "notes_of"]
 
 #: The levels, best first; the integer code of a level is its index.
 LEVELS = ("good", "questionable", "failed")
@@ -120,6 +120,30 @@ def worst(*items) -> str:
     """
     codes = _codes_of(items)
     return LEVELS[max(codes, default=0)]
+
+
+def flag_of(obj: xr.DataArray | xr.Dataset) -> xr.DataArray:
+    """Return the level codes per curve of a result, as a bare int8 DataArray.
+
+    Its ``quality_flag`` coordinate without coordinates of its own (so that it broadcasts
+    onto another result's curves), else the code of ``attrs["quality"]`` (0-d), else 0.
+    This is how a result inherits the rating of its inputs (a gradient from its fit,
+    Persson theory from its gradient).
+
+    Examples
+    --------
+    >>> import xarray as xr
+    >>> flag_of(xr.DataArray(1.0, attrs={"quality": "failed"})).item()
+    2
+    >>> r = xr.DataArray([1.0, 2.0], dims="scan", coords={FLAG: ("scan", [0, 1])})
+    >>> flag_of(r).values.tolist()
+    [0, 1]
+    """
+    if FLAG in obj.coords:
+        flag = obj[FLAG]
+        return flag.drop_vars([c for c in flag.coords if c not in flag.dims]).astype(np.int8)
+    level = obj.attrs.get("quality", "good")
+    return xr.DataArray(np.int8(level_code(level) if level in LEVELS else 0))
 
 
 def notes_of(obj: xr.DataArray | xr.Dataset) -> list[str]:
