@@ -91,6 +91,30 @@ def test_full_contact_random_surface():
     np.testing.assert_allclose(res.pressure, p0 + dp, rtol=0, atol=1e-6 * p0)
 
 
+def test_full_contact_shortcut_equals_iteration():
+    # Beyond full contact the periodic solve takes the closed form (one transform pair
+    # plus the check) instead of iterating; the Polonsky-Keer iteration, run directly,
+    # must reach the same field: to its tol of 1e-10 on the relative residual, so 1e-7
+    # of p0 is a wide margin. Just below the threshold the solve iterates as before.
+    topo = xrough.self_affine_surface(hurst=0.5, lambda_r="0.5 um", lambda_s="0.04 um",
+                                      size="2 um", n=128, rms_gradient=0.1, seed=5,
+                                      unit="um")
+    h = np.ascontiguousarray(topo.transpose("y", "x").values)
+    op = solver_kernels._ElasticOperator(h.shape, (2 / 128, 2 / 128), periodic=True)
+    stress = solver_kernels._full_contact_stress(h, op)
+    threshold = -float(stress.min()) * E_STAR
+    res = solve_contact(topo, E_star=E_STAR, p0=[0.9 * threshold, 1.1 * threshold],
+                        tol=1e-10, progress=False)
+    assert res.contact_area.values[0] < 1 and res.iterations.values[0] > 1
+    assert res.contact_area.values[1] == 1 and res.iterations.values[1] == 1
+    assert res.transforms.values[1] == 4 and res.residual.values[1, 0] < 1e-12
+    it = solver_kernels._solve_load(h, op, 1.1 * threshold / E_STAR, tol=1e-10,
+                                    max_iter=10_000)
+    assert it["iterations"] > 10
+    np.testing.assert_allclose(res.pressure.values[1], it["pressure"] * E_STAR, rtol=0,
+                               atol=1e-7 * 1.1 * threshold)
+
+
 @pytest.mark.parametrize("precision", ["float64", "mixed"])
 def test_convergence_history_reaches_tol(precision):
     topo = sinusoid(512, ny=256)  # 2^17 points: mixed precision applies

@@ -19,6 +19,7 @@ from scipy import special
 from . import quality
 from . import units as u
 from ._kernels.contact import KAPPA_PERSSON, contact_area, improved_area
+from ._kernels.solver import _ElasticOperator, _full_contact_stress
 from .contact import THEORIES, persson, stress_acf
 from .correlation import height_difference_acf
 from .fitting import fit_acf
@@ -84,11 +85,8 @@ def _full_contact_load(h_lat: np.ndarray, spacing, periodic: bool, E: float, gba
     """Mean pressure just beyond full contact (Pa)."""
     if not periodic:  # no exact threshold in free space: a generous multiple
         return 4.0 * E * gbar0
-    ny, nx = h_lat.shape
-    qy = 2 * np.pi * np.fft.fftfreq(ny, spacing[0])
-    qx = 2 * np.pi * np.fft.rfftfreq(nx, spacing[1])
-    q = np.hypot(qy[:, None], qx[None, :])
-    stress = np.fft.irfft2(q * np.fft.rfft2(h_lat), s=(ny, nx)) * E / 2
+    stress = _full_contact_stress(h_lat, _ElasticOperator(h_lat.shape, spacing,
+                                                          periodic=True)) * E
     return FULL_CONTACT_MARGIN * float(max(-stress.min(), 1e-3 * E * gbar0))
 
 
