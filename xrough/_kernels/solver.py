@@ -149,8 +149,11 @@ class _ElasticOperator:
         dtype = np.float32 if p.dtype == np.float32 else np.float64
         kernel = self._kernels.get(dtype)
         if kernel is None:
-            kernel = self._kernels[dtype] = self.kernel.astype(
-                np.result_type(self.kernel.dtype, dtype))
+            # the kernel in the transform's precision (a float64 kernel would promote
+            # the float32 product to complex128 and back)
+            kind = np.complex64 if np.iscomplexobj(self.kernel) else np.float32
+            kernel = self._kernels[dtype] = (self.kernel.astype(kind) if dtype == np.float32
+                                             else self.kernel)
         ph = sfft.rfft2(p, s=self.fshape, workers=self.workers)
         ph *= kernel  # ph is a fresh array: multiply in place, then let irfft2 reuse it
         u = sfft.irfft2(ph, s=self.fshape, workers=self.workers, overwrite_x=True)
@@ -165,18 +168,19 @@ def _gap_scale(h: np.ndarray, p0: float, op: _ElasticOperator) -> float:
     return rms if rms > 0 else float(np.max(np.abs(op(np.full(h.shape, p0))))) or 1.0
 
 
-def _gap(u: np.ndarray, h: np.ndarray, pf: np.ndarray, idx: np.ndarray, d: np.ndarray,
+def _gap(u: np.ndarray, h: np.ndarray, inc: np.ndarray, idx: np.ndarray, d: np.ndarray,
          below: np.ndarray) -> tuple:
     """Mean-shifted gap on the contact set and at the overlapping points out of contact.
 
-    ``d`` and ``below`` are work arrays of the map's shape (``u``'s and bool dtype).
+    ``inc`` is the contact mask (True on ``idx``); ``d`` and ``below`` are work arrays of
+    the map's shape (``u``'s and bool dtype).
 
     Returns
     -------
     tuple
         ``g_s`` (gap on ``idx`` minus its mean ``m``, float64), ``m``, ``off`` (flat
-        indices out of contact, ``pf <= 0``, with a gap below ``m``), ``g_off`` (their
-        shifted gaps, negative), ``G = sum g_s^2`` and ``G_off = sum g_off^2``.
+        indices out of contact with a gap below ``m``), ``g_off`` (their shifted gaps,
+        negative), ``G = sum g_s^2`` and ``G_off = sum g_off^2``.
     """
     np.subtract(u, h, out=d)
     dflat = d.ravel()
@@ -184,8 +188,8 @@ def _gap(u: np.ndarray, h: np.ndarray, pf: np.ndarray, idx: np.ndarray, d: np.nd
     m = float(g_s.mean()) if idx.size else np.nan
     g_s -= m
     np.less(d, m, out=below)
-    cand = np.flatnonzero(below)
-    off = cand[pf.ravel()[cand] <= 0]
+    np.greater(below, inc, out=below)  # below and not in contact
+    off = np.flatnonzero(below)
     g_off = dflat[off].astype(float) - m
     return g_s, m, off, g_off, _dot(g_s, g_s), _dot(g_off, g_off)
 
@@ -312,8 +316,15 @@ def _solve_load(
     t_s = np.zeros_like(p_s)
     del p
 
+    inc = np.zeros(shape, dtype=bool)  # the contact mask, True on idx
+    inc.ravel()[idx] = True
+
     def precision_state(dtype, t_dtype):
-        """Work arrays in ``dtype`` (``t_dtype`` for the direction) and ``u = K p``."""
+        """Work arrays in ``dtype`` (``t_dtype`` for the direction) and ``u = K p``.
+
+        ``pf`` holds ``p`` on ``idx`` (updated when the contact set changes) and ``tf``
+        the direction on ``idx``; both are zero elsewhere.
+        """
         hh = np.ascontiguousarray(h, dtype=dtype)
         pf = np.zeros(shape, dtype=dtype)
         tf = np.zeros(shape, dtype=t_dtype)
@@ -334,7 +345,7 @@ def _solve_load(
     converged = False
     it = 0
     for it in range(1, max_iter + 1):  # noqa: B007 - the count is reported
-        g_s, m, off, g_off, G, G_off = _gap(u, hh, pf, idx, d, below)
+        g_s, m, off, g_off, G, G_off = _gap(u, hh, inc, idx, d, below)
         eps_g = np.sqrt((G + G_off) / n) / scale
         if off.size and G_off <= PROPORTION**2 * G:
             # proportioning: while the gradient on the contact set dominates, keep the
@@ -348,7 +359,6 @@ def _solve_load(
         tflat[idx] = t_s
         r = op(tf)
         transforms += 2
-        tflat[idx] = 0.0
         r_s = r.ravel()[idx].astype(float)
         r_mean = float(r_s.mean()) if idx.size else np.nan
         r_s -= r_mean
@@ -381,17 +391,21 @@ def _solve_load(
                                             q_off[ent_off]])
             if changed:
                 keep = q_s > 0
-                pflat = pf.ravel()
-                pflat[idx] = 0.0
+                left = idx[~keep]
+                pf.ravel()[left] = 0.0
+                tflat[left] = 0.0
+                inc.ravel()[left] = False
                 if delta == 0.0:
-                    idx = np.concatenate([idx[keep], off[q_off > 0]])
-                    p_s = np.concatenate([q_s[keep], q_off[q_off > 0]])
+                    new = q_off > 0
+                    idx_new, p_new = off[new], q_off[new]
+                    idx, p_s = idx[keep], q_s[keep]
+                    at = np.searchsorted(idx, idx_new)  # both sorted: merge, not sort
+                    idx, p_s = np.insert(idx, at, idx_new), np.insert(p_s, at, p_new)
+                    inc.ravel()[idx_new] = True
                     t_s = np.zeros_like(p_s)  # reset below by delta = 0
-                    order = np.argsort(idx)
-                    idx, p_s, t_s = idx[order], p_s[order], t_s[order]
                 else:
                     idx, p_s, t_s = idx[keep], q_s[keep], t_s[keep]
-                pflat[idx] = p_s
+                pf.ravel()[idx] = p_s
                 if n_changed <= POINT_LOADS_MAX:  # u <- s (u - tau K t) + K c, c sparse
                     r *= -tau
                     u += r
@@ -437,7 +451,7 @@ def _solve_load(
             u = op(pf)
             transforms += 2
             exact = True
-            _, _, _, _, G_v, G_off_v = _gap(u, hh, pf, idx, d, below)
+            _, _, _, _, G_v, G_off_v = _gap(u, hh, inc, idx, d, below)
             res = max(eps_p, np.sqrt((G_v + G_off_v) / n) / scale)
             history[-1] = res
         if res < tol or denom <= 0:
