@@ -10,6 +10,7 @@ import xrough
 from conftest import data_path
 from xrough.stitching import (
     StitchingMismatchWarning,
+    level_factors,
     stitch,
     stitch_curves,
     stitch_mismatch,
@@ -91,9 +92,11 @@ def test_recovers_true_G_over_union_of_windows(surface, curves):
                               rms_height=1.0, unit="nm")
     exact = xrough.acf_from_spectrum(C, G.dr.values)
     model = G.values / exact.values - 1
-    # within 5 % up to lambda_r / 2; near lambda_r one realisation scatters by ~15 %
+    # up to lambda_r / 2: no further from the model than the realisation itself (which
+    # scatters by up to 7 % there) plus 2 %; near lambda_r one realisation scatters by ~15 %
     small = G.dr.values < N / 32
-    assert np.abs(model[small]).max() < 0.05, model
+    own = _reference(surface, G.dr.values) / exact.values - 1
+    assert np.all(np.abs(model[small]) <= np.abs(own[small]) + 0.02), model
 
 
 def test_curves_are_nan_outside_windows(curves):
@@ -107,8 +110,9 @@ def test_curves_are_nan_outside_windows(curves):
 
 def test_weighting_rule(curves):
     G = stitch(curves)
-    g = curves.G.sel(dr=G.dr)
-    w = (g / curves.standard_error.sel(dr=G.dr)) ** 2
+    factors = xr.DataArray(G.attrs["level_factors"], dims="measurement")
+    g = curves.G.sel(dr=G.dr) * factors
+    w = (g / (curves.standard_error.sel(dr=G.dr) * factors)) ** 2
     expected = np.exp((w * np.log(g)).sum("measurement") / w.sum("measurement"))
     np.testing.assert_allclose(G.values, expected.values, rtol=1e-12)
     np.testing.assert_allclose(G.standard_error.values,
@@ -190,6 +194,58 @@ def test_windows_override_and_reliable_attrs(three):
         stitch_curves(three, dr_min=3)
     with pytest.raises(TypeError):
         stitch_curves([three["fine"]])
+
+
+def test_level_removes_a_calibration_factor(surface, curves):
+    # 'medium' with heights x 1.3 (G x 1.69): levelled, it joins the others exactly as
+    # the consistent 'medium' does (the factor absorbs 1/1.69), while the mismatch is
+    # still reported on the curves as measured; the largest scan keeps factor 1
+    with pytest.warns(StitchingMismatchWarning):
+        bad = stitch(_three(surface, scale_medium=1.3))
+    good = stitch(curves)
+    np.testing.assert_allclose(bad.values, good.values, rtol=1e-9)
+    f_bad, f_good = bad.attrs["level_factors"], good.attrs["level_factors"]
+    assert f_good[2] == 1.0 and f_bad[2] == 1.0
+    assert f_bad[1] == pytest.approx(f_good[1] / 1.69, rel=1e-9)
+    np.testing.assert_allclose(level_factors(curves), f_good, rtol=0)
+    # the consistent instruments differ by a few %, within their errors
+    np.testing.assert_allclose(f_good, 1.0, atol=0.05)
+    # level=False: factors 1, the curves combined as measured (differs from levelled)
+    raw = stitch(curves, level=False)
+    np.testing.assert_array_equal(raw.attrs["level_factors"], [1.0, 1.0, 1.0])
+    assert np.abs(raw.values / good.values - 1).max() > 1e-3
+
+
+@pytest.mark.parametrize("hurst", [0.5, 0.8])
+def test_stress_acf_of_stitched_maps_has_no_seam(hurst):
+    """Eq. 24 from a stitched G: within 3 % of G_sigma(0) from 2 nm to L/8.
+
+    A 512^2 crop at 1 nm and the whole 2048^2 map at 4 nm (lambda_s = 4 nm, lambda_r =
+    512 nm, seed 1), against the exact stress field (q E*/2) h~ of the whole map. The
+    crop's G lies 5-8 % below the map's; combined as measured, the step where the coarse
+    window begins gave 3.3 % (H = 0.5) and 6.1 % (H = 0.8) next to the seam. Levelled
+    (default): measured 1.3 % for both, and at most 1.3 % for seeds 2 and 3.
+    """
+    from scipy import fft as sfft
+    n, e_star = 2048, 1e6
+    topo = xrough.self_affine_surface(hurst=hurst, lambda_r=n / 4, lambda_s=4, size=n, n=n,
+                                      rms_gradient=0.1, seed=1, unit="nm")
+    h = topo.transpose("y", "x").values
+    meas = {"fine": xrough.topography(h[:512, :512], spacing=1, unit="nm", periodic=False),
+            "coarse": xrough.topography(h[::4, ::4], spacing=4, unit="nm", periodic=True)}
+    q = 2 * np.pi * np.hypot(sfft.fftfreq(n)[:, None], sfft.fftfreq(n)[None, :])
+    stress = sfft.ifft2(q * e_star / 2 * sfft.fft2(h)).real
+    field = xrough.topography(stress, spacing=1, unit="nm", height_unit="m", periodic=True)
+    var = stress.var()
+    Gs = field.rough.acf(points_per_decade=40)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StitchingMismatchWarning)
+        S = stitch(meas).rough.stress_acf(E_star=e_star)
+    ref = var - np.exp(np.interp(np.log(S.dr.values), np.log(Gs.dr.values),
+                                 np.log(Gs.values)))
+    sel = (S.dr.values >= 2) & (S.dr.values <= n / 8)
+    err = (S.values - ref)[sel] / var
+    assert np.abs(err).max() < 0.03, err
 
 
 def test_stitched_G_feeds_fit_and_persson(curves):
