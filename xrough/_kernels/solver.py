@@ -207,8 +207,10 @@ def _dot(a: np.ndarray, b: np.ndarray) -> float:
 #: levels off near 1e-7 of the rms height, 1e-8 for the gap error alone).
 FLOAT32_TOL = 1e-6
 #: Largest number of pixels entering or leaving the contact set for which the
-#: displacement is corrected pixel by pixel instead of transformed afresh.
-POINT_LOADS_MAX = 12
+#: displacement is corrected pixel by pixel instead of by a pair of transforms, by the
+#: displacement's dtype (each pixel costs a pass over the map; a float32 pair costs
+#: about half a float64 one: 1024^2 on 2 cores, 4 and 7-13 ms, a pixel 0.5 ms).
+POINT_LOADS_MAX = {np.float32: 6, np.float64: 12}
 #: Maps smaller than this solve in float64 throughout (their transforms are too cheap
 #: for float32 to pay).
 MIXED_MIN_SIZE = 256 * 256
@@ -260,8 +262,11 @@ def _solve_load(
     index), so the full-map work per iteration is the transform of ``t``, one pass for the
     gap and one comparison for the points out of contact with a negative gap. The
     displacement ``u = K p`` is updated linearly, ``u <- s (u - tau K t)``, in iterations
-    where no point leaves or re-enters the contact set, and transformed afresh otherwise:
-    most late iterations cost one forward and one inverse transform.
+    where no point leaves or re-enters the contact set; where some do, the correction
+    ``K c`` (``c = p_new - s (p - tau t)``, nonzero at those points) is added pixel by
+    pixel for a few (``POINT_LOADS_MAX``), by a float32 pair of transforms in the float64
+    phase, and ``u`` is transformed afresh in the float32 phase: most late iterations
+    cost one forward and one inverse transform.
 
     Parameters
     ----------
@@ -334,6 +339,7 @@ def _solve_load(
     dtype = np.float32 if precision == "mixed" else np.float64
     hh, pf, tf, u, d, below = precision_state(dtype, dtype)
     exact = True  # whether u = K p to the precision of u (false after float32 updates)
+    fresh = True  # whether u was transformed from pf = p (no update since)
     transforms = 2
     f32_its = 0
     best32 = np.inf
@@ -384,11 +390,10 @@ def _solve_load(
             if changed:
                 # c = p_new - s (p - tau t): nonzero where a point left or (re-)entered
                 ent_off = np.flatnonzero(q_off)
-                n_changed = int(np.count_nonzero(zero)) + ent_off.size
-                if n_changed <= POINT_LOADS_MAX:
-                    c_idx = np.concatenate([idx[zero], off[ent_off]])
-                    c_val = np.concatenate([q_s[zero] - s * (p_s[zero] - tau * t_s[zero]),
-                                            q_off[ent_off]])
+                c_idx = np.concatenate([idx[zero], off[ent_off]])
+                c_val = np.concatenate([q_s[zero] - s * (p_s[zero] - tau * t_s[zero]),
+                                        q_off[ent_off]])
+                n_changed = c_idx.size
             if changed:
                 keep = q_s > 0
                 left = idx[~keep]
@@ -406,23 +411,38 @@ def _solve_load(
                 else:
                     idx, p_s, t_s = idx[keep], q_s[keep], t_s[keep]
                 pf.ravel()[idx] = p_s
-                if n_changed <= POINT_LOADS_MAX:  # u <- s (u - tau K t) + K c, c sparse
+                if n_changed <= POINT_LOADS_MAX[u.dtype.type]:
+                    # u <- s (u - tau K t) + K c, c on a few pixels
                     r *= -tau
                     u += r
                     u *= s
                     op.add_point_loads(u, c_idx, c_val)
                     exact = exact and r.dtype == u.dtype
+                    fresh = False
+                elif r.dtype != u.dtype:
+                    # float64 u, float32 direction: K c in float32 too (its rounding is
+                    # a few 1e-7 of the correction, like that of K t of the step), a
+                    # cheaper pair than u = K p afresh in float64
+                    r *= -tau
+                    u += r
+                    u *= s
+                    r.fill(0.0)
+                    r.ravel()[c_idx] = c_val
+                    u += op(r)
+                    transforms += 2
+                    exact = fresh = False
                 else:
                     r = u = None  # released before the new transform pair
                     u = op(pf)
                     transforms += 2
-                    exact = True
+                    exact = fresh = True
             else:
                 p_s = q_s
                 r *= -tau
                 u += r
                 u *= s
                 exact = exact and r.dtype == u.dtype
+                fresh = False
         else:
             eps_p = 0.0
         r = None  # K t is spent: one map fewer at the next transform
@@ -441,7 +461,7 @@ def _solve_load(
                 hh = pf = tf = u = d = below = r = None  # free float32 before float64
                 hh, pf, tf, u, d, below = precision_state(dtype, np.float32)
                 transforms += 2
-                exact = True
+                exact = fresh = True
                 continue
         if res < tol and not exact:
             # u carries the float32 rounding of the steps' K t (a few 1e-7 of the
@@ -450,18 +470,24 @@ def _solve_load(
             pf.ravel()[idx] = p_s  # pf holds p only as of the last contact-set change
             u = op(pf)
             transforms += 2
-            exact = True
+            exact = fresh = True
             _, _, _, _, G_v, G_off_v = _gap(u, hh, inc, idx, d, below)
             res = max(eps_p, np.sqrt((G_v + G_off_v) / n) / scale)
             history[-1] = res
         if res < tol or denom <= 0:
             converged = res < tol or (G == 0 and off.size == 0)
             break
-    hh = pf = tf = u = d = below = r = None  # the work arrays go before the result
+    # u = K p transformed afresh in float64 with pf = p (the check above): reused
+    reuse = fresh and u.dtype == np.float64
+    hh = pf = tf = d = below = r = None  # the work arrays go before the result
+    if not reuse:
+        u = None
     pfull = np.zeros(n)
     pfull[idx] = p_s
     pfull = pfull.reshape(shape)
-    u = np.ascontiguousarray(op(pfull))  # open maps: not a view of the padded grid
+    if not reuse:
+        u = op(pfull)
+    u = np.ascontiguousarray(u)  # open maps: not a view of the padded grid
     gap = np.subtract(u, h)
     offset = float(np.mean(gap.ravel()[idx]))
     gap -= offset
