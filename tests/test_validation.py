@@ -76,10 +76,13 @@ def test_paper_theories_do_not_depend_on_kappa():
     """
     topo = _surface(seed=2)
     kw = dict(E_star=E_STAR, p0=[1e3, 1e4], full_contact=False, smooth_full=False)
-    with warnings.catch_warnings():  # eq. 24 as is rings below 0: NaN there, checked below
-        warnings.simplefilter("ignore", xrough.QualityWarning)
+    with warnings.catch_warnings(record=True) as caught:  # eq. 24 as is rings below 0:
+        warnings.simplefilter("always")  # NaN there, checked below
         fitted = compare_with_simulation(topo, **kw)
         given = compare_with_simulation(topo, **kw, kappa=5.0)
+    # each of the three theories inherits the same warnings: said once per call
+    messages = [str(w.message) for w in caught if w.category is xrough.QualityWarning]
+    assert messages and all(messages.count(m) == 2 for m in messages), messages
     for name in ("persson", "modified"):
         xr.testing.assert_identical(fitted.Gamma_sigma.sel(theory=name),
                                     given.Gamma_sigma.sel(theory=name))

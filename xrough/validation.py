@@ -322,15 +322,19 @@ def compare_with_simulation(
     areas = {"persson": a_r, "modified": a_ri, "persson_kappa": a_r_kappa}
     wanted = ("G_sigma", "Gamma_sigma", "Gamma_sigma_sa")
     predicted = {v: [] for v in wanted}
-    for name in names:
-        ds = persson(G, E_star=E, p0=p0s, theory=name.removesuffix("_kappa"),
-                     kappa=kappa_used if name == "persson_kappa" else KAPPA_PERSSON,
-                     gradient=gbar, fit=fit, variables=wanted, smooth_full=smooth_full)
-        if ds.sizes.get("p0") is None:
-            ds = ds.expand_dims("p0")
-        ds = ds.reindex(dr=G["dr"].values, method="nearest", tolerance=1e-9 * dr[-1])
-        for v in wanted:  # NaN off gbar's lags
-            predicted[v].append(ds[v].transpose("p0", "dr").values)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for name in names:
+            ds = persson(G, E_star=E, p0=p0s, theory=name.removesuffix("_kappa"),
+                         kappa=kappa_used if name == "persson_kappa" else KAPPA_PERSSON,
+                         gradient=gbar, fit=fit, variables=wanted, smooth_full=smooth_full)
+            if ds.sizes.get("p0") is None:
+                ds = ds.expand_dims("p0")
+            ds = ds.reindex(dr=G["dr"].values, method="nearest", tolerance=1e-9 * dr[-1])
+            for v in wanted:  # NaN off gbar's lags
+                predicted[v].append(ds[v].transpose("p0", "dr").values)
+    for message in dict.fromkeys((w.category, str(w.message)) for w in caught):
+        warnings.warn(message[1], message[0], stacklevel=2)  # once, not once per theory
     g_th, gam_th, gam_sa = (np.stack(predicted[v]) for v in wanted)
     area_th = np.stack([areas[name] for name in names])
     coords = {"theory": ("theory", np.array(names, dtype=object),
