@@ -88,6 +88,9 @@ for p in mismatch.pair.values:
     print(f"overlap {p}: {int(row.n_bins)} bins, {float(row.dr_lo):.3g}-{float(row.dr_hi):.3g} "
           f"nm, G ratio {float(row.ratio):.3f} +- {float(row.log_ratio_error):.2f} (log), "
           f"z = {float(row.z):.2f}, chi2 = {float(row.chi2):.2f}")
+factors = ", ".join(f"{m} x {f:.3f}" for m, f in zip(G.attrs["stitched_from"].split(", "),
+                                                      G.attrs["level_factors"]))
+print(f"levelled (no step at the seams) before combining: {factors}")
 print(f"stitched G: {G.sizes['dr']} bins from {float(G.dr[0]):.3g} to {float(G.dr[-1]):.3g} "
       f"nm; fitted Hurst exponent H = {float(fit.hurst):.3f}")
 

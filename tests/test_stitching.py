@@ -93,10 +93,13 @@ def test_recovers_true_G_over_union_of_windows(surface, curves):
     exact = xrough.acf_from_spectrum(C, G.dr.values)
     model = G.values / exact.values - 1
     # up to lambda_r / 2: no further from the model than the realisation itself (which
-    # scatters by up to 7 % there) plus 2 %; near lambda_r one realisation scatters by ~15 %
+    # scatters by up to 7 % there) plus 3.5 %: the level is the instruments' consensus
+    # (levelling shares each step by precision), and the 'medium' scans lie 4-9 % below
+    # the profile's G, which pulls it down by about 2 % (measured: at most 2.5 % beyond
+    # the realisation's own deviation); near lambda_r one realisation scatters by ~15 %
     small = G.dr.values < N / 32
     own = _reference(surface, G.dr.values) / exact.values - 1
-    assert np.all(np.abs(model[small]) <= np.abs(own[small]) + 0.02), model
+    assert np.all(np.abs(model[small]) <= np.abs(own[small]) + 0.035), model
 
 
 def test_curves_are_nan_outside_windows(curves):
@@ -197,16 +200,17 @@ def test_windows_override_and_reliable_attrs(three):
 
 
 def test_level_removes_a_calibration_factor(surface, curves):
-    # 'medium' with heights x 1.3 (G x 1.69): levelled, it joins the others exactly as
-    # the consistent 'medium' does (the factor absorbs 1/1.69), while the mismatch is
-    # still reported on the curves as measured; the largest scan keeps factor 1
+    # 'medium' with heights x 1.3 (G x 1.69): levelled, the stitched G is the consistent
+    # one times a constant (the step is shared, so the level lies between 1 and 1.69),
+    # with no step; the mismatch is still reported on the curves as measured
     with pytest.warns(StitchingMismatchWarning):
         bad = stitch(_three(surface, scale_medium=1.3))
     good = stitch(curves)
-    np.testing.assert_allclose(bad.values, good.values, rtol=1e-9)
+    ratio = bad.values / good.values
+    np.testing.assert_allclose(ratio, ratio[0], rtol=1e-9)
+    assert 1.0 < ratio[0] < 1.69
     f_bad, f_good = bad.attrs["level_factors"], good.attrs["level_factors"]
-    assert f_good[2] == 1.0 and f_bad[2] == 1.0
-    assert f_bad[1] == pytest.approx(f_good[1] / 1.69, rel=1e-9)
+    np.testing.assert_allclose(f_bad * [1, 1.69, 1], f_good * ratio[0], rtol=1e-9)
     np.testing.assert_allclose(level_factors(curves), f_good, rtol=0)
     # the consistent instruments differ by a few %, within their errors
     np.testing.assert_allclose(f_good, 1.0, atol=0.05)
@@ -214,6 +218,30 @@ def test_level_removes_a_calibration_factor(surface, curves):
     raw = stitch(curves, level=False)
     np.testing.assert_array_equal(raw.attrs["level_factors"], [1.0, 1.0, 1.0])
     assert np.abs(raw.values / good.values - 1).max() > 1e-3
+
+
+def test_level_factors_share_the_step_by_precision():
+    # two curves 10 % apart: with equal errors the step is split evenly; a precise
+    # curve (errors 10x smaller, level variance 100x smaller) moves 100x less than the
+    # noisy one; a third curve that overlaps neither keeps factor 1
+    dr = np.array([1.0, 2.0, 4.0, 8.0, 16.0])
+    G = np.array([[1.0, 2.0, 4.0, np.nan, np.nan], [np.nan, 2.2, 4.4, 8.8, np.nan],
+                  [np.nan, np.nan, np.nan, np.nan, 5.0]])
+
+    def curves_with(rel):
+        se = np.asarray(rel)[:, None] * G
+        return xr.Dataset({"G": (("measurement", "dr"), G),
+                           "standard_error": (("measurement", "dr"), se)},
+                          coords={"measurement": ["a", "b", "c"], "dr": dr,
+                                  "scan_size": ("measurement", [10.0, 100.0, 1.0])})
+
+    f = level_factors(curves_with([0.05, 0.05, 0.05]))
+    assert f[0] == pytest.approx(f[1] * 1.1, rel=1e-12)  # no step left
+    assert np.log(f[0]) == pytest.approx(-np.log(f[1]), rel=1e-12)  # split evenly
+    assert f[2] == 1.0
+    f = level_factors(curves_with([0.05, 0.005, 0.05]))
+    assert f[0] == pytest.approx(f[1] * 1.1, rel=1e-12)
+    assert abs(np.log(f[1])) == pytest.approx(abs(np.log(f[0])) / 100, rel=1e-9)
 
 
 @pytest.mark.parametrize("hurst", [0.5, 0.8])

@@ -17,7 +17,7 @@ bins and combines them where they overlap.
     (calibration, tip convolution, detrending).
 :func:`stitch`
     The stitched G: inverse-variance weighted combination of the curves (each first
-    brought to the level of the larger scans, :func:`level_factors`), a ``G``
+    levelled so that no step remains at a seam, :func:`level_factors`), a ``G``
     DataArray that feeds :func:`xrough.fit_acf` and :func:`xrough.persson` directly.
 
 >>> import xrough
@@ -471,14 +471,18 @@ def _combine(g: np.ndarray, se: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
 
 
 def level_factors(curves: xr.Dataset) -> np.ndarray:
-    r"""Factor per measurement that brings its G to the level of the larger scans.
+    r"""Factor per measurement that removes the steps between overlapping measurements.
 
-    The measurements are taken by decreasing scan size (the largest keeps factor 1).
-    Each one's ``G`` is multiplied by the factor that makes it agree, over the bins it
-    shares with the larger scans already levelled, with their combination (the
-    inverse-variance mean of :math:`\ln G_\text{comb} - \ln G_i`, weights
-    :math:`1 / ((s_i/G_i)^2 + (s_\text{comb}/G_\text{comb})^2)`). A measurement without
-    overlap keeps factor 1.
+    The measurements are taken by decreasing scan size. Each one that overlaps those
+    already taken is brought to agree with their combination over the bins it shares
+    with them, next to the seam (the first ``LEVEL_DECADES`` of the overlap): the
+    inverse-variance mean :math:`r` of :math:`\ln G_\text{comb} - \ln G_i` (weights
+    :math:`1 / ((s_i/G_i)^2 + (s_\text{comb}/G_\text{comb})^2)`) is shared between the
+    two in proportion to their level variances, the mean of :math:`(s/G)^2` over those
+    bins of each: :math:`G_i` is multiplied by :math:`e^{r v_i / (v_i + v_c)}` and every
+    measurement joined to the combination through overlaps by
+    :math:`e^{-r v_c / (v_i + v_c)}`. A precise measurement moves little, a noisy one
+    much; measurements without any overlap keep factor 1.
 
     Why: the G of a finite scan carries an error that is nearly the same factor at all its
     lags (the rms gradient of the scanned patch, a height calibration), which is how
@@ -506,8 +510,8 @@ def level_factors(curves: xr.Dataset) -> np.ndarray:
     ...                      "standard_error": (("measurement", "dr"), 0.05 * G)},
     ...                     coords={"measurement": ["fine", "coarse"], "dr": dr,
     ...                             "scan_size": ("measurement", [10.0, 100.0])})
-    >>> level_factors(curves).round(3).tolist()
-    [1.1, 1.0]
+    >>> level_factors(curves).round(4).tolist()  # equal errors: the step split evenly
+    [1.0488, 0.9535]
     """
     g = np.array(curves.G.values, dtype=float)
     se = np.array(curves.standard_error.values, dtype=float)
@@ -516,20 +520,32 @@ def level_factors(curves: xr.Dataset) -> np.ndarray:
     if "dr_max" in curves.coords:
         scan = np.where(np.isfinite(scan), scan, np.asarray(curves.dr_max.values, float))
     order = np.argsort(-np.nan_to_num(scan, nan=-np.inf), kind="stable")
+    have = np.isfinite(g) & (g > 0) & (se > 0)
     factors = np.ones(g.shape[0])
-    done = [int(order[0])]
-    for i in order[1:]:
-        comb, comb_se, n = _combine(g[done], se[done])
+    groups: list[list[int]] = []  # measurements joined through overlaps
+    for i in (int(k) for k in order):
+        touching = [k for k, grp in enumerate(groups)
+                    if any((have[j] & have[i]).any() for j in grp)]
+        if not touching:
+            groups.append([i])
+            continue
+        group = sorted(j for k in touching for j in groups[k])
+        comb, comb_se, _ = _combine(g[group], se[group])
         with np.errstate(invalid="ignore", divide="ignore"):
-            ok = (n > 0) & np.isfinite(g[i]) & (g[i] > 0) & (se[i] > 0)
-            if ok.any():  # the bins next to the seam: the first LEVEL_DECADES of overlap
-                ok &= dr <= dr[ok].min() * 10**LEVEL_DECADES * (1 + 1e-9)
-                w = 1.0 / ((se[i][ok] / g[i][ok]) ** 2 + (comb_se[ok] / comb[ok]) ** 2)
-                r = np.log(comb[ok]) - np.log(g[i][ok])
-                factors[i] = float(np.exp(np.sum(w * r) / np.sum(w)))
-        g[i] *= factors[i]
-        se[i] *= factors[i]
-        done.append(int(i))
+            ok = have[i] & np.isfinite(comb)
+            ok &= dr <= dr[ok].min() * 10**LEVEL_DECADES * (1 + 1e-9)  # next to the seam
+            v_i = (se[i][ok] / g[i][ok]) ** 2
+            v_c = (comb_se[ok] / comb[ok]) ** 2
+            w = 1.0 / (v_i + v_c)
+            r = float(np.sum(w * np.log(comb[ok] / g[i][ok])) / np.sum(w))
+        # the step r is shared by the two level uncertainties (the errors of one
+        # measurement are correlated across its lags: their mean, not divided by n)
+        share = float(np.mean(v_i) / (np.mean(v_i) + np.mean(v_c)))
+        for members, f in (([i], np.exp(r * share)), (group, np.exp(-r * (1.0 - share)))):
+            factors[members] *= f
+            g[members] *= f
+            se[members] *= f
+        groups = [grp for k, grp in enumerate(groups) if k not in touching] + [group + [i]]
     return factors
 
 
@@ -560,8 +576,8 @@ def stitch(
     warn : bool
         Warn (:class:`StitchingMismatchWarning`) when instruments disagree.
     level : bool
-        Bring each measurement's G to the level of the larger scans before combining
-        (:func:`level_factors`; the factors are kept in ``attrs["level_factors"]``). The
+        Remove the steps between overlapping measurements before combining, each one's
+        G times a factor (:func:`level_factors`; kept in ``attrs["level_factors"]``). The
         mismatch diagnostic is computed before, on the curves as measured. ``False``
         combines the curves as they are, which leaves a step where a window begins.
     **kwargs
@@ -609,7 +625,7 @@ def stitch(
     combined error assumes independent measurements (different areas of the sample).
 
     With ``level=True`` (default) each :math:`G_i` is first multiplied by its factor from
-    :func:`level_factors`, fitted over its overlap with the larger scans. A 512^2 crop
+    :func:`level_factors`, fitted next to the seams. A 512^2 crop
     at 1 nm stitched with the whole 2048^2 map at 4 nm (H = 0.5 and 0.8, lambda_s = 4 nm)
     lies 7-8 % below it; the step where the coarse window begins made the stress ACF
     from the stitched G 3.3-6.1 % of ``G_sigma(0)`` off the exact stress field; levelled,
