@@ -262,13 +262,15 @@ def solve_contact(
     callback = None if bar is None else (lambda it, res: (
         bar.update(1), bar.set_postfix(residual=f"{res:.1e}", refresh=False)))
     results, p_prev = [], None
+    # the smallest load of full contact (periodic maps; open ones never reach it exactly)
     full = _full_contact_stress(h_lat, op) if load_dim == "p0" else None
-    full_min = float(full.min()) if full is not None else -np.inf  # open: never
+    full_min = float(full.min()) if full is not None else -np.inf
+    full = None  # a map less during the solves: recomputed if a load reaches it
     try:
         for target in targets:
             t_start = time.perf_counter()
             if target + full_min > 0:
-                out = _full_contact_solution(h_lat, op, float(target), full)
+                out = _full_contact_solution(h_lat, op, float(target))
                 if out["history"][-1] < tol:  # else (round-off): iterate as usual
                     out["seconds"] = time.perf_counter() - t_start
                     out["coarse_iterations"] = 0

@@ -21,7 +21,7 @@ import pint
 import xarray as xr
 
 from . import units as _units
-from ._kernels.binning import log_range
+from ._kernels.binning import decade_aligned_grid, log_range
 from ._kernels.hankel import (
     PowerLawInterpolant,
     acf_from_spectrum_kernel,
@@ -433,36 +433,6 @@ def check_spectrum_options(smooth, support_rtol, interpolation, points_per_decad
                          f"{interpolation!r}")
     if not (np.isfinite(points_per_decade) and points_per_decade > 0):
         raise ValueError(f"points_per_decade must be positive, got {points_per_decade!r}")
-
-
-def decade_aligned_grid(lo: float, hi: float, points_per_decade: float) -> np.ndarray:
-    """Return the points ``10**(k / points_per_decade)`` that just cover ``[lo, hi]``.
-
-    From the last point at or below ``lo`` to the first at or above ``hi``.
-
-    Parameters
-    ----------
-    lo, hi : float
-        Positive ends to cover, ``lo < hi``.
-    points_per_decade : float
-        Density of the grid.
-
-    Returns
-    -------
-    numpy.ndarray
-        At least two increasing points. Aligned to whole decades, so for an integer
-        ``points_per_decade`` the grid in another unit (a power of ten) is the same grid
-        converted, and ends that differ by round-off pick the same points.
-
-    Examples
-    --------
-    >>> decade_aligned_grid(0.15, 0.9, 10).round(4).tolist()
-    [0.1259, 0.1585, 0.1995, 0.2512, 0.3162, 0.3981, 0.5012, 0.631, 0.7943, 1.0]
-    """
-    ppd = float(points_per_decade)
-    k0 = int(np.floor(np.log10(lo) * ppd))
-    k1 = max(int(np.ceil(np.log10(hi) * ppd)), k0 + 1)
-    return 10.0 ** (np.arange(k0, k1 + 1) / ppd)
 
 
 def _support(acf: _AcfInput, *, smooth, support_rtol, interpolation) -> tuple[float, float]:

@@ -12,14 +12,45 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["log_range", "log_bin_edges", "linear_bin_edges", "lag_multiplicity", "lag_radius2",
-           "bin_index", "binned_sum", "max_lags"]
+__all__ = ["log_range", "decade_aligned_grid", "log_bin_edges", "linear_bin_edges",
+           "lag_multiplicity", "lag_radius2", "bin_index", "binned_sum", "max_lags"]
 
 
 def log_range(lo: float, hi: float, points_per_decade: float) -> np.ndarray:
     """Logarithmic grid from ``lo`` to ``hi`` with at least ``points_per_decade``."""
     n = max(2, int(np.ceil(points_per_decade * np.log10(hi / lo))) + 1)
     return np.geomspace(lo, hi, n)
+
+
+def decade_aligned_grid(lo: float, hi: float, points_per_decade: float) -> np.ndarray:
+    """Return the points ``10**(k / points_per_decade)`` that just cover ``[lo, hi]``.
+
+    From the last point at or below ``lo`` to the first at or above ``hi``.
+
+    Parameters
+    ----------
+    lo, hi : float
+        Positive ends to cover, ``lo < hi``.
+    points_per_decade : float
+        Density of the grid.
+
+    Returns
+    -------
+    numpy.ndarray
+        At least two increasing points. Aligned to whole decades, so for an integer
+        ``points_per_decade`` the grid in another unit (a power of ten) is the same grid
+        converted, and ends that differ by round-off pick the same points.
+
+    Examples
+    --------
+    >>> from xrough._kernels.binning import decade_aligned_grid
+    >>> decade_aligned_grid(0.15, 0.9, 10).round(4).tolist()
+    [0.1259, 0.1585, 0.1995, 0.2512, 0.3162, 0.3981, 0.5012, 0.631, 0.7943, 1.0]
+    """
+    ppd = float(points_per_decade)
+    k0 = int(np.floor(np.log10(lo) * ppd))
+    k1 = max(int(np.ceil(np.log10(hi) * ppd)), k0 + 1)
+    return 10.0 ** (np.arange(k0, k1 + 1) / ppd)
 
 
 def log_bin_edges(dr_min: float, dr_max: float, points_per_decade: float) -> np.ndarray:

@@ -77,6 +77,7 @@ from .bessel import (
     _oscillatory_terms,
     _panel_quadrature,
 )
+from .detrend import MAD_TO_SIGMA
 
 __all__ = [
     "acf_from_spectrum_kernel",
@@ -1120,5 +1121,5 @@ def _scatter(r: np.ndarray, g: np.ndarray) -> float:
             if m != j:
                 weights[j] *= (x[k] - x[nb[m]]) / (x[nb[j]] - x[nb[m]])
     res = (v[k] - np.sum(weights * v[nb], axis=0)) / np.sqrt(1 + np.sum(weights**2, axis=0))
-    return float(np.median(np.abs(res)) / 0.6745)
+    return float(MAD_TO_SIGMA * np.median(np.abs(res)))
 

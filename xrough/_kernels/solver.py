@@ -515,15 +515,16 @@ def _full_contact_stress(h: np.ndarray, op: _ElasticOperator) -> np.ndarray | No
     return sfft.irfft2(hh, s=op.shape, workers=op.workers, overwrite_x=True)
 
 
-def _full_contact_solution(h: np.ndarray, op: _ElasticOperator, p0: float,
-                           stress: np.ndarray) -> dict:
-    """Return the solve's result for a periodic map in full contact (``p0 + stress > 0``).
+def _full_contact_solution(h: np.ndarray, op: _ElasticOperator, p0: float) -> dict:
+    """Return the solve's result for a periodic map in full contact.
 
-    ``stress`` from :func:`_full_contact_stress`. The displacement is ``K p`` transformed
+    For ``p0`` above ``-min`` of :func:`_full_contact_stress` (recomputed here: the
+    caller keeps only its minimum, not a map). The displacement is ``K p`` transformed
     like every solve's final field; the residual (the gap error, as in
     :func:`_solve_load`) is measured on it, so the result is checked, not assumed.
     """
-    p = stress + p0
+    p = _full_contact_stress(h, op)
+    p += p0
     u = op(p)
     gap = np.subtract(u, h)
     offset = float(gap.mean())
