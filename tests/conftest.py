@@ -1,3 +1,4 @@
+from importlib.util import find_spec
 from pathlib import Path
 
 import matplotlib
@@ -27,6 +28,12 @@ def to_backend(da, backend, chunks=None):
         extra = {d: 1 for d in da.dims if d not in ("x", "y")}
         return da.chunk(chunks or extra or {})
     return da
+
+
+#: files that only SurfaceTopography reads (through the bridge, the ``formats`` extra)
+needs_bridge = pytest.mark.skipif(find_spec("SurfaceTopography") is None,
+                                  reason="the file is read through SurfaceTopography "
+                                         "(xrough[formats]), which is not installed")
 
 
 def data_path(*parts):
