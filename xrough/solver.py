@@ -85,6 +85,7 @@ def solve_contact(
     workers: int | None = None,
     precision: str = "mixed",
     coarse_to_fine: int = 1,
+    precondition: bool | str = "auto",
     timing: bool = False,
 ) -> xr.Dataset:
     r"""Solve the normal contact of an elastic half-space with a rigid rough surface.
@@ -135,6 +136,15 @@ def solve_contact(
         (``max(tol, 1e-3)``), and the coarse pressure, repeated onto 2 x 2 pixels, starts
         the fine solve. The solution is the same as from a cold start to within ``tol``;
         the iterations on the coarse grids are counted in ``iterations``.
+    precondition : {"auto", True, False}
+        Vollebregt's FFT preconditioner: the search direction is built from
+        ``K^-1 g`` (the gap on the contact set mapped through the inverse of the
+        Green's function, ``|q|/2`` on periodic maps, the inverse of the zero-padded
+        kernel on open ones) instead of ``g``. It costs a pair of transforms per
+        iteration and divides the iterations by 2-4 at large contact fractions (on a
+        512 x 512 map 186 -> 61 at 53 % contact, 79 -> 40 at 2 %). ``"auto"``
+        (default) uses it while the contact set covers at least 5 % of the map (2.5 %
+        once on), ``True`` always, ``False`` never. The solution is the same to ``tol``.
     timing : bool
         Add the wall-clock ``solve_time`` and ``time_per_iteration`` (off by default:
         they differ from run to run, so results would no longer compare identical).
@@ -148,11 +158,14 @@ def solve_contact(
         ``approach`` (``max(h) + offset``, height unit), ``iterations`` (coarse grids
         included), ``converged``, ``float32_iterations``, ``coarse_iterations``,
         ``transforms`` (forward plus inverse FFTs of the map), ``deferred_entries``
-        (iterations in which overlapping points waited to enter) and, with ``timing``,
+        (iterations in which overlapping points waited to enter),
+        ``preconditioned_iterations`` (fine-grid iterations with the preconditioner)
+        and, with ``timing``,
         ``solve_time`` (s) and ``time_per_iteration`` (s);
         ``residual`` on ``iteration`` (the convergence history, NaN-padded per load).
         Attrs: ``E_star`` (Pa), ``tol``, ``max_iter``, ``method``, ``green_function``,
-        ``iterations`` (total), ``precision``, ``coarse_to_fine``, with ``timing``
+        ``iterations`` (total), ``precision``, ``coarse_to_fine``, ``precondition``,
+        with ``timing``
         ``solve_time`` (s, total), and, for one load, ``relative_contact_area``.
 
     Raises
@@ -160,8 +173,8 @@ def solve_contact(
     ValueError
         Non-positive or non-finite ``E_star`` or ``p0``, both or neither of ``p0`` and
         ``displacement``, NaN or infinite heights, a non-uniform grid, or a periodic
-        ``displacement`` at or beyond full contact, an unknown ``precision`` or a
-        negative ``coarse_to_fine``.
+        ``displacement`` at or beyond full contact, an unknown ``precision`` or
+        ``precondition``, or a negative ``coarse_to_fine``.
 
     Warns
     -----
@@ -187,7 +200,9 @@ def solve_contact(
     re-enter (``p = -tau g``, ``delta = 0``); rescale to the mean ``p0``. Points out of
     contact with a negative gap enter only when their gap error exceeds half that on the
     contact set (proportioning, as in Dostal's MPRGP); until then the conjugation goes on,
-    which halves the iterations on rough surfaces. The residual is
+    which halves the iterations on rough surfaces. With the preconditioner, ``g`` in the
+    direction (and in ``G = g.z``) becomes ``z = K^-1 g`` restricted to ``I_c`` and
+    mean-shifted (Vollebregt 2014). The residual is
     ``max(sum|p - p_old| / sum p, rms(g on I_c and g < 0 elsewhere) / rms(h))`` and the
     iteration stops below ``tol``. A load beyond full contact simply converges to full
     contact (``contact_area = 1``).
@@ -207,6 +222,8 @@ def solve_contact(
     I. A. Polonsky and L. M. Keer, Wear 231, 206-219 (1999).
     Z. Dostal and J. Schoeberl, Comput. Optim. Appl. 30, 23-43 (2005) (MPRGP,
     proportioning).
+    E. A. H. Vollebregt, J. Comput. Phys. 257, 333-351 (2014) (the FFT-based
+    preconditioner).
     K. L. Johnson, Contact Mechanics (1985), eq. 3.25 (Love's pixel solution).
 
     Examples
@@ -233,6 +250,9 @@ def solve_contact(
         raise ValueError(f"max_iter must be a positive integer, got {max_iter!r}")
     if precision not in ("mixed", "float64"):
         raise ValueError(f"precision must be 'mixed' or 'float64', got {precision!r}")
+    if precondition not in ("auto", True, False):
+        raise ValueError(f"precondition must be 'auto', True or False, got "
+                         f"{precondition!r}")
     if int(coarse_to_fine) < 0:
         raise ValueError(f"coarse_to_fine must be a non-negative integer, got "
                          f"{coarse_to_fine!r}")
@@ -283,9 +303,10 @@ def solve_contact(
             if p_prev is None and load_dim == "p0" and coarse_to_fine:
                 p_prev, coarse_its = _coarse_start(
                     h_lat, op, float(target), levels=int(coarse_to_fine), tol=float(tol),
-                    max_iter=int(max_iter), precision=precision)
+                    max_iter=int(max_iter), precision=precision, precondition=precondition)
             kw = {"tol": float(tol), "max_iter": int(max_iter), "p_init": p_prev,
-                  "callback": callback, "precision": precision}
+                  "callback": callback, "precision": precision,
+                  "precondition": precondition}
             out = (_solve_load(h_lat, op, float(target), **kw) if load_dim == "p0" else
                    _solve_approach(h_lat, op, float(target), **kw))
             out["seconds"] = time.perf_counter() - t_start
@@ -346,6 +367,10 @@ def solve_contact(
                                              dtype=np.int64),
                                  {"long_name": "iterations in which overlapping points "
                                   "waited to enter the contact set (proportioning)"}),
+            "preconditioned_iterations": (
+                L, np.array([r["preconditioned_iterations"] for r in results],
+                            dtype=np.int64),
+                {"long_name": "fine-grid iterations with the FFT preconditioner"}),
 
             "residual": (L + ("iteration",), hist, {
                 "units": "1", "long_name": "relative residual per iteration "
@@ -367,6 +392,7 @@ def solve_contact(
             "iterations": int(sum(r["iterations"] for r in results)),
             "precision": precision,
             "coarse_to_fine": int(coarse_to_fine),
+            "precondition": str(precondition),
         },
     )
     if timing:
