@@ -250,10 +250,6 @@ COARSE_TOL = 1e-3
 #: negative gap enter the contact set (and reset the conjugation) only in iterations
 #: where their gap error exceeds ``Gamma`` times the gap error on the contact set.
 PROPORTION = 0.5
-#: Contact fraction from which ``precondition="auto"`` turns the FFT preconditioner on
-#: (it costs a pair of transforms per iteration, which pays where the plain iteration
-#: count grows with the contact fraction).
-PRECONDITION_FRACTION = 0.05
 
 
 def _solve_load(
@@ -266,7 +262,7 @@ def _solve_load(
     p_init: np.ndarray | None = None,
     callback: Callable[[int, float], None] | None = None,
     precision: str = "mixed",
-    precondition: bool | str = "auto",
+    precondition: bool = True,
 ) -> dict:
     r"""Constrained conjugate gradients of Polonsky & Keer (1999) at mean pressure ``p0``.
 
@@ -324,6 +320,12 @@ def _solve_load(
         ``tol`` is confirmed on ``u`` transformed afresh in float64 before the solve
         stops. Maps of fewer than ``MIXED_MIN_SIZE`` points use float64 throughout.
         ``"float64"`` uses float64 throughout.
+    precondition : bool
+        Build the direction from ``z = K^-1 g`` (the gap on the contact set, zero
+        elsewhere, through :meth:`_ElasticOperator.inverse`, restricted to the contact
+        set and mean-shifted) instead of ``g``, with ``G = g.z`` in the conjugation
+        (Vollebregt 2014): one more pair of transforms per iteration, in the direction's
+        precision. Proportioning keeps comparing the plain gap errors.
 
     Returns
     -------
@@ -331,12 +333,12 @@ def _solve_load(
         ``pressure``, ``displacement``, ``gap`` (lengths), ``offset``, ``history``
         (residual per iteration), ``iterations``, ``float32_iterations``, ``transforms``
         (forward plus inverse FFTs), ``converged``, ``deferred_entries`` (iterations in
-        which proportioning kept overlapping points out).
+        which proportioning kept overlapping points out), ``refreshes`` (restarts of the
+        float64 phase from a fresh displacement after ``2 STALL`` iterations without
+        progress).
     """
     if precision not in ("mixed", "float64"):
         raise ValueError(f"precision must be 'mixed' or 'float64', got {precision!r}")
-    if precondition not in ("auto", True, False):
-        raise ValueError(f"precondition must be 'auto', True or False, got {precondition!r}")
     if precision == "mixed" and h.size < MIXED_MIN_SIZE:
         precision = "float64"
     n = h.size
@@ -370,9 +372,7 @@ def _solve_load(
 
     dtype = np.float32 if precision == "mixed" else np.float64
     hh, pf, tf, u, d, below = precision_state(dtype, dtype)
-    pc_on = precondition is True
     zf = None  # the gap on idx, zero elsewhere, for the preconditioner
-    pc_its = 0
     exact = True  # whether u = K p to the precision of u (false after float32 updates)
     fresh = True  # whether u was transformed from pf = p (no update since)
     transforms = 2
@@ -394,12 +394,7 @@ def _solve_load(
             # conjugate iteration on it and let the overlapping points enter later
             off, g_off = off[:0], g_off[:0]
             deferred += 1
-        if precondition == "auto":
-            frac = idx.size / n
-            want = frac >= (PRECONDITION_FRACTION / 2 if pc_on else PRECONDITION_FRACTION)
-            if want != pc_on:
-                pc_on, delta = want, 0.0  # restart the conjugation
-        if pc_on:
+        if precondition:
             # z = R K^-1 R^T g: the gap on the contact set, zero elsewhere, mapped
             # through the inverse kernel (one pair of transforms, in the direction's
             # precision), restricted to the contact set and mean-shifted
@@ -408,7 +403,6 @@ def _solve_load(
             zf.ravel()[idx] = g_s
             z = op.inverse(zf)
             transforms += 2
-            pc_its += 1
             z_s = z.ravel()[idx].astype(float)
             z = None
             z_s -= z_s.mean()
@@ -569,8 +563,7 @@ def _solve_load(
     return {"pressure": pfull, "displacement": u, "gap": gap, "offset": offset,
             "history": np.asarray(history), "iterations": it, "converged": converged,
             "float32_iterations": f32_its, "transforms": transforms,
-            "deferred_entries": deferred, "preconditioned_iterations": pc_its,
-            "refreshes": refreshes}
+            "deferred_entries": deferred, "refreshes": refreshes}
 
 
 def _full_contact_stress(h: np.ndarray, op: _ElasticOperator) -> np.ndarray | None:
@@ -604,13 +597,12 @@ def _full_contact_solution(h: np.ndarray, op: _ElasticOperator, p0: float) -> di
     res = float(np.sqrt(np.mean(gap**2))) / _gap_scale(h, p0, op)
     return {"pressure": p, "displacement": u, "gap": gap, "offset": offset,
             "history": np.array([res]), "iterations": 1, "converged": True,
-            "float32_iterations": 0, "transforms": 4, "deferred_entries": 0,
-            "preconditioned_iterations": 0}
+            "float32_iterations": 0, "transforms": 4, "deferred_entries": 0}
 
 
 def _coarse_start(h: np.ndarray, op: _ElasticOperator, p0: float, *, levels: int,
                   tol: float, max_iter: int, precision: str,
-                  precondition: bool | str = "auto") -> tuple[np.ndarray, int]:
+                  precondition: bool = True) -> tuple[np.ndarray, int]:
     """Start from the solution on grids restricted ``levels`` times by 2.
 
     Each restriction averages 2 x 2 pixels of ``h`` (the spacing doubles); the coarse
@@ -649,7 +641,7 @@ def _solve_approach(
     p_init: np.ndarray | None = None,
     callback: Callable[[int, float], None] | None = None,
     precision: str = "mixed",
-    precondition: bool | str = "auto",
+    precondition: bool = True,
 ) -> dict:
     r"""Contact at a prescribed approach ``delta = max(h) + offset`` (lengths).
 
