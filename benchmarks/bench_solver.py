@@ -3,8 +3,8 @@
 The same problem is handed to every solver: a periodic self-affine surface (Hurst 0.8,
 roll-off at L/4, short-wavelength cutoff 4 pixels) of N x N points on a square periodic
 domain of side L, pressed against a linear-elastic half-space of contact modulus ``E*``
-at the mean pressure ``p0 = 0.01 E* gbar`` (``gbar``: the rms gradient of the realised
-map), at one tolerance (``--tol``, default 1e-8). The peers are
+at the mean pressure ``p0 = p* E* gbar`` (``--load p*``, default 0.01; ``gbar``: the rms
+gradient of the realised map), at one tolerance (``--tol``, default 1e-8). The peers are
 
 * tamaas (``tm.PolonskyKeerRey`` on a ``basic_2d`` model with ``E = E*``, ``nu = 0``;
   ``solve(p0)`` takes the mean pressure);
@@ -35,6 +35,13 @@ of the two blocks; the median and range over the rounds are printed, also in CPU
 (the process's CPU time over all threads, for the solve and for the floor blocks), which
 other jobs on the machine disturb less than wall-clock time, and for reference the
 ratio to the best single pair.
+
+xrough runs with its defaults, the FFT preconditioner included; ``--plain`` adds a row
+of xrough without it (``precondition=False``, one transform pair less per iteration).
+For each xrough row the time per transform pair (the solve over half its forward plus
+inverse transforms) over the floor pair is printed too: what the solver spends beyond
+its transforms (float32 transforms cost about half a float64 floor pair, so the ratio
+can fall below 1).
 
 Memory. The peak memory of one xrough solve is measured in a fresh subprocess: the peak
 resident set size above the state before the solve (``resource``), and the peak of the
@@ -117,12 +124,13 @@ def surface(n: int, seed: int) -> tuple[np.ndarray, float]:
     return h, gbar
 
 
-def solve_xrough(h: np.ndarray, p0: float, tol: float) -> dict:
+def solve_xrough(h: np.ndarray, p0: float, tol: float, precondition: bool = True) -> dict:
     """Solve with xrough; contact area, iterations, the float32 share and transforms."""
     n = h.shape[0]
     topo = xrough.topography(h, spacing=L / n, unit="um", periodic=True)
     res = xrough.solve_contact(topo, E_star=E_STAR, p0=p0, tol=tol, max_iter=100_000,
-                               progress=False, workers=os.cpu_count())
+                               progress=False, workers=os.cpu_count(),
+                               precondition=precondition)
     coarse = int(res.coarse_iterations)
     return {"area": float(res.contact_area), "iterations": int(res.iterations),
             "fine_iterations": int(res.iterations) - coarse, "coarse_iterations": coarse,
@@ -181,8 +189,14 @@ def solve_contactmechanics(h: np.ndarray, p0: float, tol: float) -> dict:
             "converged": bool(res.success)}
 
 
-SOLVERS = {"xrough": solve_xrough, "tamaas": solve_tamaas,
-           "ContactMechanics": solve_contactmechanics}
+def solve_xrough_plain(h: np.ndarray, p0: float, tol: float) -> dict:
+    """Solve with xrough without the preconditioner (one transform pair less per iteration)."""
+    return solve_xrough(h, p0, tol, precondition=False)
+
+
+SOLVERS = {"xrough": solve_xrough, "xrough-plain": solve_xrough_plain,
+           "tamaas": solve_tamaas, "ContactMechanics": solve_contactmechanics}
+OURS = ("xrough", "xrough-plain")
 
 
 def fft_floor(n: int, repeats: int) -> list[float]:
@@ -227,57 +241,60 @@ def memory(what: str, path: str, p0: float, tol: float) -> dict:
 def bench_size(n: int, args, solvers: list[str]) -> None:
     """Time all solvers on one size in this process and print one table block."""
     h, gbar = surface(n, args.seed)
-    p0 = 0.01 * E_STAR * gbar
+    p0 = args.load * E_STAR * gbar
     for s in solvers:  # warm-up: imports, code paths, thread pools
         SOLVERS[s](h[:128, :128].copy(), p0, args.tol)
     times = {s: [] for s in solvers}
-    per_it_floor: list[float] = []  # xrough per fine iteration / floor pair, per round
-    per_it_cpu: list[float] = []  # the same in CPU time (all threads) of this process
+    ours = [s for s in solvers if s in OURS]
+    # per xrough variant and round: time per fine iteration / floor pair, the same in
+    # CPU time (all threads) of this process, and time per transform pair / floor pair
+    per_it_floor = {s: [] for s in ours}
+    per_it_cpu = {s: [] for s in ours}
+    per_pair = {s: [] for s in ours}
     single: list[float] = []
     last = {}
-    pairs = 100  # floor pairs per block: xrough's fine iterations once known
+    pairs = {s: 100 for s in ours}  # floor pairs per block: the fine iterations once known
     for _ in range(args.repeats):
         for s in solvers:
-            if s == "xrough":
-                before = fft_floor_block(n, pairs)
+            if s in ours:
+                before = fft_floor_block(n, pairs[s])
             t0, c0 = time.perf_counter(), time.process_time()
             last[s] = SOLVERS[s](h, p0, args.tol)
             times[s].append(time.perf_counter() - t0)
             cpu = time.process_time() - c0
-            if s == "xrough":
-                after = fft_floor_block(n, pairs)
+            if s in ours:
+                after = fft_floor_block(n, pairs[s])
                 x = last[s]
-                per_it_floor.append(times[s][-1] / x["fine_iterations"] / (
-                    0.5 * (before[0] + after[0])))
-                per_it_cpu.append(cpu / x["fine_iterations"] / (
+                floor = 0.5 * (before[0] + after[0])
+                per_it_floor[s].append(times[s][-1] / x["fine_iterations"] / floor)
+                per_it_cpu[s].append(cpu / x["fine_iterations"] / (
                     0.5 * (before[1] + after[1])))
-                pairs = x["fine_iterations"]
+                per_pair[s].append(times[s][-1] / (x["transforms"] / 2) / floor)
+                pairs[s] = x["fine_iterations"]
                 single += fft_floor(n, 3)
     best = {s: min(t) for s, t in times.items()}
     med = {s: float(np.median(t)) for s, t in times.items()}
-    peers = [s for s in solvers if s != "xrough"]
+    peers = [s for s in solvers if s not in OURS]
     faster = min(peers, key=best.get) if peers else None
-    x = last["xrough"]
-    a_ref = x["area"]
-    print(f"# N={n}: gbar={gbar:.4f}, p0={p0:.3e} E*, tol={args.tol:g}, "
-          f"{args.repeats} rounds, all solvers warm, interleaved")
+    a_ref = last[ours[0]]["area"]
+    print(f"# N={n}: gbar={gbar:.4f}, p0={p0:.3e} E* (p* = {args.load:g}), "
+          f"tol={args.tol:g}, {args.repeats} rounds, all solvers warm, interleaved")
     print("| N | solver | best time (s) | median (s) | max/min | iterations | contact area "
-          "| area diff. | xrough / faster peer: best/best (range); per round median "
-          "(range) |")
+          "| area diff. | / faster peer: best/best (range); per round median (range) |")
     print("|---|---|---|---|---|---|---|---|---|")
     for s in solvers:
         r = last[s]
         d = (r["area"] - a_ref) / a_ref
         ratio = ""
-        if s == "xrough" and faster:
-            lo = min(times["xrough"]) / max(times[faster])
-            hi = max(times["xrough"]) / min(times[faster])
-            rounds = [a / b for a, b in zip(times["xrough"], times[faster])]
-            ratio = (f"{best['xrough'] / best[faster]:.3f} ({lo:.3f}-{hi:.3f}); "
+        if s in ours and faster:
+            lo = min(times[s]) / max(times[faster])
+            hi = max(times[s]) / min(times[faster])
+            rounds = [a / b for a, b in zip(times[s], times[faster])]
+            ratio = (f"{best[s] / best[faster]:.3f} ({lo:.3f}-{hi:.3f}); "
                      f"{np.median(rounds):.3f} ({min(rounds):.3f}-{max(rounds):.3f}) "
                      f"vs {faster}")
         its = r["iterations"]
-        if s == "xrough":
+        if s in ours:
             its = (f"{r['fine_iterations']} + {r['coarse_iterations']} coarse "
                    f"({r['float32_iterations']} float32)")
         print(f"| {n} | {s} | {best[s]:.3g} | {med[s]:.3g} | {max(times[s]) / best[s]:.2f} "
@@ -285,26 +302,33 @@ def bench_size(n: int, args, solvers: list[str]) -> None:
     agree = max(abs(last[s]["area"] - a_ref) / a_ref for s in solvers)
     print(f"# N={n}: contact areas agree to {agree:.1e} (relative; target {args.agree:g}): "
           f"{'yes' if agree <= args.agree else 'NO'}")
-    per_it = best["xrough"] / x["fine_iterations"]
-    print(f"# N={n}: xrough {per_it * 1e3:.1f} ms per fine iteration (best run) = "
-          f"{spread(per_it_floor)} x the two-FFT floor measured around each solve "
-          f"(median (range) over rounds; {per_it / min(single):.2f} x the best single "
-          f"pair, {min(single) * 1e3:.1f} ms); "
-          f"{x['transforms'] / x['fine_iterations']:.2f} transforms per fine iteration",
-          flush=True)
-    print(f"# N={n}: in CPU time (all threads of this process, less sensitive to other "
-          f"jobs on the machine): {spread(per_it_cpu)} x the floor", flush=True)
+    for s in ours:
+        x = last[s]
+        per_it = best[s] / x["fine_iterations"]
+        print(f"# N={n}: {s} {per_it * 1e3:.1f} ms per fine iteration (best run) = "
+              f"{spread(per_it_floor[s])} x the two-FFT floor measured around each solve "
+              f"(median (range) over rounds; {per_it / min(single):.2f} x the best single "
+              f"pair, {min(single) * 1e3:.1f} ms); in CPU time (all threads of this "
+              f"process, less sensitive to other jobs) {spread(per_it_cpu[s])} x the floor; "
+              f"{x['transforms'] / x['fine_iterations']:.2f} transforms per fine iteration, "
+              f"time per transform pair {spread(per_pair[s])} x the floor pair", flush=True)
+    if "xrough" in ours and "xrough-plain" in ours:
+        rounds = [a / b for a, b in zip(times["xrough"], times["xrough-plain"])]
+        print(f"# N={n}: preconditioned / plain solve time: {spread(rounds)} "
+              f"(per round), iterations {last['xrough']['iterations']} / "
+              f"{last['xrough-plain']['iterations']}", flush=True)
     for s in peers:
         r = last[s]
+        per_it = best[ours[0]] / last[ours[0]]["fine_iterations"]
         print(f"# N={n}: {s} {best[s] / r['iterations'] * 1e3:.1f} ms per iteration "
-              f"(best run; xrough {per_it * 1e3:.1f} ms)")
+              f"(best run; {ours[0]} {per_it * 1e3:.1f} ms)")
     with tempfile.TemporaryDirectory() as tmp:
         path = os.path.join(tmp, "h.npy")
         np.save(path, h)
-        for s in ["xrough"] + (peers if args.peer_memory else []):
+        for s in ours + (peers if args.peer_memory else []):
             m = memory(s, path, p0, args.tol)
             size = 8 * n * n
-            traced = f", traced {m['traced'] / size:.1f}" if s == "xrough" else ""
+            traced = f", traced {m['traced'] / size:.1f}" if s in ours else ""
             print(f"# N={n}: {s} peak memory of a solve / map size (8 N^2 bytes): "
                   f"resident {m['rss'] / size:.1f}{traced}", flush=True)
 
@@ -318,18 +342,23 @@ def main() -> None:
     ap.add_argument("--agree", type=float, default=1e-4,
                     help="relative agreement of the contact areas required")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--load", type=float, default=0.01,
+                    help="p* = p0 / (E* gbar), the mean pressure over E* and the rms gradient")
+    ap.add_argument("--plain", action="store_true",
+                    help="also time xrough without the preconditioner (precondition=False)")
     ap.add_argument("--peers", nargs="*", default=list(PEERS),
                     help="peers to run (default: all installed; none for xrough alone)")
     ap.add_argument("--peer-memory", action="store_true",
                     help="also measure the peers' peak memory (one more solve each)")
     args = ap.parse_args()
 
-    solvers = ["xrough"] + [p for p in args.peers if installed(p)]
+    solvers = (["xrough"] + (["xrough-plain"] if args.plain else [])
+               + [p for p in args.peers if installed(p)])
     missing = [p for p in args.peers if p not in solvers]
     if missing:
         print(f"# skipped (not installed): {', '.join(missing)}")
     print(f"# cores: {os.cpu_count()}; H = {HURST}, lambda_r = L/4, lambda_s = 4 px, "
-          f"p0 = 0.01 E* gbar; xrough {xrough.__version__}")
+          f"p0 = {args.load:g} E* gbar; xrough {xrough.__version__}")
     for n in args.sizes:
         bench_size(n, args, solvers)
 

@@ -32,8 +32,8 @@ import time
 import numpy as np
 
 from xrough._kernels.hankel import acf_from_spectrum_kernel, spectrum_from_acf_kernel
-from xrough.models import self_affine_model
 from xrough.gradient import gradient_from_spectrum, rms_gradient_exact
+from xrough.models import self_affine_model
 from xrough.spectra import acf_from_spectrum, model_spectrum, spectrum
 
 
