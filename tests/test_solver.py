@@ -209,7 +209,8 @@ def test_preconditioner_same_solution_fewer_iterations(periodic, p_star):
     # inverse of the zero-padded kernel, an approximate inverse) changes the path, not
     # the solution: both solves meet tol = 1e-10, so the fields agree to 1e-6 of p0 and
     # the contact sets exactly. Iterations measured on this map (plain / preconditioned):
-    # periodic 76 / 44 and 261 / 87, open 71 / 44 and 259 / 86 at p* = 0.01 and 0.3
+    # periodic 98 / 46 and 245 / 75, open 91 / 46 and 320 / 103 at p* = 0.01 and 0.3
+    # (coarse grid included)
     topo = self_affine_512().assign_attrs(periodic=periodic)
     p0 = p_star * 0.1 * E_STAR
     kw = {"E_star": E_STAR, "p0": p0, "tol": 1e-10, "progress": False}

@@ -426,11 +426,15 @@ def _solve_load(
             np.maximum(q_s, 0.0, out=q_s)
             zero = q_s == 0.0
             enter_s = zero & (g_s < 0)  # clipped points with a negative gap re-enter
-            q_s[enter_s] = -tau * g_s[enter_s]
+            # re-entering points get the step along the gap, -tau g; preconditioned,
+            # tau is per unit of K^-1 g, so the gap is scaled by g.z / g.g, the mean
+            # ratio of K^-1 g to g (units 1/length), to stay a pressure
+            tau_g = tau * (Gc / G) if precondition and G > 0 else tau
+            q_s[enter_s] = -tau_g * g_s[enter_s]
             changed = bool(zero.any()) or off.size > 0
             if off.size:
                 delta = 0.0
-                q_off = np.maximum(-tau * g_off, 0.0)
+                q_off = np.maximum(-tau_g * g_off, 0.0)
             else:
                 q_off = g_off
                 delta = 1.0 if not enter_s.any() else 0.0
