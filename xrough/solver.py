@@ -200,7 +200,8 @@ def solve_contact(
     contact set (proportioning, as in Dostal's MPRGP); until then the conjugation goes on,
     which halves the iterations on rough surfaces. With the preconditioner, ``g`` in the
     direction (and in ``G = g.z``) becomes ``z = K^-1 g`` restricted to ``I_c`` and
-    mean-shifted (Vollebregt 2014). The residual is
+    mean-shifted (Vollebregt 2014), and re-entering points get ``-tau (g.z / g.g) g``.
+    The residual is
     ``max(sum|p - p_old| / sum p, rms(g on I_c and g < 0 elsewhere) / rms(h))`` and the
     iteration stops below ``tol``. A load beyond full contact simply converges to full
     contact (``contact_area = 1``).
