@@ -46,6 +46,7 @@ import numpy as np
 import xarray as xr
 
 from . import units as u
+from ._kernels.binning import log_bin_numbers
 from .acf import result_attrs
 from .correlation import height_difference_acf
 from .preprocess import reliability_window
@@ -153,11 +154,9 @@ def _window_of(name: str, da: xr.DataArray, override, lunit: str, min_pixels: fl
 
 
 def _common_edges(lo: float, hi: float, ppd: float) -> tuple[np.ndarray, np.ndarray]:
-    """Log bin centres ``10**(k/ppd)`` covering [lo, hi] and their edges."""
-    k0 = int(np.floor(np.log10(lo) * ppd + 0.5))
-    k1 = int(np.ceil(np.log10(hi) * ppd - 0.5))
-    k = np.arange(k0, k1 + 1)
-    return 10.0 ** (k / ppd), 10.0 ** ((np.append(k, k1 + 1) - 0.5) / ppd)
+    """Log bin centres ``10**(k/ppd)`` covering [lo, hi] and their (unclipped) edges."""
+    k = log_bin_numbers(lo, hi, ppd)
+    return 10.0 ** (k / ppd), 10.0 ** ((np.append(k, k[-1] + 1) - 0.5) / ppd)
 
 
 # ------------------------------------------------------------------------------ re-bin

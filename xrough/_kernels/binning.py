@@ -53,6 +53,18 @@ def decade_aligned_grid(lo: float, hi: float, points_per_decade: float) -> np.nd
     return 10.0 ** (np.arange(k0, k1 + 1) / ppd)
 
 
+def log_bin_numbers(dr_min: float, dr_max: float, points_per_decade: float) -> np.ndarray:
+    """Return the numbers ``k`` of the log bins that cover ``[dr_min, dr_max]``.
+
+    Bin ``k`` has its centre at ``10**(k / ppd)`` and its edges at ``k +- 1/2``; the
+    numbers run from the bin holding ``dr_min`` to the one holding ``dr_max``.
+    """
+    ppd = float(points_per_decade)
+    k0 = int(np.floor(np.log10(dr_min) * ppd + 0.5))
+    k1 = int(np.ceil(np.log10(dr_max) * ppd - 0.5))
+    return np.arange(k0, k1 + 1)
+
+
 def log_bin_edges(dr_min: float, dr_max: float, points_per_decade: float) -> np.ndarray:
     """Logarithmic bin edges centred on ``10**(k / points_per_decade)``.
 
@@ -64,10 +76,8 @@ def log_bin_edges(dr_min: float, dr_max: float, points_per_decade: float) -> np.
         raise ValueError(f"need 0 < dr_min < dr_max, got dr_min={dr_min:g}, dr_max={dr_max:g}")
     if not points_per_decade > 0:
         raise ValueError(f"points_per_decade must be positive, got {points_per_decade}")
-    ppd = float(points_per_decade)
-    k0 = int(np.floor(np.log10(dr_min) * ppd + 0.5))
-    k1 = int(np.ceil(np.log10(dr_max) * ppd - 0.5))
-    edges = 10.0 ** ((np.arange(k0, k1 + 2) - 0.5) / ppd)
+    k = log_bin_numbers(dr_min, dr_max, points_per_decade)
+    edges = 10.0 ** ((np.append(k, k[-1] + 1) - 0.5) / float(points_per_decade))
     edges = edges[(edges > dr_min) & (edges < dr_max)]
     return np.concatenate([[dr_min], edges, [dr_max]])
 
