@@ -143,8 +143,8 @@ def solve_contact(
         kernel on open ones), instead of from ``g``. It costs a pair of transforms per
         iteration and halves the iterations or better; the solve takes 0.57-0.80 of
         the time without it on 1024 x 1024 maps at 0.7-20 % contact, 0.87-0.92 on
-        2048 x 2048 at 0.2-2 %, and 0.64-0.99 on 512 x 512 (measured in the
-        performance docs). The solution is the same to ``tol``.
+        2048 x 2048 at 0.2-2 %, and 0.64-0.99 on 512 x 512 (measured in
+        docs/solver.md). The solution is the same to ``tol``.
     timing : bool
         Add the wall-clock ``solve_time`` and ``time_per_iteration`` (off by default:
         they differ from run to run, so results would no longer compare identical).

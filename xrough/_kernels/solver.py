@@ -370,6 +370,16 @@ def _solve_load(
         pf.ravel()[idx] = p_s
         return hh, pf, tf, op(pf), np.empty(shape, dtype=dtype), np.empty(shape, dtype=bool)
 
+    def exact_displacement():
+        """``u = K p`` transformed afresh in ``pf``'s precision.
+
+        ``pf`` holds ``p`` only as of the last contact-set change: brought up to date
+        first. The caller releases the old ``u`` before, so that it is not alive
+        during the transform.
+        """
+        pf.ravel()[idx] = p_s
+        return op(pf)
+
     dtype = np.float32 if precision == "mixed" else np.float64
     hh, pf, tf, u, d, below = precision_state(dtype, dtype)
     zf = None  # the gap on idx, zero elsewhere, for the preconditioner
@@ -528,8 +538,7 @@ def _solve_load(
                 # when the float32 phase ended early, far from the solution) holds the
                 # residual up: start again from u transformed afresh in float64
                 u = None
-                pf.ravel()[idx] = p_s
-                u = op(pf)
+                u = exact_displacement()
                 transforms += 2
                 exact = fresh = True
                 delta = 0.0
@@ -540,8 +549,7 @@ def _solve_load(
             # u carries the float32 rounding of the steps' K t (a few 1e-7 of the
             # steps, far below tol): check the residual on the exact displacement
             u = None
-            pf.ravel()[idx] = p_s  # pf holds p only as of the last contact-set change
-            u = op(pf)
+            u = exact_displacement()
             transforms += 2
             exact = fresh = True
             _, _, _, _, G_v, G_off_v = _gap(u, hh, inc, idx, d, below)
