@@ -273,3 +273,52 @@ def test_g_beyond_float64_is_a_clear_error():
     lazy = huge.chunk().rough.acf()  # builds; the check runs at compute time
     with pytest.raises(ValueError, match="height scale of the data"):
         lazy.compute()
+
+
+# --------------------------------------------------------- warnings at the user's line
+def _curve_of_four() -> xr.DataArray:
+    dr = np.array([1.0, 2.0, 4.0, 8.0])
+    return _g(0.01 * dr**2, dr)
+
+
+def _mismatched_instruments():
+    topo = xrough.self_affine_surface(hurst=0.8, lambda_r="2 um", lambda_s="20 nm",
+                                      size="8 um", n=1024, rms_height="10 nm", profile=True,
+                                      seed=3, unit="nm")
+    fine = topo.isel(x=slice(0, 128)).assign_attrs(periodic=0)
+    return {"fine": fine * 3, "coarse": topo.isel(x=slice(None, None, 2))}
+
+
+#: One call per route a warning takes: quality marks through the accessor and through the
+#: function, the stitching diagnostic, the solver's convergence warning.
+WARNING_ROUTES = {
+    "accessor": lambda: _curve_of_four().rough.stress_acf(E_star="1 MPa"),
+    "function": lambda: xrough.stress_acf(_curve_of_four(), E_star="1 MPa"),
+    "energy": lambda: _g(np.geomspace(1.0, 2.0, 8), np.geomspace(1.0, 8.0, 8)).rough.energy(
+        E_star="1 MPa"),
+    "stitching": lambda: xrough.stitching.stitch(_mismatched_instruments(),
+                                                 points_per_decade=5),
+    "solver": lambda: xrough.solve_contact(
+        xrough.self_affine_surface(hurst=0.8, lambda_r="1 um", lambda_s="200 nm",
+                                   size="2 um", n=64, rms_gradient=0.3, seed=1, unit="nm"),
+        E_star="1 MPa", p0="20 kPa", max_iter=2),
+}
+
+
+@pytest.mark.parametrize("route", sorted(WARNING_ROUTES))
+def test_warnings_point_at_the_callers_line(route):
+    """Every xrough warning carries the file and line of the user's call, not xrough's."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        WARNING_ROUTES[route]()
+    ours = [w for w in caught if w.category.__module__.startswith("xrough")
+            or "xrough" in str(w.message) or issubclass(w.category, UserWarning)]
+    assert ours, f"the {route} route no longer warns: pick another input"
+    assert {(w.filename, w.category.__name__) for w in ours} == {
+        (__file__, w.category.__name__) for w in ours}
+
+
+def test_user_stacklevel_skips_every_xrough_frame():
+    def call():  # a frame outside xrough: the user's
+        return quality.user_stacklevel()
+    assert call() == 1

@@ -40,7 +40,7 @@ from ._version import __version__
 from .io import BRIDGE, FORMATS, detect_format, list_channels, open_topography
 from .io.archive import safe_name, save_analysis
 from .preprocess import DETREND_MODES, detrend
-from .quality import QualityWarning, notes_of, worst
+from .quality import QualityWarning, notes_of, warn, worst
 from .spectra import acf_from_spectrum, model_spectrum
 from .synthetic import self_affine_surface
 
@@ -718,10 +718,9 @@ def _report(args: argparse.Namespace) -> int:
             found["patch"] = G.rough.patch_radius(E_star=E_star, gamma=gamma)
         steepest = float(gbar.max())
         if steepest > _STEEPEST:
-            warnings.warn(f"rms gradient {steepest:.3g}: steeper than any measured surface "
-                          "(a slope of 84 degrees is 10); are the heights in the unit the "
-                          "file states? (--height-unit, --height-scale)", UserWarning,
-                          stacklevel=2)
+            warn(f"rms gradient {steepest:.3g}: steeper than any measured surface "
+                 "(a slope of 84 degrees is 10); are the heights in the unit the file "
+                 "states? (--height-unit, --height-scale)", UserWarning)
         return found
 
     measured = _measure_all(args, analyse)

@@ -121,7 +121,7 @@ def _rate(result, checks, *, what: str, inherited=()):
         if source.attrs.get("quality_notes"):
             notes.append(source.attrs["quality_notes"])
     out = quality.mark_curves(result, codes.astype(np.int8), what=what,
-                              notes=quality.SEPARATOR.join(notes), stacklevel=4)
+                              notes=quality.SEPARATOR.join(notes))
     if out[quality.FLAG].ndim == 0:  # one curve: its remarks too (many: the flags only)
         for remark in remarks:
             out = quality.mark(out, remark, level="good", what=what)

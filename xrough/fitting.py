@@ -631,7 +631,7 @@ def fit_acf(
     lazy = part["quality"].chunks is not None
     notes = "" if lazy else _fit_notes(ds, ds["fit_problems"].values, model, weighted)
     return quality.mark_curves(ds, part["quality"], what=f"fit_acf (model {model!r})",
-                               notes=notes, stacklevel=2)
+                               notes=notes)
 
 
 # --------------------------------------------------------------------------------------

@@ -183,7 +183,7 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto",
     attrs.update(extra_attrs)
     out.attrs = result_attrs(G, **attrs)
     return quality.mark_curves(out, level, what=f"rms_gradient (method {method!r})",
-                               notes=notes, stacklevel=2)
+                               notes=notes)
 
 
 def _fitted_on_lags(params: xr.Dataset, G: xr.DataArray) -> xr.DataArray:

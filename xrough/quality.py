@@ -28,6 +28,8 @@ All attributes are str, so a NetCDF archive keeps them; the flag is an ``int8`` 
 
 from __future__ import annotations
 
+import os
+import sys
 import warnings
 from collections.abc import Iterable
 
@@ -35,7 +37,7 @@ import numpy as np
 import xarray as xr
 
 __all__ = ["LEVELS", "QualityWarning", "FLAG", "SEPARATOR", "level_code", "worst", "mark",
-           "mark_curves", "flag_coord", "flag_of", "notes_of"]
+           "mark_curves", "flag_coord", "flag_of", "notes_of", "warn", "user_stacklevel"]
 
 #: The levels, best first; the integer code of a level is its index.
 LEVELS = ("good", "questionable", "failed")
@@ -51,6 +53,61 @@ class QualityWarning(UserWarning):
     Silence it with ``warnings.filterwarnings("ignore", category=xrough.QualityWarning)``
     (the attributes and the ``quality_flag`` coordinate are set all the same).
     """
+
+
+#: The folder of the package: frames of files below it are xrough's own.
+_PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__)) + os.sep
+
+
+def user_stacklevel() -> int:
+    """Return the ``stacklevel`` that points a warning at the user's line.
+
+    Counted for a :func:`warnings.warn` call in the function that calls this one: the
+    frame just outside the outermost xrough frame on the stack, i.e. the line of the
+    user's script, notebook cell or test that called into xrough (through the accessor,
+    a public function, or xrough code that numpy or xarray called back).
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> def inside():  # a frame outside xrough calling this: its caller is the user
+    ...     return user_stacklevel()
+    >>> inside()
+    1
+    """
+    frame = sys._getframe(1)  # the function that will call warnings.warn: level 1
+    level, found = 1, 1
+    while frame is not None:
+        if os.path.abspath(frame.f_code.co_filename).startswith(_PACKAGE_DIR):
+            found = level + 1
+        frame = frame.f_back
+        level += 1
+    return found
+
+
+def warn(message, category: type[Warning] = UserWarning) -> None:
+    """Issue a warning at the user's line (the one warning call of xrough).
+
+    Parameters
+    ----------
+    message : str or Warning
+        The text (or a warning instance, whose class is then the category).
+    category : type of Warning
+        E.g. :class:`QualityWarning`, :class:`UserWarning`, :class:`RuntimeWarning`.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     warn("a note", RuntimeWarning)
+    >>> caught[0].category.__name__, caught[0].filename == __file__
+    ('RuntimeWarning', True)
+    """
+    warnings.warn(message, category, stacklevel=user_stacklevel())
 
 
 def level_code(level) -> int:
@@ -199,13 +256,12 @@ def _join(old: str, new: str) -> str:
     return SEPARATOR.join(parts)
 
 
-def _warn(what: str, level: str, text: str, stacklevel: int) -> None:
-    # + 2: this function and mark / mark_curves
-    warnings.warn(f"{what}: {level}: {text}", QualityWarning, stacklevel=stacklevel + 2)
+def _warn(what: str, level: str, text: str) -> None:
+    warn(f"{what}: {level}: {text}", QualityWarning)
 
 
 def mark(obj, reason: str, *, level: str = "questionable", what: str,
-         warn: bool = True, stacklevel: int = 2):
+         warn: bool = True):
     """Mark a whole result (every curve of it) and warn once.
 
     ``attrs["quality"]`` becomes the worse of its level and ``level``, ``reason`` is
@@ -227,9 +283,6 @@ def mark(obj, reason: str, *, level: str = "questionable", what: str,
         The result named in the warning, e.g. ``"fit_acf (model 'spectrum')"``.
     warn : bool
         Emit the warning (False when the caller warns once for several marks).
-    stacklevel : int
-        Of the warning, counted from the caller of :func:`mark` (1: that caller; 2,
-        the default: its caller, the user of a public function).
 
     Returns
     -------
@@ -254,12 +307,11 @@ def mark(obj, reason: str, *, level: str = "questionable", what: str,
         raised = np.maximum(flag, np.int8(code)).astype(np.int8)
         out = out.assign_coords({FLAG: raised.assign_attrs(flag.attrs)})
     if warn and code > 0:
-        _warn(what, LEVELS[code], reason, stacklevel)
+        _warn(what, LEVELS[code], reason)
     return out
 
 
-def mark_curves(obj, codes, *, what: str, notes: str = "", warn: bool = True,
-                stacklevel: int = 2):
+def mark_curves(obj, codes, *, what: str, notes: str = "", warn: bool = True):
     """Attach the per-curve level codes of a result; rate a single computed curve.
 
     The ``quality_flag`` coordinate becomes the worse of its codes and ``codes`` (lazy
@@ -284,8 +336,6 @@ def mark_curves(obj, codes, *, what: str, notes: str = "", warn: bool = True,
         What was found (``"; "``-joined), used when the worst code is not 0.
     warn : bool
         Emit the warning.
-    stacklevel : int
-        Of the warning, counted as for :func:`mark`.
 
     Returns
     -------
@@ -321,7 +371,7 @@ def mark_curves(obj, codes, *, what: str, notes: str = "", warn: bool = True,
         if flag.chunks is None and notes and warn:
             code = int(np.max(flag.values)) if flag.size else 0
             if code:
-                _warn(what, LEVELS[code], notes, stacklevel)
+                _warn(what, LEVELS[code], notes)
         return out
     code = int(flag.values)
     out.attrs["quality"] = worst(out.attrs.get("quality", "good"), code)
@@ -329,5 +379,5 @@ def mark_curves(obj, codes, *, what: str, notes: str = "", warn: bool = True,
     if code > 0 and notes:
         out.attrs["quality_notes"] = _join(out.attrs["quality_notes"], notes)
         if warn:
-            _warn(what, LEVELS[code], notes, stacklevel)
+            _warn(what, LEVELS[code], notes)
     return out

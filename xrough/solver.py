@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import os
 import time
-import warnings
 from typing import Any
 
 import numpy as np
 import xarray as xr
 from tqdm.auto import tqdm
 
+from . import quality
 from . import units as u
 from ._kernels.solver import (
     _coarse_start,
@@ -320,10 +320,10 @@ def solve_contact(
     bad = [i for i, r in enumerate(results) if not r["converged"]]
     if bad:
         worst = max(float(results[i]["history"][-1]) for i in bad)
-        warnings.warn(ConvergenceWarning(
+        quality.warn(ConvergenceWarning(
             f"contact solver did not reach tol={tol:g} within max_iter={max_iter} for "
             f"{len(bad)} of {len(results)} load(s) (worst residual {worst:.2g}); the "
-            "result is flagged converged=0: raise max_iter or loosen tol"), stacklevel=2)
+            "result is flagged converged=0: raise max_iter or loosen tol"))
 
     from_lat = 1.0 / to_lat
     n_hist = max(len(r["history"]) for r in results)

@@ -37,7 +37,6 @@ bins and combines them where they overlap.
 from __future__ import annotations
 
 import itertools
-import warnings
 from collections.abc import Mapping
 from typing import Any
 
@@ -45,6 +44,7 @@ import dask
 import numpy as np
 import xarray as xr
 
+from . import quality
 from . import units as u
 from ._kernels.binning import log_bin_numbers
 from .acf import result_attrs
@@ -441,12 +441,12 @@ def stitch_mismatch(curves: xr.Dataset, *, threshold: float = 3.0,
     if warn:
         for p in ds.pair.values[ds.significant.values]:
             row = ds.sel(pair=p)
-            warnings.warn(
+            quality.warn(
                 f"measurements {str(row.first.values)!r} and {str(row.second.values)!r} "
                 f"disagree over dr = {float(row.dr_lo):.3g}-{float(row.dr_hi):.3g} {lunit}: "
                 f"G ratio {float(row.ratio):.3g} (z = {float(row.z):.1f}, chi2 = "
                 f"{float(row.chi2):.2g}); check height calibration, tip convolution or "
-                "detrending, or narrow their windows", StitchingMismatchWarning, stacklevel=3)
+                "detrending, or narrow their windows", StitchingMismatchWarning)
     return ds
 
 

@@ -334,7 +334,7 @@ def compare_with_simulation(
             for v in wanted:  # NaN off gbar's lags
                 predicted[v].append(ds[v].transpose("p0", "dr").values)
     for message in dict.fromkeys((w.category, str(w.message)) for w in caught):
-        warnings.warn(message[1], message[0], stacklevel=2)  # once, not once per theory
+        quality.warn(message[1], message[0])  # once, not once per theory
     g_th, gam_th, gam_sa = (np.stack(predicted[v]) for v in wanted)
     area_th = np.stack([areas[name] for name in names])
     coords = {"theory": ("theory", np.array(names, dtype=object),
@@ -408,9 +408,9 @@ def compare_with_simulation(
         f_max, f_rms = _errors(diff, var, sel)
         area_full = float(area_sim[n])
         if area_full < 1:
-            warnings.warn(f"the full-contact load {p_full:.3g} Pa left "
-                          f"{1 - area_full:.2%} of the map out of contact; the full-contact "
-                          "comparison is approximate", RuntimeWarning, stacklevel=2)
+            quality.warn(f"the full-contact load {p_full:.3g} Pa left "
+                         f"{1 - area_full:.2%} of the map out of contact; the full-contact "
+                         "comparison is approximate", RuntimeWarning)
         out.update({
             "G_sigma_full_sim": (("dr",), S_full_sim, {
                 "units": "Pa2", "long_name": "simulated full-contact stress ACF",
@@ -455,5 +455,5 @@ def compare_with_simulation(
             ds, f"the theories predict G_sigma on only {coverage.min():.0%} of the lags in "
             f"the error range ({worst_theory}: the rms gradient is not determined on the "
             "others); stress_error covers those lags only (stress_error_coverage)",
-            what="compare_with_simulation", stacklevel=2)
+            what="compare_with_simulation")
     return ds

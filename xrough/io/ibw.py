@@ -26,13 +26,13 @@ from __future__ import annotations
 import io
 import re
 import struct
-import warnings
 from datetime import datetime
 from pathlib import Path
 
 import numpy as np
 from igor2 import binarywave
 
+from .. import quality
 from .. import units as u
 from ..topography import topography
 from ._common import fail, reader_errors, select_channel
@@ -259,10 +259,9 @@ def _default(path: Path, chans: list[dict], listing: str, *, warn: bool) -> dict
         if named:
             if warn and all(groups):
                 names = ", ".join(repr(c["name"]) for c in groups[0] + groups[1])
-                warnings.warn(f"{path.name}: several height channels ({names}); reading "
-                              f"{named[0]['index']}: {named[0]['name']!r}. Pass channel= "
-                              "to choose (xrough.io.list_channels lists them)", UserWarning,
-                              stacklevel=4)
+                quality.warn(f"{path.name}: several height channels ({names}); reading "
+                             f"{named[0]['index']}: {named[0]['name']!r}. Pass channel= to "
+                             "choose (xrough.io.list_channels lists them)", UserWarning)
             return named[0]
     if heights:
         return heights[0]

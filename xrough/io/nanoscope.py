@@ -58,12 +58,12 @@ slow axis ``y``; one number means a square scan).
 from __future__ import annotations
 
 import re
-import warnings
 from datetime import datetime
 from pathlib import Path
 
 import numpy as np
 
+from .. import quality
 from .. import units as u
 from ..topography import topography
 from ._common import fail, reader_errors, select_channel
@@ -421,9 +421,9 @@ def _default(path: Path, infos: list[dict], listing: str, *, warn: bool) -> dict
     main = {c["name"].lower() for c in named if not _is_interleave(c)}
     if warn and len(main) > 1:
         names = ", ".join(repr(c["name"]) for c in named if not _is_interleave(c))
-        warnings.warn(f"{path.name}: several height channels ({names}); reading "
-                      f"{chosen['index']}: {chosen['name']!r}. Pass channel= to choose "
-                      "(xrough.io.list_channels lists them)", UserWarning, stacklevel=4)
+        quality.warn(f"{path.name}: several height channels ({names}); reading "
+                     f"{chosen['index']}: {chosen['name']!r}. Pass channel= to choose "
+                     "(xrough.io.list_channels lists them)", UserWarning)
     return chosen
 
 
@@ -561,8 +561,7 @@ def _read(path: Path, channel):
         "header_inconsistency": info.get("header_inconsistency"),
     }
     if info.get("header_inconsistency"):
-        warnings.warn(f"{path.name}: {info['header_inconsistency']}", UserWarning,
-                      stacklevel=2)
+        quality.warn(f"{path.name}: {info['header_inconsistency']}", UserWarning)
     try:
         attrs["scan_rate"] = float(attrs["scan_rate"])
     except (TypeError, ValueError):
