@@ -11,25 +11,20 @@ where they overlap, weighting ``ln G`` by the inverse of its variance. Where two
 instruments overlap, the ratio of their G tests their consistency (height calibration,
 tip convolution). The stitched curve is then fitted with the self-affine model.
 
-Without the data files the script stitches three simulated instruments measuring one
-synthetic H = 0.7 surface instead.
+The measurement files are not shipped with xrough (they are public, CC BY 4.0, from the
+contact.engineering demo data set): set ``XROUGH_DATA`` to the folder that holds ``uncd/``
+(see ``examples/_data.py``); without them the example stops and says so.
 """
 
 import warnings
-from pathlib import Path
 
 import matplotlib.pyplot as plt
-import numpy as np
-import xarray as xr
+from _data import data_file
 
 import xrough
 from xrough.stitching import StitchingMismatchWarning, stitch, stitch_curves, stitch_mismatch
 
-try:
-    ROOT = Path(__file__).resolve().parents[1]
-except NameError:  # executed without a file (gallery builders, notebooks)
-    ROOT = Path.cwd()
-UNCD = ROOT.parent / "shared" / "data" / "uncd"
+UNCD = data_file("uncd")
 
 
 def uncd_measurements(folder):
@@ -44,34 +39,7 @@ def uncd_measurements(folder):
             "stylus": stylus.rough.detrend(mode="curvature")}
 
 
-def synthetic_measurements():
-    """Three instruments with different pixels and scans on one H = 0.7 profile."""
-    n = 2**18
-    surface = xrough.self_affine_surface(hurst=0.7, lambda_r=n / 16, lambda_s=4.0,
-                                         size=float(n), n=n, rms_height=1.0, profile=True,
-                                         seed=11, unit="nm")
-    h = surface.values
-    rng = np.random.default_rng(5)
-
-    def instrument(heights, spacing, periodic=False):
-        noise = 0.1 * np.std(np.diff(heights, axis=-1))
-        dims = ("scan", "x") if heights.ndim == 2 else ("x",)
-        return xr.DataArray(heights + noise * rng.normal(size=heights.shape), dims=dims,
-                            coords={"x": ("x", np.arange(heights.shape[-1]) * spacing,
-                                          {"units": "nm"})},
-                            attrs={"units": "nm", "periodic": int(periodic)})
-
-    return {"fine": instrument(np.stack([h[s:s + 2048] for s in range(0, n, n // 32)]), 1.0),
-            "medium": instrument(np.stack([h[s:s + 16384].reshape(-1, 4).mean(-1)
-                                           for s in range(0, n, n // 8)]), 4.0),
-            "coarse": instrument(h.reshape(-1, 16).mean(-1), 16.0, periodic=True)}
-
-
-if UNCD.is_dir():
-    measurements, title = uncd_measurements(UNCD), "UNCD: TEM + AFM + stylus"
-else:
-    print(f"UNCD data not found ({UNCD}): stitching three simulated instruments instead")
-    measurements, title = synthetic_measurements(), "synthetic H = 0.7: three instruments"
+measurements, title = uncd_measurements(UNCD), "UNCD: TEM + AFM + stylus"
 
 curves = stitch_curves(measurements, unit="nm")
 with warnings.catch_warnings(record=True) as caught:
