@@ -322,3 +322,24 @@ def test_user_stacklevel_skips_every_xrough_frame():
     def call():  # a frame outside xrough: the user's
         return quality.user_stacklevel()
     assert call() == 1
+
+
+def test_any_two_variables_of_a_lazy_result_compute_together():
+    """dask.compute of two variables of one lazy result (whose flag and variables share
+    intermediate layers) runs, and gives the numbers of the numpy result."""
+    import itertools
+
+    import dask
+
+    topo = xrough.self_affine_surface(hurst=0.8, lambda_r="1 um", lambda_s="40 nm",
+                                      size="2 um", n=128, rms_gradient=0.3, seed=1,
+                                      unit="nm")
+    G = topo.rough.acf()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        eager = G.rough.persson(E_star="25 MPa", p0=["0.1 MPa", "1 MPa"])
+        lazy = G.chunk(dr=5).rough.persson(E_star="25 MPa", p0=["0.1 MPa", "1 MPa"])
+        for a, b in itertools.combinations(lazy.data_vars, 2):
+            got_a, got_b = dask.compute(lazy[a], lazy[b])
+            xr.testing.assert_allclose(got_a, eager[a], rtol=1e-12)
+            xr.testing.assert_allclose(got_b, eager[b], rtol=1e-12)

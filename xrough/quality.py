@@ -33,6 +33,7 @@ import sys
 import warnings
 from collections.abc import Iterable
 
+import dask.array as dsa
 import numpy as np
 import xarray as xr
 
@@ -311,6 +312,30 @@ def mark(obj, reason: str, *, level: str = "questionable", what: str,
     return out
 
 
+def _same(block):
+    return block
+
+
+def _own_output_layers(obj):
+    """A copy of ``obj`` whose lazy data variables end in a layer of their own.
+
+    The flag is computed from the variables, and the variables of one result from each
+    other (``a_r`` from ``p_star``): a variable's output would then also be an input of
+    other outputs, and ``dask.compute`` of two variables of one result loses that
+    dependency when it optimises their graphs (dask 2025.4 and newer: "Missing
+    dependency"). An identity task per chunk after each variable separates what is
+    returned from what is reused, at the cost of one trivial task per chunk.
+    """
+    def fresh(v):
+        if v.chunks is None:
+            return v
+        return v.copy(data=dsa.map_blocks(_same, v.data, dtype=v.dtype, meta=v.data._meta))
+
+    if isinstance(obj, xr.Dataset):
+        return obj.assign({k: fresh(v) for k, v in obj.data_vars.items()})
+    return fresh(obj)
+
+
 def mark_curves(obj, codes, *, what: str, notes: str = "", warn: bool = True):
     """Attach the per-curve level codes of a result; rate a single computed curve.
 
@@ -358,7 +383,7 @@ def mark_curves(obj, codes, *, what: str, notes: str = "", warn: bool = True):
     ('failed', [0, 2])
     """
     codes = codes if isinstance(codes, xr.DataArray) else xr.DataArray(np.asarray(codes))
-    out = obj.copy()
+    out = _own_output_layers(obj)
     if FLAG in out.coords:
         codes = np.maximum(out[FLAG].drop_vars(FLAG, errors="ignore"), codes)
     out = out.assign_coords({FLAG: flag_coord(codes, what=what)})
