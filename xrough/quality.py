@@ -251,7 +251,7 @@ def mark(obj, reason: str, *, level: str = "questionable", what: str,
     out.attrs["quality_notes"] = _join(out.attrs.get("quality_notes", ""), reason)
     if FLAG in out.coords:
         flag = out[FLAG]
-        raised = np.maximum(flag, np.int8(code)).astype(np.int8)
+        raised = flag.copy(data=np.maximum(flag.data, np.int8(code)).astype(np.int8))
         out = out.assign_coords({FLAG: raised.assign_attrs(flag.attrs)})
     if warn and code > 0:
         _warn(what, LEVELS[code], reason, stacklevel)
