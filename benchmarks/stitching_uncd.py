@@ -14,7 +14,8 @@ metadata say) are stitched as a DataTree, as ``tree.rough.acf(unit="nm")``. Prin
    error (v_el of the G measured over the gap too).
 
 The data are read from ``../shared/data/uncd`` (seen from the project root); without
-them parts 1-3 are skipped.
+them parts 1-3 are skipped. The measurements are built as in
+``tests/test_stitching_gaps.py``, whose helpers this script imports.
 
 Usage::
 
@@ -23,6 +24,7 @@ Usage::
 
 from __future__ import annotations
 
+import sys
 import warnings
 from pathlib import Path
 
@@ -31,20 +33,10 @@ import xarray as xr
 
 import xrough
 
-UNCD = Path(__file__).resolve().parents[2] / "shared" / "data" / "uncd"
-
-
-def uncd_tree(afm_scale: float = 1.0) -> xr.DataTree:
-    """The three UNCD measurements, one node each (AFM heights times ``afm_scale``)."""
-    tem = xrough.open_topography(UNCD / "80_Scale10.472_FIXEDv2p1_D7eHXiT.asc",
-                                 resample=True, unit="nm")
-    afm = xrough.open_topography(UNCD / "gain_control_uncd_35_z03tr3R.001")
-    sty = xrough.open_topography(UNCD / "uncd_stylus_300um_5mar_3_k0HpKJt.txt", unit="mm")
-    afm = (afm * afm_scale).assign_attrs(afm.attrs)
-    return xr.DataTree.from_dict({
-        "TEM": tem.rough.detrend(mode="mean").to_dataset(name="h"),
-        "AFM": afm.rough.detrend(mode="plane").to_dataset(name="h"),
-        "stylus": sty.rough.detrend(mode="curvature").to_dataset(name="h")})
+ROOT = Path(__file__).resolve().parents[1]
+UNCD = ROOT.parent / "shared" / "data" / "uncd"
+sys.path.insert(0, str(ROOT / "tests"))  # the measurements of tests/test_stitching_gaps.py
+from test_stitching_gaps import two_instruments, uncd_tree  # noqa: E402
 
 
 def stitched(tree_or_dict, **kwargs):
@@ -90,24 +82,7 @@ def consumers(G: xr.DataArray) -> None:
 
 
 def synthetic() -> None:
-    n = 2**16
-    topo = xrough.self_affine_surface(hurst=0.7, lambda_r=n / 16, lambda_s=4.0,
-                                      size=float(n), n=n, rms_height=1.0, profile=True,
-                                      seed=4, unit="nm")
-    h = topo.values
-    rng = np.random.default_rng(2)
-
-    def instrument(heights, spacing, periodic):
-        dims = ("scan", "x") if heights.ndim == 2 else ("x",)
-        noisy = heights + 0.02 * np.std(np.diff(heights, axis=-1)) * rng.normal(
-            size=heights.shape)
-        return xr.DataArray(noisy, dims=dims, attrs={"units": "nm", "periodic": periodic},
-                            coords={"x": ("x", np.arange(heights.shape[-1]) * spacing,
-                                          {"units": "nm"})})
-
-    meas = {"fine": instrument(np.stack([h[s:s + 1024] for s in range(0, n, n // 32)]),
-                               1.0, 0),
-            "coarse": instrument(h.reshape(-1, 8).mean(-1), 8.0, 1)}
+    meas = two_instruments()
     gapped, _ = stitched(meas, windows={"fine": (None, 40.0), "coarse": (400.0, None)})
     whole, _ = stitched(meas)
     with warnings.catch_warnings():
@@ -121,7 +96,7 @@ def synthetic() -> None:
 def main() -> None:
     if UNCD.is_dir():
         for scale in (1.0, 2.0):
-            G, caught = stitched(uncd_tree(scale), unit="nm")
+            G, caught = stitched(uncd_tree(UNCD, scale), unit="nm")
             print(f"UNCD, AFM heights x {scale:g}:")
             for lo, hi in zip(G.attrs["uncovered_dr_min"], G.attrs["uncovered_dr_max"]):
                 dr = G.dr.values

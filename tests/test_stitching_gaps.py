@@ -21,12 +21,11 @@ N = 2**16  # points of the periodic model profile (pixel 1 nm)
 GAP = (40.0, 400.0)  # nm: the fine window ends, the coarse one begins
 
 
-@pytest.fixture(scope="module")
-def measurements():
+def two_instruments(n=N):
     """A fine instrument (32 scans of 1024 px of 1 nm) and a coarse one (the whole
-    periodic H = 0.7 profile block-averaged to 8 nm), 2 % white noise."""
-    topo = xrough.self_affine_surface(hurst=0.7, lambda_r=N / 16, lambda_s=4.0,
-                                      size=float(N), n=N, rms_height=1.0, profile=True,
+    periodic H = 0.7 profile of ``n`` px block-averaged to 8 nm), 2 % white noise."""
+    topo = xrough.self_affine_surface(hurst=0.7, lambda_r=n / 16, lambda_s=4.0,
+                                      size=float(n), n=n, rms_height=1.0, profile=True,
                                       seed=4, unit="nm")
     h = topo.values
     rng = np.random.default_rng(2)
@@ -39,9 +38,14 @@ def measurements():
                             coords={"x": ("x", np.arange(heights.shape[-1]) * spacing,
                                           {"units": "nm"})})
 
-    return {"fine": instrument(np.stack([h[s:s + 1024] for s in range(0, N, N // 32)]), 1.0,
+    return {"fine": instrument(np.stack([h[s:s + 1024] for s in range(0, n, n // 32)]), 1.0,
                                0),
             "coarse": instrument(h.reshape(-1, 8).mean(-1), 8.0, 1)}
+
+
+@pytest.fixture(scope="module")
+def measurements():
+    return two_instruments()
 
 
 @pytest.fixture(scope="module")
@@ -256,8 +260,9 @@ def test_archive_round_trip_of_stitched_G(tmp_path, gapped):
 
 
 # ------------------------------------------------------------------------- UNCD data
-def _uncd(afm_scale=1.0):
-    folder = data_path("uncd")
+def uncd_tree(folder, afm_scale=1.0):
+    """The three UNCD measurements as a DataTree, detrended as meta.yml says (height:
+    mean / plane, curvature for the stylus), the AFM heights times ``afm_scale``."""
     tem = xrough.open_topography(folder / "80_Scale10.472_FIXEDv2p1_D7eHXiT.asc",
                                  resample=True, unit="nm")
     afm = xrough.open_topography(folder / "gain_control_uncd_35_z03tr3R.001")
@@ -267,6 +272,10 @@ def _uncd(afm_scale=1.0):
         "TEM": tem.rough.detrend(mode="mean").to_dataset(name="h"),
         "AFM": afm.rough.detrend(mode="plane").to_dataset(name="h"),
         "stylus": sty.rough.detrend(mode="curvature").to_dataset(name="h")})
+
+
+def _uncd(afm_scale=1.0):
+    return uncd_tree(data_path("uncd"), afm_scale)
 
 
 @pytest.mark.data
