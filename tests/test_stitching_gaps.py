@@ -98,6 +98,15 @@ def test_gap_recorded_and_warned(gapped):
         xrough.acf.check_acf(G.assign_attrs(uncovered_dr_max=np.array([1.0, 2.0])))
 
 
+def test_warn_false_keeps_the_record(measurements, gapped):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        quiet = stitch(measurements, warn=False,
+                       windows={"fine": (None, GAP[0]), "coarse": (GAP[1], None)})
+    np.testing.assert_array_equal(quiet.attrs["uncovered_dr_min"], [GAP[0]])
+    np.testing.assert_array_equal(quiet.coverage, gapped.coverage)
+
+
 def test_no_gap_when_windows_overlap(curves, whole):
     assert whole.attrs["uncovered_dr_min"].size == 0
     assert whole.attrs["uncovered_dr_max"].size == 0

@@ -647,7 +647,10 @@ def stitch(
     threshold : float
         ``|z|`` of the mismatch diagnostic above which a pair disagrees.
     warn : bool
-        Warn (:class:`StitchingMismatchWarning`) when instruments disagree.
+        Warn when instruments disagree (:class:`StitchingMismatchWarning`), when a level
+        factor is not explained by the errors or beyond ``LEVEL_FACTOR_BOUND``
+        (:class:`LevelFactorWarning`), and when lags between the windows are not covered
+        (:class:`StitchingGapWarning`). The attrs record all three either way.
     level : bool
         Remove the steps between overlapping measurements before combining, each one's
         G times a factor (:func:`level_factors`; kept in ``attrs["level_factors"]``). The
@@ -666,7 +669,15 @@ def stitch(
         weighting rule, ``pixel_size`` and ``scan_size`` (finest pixel, largest scan),
         the mismatch summary (``mismatch_pairs``, ``mismatch_ratio``, ``mismatch_z``),
         ``level_factors`` (per measurement, in the order of ``stitched_from``; all 1 with
-        ``level=False``) and ``reliable_dr_min/max`` (the union of the windows).
+        ``level=False``), ``level_factor_errors`` (standard errors of their logarithms,
+        :func:`level_factors`), ``level_factor_bound`` and ``reliable_dr_min/max`` (the
+        union of the windows). Lags no window covers: attrs ``uncovered_dr_min``,
+        ``uncovered_dr_max`` (arrays, one entry per gap that loses a bin of the grid;
+        empty when the windows overlap or touch) and ``uncovered_dr_units``; the bins there
+        are dropped (every consumer takes G between neighbouring bins as a power law, and
+        reads the gaps through :func:`xrough.acf.check_acf` to mark what rests on that
+        bridge). Coordinate ``coverage``: per bin, bit ``2**i`` set when the i-th
+        measurement of ``stitched_from`` contributes (CF ``flag_masks``).
 
     Raises
     ------
@@ -677,6 +688,12 @@ def stitch(
     -----
     StitchingMismatchWarning
         Two measurements disagree significantly over their overlap.
+    LevelFactorWarning
+        A level factor more than ``threshold`` errors from 1 or outside
+        ``[1/LEVEL_FACTOR_BOUND, LEVEL_FACTOR_BOUND]``; the G is then marked questionable
+        (``attrs["quality"]``, ``attrs["quality_notes"]``, :mod:`xrough.quality`).
+    StitchingGapWarning
+        Lags between the windows that no measurement covers (once, naming every gap).
 
     See Also
     --------
@@ -765,7 +782,7 @@ def stitch(
         "source_sha256": ", ".join(str(c) for c in curves.source_sha256.values)
         if "source_sha256" in curves.coords else "",
     })
-    if gaps:
+    if gaps and warn:
         warnings.warn("; ".join(text for _, _, text in gaps) + ": G is not measured there "
                       "(attrs uncovered_dr_min/max); fit, energy, gradient, stress ACF, "
                       "Persson theory, patch radius and spectrum of this G bridge the gap "
