@@ -99,7 +99,9 @@ def _laplacian(G_si: xr.DataArray, error: xr.DataArray | None, spec: AcfSpec, *,
 def _past(lags: xr.DataArray, spec: AcfSpec) -> str:
     """``"questionable"`` if any of ``lags`` lies beyond the start of a gap of G (or is
     lazy), else ``"good"``."""
-    if not len(spec.gaps) or lags.chunks is not None:
+    if not len(spec.gaps):
+        return "good"
+    if lags.chunks is not None:
         return "questionable"
     return "questionable" if bool((lags > spec.gaps[:, 0].min()).any()) else "good"
 

@@ -491,7 +491,7 @@ def fit_acf(
         raise ValueError(f"model must be one of {MODELS}, got {model!r}")
     if rolloff not in ROLLOFFS:
         raise ValueError(f"rolloff must be one of {ROLLOFFS}, got {rolloff!r}")
-    spec = acf_spec = check_acf(G)
+    spec = acf_spec = check_acf(G)  # spec is the parameter table further down
     lateral, dr = spec.length_unit, spec.dr
     g_unit = u.units_of(G, what="G")
     height = g_unit**0.5

@@ -423,7 +423,8 @@ def rms_gradient_exact(
         "smooth_decades": 0.0 if smooth is None else float(smooth),
         "interpolation": interpolation,
     })
-    return _gradient_da(gbar, dr_arr, acf.unit_str, attrs)
+    return mark_gaps(_gradient_da(gbar, dr_arr, acf.unit_str, attrs), acf,
+                     what="rms_gradient_exact", depends=_GAP)
 
 
 def gradient_from_spectrum(
