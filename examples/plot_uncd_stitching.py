@@ -1,6 +1,6 @@
 """
-One G(dr) over five decades: stitching TEM, AFM and stylus measurements of UNCD
-===============================================================================
+One G(dr) over five decades, one of them bridged: stitching TEM, AFM and stylus on UNCD
+=======================================================================================
 
 Ultrananocrystalline diamond (UNCD) was measured with three instruments: a TEM side view
 of a wedge (a 229 nm profile, nm resolution), a tapping-mode AFM map (100 nm x 100 nm) and
@@ -10,6 +10,14 @@ stitching brings the three curves to one unit and one log grid of lags and combi
 where they overlap, weighting ``ln G`` by the inverse of its variance. Where two
 instruments overlap, the ratio of their G tests their consistency (height calibration,
 tip convolution). The stitched curve is then fitted with the self-affine model.
+
+The windows do not cover every lag: the TEM's ends at 58 nm and the stylus's begins at
+398 nm, so G is measured from 0.8 nm to 58 nm and from 398 nm to 75 um, and the decade
+between is not measured. ``stitch`` says so (``StitchingGapWarning``, attrs
+``uncovered_dr_min/max``, coordinate ``coverage``), the plot shades it, and every result
+that integrates or differentiates G across it marks what rests on the power-law bridge
+(the fit: the model bridges it; the elastic energy: the share of ``v_el`` from the
+bridge and its uncertainty).
 
 The measurement files are not shipped with xrough (they are public, CC BY 4.0, from the
 contact.engineering demo data set): set ``XROUGH_DATA`` to the folder that holds ``uncd/``
@@ -47,7 +55,12 @@ with warnings.catch_warnings(record=True) as caught:
     mismatch = stitch_mismatch(curves)
 for w in caught:
     print("warning:", w.message)
-G = stitch(curves, warn=False)
+with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("always")
+    G = stitch(curves)
+for w in caught:  # the mismatch warnings were printed above
+    if w.category is not StitchingMismatchWarning:
+        print("warning:", w.message)
 fit = G.rough.fit()
 
 print(f"windows: {G.attrs['windows']}")
@@ -58,7 +71,17 @@ for p in mismatch.pair.values:
           f"z = {float(row.z):.2f}, chi2 = {float(row.chi2):.2f}")
 factors = ", ".join(f"{m} x {f:.3f}" for m, f in zip(G.attrs["stitched_from"].split(", "),
                                                       G.attrs["level_factors"]))
-print(f"levelled (no step at the seams) before combining: {factors}")
+print(f"levelled (no step at the seams) before combining: {factors}; errors of ln f: "
+      + ", ".join(f"{e:.2f}" for e in G.attrs["level_factor_errors"]))
+gaps = list(zip(G.attrs["uncovered_dr_min"], G.attrs["uncovered_dr_max"]))
+for lo, hi in gaps:
+    print(f"not measured: {lo:.4g}-{hi:.4g} {G.attrs['uncovered_dr_units']} (bridged)")
+if gaps:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        energy = G.rough.energy(E_star="1 GPa")
+    print(f"elastic energy: {float(energy.gap_share):.1%} of v_el from the bridge, "
+          f"uncertain by {float(energy.gap_share_error):.1%} ({energy.attrs['quality']})")
 print(f"stitched G: {G.sizes['dr']} bins from {float(G.dr[0]):.3g} to {float(G.dr[-1]):.3g} "
       f"nm; fitted Hurst exponent H = {float(fit.hurst):.3f}")
 
@@ -68,6 +91,9 @@ for m in curves.measurement.values:
     ax.errorbar(c.dr, c.G, yerr=c.standard_error, fmt="o", ms=3, alpha=0.6, label=str(m))
 ax.loglog(G.dr, G, "k-", lw=1.5, label="stitched")
 ax.fill_between(G.dr, G - G.standard_error, G + G.standard_error, color="k", alpha=0.15)
+for k, (lo, hi) in enumerate(gaps):
+    ax.axvspan(lo, hi, color="tab:red", alpha=0.1,
+               label="no measurement (bridged)" if k == 0 else None)
 ax.set_xlabel("lag dr (nm)")
 ax.set_ylabel("G(dr) (nm$^2$)")
 ax.set_title(f"{title}; fit H = {float(fit.hurst):.2f}")

@@ -131,7 +131,8 @@ def in_length_unit(obj, unit: str, *, own_unit: str = "nm"):
     factor = xu.conversion_factor(own_unit, unit)
     for key, power in LENGTH_ATTRS.items():
         if key in obj.attrs:
-            out.attrs[key] = float(obj.attrs[key]) * factor**power
+            value = np.asarray(obj.attrs[key], dtype=float) * factor**power
+            out.attrs[key] = float(value) if value.ndim == 0 else value
     return out
 
 
@@ -187,10 +188,12 @@ LENGTH_ATTRS = {
     "dr_max_supported": 1, "reliable_dr_min": 1, "reliable_dr_max": 1, "rms_height": 1,
     "sigma_h2": 2, "q_r": -1, "q_s": -1, "q_0": -1, "q_min_supported": -1,
     "q_max_supported": -1, "C_r": 4, "x_centre": 1, "y_centre": 1,
+    "uncovered_dr_min": 1, "uncovered_dr_max": 1,
 }
 #: String attrs that spell a unit or lengths with their unit (compared through the data).
 UNIT_TEXT = {"dr_units", "reliable_dr_units", "lateral_units", "windows", "window_rules",
-             "dr_restricted_to", "fixed", "overrides", "reliable_rule"}
+             "dr_restricted_to", "fixed", "overrides", "reliable_rule",
+             "uncovered_dr_units"}
 
 
 def assert_same_attrs(a, b, unit_a: str, unit_b: str, *, rtol: float = 1e-10,

@@ -52,6 +52,8 @@ from .spectra import (
     spectrum,
 )
 from .stitching import (
+    LevelFactorWarning,
+    StitchingGapWarning,
     StitchingMismatchWarning,
     stitch,
     stitch_curves,
@@ -96,6 +98,8 @@ __all__ = [
     "stitch_curves",
     "stitch_mismatch",
     "StitchingMismatchWarning",
+    "StitchingGapWarning",
+    "LevelFactorWarning",
     "stress_acf",
     "stress_acf_from_spectrum",
     "topography",

@@ -15,6 +15,10 @@ units              ``units`` on ``dr`` is a length, on the data a length^2 (any 
                    nm, um, m; each function works in the unit of ``dr``)
 lags               finite, strictly increasing, ``>= 0``; a ``dr = 0`` bin is allowed if
                    G is 0 or NaN there, and is ignored by every calculation
+gaps               attrs ``uncovered_dr_min``, ``uncovered_dr_max`` (arrays, in
+                   ``uncovered_dr_units``; :func:`xrough.stitch` writes them) name lag
+                   ranges that no measurement covers: G between the bins around them is
+                   a bridge, not data (:attr:`AcfSpec.gaps`, :func:`mark_gaps`)
 values             NaN marks an empty bin and is skipped; no ``inf``; ``G > 0`` at every
                    valid lag ``> 0`` (0 or below cannot come from a rough surface); at
                    least two valid bins (more where a function needs them)
@@ -34,17 +38,19 @@ Arguments with units (lags, wavenumbers, moduli, pressures) are read by :mod:`xr
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pint
 import xarray as xr
 
+from . import quality
 from . import units as u
 from ._kernels.acf_curve import acf_problem
 from ._version import __version__
 
-__all__ = ["AcfSpec", "check_acf", "PROVENANCE", "result_attrs", "lag_coord"]
+__all__ = ["AcfSpec", "check_acf", "PROVENANCE", "result_attrs", "lag_coord", "mark_gaps",
+           "gap_note"]
 
 #: Attributes that say where data came from; every estimator and result carries them on.
 PROVENANCE = ("source", "source_file", "source_sha256", "format", "overrides", "channel",
@@ -69,6 +75,9 @@ class AcfSpec:
         Converts ``length_unit`` to metres.
     extra_dims : tuple of str
         Dims other than ``dr`` (one curve per combination).
+    gaps : ndarray
+        Lag ranges no measurement covers, shape ``(n, 2)`` in ``length_unit`` (from the
+        attrs ``uncovered_dr_min/max`` of a stitched G; empty for a G of one measurement).
     """
 
     dr: np.ndarray
@@ -77,6 +86,7 @@ class AcfSpec:
     g_factor: float
     to_m: float
     extra_dims: tuple[str, ...]
+    gaps: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
 
     @property
     def to_m2(self) -> float:
@@ -147,7 +157,8 @@ def check_acf(G: xr.DataArray, *, what: str = "G", single: bool = False,
     spec = AcfSpec(dr=dr, length_unit=length_unit, unit_str=unit_str,
                    g_factor=u.conversion_factor(g_unit, length_unit**2),
                    to_m=u.conversion_factor(length_unit, "m"),
-                   extra_dims=tuple(d for d in G.dims if d != "dr"))
+                   extra_dims=tuple(d for d in G.dims if d != "dr"),
+                   gaps=_gaps(G.attrs, length_unit, what))
     if G.chunks is None:
         lines = np.moveaxis(np.asarray(G.values, dtype=float), G.get_axis_num("dr"), -1)
         problem = acf_problem(dr, lines.reshape(-1, dr.size), min_bins=min_bins,
@@ -155,6 +166,90 @@ def check_acf(G: xr.DataArray, *, what: str = "G", single: bool = False,
         if problem:
             raise ValueError(f"{what} {problem}")
     return spec
+
+
+def _gaps(attrs: dict, length_unit: pint.Unit, what: str) -> np.ndarray:
+    """Return the uncovered lag ranges recorded on a G, ``(n, 2)`` in ``length_unit``."""
+    if "uncovered_dr_min" not in attrs and "uncovered_dr_max" not in attrs:
+        return np.empty((0, 2))
+    lo = np.atleast_1d(np.asarray(attrs.get("uncovered_dr_min", []), dtype=float))
+    hi = np.atleast_1d(np.asarray(attrs.get("uncovered_dr_max", []), dtype=float))
+    if lo.shape != hi.shape or lo.ndim != 1 or not np.all(np.isfinite(lo) & (lo < hi)):
+        raise ValueError(f"{what}: attrs uncovered_dr_min {lo.tolist()} and "
+                         f"uncovered_dr_max {hi.tolist()} must be arrays of one length "
+                         "with uncovered_dr_min < uncovered_dr_max")
+    unit = attrs.get("uncovered_dr_units")
+    f = 1.0 if unit is None else u.conversion_factor(
+        u.as_length_unit(unit, what="attr uncovered_dr_units"), length_unit)
+    return np.stack([lo * f, hi * f], axis=-1)
+
+
+def mark_gaps(result, spec, *, what: str, depends: str, level: str = "questionable"):
+    """Mark a result of a G with unmeasured lag ranges: what of it rests on the bridge.
+
+    The one place where the consumers of G read its gaps (:attr:`AcfSpec.gaps`): a result
+    of a G without gaps is returned as it is; otherwise the note names each gap, the bins
+    around it (between which every function of xrough takes G as a power law) and
+    ``depends``, at ``level`` (:func:`xrough.quality.mark`; ``"good"`` adds the note
+    without a warning). A result without a ``quality_flag`` coordinate gets one, so that
+    marking before the caller's own per-curve rating keeps the level.
+
+    Parameters
+    ----------
+    result : xarray.DataArray or xarray.Dataset
+        The result to mark.
+    spec : AcfSpec
+        Of the G it came from (anything with ``gaps``, ``dr``, ``unit_str``).
+    what : str
+        The result named in the warning.
+    depends : str
+        What of the result depends on G inside the gaps, and how.
+    level : {'good', 'questionable', 'failed'}
+
+    Returns
+    -------
+    Same type as ``result``.
+
+    Examples
+    --------
+    >>> import numpy as np, xarray as xr
+    >>> G = xr.DataArray([1.0, 2.0, 20.0], dims="dr", attrs={
+    ...     "units": "nm2", "uncovered_dr_min": np.array([3.0]),
+    ...     "uncovered_dr_max": np.array([30.0]), "uncovered_dr_units": "nm"},
+    ...     coords={"dr": ("dr", [1.0, 2.0, 40.0], {"units": "nm"})})
+    >>> r = mark_gaps(xr.DataArray(1.0), check_acf(G), what="demo", depends="a note",
+    ...               level="good")
+    >>> print(r.attrs["quality_notes"])  # doctest: +NORMALIZE_WHITESPACE
+    G is not measured over dr = 3-30 nm (no measurement covers it: between its bins at 2
+    and 40 nm G is taken as a power law): a note
+    """
+    text = gap_note(spec, depends)
+    if not text:
+        return result
+    if quality.FLAG not in result.coords:  # so that a later per-curve rating keeps it
+        result = result.assign_coords({quality.FLAG: quality.flag_coord(0, what=what)})
+    return quality.mark(result, text, level=level, what=what)
+
+
+def gap_note(spec, depends: str) -> str:
+    """Return the note of :func:`mark_gaps` (``""`` for a G without gaps).
+
+    For a caller that rates its result per curve itself.
+    """
+    gaps = np.asarray(spec.gaps, dtype=float).reshape(-1, 2)
+    if not len(gaps):
+        return ""
+    dr = np.asarray(spec.dr, dtype=float)
+    dr = dr[dr > 0]
+    parts = []
+    for lo, hi in gaps:
+        below, above = dr[dr <= lo], dr[dr >= hi]
+        around = (f"between its bins at {below.max():.4g} and {above.min():.4g} "
+                  f"{spec.unit_str} G is taken as a power law" if below.size and above.size
+                  else "G is continued beyond its bins there")
+        parts.append(f"{lo:.4g}-{hi:.4g} {spec.unit_str} (no measurement covers it: "
+                     f"{around})")
+    return f"G is not measured over dr = {', '.join(parts)}: {depends}"
 
 
 def lag_coord(values: np.ndarray, unit: str, *, name: str = "dr",

@@ -22,8 +22,9 @@ from . import quality
 from . import units as u
 from ._kernels import contact as k
 from ._kernels.contact import KAPPA_PERSSON
+from ._kernels.gaps import bridge_energy
 from ._kernels.hankel import acf_from_spectrum_kernel
-from .acf import AcfSpec, check_acf, lag_coord, result_attrs
+from .acf import AcfSpec, check_acf, gap_note, lag_coord, mark_gaps, result_attrs
 from .fitting import fit_acf
 from .gradient import rms_gradient
 from .models import model_from_attrs
@@ -36,6 +37,17 @@ _ENERGY = "[mass] / [time] ** 2"
 _PRESSURE = "[pressure]"
 #: Share of v_el from a continuation of G beyond the data above which v_el is questionable.
 EXTRAPOLATED = 0.25
+#: Relative change of v_el between the bridge over a gap of G and its alternatives above
+#: which v_el is questionable.
+BRIDGED = 0.1
+#: What of each result depends on G inside a gap (:func:`xrough.acf.mark_gaps`).
+_GAP_LAPLACIAN = ("the Laplacian of G at the bins next to the gap is that of the "
+                  "bridge (the smoothing spline runs across it), not of data")
+_GAP_PERSSON = ("G_sigma and Gamma_sigma at the bins next to the gap are the Laplacian of "
+                "the bridge; gbar (p_star, a_r, sigma_c) rests on it where its route "
+                "integrates the spectrum of G (see the gradient's notes)")
+_GAP_PATCH = ("v_el(a_c) of eq. 44/46 integrates G across the bridge for a_c beyond the gap "
+              "(see elastic_energy(G).gap_share_error)")
 _DERIVATIVE = ("Laplacian of a smoothing spline of ln G against ln dr: smoothing length "
                "0.05 decades of dr, more where cross-validation on the standard errors "
                "asks for it")
@@ -82,6 +94,19 @@ def _laplacian(G_si: xr.DataArray, error: xr.DataArray | None, spec: AcfSpec, *,
     else:
         lap = _per_curve(k.laplacian_curve, G_si, error, dr=dr)
     return _per_curve(k.smooth_tail, lap, G_si, dr=dr) if smooth_tail else lap
+
+
+def _past(lags: xr.DataArray, spec: AcfSpec) -> str:
+    """Return the level of a result at ``lags`` next to the gaps of G.
+
+    ``"questionable"`` if any of ``lags`` lies beyond the start of a gap (or is lazy),
+    else ``"good"``.
+    """
+    if not len(spec.gaps):
+        return "good"
+    if lags.chunks is not None:
+        return "questionable"
+    return "questionable" if bool((lags > spec.gaps[:, 0].min()).any()) else "good"
 
 
 def _own_attrs(func):
@@ -209,7 +234,8 @@ def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Datas
                                                long_name="patch radius")},
         attrs=result_attrs(G, E_star=E, E_star_units="Pa"),
     )
-    return _rate(ds, [
+    ds, bridged = _bridged_energy(ds, G_si, spec)
+    return _rate(ds, bridged + [
         (part["below"] > EXTRAPOLATED, "questionable",
          f"more than {EXTRAPOLATED:.0%} of v_el comes from below the smallest lag, where G "
          "is continued as dr^2: the energy is set by scales finer than the data "
@@ -218,6 +244,32 @@ def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Datas
         (part["above"] > EXTRAPOLATED, "questionable",
          f"more than {EXTRAPOLATED:.0%} of v_el comes from beyond the largest lag, where G "
          "is continued flat: measure larger scales")], what="elastic_energy")
+
+
+def _bridged_energy(ds: xr.Dataset, G_si: xr.DataArray, spec: AcfSpec) -> tuple:
+    """Add the share of v_el from the bridges over the gaps of G, with its error.
+
+    Returns the Dataset and the checks (for :func:`_rate`) that say it.
+    """
+    if not len(spec.gaps):
+        return ds, []
+    res = _per_curve(bridge_energy, G_si, out={"k": 2}, dr=spec.dr * spec.to_m,
+                     lo=spec.gaps[:, 0] * spec.to_m, hi=spec.gaps[:, 1] * spec.to_m)
+    share, err = res.isel(k=0), res.isel(k=1)
+    ds = ds.assign(
+        gap_share=share.assign_attrs(
+            units="1", long_name="share of v_el from the power-law bridges over lags no "
+            "measurement covers"),
+        gap_share_error=err.assign_attrs(
+            units="1", long_name="largest relative change of v_el when a bridge continues "
+            "the local slope of the bins below or above it instead"))
+    computed = res.chunks is None
+    text = gap_note(spec, "v_el takes G there as that bridge (gap_share" + (
+        f": {float(share.max()):.1%} of v_el" if computed else "") + "); continuing the "
+        "local slope of the bins below or above the gap instead changes v_el by "
+        "gap_share_error" + (f" (up to {float(err.max()):.1%})" if computed else ""))
+    return ds, [(err > BRIDGED, "questionable", f"{text}, more than {BRIDGED:.0%}: "
+                 "measure those lags"), (err <= BRIDGED, "good", text)]
 
 
 # ---------------------------------------------------------------------------------------
@@ -311,6 +363,7 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
                              derivative=_DERIVATIVE,
                              equation="eq. 24 (full contact, p0^2 offset left out)")
     few = (G > 0).sum("dr") < 5
+    out = mark_gaps(out, spec, what="stress_acf", depends=_GAP_LAPLACIAN)
     return _rate(out, [(few, "questionable", "fewer than 5 valid bins: the Laplacian is "
                         "that of the log-log polygon through them, not of a smoothed G; "
                         "use more points per decade")], what="stress_acf")
@@ -600,6 +653,7 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     if not many:
         ds = ds.isel(p0=0)
         checks = [(mask.isel(p0=0), level, note) for mask, level, note in checks]
+    ds = mark_gaps(ds, spec, what="persson", depends=_GAP_PERSSON)
     return _rate(ds, checks, what="persson", inherited=(
         gradient if set(wanted) - {"sigma_quick"} else None,
         fit if set(_NEED_FIT) & set(wanted) else None))
@@ -673,6 +727,7 @@ def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
         coords=_own_coords(G),
         attrs=result_attrs(G, E_star=E, E_star_units="Pa", gamma=gam, gamma_units="J m-2"))
     finite = np.isfinite(a_c)
+    ds = mark_gaps(ds, spec, what="patch_radius", depends=_GAP_PATCH, level=_past(upper, spec))
     return _rate(ds, [
         (np.isinf(a_c), "good",
          f"a_c = inf: gamma = {gam:.3g} J m-2 exceeds the elastic energy of full contact "

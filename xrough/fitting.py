@@ -73,7 +73,7 @@ from ._kernels.fitting import (
     fitted_spectrum_acf,
 )
 from ._kernels.shape_factors import ROLLOFFS
-from .acf import check_acf, lag_coord, result_attrs
+from .acf import check_acf, lag_coord, mark_gaps, result_attrs
 
 __all__ = ["fit_acf", "model_acf", "describe_problems"]
 
@@ -491,7 +491,7 @@ def fit_acf(
         raise ValueError(f"model must be one of {MODELS}, got {model!r}")
     if rolloff not in ROLLOFFS:
         raise ValueError(f"rolloff must be one of {ROLLOFFS}, got {rolloff!r}")
-    spec = check_acf(G)
+    spec = acf_spec = check_acf(G)  # spec is the parameter table further down
     lateral, dr = spec.length_unit, spec.dr
     g_unit = u.units_of(G, what="G")
     height = g_unit**0.5
@@ -630,8 +630,10 @@ def fit_acf(
             "units": lat_s, "long_name": "long-wavelength cutoff of the model (inf: none)"}))
     lazy = part["quality"].chunks is not None
     notes = "" if lazy else _fit_notes(ds, ds["fit_problems"].values, model, weighted)
-    return quality.mark_curves(ds, part["quality"], what=f"fit_acf (model {model!r})",
-                               notes=notes)
+    ds = quality.mark_curves(ds, part["quality"], what=f"fit_acf (model {model!r})",
+                             notes=notes)
+    return mark_gaps(ds, acf_spec, what="fit_acf", level="good", depends="the fit uses the "
+                     "measured bins only; over the gap G is bridged by the fitted model")
 
 
 # --------------------------------------------------------------------------------------

@@ -33,7 +33,7 @@ from ._kernels.fitting import fitted_spectrum_gradient
 from ._kernels.hankel import power_law_moment_kernel
 from ._kernels.shape_factors import ROLLOFFS, rolloff_factor, self_affine_factor
 from ._kernels.spectral_models import model_gradient2
-from .acf import check_acf, lag_coord, result_attrs
+from .acf import check_acf, lag_coord, mark_gaps, result_attrs
 from .fitting import (
     describe_problems,
     fit_acf,
@@ -63,6 +63,13 @@ _EQUATIONS = {
     "exact+simple": "eq. 26 with C(q) from eq. 10/11 where G determines it, gbar^2 ~ "
                     "4 G(dr) / dr^2 on the other lags",
 }
+
+
+#: What of gbar depends on G inside a gap (:func:`xrough.acf.mark_gaps`).
+_GAP = ("the exact route integrates the spectrum of G (eq. 26 of eq. 10/11), a transform "
+        "of G across the gap, so gbar at lags below and next to the gap rests on the "
+        "bridge; the fit route takes the fitted model there, the ballistic one (simple) "
+        "only G at each lag")
 
 
 def _gradient_da(gbar: np.ndarray, dr: np.ndarray, unit_str: str, attrs: dict) -> xr.DataArray:
@@ -182,8 +189,11 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto",
              "method": method}
     attrs.update(extra_attrs)
     out.attrs = result_attrs(G, **attrs)
-    return quality.mark_curves(out, level, what=f"rms_gradient (method {method!r})",
-                               notes=notes)
+    out = quality.mark_curves(out, level, what=f"rms_gradient (method {method!r})",
+                              notes=notes)
+    return mark_gaps(out, spec, what=f"rms_gradient (method {method!r})", depends=_GAP,
+                     level="good" if out.attrs["method"] in ("simple", "fit") else
+                     "questionable")
 
 
 def _fitted_on_lags(params: xr.Dataset, G: xr.DataArray) -> xr.DataArray:
@@ -413,7 +423,8 @@ def rms_gradient_exact(
         "smooth_decades": 0.0 if smooth is None else float(smooth),
         "interpolation": interpolation,
     })
-    return _gradient_da(gbar, dr_arr, acf.unit_str, attrs)
+    return mark_gaps(_gradient_da(gbar, dr_arr, acf.unit_str, attrs), acf,
+                     what="rms_gradient_exact", depends=_GAP)
 
 
 def gradient_from_spectrum(

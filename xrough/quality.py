@@ -305,7 +305,7 @@ def mark(obj, reason: str, *, level: str = "questionable", what: str,
     out.attrs["quality_notes"] = _join(out.attrs.get("quality_notes", ""), reason)
     if FLAG in out.coords:
         flag = out[FLAG]
-        raised = np.maximum(flag, np.int8(code)).astype(np.int8)
+        raised = flag.copy(data=np.maximum(flag.data, np.int8(code)).astype(np.int8))
         out = out.assign_coords({FLAG: raised.assign_attrs(flag.attrs)})
     if warn and code > 0:
         _warn(what, LEVELS[code], reason)
@@ -317,7 +317,7 @@ def _same(block):
 
 
 def _own_output_layers(obj):
-    """A copy of ``obj`` whose lazy data variables end in a layer of their own.
+    """Return a copy of ``obj`` whose lazy data variables end in a layer of their own.
 
     The flag is computed from the variables, and the variables of one result from each
     other (``a_r`` from ``p_star``): a variable's output would then also be an input of

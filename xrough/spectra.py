@@ -31,7 +31,7 @@ from ._kernels.hankel import (
     spectrum_support_kernel,
 )
 from ._kernels.spectral_models import SpectrumModel
-from .acf import check_acf, result_attrs
+from .acf import check_acf, mark_gaps, result_attrs
 from .models import model_attrs, model_from_attrs, self_affine_model
 
 __all__ = [
@@ -399,6 +399,12 @@ class _AcfInput:
     noise: np.ndarray  # relative independent scatter per sample (0: none known)
     length_unit: pint.Unit
     unit_str: str
+    gaps: np.ndarray  # lag ranges no measurement covers (AcfSpec.gaps)
+
+
+#: What of C(q) depends on G inside a gap (:func:`xrough.acf.mark_gaps`).
+_GAP = ("C(q), a transform of G over all lags, takes G there as the bridge: C at q of the "
+        "order of 2 pi / dr inside the gap rests on it")
 
 
 def acf_samples(G: Any, noise: Any = None, *, min_bins: int = 4) -> _AcfInput:
@@ -420,7 +426,7 @@ def acf_samples(G: Any, noise: Any = None, *, min_bins: int = 4) -> _AcfInput:
             raise ValueError(f"noise must be a relative scatter >= 0, got {noise!r}")
     valid = np.isfinite(g) & (dr > 0)
     return _AcfInput(dr[valid], g[valid], np.nan_to_num(rel[valid]), spec.length_unit,
-                     spec.unit_str)
+                     spec.unit_str, spec.gaps)
 
 
 def check_spectrum_options(smooth, support_rtol, interpolation, points_per_decade) -> None:
@@ -619,7 +625,7 @@ def spectrum(
         "dr_max": float(acf.dr[-1]),
     }
     attrs = result_attrs(G, **attrs)
-    return xr.DataArray(
+    return mark_gaps(xr.DataArray(
         values,
         dims=("q",),
         coords={
@@ -631,4 +637,4 @@ def spectrum(
         },
         name="C",
         attrs=attrs,
-    )
+    ), acf, what="spectrum", depends=_GAP)

@@ -53,6 +53,8 @@ from .preprocess import reliability_window
 from .topography import grid_of
 
 __all__ = [
+    "LevelFactorWarning",
+    "StitchingGapWarning",
     "StitchingMismatchWarning",
     "level_factors",
     "stitch",
@@ -72,8 +74,26 @@ DEFAULT_LONG_FRACTION = 0.25
 LEVEL_DECADES = 0.2
 
 
+#: Largest level factor of G (and smallest, its inverse) that :func:`stitch` applies
+#: without a warning: a factor 2 in G is a factor 1.41 in heights, far beyond the
+#: calibration error of an AFM, TEM or stylus (a few %), and beyond the level scatter of
+#: one scan of a self-affine surface unless the scan is barely larger than its window.
+LEVEL_FACTOR_BOUND = 2.0
+
+
 class StitchingMismatchWarning(UserWarning):
     """Two measurements give significantly different G where their windows overlap."""
+
+
+class LevelFactorWarning(StitchingMismatchWarning):
+    """A level factor that the errors of G do not explain, or beyond ``LEVEL_FACTOR_BOUND``.
+
+    A subclass of :class:`StitchingMismatchWarning`: filtering that one filters this one.
+    """
+
+
+class StitchingGapWarning(UserWarning):
+    """Lags between the windows of the measurements that no measurement covers."""
 
 
 # ------------------------------------------------------------------------------- inputs
@@ -469,7 +489,7 @@ def _combine(g: np.ndarray, se: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
         return G, G / np.sqrt(W), ok.sum(axis=0)
 
 
-def level_factors(curves: xr.Dataset) -> np.ndarray:
+def level_factors(curves: xr.Dataset, *, with_errors: bool = False):
     r"""Factor per measurement that removes the steps between overlapping measurements.
 
     The measurements are taken by decreasing scan size. Each one that overlaps those
@@ -494,11 +514,28 @@ def level_factors(curves: xr.Dataset) -> np.ndarray:
     ----------
     curves : xarray.Dataset
         Output of :func:`stitch_curves`.
+    with_errors : bool
+        Also return the standard error of each ``ln(factor)``.
 
     Returns
     -------
-    numpy.ndarray
-        One factor per measurement, in the order of ``curves.measurement``.
+    numpy.ndarray or tuple of numpy.ndarray
+        One factor per measurement, in the order of ``curves.measurement``; with
+        ``with_errors``, ``(factors, errors)``, ``errors`` the standard error of
+        ``ln(factor)`` (0 for a measurement that kept factor 1).
+
+    Notes
+    -----
+    *Errors.* The level error of one measurement is one factor at all its lags, with
+    variance :math:`v` (the level variances above), so the step :math:`r` has variance
+    :math:`V = v_i + v_c` and the share :math:`v_i / V` of it that goes into
+    :math:`\ln f_i` has standard error :math:`v_i / \sqrt{V}` (the combination's share
+    :math:`v_c / \sqrt{V}`). A measurement levelled in several steps adds the variances of
+    its shares, the steps taken as independent. When the instruments agree (calibrated,
+    only the level scatter of their scans), :math:`\ln f` scatters by that error, and
+    :math:`|\ln f| / \sigma` is the step's significance :math:`|r| / \sqrt{V}`: a factor
+    it does not explain is a calibration (or detrending) disagreement that levelling
+    would otherwise hide; :func:`stitch` warns about it.
 
     Examples
     --------
@@ -511,6 +548,9 @@ def level_factors(curves: xr.Dataset) -> np.ndarray:
     ...                             "scan_size": ("measurement", [10.0, 100.0])})
     >>> level_factors(curves).round(4).tolist()  # equal errors: the step split evenly
     [1.0488, 0.9535]
+    >>> f, err = level_factors(curves, with_errors=True)
+    >>> err.round(4).tolist()  # v = 0.05^2 each: 0.0025 / sqrt(0.005)
+    [0.0354, 0.0354]
     """
     g = np.array(curves.G.values, dtype=float)
     se = np.array(curves.standard_error.values, dtype=float)
@@ -521,6 +561,7 @@ def level_factors(curves: xr.Dataset) -> np.ndarray:
     order = np.argsort(-np.nan_to_num(scan, nan=-np.inf), kind="stable")
     have = np.isfinite(g) & (g > 0) & (se > 0)
     factors = np.ones(g.shape[0])
+    variances = np.zeros(g.shape[0])  # of ln(factor)
     groups: list[list[int]] = []  # measurements joined through overlaps
     for i in (int(k) for k in order):
         touching = [k for k, grp in enumerate(groups)
@@ -539,13 +580,45 @@ def level_factors(curves: xr.Dataset) -> np.ndarray:
             r = float(np.sum(w * np.log(comb[ok] / g[i][ok])) / np.sum(w))
         # the step r is shared by the two level uncertainties (the errors of one
         # measurement are correlated across its lags: their mean, not divided by n)
-        share = float(np.mean(v_i) / (np.mean(v_i) + np.mean(v_c)))
-        for members, f in (([i], np.exp(r * share)), (group, np.exp(-r * (1.0 - share)))):
+        level_i, level_c = float(np.mean(v_i)), float(np.mean(v_c))
+        share = level_i / (level_i + level_c)
+        for members, part in (([i], share), (group, share - 1.0)):
+            f = np.exp(r * part)
             factors[members] *= f
+            variances[members] += part**2 * (level_i + level_c)
             g[members] *= f
             se[members] *= f
         groups = [grp for k, grp in enumerate(groups) if k not in touching] + [group + [i]]
-    return factors
+    return (factors, np.sqrt(variances)) if with_errors else factors
+
+
+def _unexplained_factors(names: list[str], factors: np.ndarray, errors: np.ndarray,
+                         threshold: float) -> list[str]:
+    """Say which level factors the level errors do not explain, or lie beyond the bound."""
+    def told(f, err):
+        return (f"x {f:.3g} (ln f = {np.log(f):+.2f} +- {err:.2f}, "
+                f"{abs(np.log(f)) / err if err > 0 else 0.0:.1f} sigma)")
+
+    found = []
+    for name, f, err in zip(names, factors, errors):
+        z = abs(np.log(f)) / err if err > 0 else 0.0
+        beyond = not 1 / LEVEL_FACTOR_BOUND <= f <= LEVEL_FACTOR_BOUND
+        if z > threshold or beyond:
+            why = ([f"more than {threshold:g} sigma: the level errors of the scans do not "
+                    "explain it"] if z > threshold else [])
+            if beyond:
+                why.append(f"outside [1/{LEVEL_FACTOR_BOUND:g}, {LEVEL_FACTOR_BOUND:g}]: "
+                           f"heights rescaled by {np.sqrt(f):.2f}, beyond any height "
+                           "calibration error")
+            found.append(f"{name!r} {told(f, err)}, {' and '.join(why)}")
+    if not found:
+        return []
+    others = ", ".join(f"{n!r} {told(f, e)}" for n, f, e in zip(names, factors, errors)
+                       if f != 1.0)
+    return [f"levelling rescaled G of {' and '.join(found)} (all factors: {others}): the "
+            "instruments' height calibrations (or detrending) disagree and the level of "
+            "the stitched G is a compromise between them; check the calibrations, or "
+            "stitch with level=False to see the curves as measured"]
 
 
 def stitch(
@@ -573,7 +646,10 @@ def stitch(
     threshold : float
         ``|z|`` of the mismatch diagnostic above which a pair disagrees.
     warn : bool
-        Warn (:class:`StitchingMismatchWarning`) when instruments disagree.
+        Warn when instruments disagree (:class:`StitchingMismatchWarning`), when a level
+        factor is not explained by the errors or beyond ``LEVEL_FACTOR_BOUND``
+        (:class:`LevelFactorWarning`), and when lags between the windows are not covered
+        (:class:`StitchingGapWarning`). The attrs record all three either way.
     level : bool
         Remove the steps between overlapping measurements before combining, each one's
         G times a factor (:func:`level_factors`; kept in ``attrs["level_factors"]``). The
@@ -592,7 +668,15 @@ def stitch(
         weighting rule, ``pixel_size`` and ``scan_size`` (finest pixel, largest scan),
         the mismatch summary (``mismatch_pairs``, ``mismatch_ratio``, ``mismatch_z``),
         ``level_factors`` (per measurement, in the order of ``stitched_from``; all 1 with
-        ``level=False``) and ``reliable_dr_min/max`` (the union of the windows).
+        ``level=False``), ``level_factor_errors`` (standard errors of their logarithms,
+        :func:`level_factors`), ``level_factor_bound`` and ``reliable_dr_min/max`` (the
+        union of the windows). Lags no window covers: attrs ``uncovered_dr_min``,
+        ``uncovered_dr_max`` (arrays, one entry per gap that loses a bin of the grid;
+        empty when the windows overlap or touch) and ``uncovered_dr_units``; the bins there
+        are dropped (every consumer takes G between neighbouring bins as a power law, and
+        reads the gaps through :func:`xrough.acf.check_acf` to mark what rests on that
+        bridge). Coordinate ``coverage``: per bin, bit ``2**i`` set when the i-th
+        measurement of ``stitched_from`` contributes (CF ``flag_masks``).
 
     Raises
     ------
@@ -603,6 +687,12 @@ def stitch(
     -----
     StitchingMismatchWarning
         Two measurements disagree significantly over their overlap.
+    LevelFactorWarning
+        A level factor more than ``threshold`` errors from 1 or outside
+        ``[1/LEVEL_FACTOR_BOUND, LEVEL_FACTOR_BOUND]``; the G is then marked questionable
+        (``attrs["quality"]``, ``attrs["quality_notes"]``, :mod:`xrough.quality`).
+    StitchingGapWarning
+        Lags between the windows that no measurement covers (once, naming every gap).
 
     See Also
     --------
@@ -636,13 +726,18 @@ def stitch(
         curves = stitch_curves(measurements, points_per_decade=points_per_decade,
                                windows=windows, **kwargs)
     mism = stitch_mismatch(curves, threshold=threshold, warn=warn)
-    factors = level_factors(curves) if level else np.ones(curves.sizes["measurement"])
+    names = [str(n) for n in curves.measurement.values]
+    nm = len(names)
+    factors, errors = (level_factors(curves, with_errors=True) if level
+                       else (np.ones(nm), np.zeros(nm)))
     G, se, n_meas = _combine(curves.G.values * factors[:, None],
                              curves.standard_error.values * factors[:, None])
     keep = n_meas > 0
-    names = [str(n) for n in curves.measurement.values]
     lunit = curves.dr.attrs["units"]
     gunits = curves.G.attrs["units"]
+    covered = (np.isfinite(curves.G.values) & (curves.G.values > 0)
+               & (curves.standard_error.values > 0))
+    gaps = _uncovered(curves, keep)
     out = xr.DataArray(
         G[keep], dims=("dr",), name="G",
         coords={"dr": ("dr", curves.dr.values[keep], dict(curves.dr.attrs)),
@@ -652,7 +747,8 @@ def stitch(
                                                     "long_name": "standard error of G"}),
                 "n_measurements": ("dr", n_meas[keep].astype(np.int64),
                                    {"units": "1",
-                                    "long_name": "measurements combined in the bin"})})
+                                    "long_name": "measurements combined in the bin"}),
+                "coverage": _coverage_coord(covered[:, keep], names)})
     out.attrs = result_attrs(None, **{
         "units": gunits,
         "long_name": "height-difference autocorrelation function",
@@ -677,7 +773,59 @@ def stitch(
         "mismatch_ratio": mism.ratio.values.astype(float),
         "mismatch_z": mism.z.values.astype(float),
         "level_factors": factors.astype(float),
+        "level_factor_errors": errors.astype(float),
+        "level_factor_bound": LEVEL_FACTOR_BOUND,
+        "uncovered_dr_min": np.array([lo for lo, _, _ in gaps], dtype=float),
+        "uncovered_dr_max": np.array([hi for _, hi, _ in gaps], dtype=float),
+        "uncovered_dr_units": lunit,
         "source_sha256": ", ".join(str(c) for c in curves.source_sha256.values)
         if "source_sha256" in curves.coords else "",
     })
+    if gaps and warn:
+        quality.warn("; ".join(text for _, _, text in gaps) + ": G is not measured there "
+                     "(attrs uncovered_dr_min/max); fit, energy, gradient, stress ACF, "
+                     "Persson theory, patch radius and spectrum of this G bridge the gap "
+                     "or mark what depends on it", StitchingGapWarning)
+    unexplained = _unexplained_factors(names, factors, errors, threshold)
+    for text in unexplained:
+        out = quality.mark(out, text, what="stitch", warn=False)
+        if warn:
+            quality.warn(text, LevelFactorWarning)
     return out
+
+
+def _uncovered(curves: xr.Dataset, kept: np.ndarray) -> list[tuple[float, float, str]]:
+    """Lag ranges between the windows that no window covers and that lose a common bin.
+
+    Returns ``(dr_lo, dr_hi, text)`` per gap: the window ends around it, and in words.
+    """
+    lo, hi = curves.dr_min.values.astype(float), curves.dr_max.values.astype(float)
+    names = [str(n) for n in curves.measurement.values]
+    dr, lunit = curves.dr.values, curves.dr.attrs.get("units", "")
+    gaps, end, last = [], -np.inf, None
+    for m in np.argsort(lo, kind="stable"):
+        if lo[m] > end and last is not None:
+            lost = (dr > end) & (dr < lo[m]) & ~kept
+            if lost.any():
+                below, above = dr[kept & (dr <= end)], dr[kept & (dr >= lo[m])]
+                gaps.append((float(end), float(lo[m]), (
+                    f"no measurement covers dr = {end:.4g}-{lo[m]:.4g} {lunit} (the window "
+                    f"of {names[last]!r} ends at {end:.4g}, that of {names[m]!r} begins at "
+                    f"{lo[m]:.4g}): no bin between {below.max():.4g} and {above.min():.4g} "
+                    f"{lunit}, {int(lost.sum())} bins of the grid")))
+        if hi[m] > end:
+            end, last = hi[m], m
+    return gaps
+
+
+def _coverage_coord(covered: np.ndarray, names: list[str]) -> tuple:
+    """Per bin, which measurements it holds: bit ``2**i`` for the i-th measurement."""
+    if len(names) > 62:
+        raise ValueError(f"at most 62 measurements can be stitched, got {len(names)}")
+    bits = (covered.astype(np.int64) << np.arange(len(names), dtype=np.int64)[:, None])
+    return ("dr", bits.sum(axis=0).astype(np.int64), {
+        "units": "1", "long_name": "measurements whose G the bin holds (bit 2**i: the i-th "
+        "of stitched_from)",
+        "flag_masks": " ".join(str(2**i) for i in range(len(names))),
+        "flag_meanings": " ".join("_".join(n.split()) or f"measurement_{i}"
+                                  for i, n in enumerate(names))})
