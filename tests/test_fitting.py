@@ -14,6 +14,7 @@ import pytest
 import xarray as xr
 
 import xrough
+from xrough._kernels.fitting import PROBLEMS
 from xrough._kernels.hankel import acf_from_spectrum_kernel, spectral_moment_kernel
 from xrough._kernels.shape_factors import (
     rolloff_crossover,
@@ -844,3 +845,14 @@ def test_spectrum_bad_input_to_model_and_gradient():
         model_acf(p.drop_vars("lambda_s_resolved"), [1.0])
     with pytest.raises(ValueError, match="params.attrs\\['model'\\] must be one of"):
         model_acf(p.assign_attrs(model="other"), [1.0])
+
+
+def test_a_fit_that_does_not_determine_h_is_not_good():
+    """A 16^2 map: H comes with a standard deviation larger than its range."""
+    topo = xrough.self_affine_surface(hurst=0.8, lambda_r="4 um", lambda_s="1 um",
+                                      size="8 um", n=16, rms_gradient=0.3, seed=1, unit="nm")
+    with pytest.warns(xrough.QualityWarning, match="do not determine H"):
+        fit = topo.rough.acf().rough.fit()
+    assert float(fit.hurst_std) > 0.25
+    assert fit.attrs["quality"] == "questionable"
+    assert int(fit.fit_problems) & 1 << PROBLEMS.index("hurst_undetermined")

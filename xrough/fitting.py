@@ -59,6 +59,7 @@ from ._kernels.fitting import (
     EQ36_OUTPUTS,
     FLAGS,
     H_BOUNDS,
+    HURST_STD_MAX,
     MISFIT_FAILED,
     MISFIT_QUESTIONABLE,
     MODELS,
@@ -213,6 +214,10 @@ def _problem_text(name: str, v: dict) -> str:
     if name == "outside_range":
         return (f"lambda_r lies more than {OUTSIDE:g} times beyond the largest lag: an "
                 "extrapolation, not a measurement")
+    if name == "hurst_undetermined":
+        return (f"the standard deviation of H exceeds {HURST_STD_MAX:g}: the data do not "
+                "determine H (too few bins or lags, or a short self-affine range); fit a "
+                "larger map or fix H")
     return "the fit gave no finite H, chi^2 or sigma_h: its parameters are NaN"
 
 

@@ -60,6 +60,7 @@ PROBLEM_LEVELS = {
     "no_self_affine_range": 2,  # the cutoffs leave no self-affine range inside the lags
     "outside_range": 1,         # lambda_r more than 10 times beyond the largest lag
     "not_finite": 2,            # H, chi^2 or sigma_h undefined
+    "hurst_undetermined": 1,    # std of H above HURST_STD_MAX
 }
 PROBLEMS = tuple(PROBLEM_LEVELS)
 #: A fit is poor (questionable) when its reduced chi^2 exceeds CHI2_QUESTIONABLE (the
@@ -75,6 +76,10 @@ MISFIT_QUESTIONABLE, MISFIT_FAILED = 0.1, 0.2
 OTHER_BETTER = 3.0
 #: A cutoff more than this factor outside the fitted lags is an extrapolation.
 OUTSIDE = 10.0
+#: Largest standard deviation of a fitted H that is a finding: beyond it the 1-sigma
+#: interval spans half of the range 0 < H < 1 (a rough and a smooth surface alike), e.g.
+#: on a map of a few pixels or a G of a few bins.
+HURST_STD_MAX = 0.25
 #: Bounds of H in the fit (the model degenerates at H = 0 and H = 1).
 H_BOUNDS = (0.01, 0.99)
 #: Hurst exponents tried for the starting point (linear least squares at each).
@@ -307,7 +312,7 @@ def fit_eq36_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, unit, c
     bits, code = fit_problems(chi2, rms_misfit, H, weighted=weighted, dr_min=x[0] * dr_ref,
                               dr_max=x[-1] * dr_ref, sigma_h=sigma_h, lambda_r=lam,
                               lambda_s=0.0, r_ok=s > 0, s_ok=False,
-                              hurst_free=bool(free[1]))
+                              hurst_free=bool(free[1]), hurst_std=stds[2])
     if code == 2 and check:  # the numbers mean nothing (but a fixed value stays)
         keep = np.array([np.isfinite(fixed[2]), False, not free[1], not free[2], False])
         values[~keep], stds[~keep] = np.nan, np.nan
@@ -622,7 +627,8 @@ def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lam
     bits, code = fit_problems(chi2, rms_misfit, out[2], weighted=weighted, dr_min=lo,
                               dr_max=hi, sigma_h=out[0], lambda_r=out[3], lambda_s=out[4],
                               r_ok=resolved_r and free[2], s_ok=resolved_s and free[3],
-                              hurst_free=bool(free[1]), chi2_other=chi2_eq36)
+                              hurst_free=bool(free[1]), chi2_other=chi2_eq36,
+                              hurst_std=std[2])
     if code == 2:  # the numbers mean nothing (but a fixed value stays what it was)
         keep = np.array([False, False, not free[1], not free[2], not free[3], False])
         out[~keep], std[~keep] = np.nan, np.nan
@@ -634,15 +640,16 @@ def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lam
 # the checks of a fit
 # --------------------------------------------------------------------------------------
 def fit_problems(chi2, rms_misfit, hurst, *, weighted, dr_min, dr_max, sigma_h, lambda_r,
-                 lambda_s, r_ok, s_ok, hurst_free, chi2_other=np.inf) -> tuple[int, int]:
+                 lambda_s, r_ok, s_ok, hurst_free, chi2_other=np.inf,
+                 hurst_std=np.nan) -> tuple[int, int]:
     """Return the problems of one fit (bits of :data:`PROBLEMS`) and its quality code.
 
     Code 0 good, 1 questionable, 2 failed (see :mod:`xrough.quality`).  ``dr_min``,
     ``dr_max``: the fitted lags; ``lambda_r``/``lambda_s`` (same unit) count only where
     ``r_ok``/``s_ok`` (resolved, fitted); ``chi2_other``: reduced chi^2 of the other
-    model on the same bins (inf: none).  Thresholds: :data:`CHI2_QUESTIONABLE`,
-    :data:`MISFIT_QUESTIONABLE`, :data:`MISFIT_FAILED`,
-    :data:`OTHER_BETTER`, :data:`OUTSIDE`.
+    model on the same bins (inf: none); ``hurst_std``: standard deviation of H.
+    Thresholds: :data:`CHI2_QUESTIONABLE`, :data:`MISFIT_QUESTIONABLE`,
+    :data:`MISFIT_FAILED`, :data:`OTHER_BETTER`, :data:`OUTSIDE`, :data:`HURST_STD_MAX`.
     """
     found = set()
     # unweighted, no standard errors say what misfit the data allow: only a failure counts
@@ -663,6 +670,8 @@ def fit_problems(chi2, rms_misfit, hurst, *, weighted, dr_min, dr_max, sigma_h, 
         found.add("outside_range")
     if not (np.isfinite(hurst) and np.isfinite(chi2)) or np.isnan(sigma_h):
         found.add("not_finite")
+    if hurst_free and not hurst_std <= HURST_STD_MAX and np.isfinite(hurst):
+        found.add("hurst_undetermined")
     bits = sum(1 << k for k, name in enumerate(PROBLEMS) if name in found)
     code = max((PROBLEM_LEVELS[name] for name in found), default=0)
     return bits, code
