@@ -522,3 +522,24 @@ def test_energy_and_stress_acf_flag_what_rests_on_continuations():
     with pytest.warns(xrough.QualityWarning, match="fewer than 5 valid bins"):
         S = few.rough.stress_acf(E_star=E_STAR)
     assert S.attrs["quality"] == "questionable"
+
+
+def test_stress_acf_is_nan_outside_the_recorded_reliable_window():
+    """Lags outside reliable_dr_min/max in G's attrs have no Laplacian: NaN, questionable,
+    the range named; inside the window the values are those without the window."""
+    C = xrough.model_spectrum(hurst=0.8, lambda_r="1 um", lambda_s="10 nm",
+                              rms_gradient=0.2, unit="nm")
+    G = xrough.acf_from_spectrum(C, dr_min="1 nm", dr_max="10 um", points_per_decade=10)
+    plain = xrough.stress_acf(G, E_star=E_STAR)
+    assert plain.attrs["quality"] == "good"
+    windowed = G.assign_attrs(reliable_dr_min=5.0, reliable_dr_max=2000.0)
+    with pytest.warns(xrough.QualityWarning, match="outside the reliable lag range"):
+        S = xrough.stress_acf(windowed, E_star=E_STAR)
+    outside = (G.dr.values < 5.0) | (G.dr.values > 2000.0)
+    assert np.all(np.isnan(S.values[outside])) and S.attrs["quality"] == "questionable"
+    np.testing.assert_array_equal(S.values[~outside], plain.values[~outside])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        P = xrough.persson(windowed, E_star=E_STAR, p0="0.1 MPa", gradient_method="simple")
+    assert np.all(np.isnan(P.G_sigma.values[outside & (G.dr.values < 5.0)]))
+    assert "outside the reliable lag range" in P.attrs["quality_notes"]

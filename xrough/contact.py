@@ -40,7 +40,10 @@ _PRESSURE = "[pressure]"
 EXTRAPOLATED = 0.25
 _DERIVATIVE = ("Laplacian of a smoothing spline of ln G against ln dr: smoothing length "
                "0.05 decades of dr, more where cross-validation on the standard errors "
-               "asks for it")
+               "asks for it; NaN at and below the largest lag where it differs from the "
+               "Laplacians of the even and of the odd bins alone by more than "
+               f"{DETERMINED:.0%} of a lower bound of G_sigma(0), and outside "
+               "reliable_dr_min/max")
 
 
 # ---------------------------------------------------------------------------------------
@@ -285,9 +288,20 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
     smoothing spline of ``ln G`` against ``ln dr``, weighted by the standard errors, whose
     smoothing length is fixed in ``ln dr`` (0.05 decades, so the result does not depend on
     how finely G is binned) and larger where generalised cross-validation finds noise
-    (``attrs["derivative"]``). On measured maps it agrees with the exact stress field to
+    (``attrs["derivative"]``). On synthetic maps it agrees with the exact stress field to
     within 2 % of ``G_sigma(0)`` from 2 pixels to L/8 at 10-40 bins per decade; at 5 bins
     per decade, where a bin spans a roll-off, within 5 %.
+
+    What the data do not determine is NaN. The Laplacian is also estimated from the even
+    and from the odd bins alone. At and below the largest lag where the three estimates
+    differ by more than 15 % of a lower bound of ``G_sigma(0)`` (the largest value all
+    three agree on, or ``4 G(dr_1) / dr_1^2``), and outside ``reliable_dr_min/max`` in G's
+    attrs, the result is NaN and questionable, and a ``QualityWarning`` names the lag
+    range. On measured maps this removes the first 1-6 pixels. There the bins hold a few
+    lattice distances along different directions, and G zig-zags between them, by pixel
+    noise and a scan that differs along its fast and slow axes (docs/contact.md). The
+    remaining values are unchanged. A smooth negative lobe beyond the roll-off is physical,
+    because the full-contact stress ACF integrates to 0 over the plane.
 
     Parameters
     ----------

@@ -17,8 +17,8 @@ generalised cross-validation asks for it; the 2D radial Laplacian is then
 Whether the samples determine that second derivative is checked as the support of a
 spectrum is (:mod:`xrough._kernels.hankel`): the Laplacian is estimated three times, from
 all samples and from the even and the odd ones alone (each keeping both ends), and a lag
-where these estimates differ by more than :data:`DETERMINED` of the largest Laplacian
-they agree on is not determined, nor is any smaller lag
+where these estimates differ by more than :data:`DETERMINED` of a lower bound of the
+Laplacian at ``dr = 0`` is not determined, nor is any smaller lag
 (:meth:`AcfCurve.determined_laplacian`). On a measured map this is what the lattice does
 at the first few pixels: the bins there hold a few discrete distances each (1, sqrt(2),
 2, sqrt(5) px ...) along different directions, a scanned surface is not isotropic at the
@@ -39,10 +39,11 @@ __all__ = ["AcfCurve", "DETERMINED", "acf_problem", "require_acf"]
 SMOOTHING_DECADES = 0.05
 
 #: Largest difference between the Laplacians of G from all samples, the even and the odd
-#: samples, relative to the largest Laplacian all three agree on (same sign, smallest
-#: magnitude), at which the Laplacian still counts as determined by the data. On periodic
-#: synthetic maps (lambda_s = 4-8 px, H = 0.3-0.8, 10-40 bins per decade) the three
-#: differ by at most 8.5 %; on measured maps by 30-190 % at the first pixels.
+#: samples, relative to a lower bound of the Laplacian at dr = 0 (the largest value all
+#: three agree on, or 4 G(dr_1) / dr_1^2), at which the Laplacian still counts as
+#: determined. Periodic synthetic maps (lambda_s = 2-8 px, H = 0.3-0.8, 5-40 bins per
+#: decade) keep every lag from 2 px on; measured maps lose their first 1-6 px
+#: (benchmarks/bench_stress_determined.py).
 DETERMINED = 0.15
 
 #: A G whose last third lies this factor below its first third (medians) is a height ACF.
@@ -263,8 +264,10 @@ class AcfCurve:
         The Laplacian from all samples is compared with those from the even and from the
         odd samples alone (both keep the first and the last sample; their smoothing
         length in ``ln dr`` is the same, so on a smooth G the three agree). Their largest
-        pairwise difference ``D`` is measured against the scale ``S``, the largest
-        Laplacian all three agree on (same sign; the smallest of the three magnitudes). A
+        pairwise difference ``D`` is measured against the scale ``S``, a lower bound of the
+        Laplacian at ``dr = 0`` (where that of an ACF is largest): the larger of the largest
+        Laplacian all three agree on (same sign; the smallest of the three magnitudes) and
+        ``4 G(dr_1) / dr_1^2`` of the first sample (``1 - J0(x) <= x^2 / 4``). A
         sample with ``D > tol S`` is not determined, nor is any sample at a smaller lag:
         the result is a lower bound of the lags where the second derivative means
         something, as the smoothing ties each value to its neighbours.
