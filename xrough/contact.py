@@ -108,7 +108,7 @@ def _derivative_checks(why: xr.DataArray, spec: AcfSpec) -> list:
         k.UNDETERMINED: (
             "the Laplacian of G (eq. 24) is not determined{span} (NaN there): its "
             "estimates from all bins and from the even and the odd bins alone differ by "
-            f"more than {DETERMINED:.0%} of the largest value they agree on (the bins of the "
+            f"more than {DETERMINED:.0%} of a lower bound of G_sigma(0) (the bins of the "
             "smallest lags hold a few lattice distances each along different directions, "
             "and pixel noise or a scan that differs along its fast and slow axes makes G "
             "zig-zag between them); the stress ACF there is a property of the pixels, not "
