@@ -19,6 +19,7 @@ stitching (re-bins computed curves) and spectra of a model (a few numbers).
 from __future__ import annotations
 
 import functools
+import warnings
 
 import dask
 import numpy as np
@@ -51,6 +52,13 @@ def _stack() -> xr.DataArray:
 @functools.cache
 def _map(n: int = 128, periodic: bool = False) -> xr.DataArray:
     return surface_nm(n=n, periodic=periodic)
+
+
+def _quiet(func, *args, **kwargs):
+    """``func`` without its QualityWarning (the marks it sets are compared all the same)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        return func(*args, **kwargs)
 
 
 @functools.cache
@@ -171,11 +179,14 @@ CASES = {
     "elastic_energy": ("G", lambda G: xrough.elastic_energy(G, E_star="25 MPa",
                                                             a_c=[20.0, 200.0]),
                        None, True, ()),
-    "stress_acf": ("G", lambda G: xrough.stress_acf(G, E_star="25 MPa"), None, True, ()),
-    "stress_acf-p0": ("G", lambda G: xrough.stress_acf(G, E_star="25 MPa", p0="1 MPa"),
-                      None, True, ()),
-    "persson": ("G", lambda G: xrough.persson(G, E_star="25 MPa",
-                                              p0=["0.1 MPa", "1 MPa"]), None, True, ()),
+    # the second model G (H = 0.6, 2 % scatter) has no determined Laplacian at 1.3-4 nm
+    # (its error there is 17-23 % of G_sigma(0)): NaN and flagged, on both backends alike
+    "stress_acf": ("G", lambda G: _quiet(xrough.stress_acf, G, E_star="25 MPa"), None,
+                   True, ()),
+    "stress_acf-p0": ("G", lambda G: _quiet(xrough.stress_acf, G, E_star="25 MPa",
+                                            p0="1 MPa"), None, True, ()),
+    "persson": ("G", lambda G: _quiet(xrough.persson, G, E_star="25 MPa",
+                                      p0=["0.1 MPa", "1 MPa"]), None, True, ()),
     "patch_radius": ("G", lambda G: xrough.patch_radius(G, E_star="25 MPa",
                                                         gamma="50 mJ/m^2"), None, True, ()),
     "fit_acf": ("G", lambda G: xrough.fit_acf(G), None, True, ()),

@@ -21,6 +21,7 @@ import xarray as xr
 from . import quality
 from . import units as u
 from ._kernels import contact as k
+from ._kernels.acf_curve import DETERMINED
 from ._kernels.contact import KAPPA_PERSSON
 from ._kernels.gaps import bridge_energy
 from ._kernels.hankel import acf_from_spectrum_kernel
@@ -28,6 +29,7 @@ from .acf import AcfSpec, check_acf, gap_note, lag_coord, mark_gaps, result_attr
 from .fitting import fit_acf
 from .gradient import rms_gradient
 from .models import model_from_attrs
+from .preprocess import reliability_window
 
 __all__ = ["elastic_energy", "stress_acf", "stress_acf_from_spectrum", "persson",
            "patch_radius", "KAPPA_PERSSON"]
@@ -50,7 +52,10 @@ _GAP_PATCH = ("v_el(a_c) of eq. 44/46 integrates G across the bridge for a_c bey
               "(see elastic_energy(G).gap_share_error)")
 _DERIVATIVE = ("Laplacian of a smoothing spline of ln G against ln dr: smoothing length "
                "0.05 decades of dr, more where cross-validation on the standard errors "
-               "asks for it")
+               "asks for it; NaN at and below the largest lag where it differs from the "
+               "Laplacians of the even and of the odd bins alone by more than "
+               f"{DETERMINED:.0%} of a lower bound of G_sigma(0), and outside "
+               "reliable_dr_min/max")
 
 
 # ---------------------------------------------------------------------------------------
@@ -85,15 +90,55 @@ def _per_curve(func, *arrays, out: dict[str, int] | None = None, **kwargs):
         keep_attrs=False)
 
 
-def _laplacian(G_si: xr.DataArray, error: xr.DataArray | None, spec: AcfSpec, *,
-               smooth_tail: bool = False) -> xr.DataArray:
-    """Laplacian of G (dimensionless) on its lags, per curve; optionally without ringing."""
+def _laplacian(G: xr.DataArray, G_si: xr.DataArray, error: xr.DataArray | None,
+               spec: AcfSpec, *, smooth_tail: bool = False):
+    """Laplacian of G (dimensionless) on its lags, per curve, and why a lag has none.
+
+    Returns the Laplacian (NaN where G does not determine it, optionally without roll-off
+    ringing) and the code per lag of :func:`xrough._kernels.contact.laplacian_curve`
+    (0, ``UNDETERMINED``, ``OUTSIDE_WINDOW``).
+    """
     dr = spec.dr * spec.to_m
+    lo, hi = reliability_window(G)
+    window = (0.0 if lo is None else lo * spec.to_m, np.inf if hi is None else hi * spec.to_m)
+    parts = {"part": 2, "dr": spec.dr.size}
     if error is None:
-        lap = _per_curve(lambda g, dr: k.laplacian_curve(g, None, dr=dr), G_si, dr=dr)
+        res = _per_curve(lambda g, dr, window: k.laplacian_curve(g, None, dr=dr, window=window),
+                         G_si, out=parts, dr=dr, window=window)
     else:
-        lap = _per_curve(k.laplacian_curve, G_si, error, dr=dr)
-    return _per_curve(k.smooth_tail, lap, G_si, dr=dr) if smooth_tail else lap
+        res = _per_curve(k.laplacian_curve, G_si, error, out=parts, dr=dr, window=window)
+    lap, why = res.isel(part=0), res.isel(part=1)
+    if smooth_tail:
+        lap = _per_curve(k.smooth_tail, lap, G_si, dr=dr)
+    return lap, why
+
+
+def _derivative_checks(why: xr.DataArray, spec: AcfSpec) -> list:
+    """Return the :func:`_rate` checks of the lags without a Laplacian (range named, eager)."""
+    unit = spec.unit_str
+    texts = {
+        k.UNDETERMINED: (
+            "the Laplacian of G (eq. 24) is not determined{span} (NaN there): its "
+            "estimates from all bins and from the even and the odd bins alone differ by "
+            f"more than {DETERMINED:.0%} of a lower bound of G_sigma(0) (the bins of the "
+            "smallest lags hold a few lattice distances each along different directions, "
+            "and pixel noise or a scan that differs along its fast and slow axes makes G "
+            "zig-zag between them); the stress ACF there is a property of the pixels, not "
+            "of the surface"),
+        k.OUTSIDE_WINDOW: (
+            "the Laplacian of G (eq. 24) is NaN{span}: outside the reliable lag range "
+            "(reliable_dr_min / reliable_dr_max in G's attrs) that the instrument resolves"),
+    }
+    checks = []
+    for code, text in texts.items():
+        hit = why == code
+        span = ""
+        if why.chunks is None:
+            at = spec.dr[np.asarray(hit.any([d for d in hit.dims if d != "dr"]))]
+            if at.size:
+                span = f" at dr = {at.min():.3g} to {at.max():.3g} {unit}"
+        checks.append((hit.any("dr"), "questionable", text.format(span=span)))
+    return checks
 
 
 def _past(lags: xr.DataArray, spec: AcfSpec) -> str:
@@ -295,9 +340,20 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
     smoothing spline of ``ln G`` against ``ln dr``, weighted by the standard errors, whose
     smoothing length is fixed in ``ln dr`` (0.05 decades, so the result does not depend on
     how finely G is binned) and larger where generalised cross-validation finds noise
-    (``attrs["derivative"]``). On measured maps it agrees with the exact stress field to
+    (``attrs["derivative"]``). On synthetic maps it agrees with the exact stress field to
     within 2 % of ``G_sigma(0)`` from 2 pixels to L/8 at 10-40 bins per decade; at 5 bins
     per decade, where a bin spans a roll-off, within 5 %.
+
+    What the data do not determine is NaN. The Laplacian is also estimated from the even
+    and from the odd bins alone. At and below the largest lag where the three estimates
+    differ by more than 15 % of a lower bound of ``G_sigma(0)`` (the largest value all
+    three agree on, or ``4 G(dr_1) / dr_1^2``), and outside ``reliable_dr_min/max`` in G's
+    attrs, the result is NaN and questionable, and a ``QualityWarning`` names the lag
+    range. On measured maps this removes the first 1-6 pixels. There the bins hold a few
+    lattice distances along different directions, and G zig-zags between them, by pixel
+    noise and a scan that differs along its fast and slow axes (docs/contact.md). The
+    remaining values are unchanged. A smooth negative lobe beyond the roll-off is physical,
+    because the full-contact stress ACF integrates to 0 over the plane.
 
     Parameters
     ----------
@@ -355,7 +411,8 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
         return out
     spec = check_acf(G)
     G_si, error = _si(G, spec)
-    full = (E / 2) ** 2 * _laplacian(G_si, error, spec)
+    lap, why = _laplacian(G, G_si, error, spec)
+    full = (E / 2) ** 2 * lap
     out = full.transpose(..., "dr").assign_coords(
         {**_own_coords(G), **lag_coord(spec.dr, spec.unit_str)})
     out.name = "G_sigma"
@@ -366,7 +423,8 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
     out = mark_gaps(out, spec, what="stress_acf", depends=_GAP_LAPLACIAN)
     return _rate(out, [(few, "questionable", "fewer than 5 valid bins: the Laplacian is "
                         "that of the log-log polygon through them, not of a smoothed G; "
-                        "use more points per decade")], what="stress_acf")
+                        "use more points per decade"), *_derivative_checks(why, spec)],
+                 what="stress_acf")
 
 
 def stress_acf_from_spectrum(C: xr.DataArray, dr: Any, *, E_star: Any) -> xr.DataArray:
@@ -552,6 +610,7 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     dr_m = xr.DataArray(spec.dr * spec.to_m, dims="dr")
     out: dict[str, xr.DataArray] = {}
     checks: list = []
+    derivative: list = []
     method = "none"
     if set(wanted) - {"sigma_quick"}:  # everything else needs gbar(dr)
         if gradient is None:
@@ -601,7 +660,9 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
         gbar0 = xr.apply_ufunc(_first_finite, gbar, input_core_dims=[["dr"]],
                                dask="parallelized", output_dtypes=[float])
     if "G_sigma" in wanted or "Gamma_sigma" in wanted:
-        full = (E / 2) ** 2 * _laplacian(G_si, error, spec, smooth_tail=smooth_full)
+        lap, why = _laplacian(G, G_si, error, spec, smooth_tail=smooth_full)
+        derivative = _derivative_checks(why, spec)
+        full = (E / 2) ** 2 * lap
         g_sigma = p0_da**2 + full * weight
         negative = g_sigma < 0  # <s(r) s(r+dr)> of compressive stresses is never < 0
         checks.append((negative.any("dr"), "questionable",
@@ -653,6 +714,7 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     if not many:
         ds = ds.isel(p0=0)
         checks = [(mask.isel(p0=0), level, note) for mask, level, note in checks]
+    checks += derivative  # per curve, no p0 dim
     ds = mark_gaps(ds, spec, what="persson", depends=_GAP_PERSSON)
     return _rate(ds, checks, what="persson", inherited=(
         gradient if set(wanted) - {"sigma_quick"} else None,

@@ -13,6 +13,16 @@ Derivatives, which amplify noise, come from a smoothing spline of ``ln G`` again
 in ``ln r`` (:data:`SMOOTHING_DECADES`; the same for every binning) or larger where
 generalised cross-validation asks for it; the 2D radial Laplacian is then
 ``(1/r) d/dr (r dG/dr) = G (y'' + y'^2) / r^2`` with ``y = ln G``, ``x = ln r``.
+
+Whether the samples determine that second derivative is checked as the support of a
+spectrum is (:mod:`xrough._kernels.hankel`): the Laplacian is estimated three times, from
+all samples and from the even and the odd ones alone (each keeping both ends), and a lag
+where these estimates differ by more than :data:`DETERMINED` of a lower bound of the
+Laplacian at ``dr = 0`` is not determined, nor is any smaller lag
+(:meth:`AcfCurve.determined_laplacian`). On a measured map this is what the lattice does
+at the first few pixels: the bins there hold a few discrete distances each (1, sqrt(2),
+2, sqrt(5) px ...) along different directions, a scanned surface is not isotropic at the
+pixel scale, and G zig-zags between neighbouring bins by far more than its standard error.
 """
 
 from __future__ import annotations
@@ -20,13 +30,21 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import make_smoothing_spline
 
-__all__ = ["AcfCurve", "acf_problem", "require_acf"]
+__all__ = ["AcfCurve", "DETERMINED", "acf_problem", "require_acf"]
 
 #: Smoothing length of the derivatives of G, in decades of dr (a spline penalty
 #: ``lam = (samples per unit ln dr) * (0.05 ln 10)^4``): fine enough for the roll-offs
 #: of a surface (G's log-slope turns over about half a decade), coarse enough that the
 #: scatter of lattice distances in bins finer than 20 per decade is not read as curvature.
 SMOOTHING_DECADES = 0.05
+
+#: Largest difference between the Laplacians of G from all samples, the even and the odd
+#: samples, relative to a lower bound of the Laplacian at dr = 0 (the largest value all
+#: three agree on, or 4 G(dr_1) / dr_1^2), at which the Laplacian still counts as
+#: determined. Periodic synthetic maps (lambda_s = 2-8 px, H = 0.3-0.8, 5-40 bins per
+#: decade) keep every lag from 2 px on; measured maps lose their first 1-6 px
+#: (benchmarks/bench_stress_determined.py).
+DETERMINED = 0.15
 
 #: A G whose last third lies this factor below its first third (medians) is a height ACF.
 DECREASE = 1.1
@@ -234,3 +252,54 @@ class AcfCurve:
         r = np.asarray(r, dtype=float)
         d1, d2 = self.log_slopes(r)
         return self.smooth_values(r) * (d2 + d1**2) / r**2
+
+    def _subset(self, index: np.ndarray) -> AcfCurve:
+        """Return the curve of the samples ``index`` only."""
+        return AcfCurve(self.dr[index], self.g[index],
+                        None if self.error is None else self.error[index])
+
+    def determined_laplacian(self, tol: float = DETERMINED) -> tuple[np.ndarray, np.ndarray]:
+        """Laplacian at the samples and where the samples determine it.
+
+        The Laplacian from all samples is compared with those from the even and from the
+        odd samples alone (both keep the first and the last sample; their smoothing
+        length in ``ln dr`` is the same, so on a smooth G the three agree). Their largest
+        pairwise difference ``D`` is measured against the scale ``S``, a lower bound of the
+        Laplacian at ``dr = 0`` (where that of an ACF is largest): the larger of the largest
+        Laplacian all three agree on (same sign; the smallest of the three magnitudes) and
+        ``4 G(dr_1) / dr_1^2`` of the first sample (``1 - J0(x) <= x^2 / 4``). A
+        sample with ``D > tol S`` is not determined, nor is any sample at a smaller lag:
+        the result is a lower bound of the lags where the second derivative means
+        something, as the smoothing ties each value to its neighbours.
+
+        Parameters
+        ----------
+        tol : float
+            Largest ``D / S`` that counts as determined.
+
+        Returns
+        -------
+        (ndarray, ndarray)
+            The Laplacian at ``self.dr`` (as :meth:`laplacian`) and a boolean mask of the
+            samples where it is determined. Fewer than 4 samples: no halves to compare,
+            all determined.
+        """
+        full = self.laplacian(self.dr)
+        n = self.dr.size
+        determined = np.ones(n, dtype=bool)
+        if n < 4:
+            return full, determined
+        even = np.unique(np.r_[0:n:2, n - 1])
+        odd = np.unique(np.r_[0, 1:n:2, n - 1])
+        estimates = np.array([full] + [self._subset(k).laplacian(self.dr)
+                                       for k in (even, odd)])
+        spread = np.ptp(estimates, axis=0)
+        agree = np.all(np.sign(estimates) == np.sign(full), axis=0) & (full != 0)
+        # two lower bounds of the Laplacian at dr = 0: |Lap G| of an ACF is largest there,
+        # and 1 - J0(x) <= x^2 / 4 gives 4 G(dr) / dr^2 <= gbar^2 at every lag
+        scale = max(np.max(np.where(agree, np.min(np.abs(estimates), axis=0), 0.0)),
+                    4 * self.g[0] / self.dr[0] ** 2)
+        bad = np.flatnonzero(~(spread <= tol * scale))
+        if bad.size:
+            determined[: bad[-1] + 1] = False
+        return full, determined

@@ -16,6 +16,7 @@ from .shape_factors import rolloff_factor, self_affine_factor
 
 __all__ = ["KAPPA_PERSSON", "STEEP_DECAY", "contact_area", "improved_area",
            "quick_stress", "stress_asymptote", "energy_curve", "laplacian_curve",
+           "UNDETERMINED", "OUTSIDE_WINDOW",
            "smooth_tail", "patch_radius_curve"]
 
 #: Persson's small-pressure slope of the contact area, ``a_r ~ kappa p*`` (eq. 29).
@@ -91,12 +92,29 @@ def energy_curve(g, *, dr, a_c) -> np.ndarray:
     return np.concatenate([[total, below / total, above / total], cum])
 
 
-def laplacian_curve(g, error, *, dr) -> np.ndarray:
-    """2D radial Laplacian of the smoothed G at its lags (NaN at ``dr = 0``)."""
+#: Codes of :func:`laplacian_curve`'s second row: why a lag has no Laplacian.
+UNDETERMINED, OUTSIDE_WINDOW = 1.0, 2.0
+
+
+def laplacian_curve(g, error, *, dr, window=(0.0, np.inf)) -> np.ndarray:
+    """2D radial Laplacian of the smoothed G at its lags, NaN where G does not determine it.
+
+    Returns two rows on ``dr``: the Laplacian (NaN at ``dr = 0``, in empty bins and where
+    it is not determined) and why a lag has none: 0 (it has one, or ``dr = 0`` / an empty
+    bin), :data:`UNDETERMINED` (at or below the largest lag where the estimates from all,
+    the even and the odd bins disagree, :meth:`AcfCurve.determined_laplacian`) or
+    :data:`OUTSIDE_WINDOW` (outside the reliable lag range ``window`` of the instrument).
+    """
     curve = _curve(g, error, dr)
-    out = np.full(dr.shape, np.nan)
-    positive = dr > 0
-    out[positive] = curve.laplacian(dr[positive])
+    lap, determined = curve.determined_laplacian()
+    out = np.full((2, dr.size), np.nan)
+    out[1] = 0.0
+    at = np.searchsorted(dr, curve.dr)  # the curve's samples among the lags
+    out[0, at] = np.where(determined, lap, np.nan)
+    out[1, at] = np.where(determined, 0.0, UNDETERMINED)
+    outside = (dr > 0) & ((dr < window[0]) | (dr > window[1]))
+    out[0, outside] = np.nan
+    out[1, outside] = np.maximum(out[1, outside], OUTSIDE_WINDOW)
     return out
 
 
