@@ -543,3 +543,27 @@ def test_stress_acf_is_nan_outside_the_recorded_reliable_window():
         P = xrough.persson(windowed, E_star=E_STAR, p0="0.1 MPa", gradient_method="simple")
     assert np.all(np.isnan(P.G_sigma.values[outside & (G.dr.values < 5.0)]))
     assert "outside the reliable lag range" in P.attrs["quality_notes"]
+
+
+def test_persson_uses_a_gradient_that_does_not_rise_with_dr():
+    """gbar cannot rise with dr (eq. 26): a noisy estimate that does is replaced by its
+    running maximum from larger lags, so a_r never falls with dr; a rise above 5 % is
+    marked, a smaller one is smoothed silently, an honest gbar is left alone."""
+    dr = np.geomspace(1.0, 100.0, 30)
+    G = xr.DataArray(0.01 * dr**1.2, dims="dr", attrs={"units": "nm2"},
+                     coords={"dr": ("dr", dr, {"units": "nm"})})
+    honest = xrough.rms_gradient(G, method="simple")
+    plain = xrough.persson(G, E_star="1 MPa", p0="1 kPa", gradient=honest)
+    assert plain.attrs["quality"] == "good"
+    for factor, level in ((1.02, "good"), (1.3, "questionable")):
+        bumped = honest.copy(data=honest.values * np.where(np.arange(30) == 12, factor, 1.0))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            P = xrough.persson(G, E_star="1 MPa", p0="1 kPa", gradient=bumped)
+        assert np.all(np.diff(P.a_r.values) >= 0)
+        # below the bump gbar is raised to the bumped value: a_r there uses it
+        expected = np.maximum.accumulate(bumped.values[::-1])[::-1]
+        np.testing.assert_allclose(P.p_star.values, 1e3 / (1e6 * expected), rtol=1e-12)
+        assert P.attrs["quality"] == level
+        assert (level == "questionable") == any("rises with dr" in str(w.message)
+                                               for w in caught)

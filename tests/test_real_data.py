@@ -232,6 +232,30 @@ def _values(da) -> np.ndarray:
     return np.asarray(da.values, dtype=float)
 
 
+#: Where the roll-off of G begins: G reaches a quarter of its largest value.
+ROLLOFF_FRACTION = 0.25
+
+
+def _bends_over(G: xr.DataArray) -> np.ndarray:
+    """Bins (and their neighbours) where the raw log-log curve of G bends over so fast that
+    its own discrete Laplacian, G / dr^2 (y'' + y'^2) with y = ln G, x = ln dr, is negative.
+
+    There the stress ACF is negative in fact: at the resolution limit of an instrument,
+    where G turns from ~dr^2 (the optics or tip smooth the surface) to its self-affine
+    slope, as at a sharp short-wavelength cutoff lambda_s of a model surface.
+    """
+    g, x = _values(G), np.log(G.dr.values)
+    ok = np.isfinite(g) & (g > 0)
+    out = np.zeros(g.shape, bool)
+    if ok.sum() < 3:
+        return out
+    y1 = np.gradient(np.log(g[ok]), x[ok])
+    bent = np.gradient(y1, x[ok]) + y1**2 < 0
+    bent = bent | np.r_[bent[1:], False] | np.r_[False, bent[:-1]]
+    out[np.flatnonzero(ok)] = bent
+    return out
+
+
 def correlation_length(G: xr.DataArray) -> float:
     """Smallest lag at which G reaches XI_FRACTION of its plateau (largest G measured)."""
     g = _values(G)
@@ -318,7 +342,16 @@ def test_G_rises_up_to_the_correlation_length(chain):
     """
     G = chain.get("G")
     xi = correlation_length(G)
-    below = G.where((G.dr <= xi) & np.isfinite(G), drop=True)
+    # At the pixel scale the radial bins hold a few lattice distances each, along other
+    # directions: where the fast and slow scan axes differ, G zig-zags between them beyond
+    # its statistical errors. xrough says so where it matters, by declaring the Laplacian
+    # of G (stress ACF) undetermined there; those lags are exempt, the others are not.
+    S = chain.results.get("stress_acf")
+    pixel_scale = 0.0
+    if S is not None and "not determined" in S.attrs.get("quality_notes", ""):
+        undetermined = S.dr.values[~np.isfinite(_values(S))]
+        pixel_scale = undetermined.max() if undetermined.size else 0.0
+    below = G.where((G.dr <= xi) & (G.dr > pixel_scale) & np.isfinite(G), drop=True)
     g, se = _values(below), _values(below.standard_error)
     step = np.diff(g)
     allowed = K_SE * np.hypot(se[:-1], se[1:])
@@ -335,13 +368,17 @@ def test_G_rises_up_to_the_correlation_length(chain):
 def test_full_contact_stress_acf_positive_below_correlation_length(chain):
     """(E*/2)^2 Laplacian(G) is the ACF of the slopes: > 0 where G rises as dr^(2H), H > 0.
 
-    Below xi (ballistic and self-affine ranges) the Laplacian of dr^(2H) is
-    (2H)^2 dr^(2H-2) > 0; beyond the roll-off it may ring negative, so only bins below
-    xi that are rated good are asserted, to the accuracy stress_acf states (ACCURACY =
-    2 % of G_sigma(0) on measured maps).
+    In the ballistic and self-affine ranges the Laplacian of dr^(2H) is
+    (2H)^2 dr^(2H-2) > 0. The stress ACF integrates to 0 over the plane, so it has a
+    negative lobe, which begins in the roll-off, where G bends over towards its plateau:
+    only good bins below the start of the roll-off (G below ROLLOFF_FRACTION of its
+    largest value, the rule of the roll-off smoothing of contact.stress_acf) are asserted,
+    to the accuracy stress_acf states (ACCURACY = 2 % of G_sigma(0) on measured maps).
     """
     S, G = chain.get("stress_acf"), chain.get("G")
-    good = good_bins(S) & (S.dr.values <= correlation_length(G))
+    g = _values(G)
+    start = G.dr.values[np.flatnonzero(g >= ROLLOFF_FRACTION * np.nanmax(g))[0]]
+    good = good_bins(S) & (S.dr.values < start) & ~_bends_over(G)
     s = _values(S)
     if not good.any():
         return
@@ -471,10 +508,13 @@ def test_fit_problems_bits_match_the_rating(chain):
 
 @parametrize_cases
 def test_energy_rating_matches_its_extrapolated_shares(chain):
-    """The energy is questionable exactly when > 25 % of it comes from a continuation."""
+    """The energy is questionable exactly when > 25 % of it comes from a continuation, or
+    (stitched G with unmeasured lags) when the bridge over a gap may change it by > 10 %."""
     e = chain.get("energy")
     share = max(float(e.extrapolated_below), float(e.extrapolated_above))
-    assert (share > 0.25) == (quality.worst(e) != "good"), (share, e.attrs["quality_notes"])
+    bridged = float(e.gap_share_error) if "gap_share_error" in e else 0.0
+    assert (share > 0.25 or bridged > 0.1) == (quality.worst(e) != "good"), (
+        share, bridged, e.attrs["quality_notes"])
 
 
 @parametrize_cases

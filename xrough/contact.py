@@ -42,6 +42,9 @@ EXTRAPOLATED = 0.25
 #: Relative change of v_el between the bridge over a gap of G and its alternatives above
 #: which v_el is questionable.
 BRIDGED = 0.1
+#: Largest rise of gbar with dr (relative) that persson smooths away without a mark: it
+#: uses the running maximum of gbar from larger lags (gbar cannot rise, eq. 26).
+RAISED = 0.05
 #: What of each result depends on G inside a gap (:func:`xrough.acf.mark_gaps`).
 _GAP_LAPLACIAN = ("the Laplacian of G at the bins next to the gap is that of the "
                   "bridge (the smoothing spline runs across it), not of data")
@@ -619,7 +622,15 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
             gradient = rms_gradient(G, method=gradient_method,
                                     fit=fit if gradient_method in ("auto", "fit") else None)
         method = str(gradient.attrs.get("method", "given"))
-        gbar = _gradient_on(gradient, G, spec)
+        given = _gradient_on(gradient, G, spec)
+        gbar = _per_curve(k.nonincreasing, given)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            raised = (gbar / given).max("dr") - 1
+        derivative.append((raised > RAISED, "questionable",
+                           f"the rms gradient rises with dr by more than {RAISED:.0%} "
+                           "somewhere (noise in G, or a form the detrending left): gbar "
+                           "cannot (eq. 26), so p_star, a_r and sigma_c use its running "
+                           "maximum from larger lags, which is above the estimate there"))
         with np.errstate(divide="ignore", invalid="ignore"):
             p_star = p0_da / (E * gbar)
         a_r = k.contact_area(p_star, kappa)
@@ -661,7 +672,7 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
                                dask="parallelized", output_dtypes=[float])
     if "G_sigma" in wanted or "Gamma_sigma" in wanted:
         lap, why = _laplacian(G, G_si, error, spec, smooth_tail=smooth_full)
-        derivative = _derivative_checks(why, spec)
+        derivative += _derivative_checks(why, spec)
         full = (E / 2) ** 2 * lap
         g_sigma = p0_da**2 + full * weight
         negative = g_sigma < 0  # <s(r) s(r+dr)> of compressive stresses is never < 0

@@ -14,7 +14,7 @@ from scipy import optimize, special
 from .acf_curve import AcfCurve, require_acf
 from .shape_factors import rolloff_factor, self_affine_factor
 
-__all__ = ["KAPPA_PERSSON", "STEEP_DECAY", "contact_area", "improved_area",
+__all__ = ["KAPPA_PERSSON", "STEEP_DECAY", "contact_area", "improved_area", "nonincreasing",
            "quick_stress", "stress_asymptote", "energy_curve", "laplacian_curve",
            "UNDETERMINED", "OUTSIDE_WINDOW",
            "smooth_tail", "patch_radius_curve"]
@@ -33,6 +33,19 @@ STEEP_DECAY = 4.0
 def contact_area(p_star, kappa=KAPPA_PERSSON):
     """Eq. 29 with slope ``kappa``: ``a_r = erf(sqrt(pi) kappa p* / 2)``."""
     return special.erf(0.5 * np.sqrt(np.pi) * kappa * p_star)
+
+
+def nonincreasing(g) -> np.ndarray:
+    """Return the smallest curve >= ``g`` that does not grow along its last axis.
+
+    The running maximum from the last sample back: for ``gbar(dr)``, which eq. 26 makes
+    non-increasing in ``dr`` (it integrates ``q^2 C(q)`` up to ``2 pi / dr``), so that
+    ``a_r`` of eq. 29 does not fall with ``dr`` where noise lets an estimate of ``gbar``
+    rise.
+    """
+    g = np.asarray(g, dtype=float)
+    env = np.fmax.accumulate(g[..., ::-1], axis=-1)[..., ::-1]
+    return np.where(np.isnan(g), np.nan, env)
 
 
 def improved_area(p_star, a_r):
