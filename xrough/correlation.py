@@ -31,8 +31,11 @@ their own lag; a level is only used for lags of at least ``min_lag_cells`` block
 this regrouping moves pairs by at most one block per axis (see Notes of the function for
 the error).
 
-Tiles are dask tasks reading their tile plus halo from the (possibly NetCDF- or
-zarr-backed, chunked) dask array; the reduction is a tree of sums of small lag planes.
+The computation is one dask graph on the chunks of the (possibly NetCDF- or zarr-backed)
+map: each chunk is read once, by one task that scales its heights by their own power of
+two (so no tile waits for a maximum over the whole map) and from which its block
+statistics at every level are derived; a tile takes its chunks and thin halo strips cut
+from the neighbouring ones; the reduction is a tree of sums of small lag planes.
 """
 
 from __future__ import annotations
@@ -618,8 +621,14 @@ def _overlaps(lo: np.ndarray, hi: np.ndarray, region: tuple[int, int]) -> list:
     return out
 
 
+def _scaled_chunk(block, after=()):
+    """:func:`~xrough._kernels.tiles.scaled_heights` of a chunk; ``after`` are results of
+    tasks that must run before this chunk is read (unused: they only order the graph)."""
+    return tiles.scaled_heights(block)
+
+
 def _tiled_graph(arr: dsa.Array, *, tile: int, factor: int, ks_levels, finish,
-                 n_out: int) -> dsa.Array:
+                 n_out: int, window: int = 4) -> dsa.Array:
     """The tiled estimator as one explicit dask graph on the chunks of ``arr`` (2D).
 
     Per chunk of the input (each read once, by one task): its heights scaled by their own
@@ -641,12 +650,14 @@ def _tiled_graph(arr: dsa.Array, *, tile: int, factor: int, ks_levels, finish,
     name = "tiled-g-" + dask.base.tokenize(arr.name, tile, factor, ks_levels, finish)
     keys = arr.__dask_keys__()
     bounds = [_chunk_bounds(ch) for ch in arr.chunks]
+    width = len(arr.chunks[1])
     dsk: dict = {}
     piece = {}
+    step = {}  # the last chunk, in row-major order, that each task needs
     for i in range(len(arr.chunks[0])):
-        for j in range(len(arr.chunks[1])):
+        for j in range(width):
             piece[i, j] = (f"{name}-piece-0", i, j)
-            dsk[piece[i, j]] = (tiles.scaled_heights, keys[i][j])
+            step[piece[i, j]] = i * width + j
     roots = []
     for lev, ks in enumerate(ks_levels):
         cell = factor**lev
@@ -657,6 +668,7 @@ def _tiled_graph(arr: dsa.Array, *, tile: int, factor: int, ks_levels, finish,
                 piece[i, j] = (f"{name}-piece-{lev}", i, j)
                 dsk[piece[i, j]] = (functools.partial(tiles.coarsen_piece, factor=factor,
                                                       offset=offset), key)
+                step[piece[i, j]] = step[key]
         # cells [lo, hi) of each chunk's piece at this level, per axis
         spans = [(b[:-1] // cell, -(-b[1:] // cell)) for b in bounds]
         n_cells = [int(-(-b[-1] // cell)) for b in bounds]
@@ -677,6 +689,7 @@ def _tiled_graph(arr: dsa.Array, *, tile: int, factor: int, ks_levels, finish,
                             args.append((f"{name}-cut-{lev}", ty, tx, i, j))
                             dsk[args[-1]] = (functools.partial(tiles.cut_piece, rows=rows,
                                                                cols=cols), piece[i, j])
+                            step[args[-1]] = step[piece[i, j]]
                         origins.append((y - origin[0], x - origin[1]))
                 tile_key = (f"{name}-tile-{lev}", ty, tx)
                 dsk[tile_key] = (functools.partial(
@@ -684,22 +697,33 @@ def _tiled_graph(arr: dsa.Array, *, tile: int, factor: int, ks_levels, finish,
                     shape=tuple(e - s + 2 * k for s, e, k in zip(start, end, ks)),
                     inner=tuple(slice(k, k + e - s) for s, e, k in zip(start, end, ks)),
                     ks=ks), args)
+                step[tile_key] = max(step[a] for a in args)
                 parts.append(tile_key)
-        roots.append(_tree_sum(dsk, parts, f"{name}-sum-{lev}"))
+        roots.append(_tree_sum(dsk, parts, f"{name}-sum-{lev}", step))
+    # A chunk is read only once the tiles, cuts and coarser pieces that needed no chunk
+    # after the one `window` steps earlier are done: the computation sweeps the map row
+    # by row, holding about a row of chunks, whatever order the scheduler prefers.
+    after: dict = {}
+    for key, s in step.items():
+        if not key[0].startswith(f"{name}-piece-0"):
+            after.setdefault(s + window, []).append(key)
+    for (i, j), key in [(ij, (f"{name}-piece-0",) + ij) for ij in piece]:
+        dsk[key] = (_scaled_chunk, keys[i][j], after.get(i * width + j, []))
     dsk[(name, 0, 0)] = (finish, roots)
     graph = HighLevelGraph.from_collections(name, dsk, dependencies=[arr])
     return dsa.Array(graph, name, chunks=((3,), (n_out,)), dtype=float)
 
 
-def _tree_sum(dsk: dict, parts: list, name: str, fan_in: int = 8):
-    """Add to ``dsk`` a tree of :func:`~xrough._kernels.tiles.add_scaled` over ``parts``;
-    return the key of its root."""
+def _tree_sum(dsk: dict, parts: list, name: str, step: dict, fan_in: int = 8):
+    """Add to ``dsk`` a tree of :func:`~xrough._kernels.tiles.add_scaled` over ``parts``
+    (and each sum's last chunk to ``step``); return the key of its root."""
     depth = 0
     while len(parts) > 1:
         grouped = []
         for k in range(0, len(parts), fan_in):
             grouped.append((name, depth, k // fan_in))
             dsk[grouped[-1]] = (tiles.add_scaled, *parts[k:k + fan_in])
+            step[grouped[-1]] = max(step[p] for p in parts[k:k + fan_in])
         parts, depth = grouped, depth + 1
     return parts[0]
 
@@ -754,7 +778,8 @@ def height_difference_acf_tiled(
     topography : xarray.DataArray with dims ("y", "x")
         Heights of an open (non-periodic) map, numpy- or dask-backed (e.g. opened from
         NetCDF or zarr with ``chunks=``); NaN marks missing points. Any chunking works;
-        each task reads one tile plus its halo.
+        each chunk is read once. Chunks of about ``tile`` points per side keep the graph
+        small (numpy input is split into such chunks).
     tile : int
         Tile size in cells (points at the finest level, blocks at coarser ones).
     halo : int
@@ -800,8 +825,12 @@ def height_difference_acf_tiled(
     bin of lags ``>= min_lag_cells`` blocks this shifts G by about
     ``G''(r) b^2 / 6`` (``b`` the block length), a relative error of order
     ``(b / r)^2``: measured below 1e-3 for self-affine and Gaussian-correlated maps with
-    the defaults (``tests/test_scale.py``). Peak memory is a few tile FFTs per thread
-    plus the dask chunks in flight, independent of the map size.
+    the defaults (``tests/test_scale.py``).
+
+    Heights are scaled per chunk by a power of two (exactly undone when the sums meet), so
+    the tiles need no pass over the whole map first. Peak memory is a few tile FFTs per
+    thread plus the chunks and halo strips in flight; about 12 tasks per chunk (see
+    ``docs/scale.md`` for measured time and memory against the map size).
 
     Examples
     --------
