@@ -19,6 +19,7 @@ Usage::
     python benchmarks/bench_out_of_core.py                        # 16384^2 and 2048^2
     python benchmarks/bench_out_of_core.py --sizes 4096 8192 16384 --small 0
     python benchmarks/bench_out_of_core.py --sizes 32768 --small 0   # 8 GiB of disk
+    python benchmarks/bench_out_of_core.py --sizes 65536 --graph-only   # tasks only
 """
 
 from __future__ import annotations
@@ -115,6 +116,24 @@ TILED = COMMON + textwrap.dedent(
     """
 )
 
+GRAPH = textwrap.dedent(
+    r"""
+    import json, sys, time
+    import dask.array as dsa, numpy as np, xarray as xr, xrough
+    from xrough.correlation import height_difference_acf_tiled
+    n, chunk, tile, halo = map(int, sys.argv[1:5])
+    small = xrough.topography(np.zeros((2, 2)), spacing=1.0, unit="nm")
+    axis = np.arange(n, dtype=float)
+    topo = xr.DataArray(dsa.zeros((n, n), chunks=chunk), dims=("y", "x"),
+                        coords={d: (d, axis, small[d].attrs) for d in "yx"},
+                        attrs=small.attrs)
+    t0 = time.perf_counter()
+    G = height_difference_acf_tiled(topo, tile=tile, halo=halo)
+    print(json.dumps({"t": time.perf_counter() - t0, "tasks": len(G.data.__dask_graph__()),
+                      "chunks": topo.data.npartitions}))
+    """
+)
+
 SMALL = COMMON + textwrap.dedent(
     r"""
     import xrough
@@ -158,8 +177,16 @@ def main(argv=None) -> None:
     parser.add_argument("--halo", type=int, default=256)
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--tmp", default=None, help="folder for the NetCDF files")
+    parser.add_argument("--graph-only", action="store_true",
+                        help="only build the graphs (no file, no computation): tasks")
     args = parser.parse_args(argv)
     gib = 2.0**30
+    if args.graph_only:
+        for n in args.sizes:
+            r = run(GRAPH, n, args.chunk, args.tile, args.halo)
+            print(f"{n}^2: {r['chunks']} chunks, {r['tasks']} tasks "
+                  f"({r['tasks'] / r['chunks']:.1f} per chunk), built in {r['t']:.1f} s")
+        return
     rows = []
     for n in args.sizes:
         with tempfile.TemporaryDirectory(dir=args.tmp) as tmp:

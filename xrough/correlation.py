@@ -48,17 +48,16 @@ from typing import Any
 
 import dask
 import dask.array as dsa
-from dask.highlevelgraph import HighLevelGraph
 import numpy as np
 import xarray as xr
 from dask.diagnostics import ProgressBar
+from dask.highlevelgraph import HighLevelGraph
 from tqdm.auto import tqdm
 
 from . import units as u
-from ._kernels import binning
+from ._kernels import binning, tiles
 from ._kernels.pairs import folded_geometric_counts, folded_pair_sums
 from ._kernels.random_pairs import random_pair_sums
-from ._kernels import tiles
 from ._kernels.uncertainty import g_variance
 from .acf import result_attrs
 from .topography import Grid, grid_of, require_whole_maps
@@ -307,8 +306,10 @@ def _scale_back(values, scale, *, power: int, height_unit: str):
 
 
 def _times_power_of_two(values, exponent: int, *, power: int, height_unit: str):
-    """``values * 2^(exponent power)`` (heights scaled by ``2^exponent``, G a power of
-    them), or a clear error where that leaves the float64 range."""
+    """Return ``values * 2^(exponent power)``, or a clear error outside float64's range.
+
+    Heights were scaled by ``2^exponent``; ``values`` is a ``power`` of them.
+    """
     values = np.asarray(values, dtype=float)
     exponent = exponent * power
     with np.errstate(over="ignore", under="ignore"):
@@ -608,8 +609,11 @@ def _chunk_bounds(chunks: tuple[int, ...]) -> np.ndarray:
 
 
 def _overlaps(lo: np.ndarray, hi: np.ndarray, region: tuple[int, int]) -> list:
-    """Per piece ``[lo, hi)`` overlapping ``region``: (index, cut within the piece, start
-    of the cut, whether the whole piece lies in the region)."""
+    """List the pieces ``[lo, hi)`` (per axis) that overlap ``region``.
+
+    Each as (index, cut within the piece, start of the cut, whether the whole piece lies
+    in the region).
+    """
     first = int(np.searchsorted(hi, region[0], side="right"))
     last = int(np.searchsorted(lo, region[1], side="left"))
     out = []
@@ -622,14 +626,17 @@ def _overlaps(lo: np.ndarray, hi: np.ndarray, region: tuple[int, int]) -> list:
 
 
 def _scaled_chunk(block, after=()):
-    """:func:`~xrough._kernels.tiles.scaled_heights` of a chunk; ``after`` are results of
-    tasks that must run before this chunk is read (unused: they only order the graph)."""
+    """Return :func:`~xrough._kernels.tiles.scaled_heights` of a chunk.
+
+    ``after`` are results of tasks that must run before this chunk is read (unused: they
+    only order the graph).
+    """
     return tiles.scaled_heights(block)
 
 
 def _tiled_graph(arr: dsa.Array, *, tile: int, factor: int, ks_levels, finish,
                  n_out: int, window: int = 4) -> dsa.Array:
-    """The tiled estimator as one explicit dask graph on the chunks of ``arr`` (2D).
+    """Build the tiled estimator as one explicit dask graph on the chunks of ``arr`` (2D).
 
     Per chunk of the input (each read once, by one task): its heights scaled by their own
     power of two (a piece ``(values, e)``, see :mod:`xrough._kernels.tiles`), then its
@@ -640,6 +647,9 @@ def _tiled_graph(arr: dsa.Array, *, tile: int, factor: int, ks_levels, finish,
     it (so that the rest of the chunk can be freed), gathered on their largest exponent
     and summed, one task per tile; a tree of sums per level; one task ``finish`` taking
     the level sums, whose ``(3, n_out)`` result is the one chunk of the returned array.
+    Each chunk's first task also waits for the tasks that needed no chunk after the one
+    ``window`` steps before it (row-major), so that the work sweeps the map and memory
+    holds about two chunk rows.
 
     Tasks: ``C`` per level (``C`` chunks), one per tile, at most one cut per (tile,
     overlapping chunk) and about ``tiles / 7`` additions per level, plus one.
@@ -715,8 +725,10 @@ def _tiled_graph(arr: dsa.Array, *, tile: int, factor: int, ks_levels, finish,
 
 
 def _tree_sum(dsk: dict, parts: list, name: str, step: dict, fan_in: int = 8):
-    """Add to ``dsk`` a tree of :func:`~xrough._kernels.tiles.add_scaled` over ``parts``
-    (and each sum's last chunk to ``step``); return the key of its root."""
+    """Add a tree of :func:`~xrough._kernels.tiles.add_scaled` over ``parts`` to ``dsk``.
+
+    Each sum's last chunk goes to ``step``; returns the key of the root.
+    """
     depth = 0
     while len(parts) > 1:
         grouped = []
@@ -829,7 +841,7 @@ def height_difference_acf_tiled(
 
     Heights are scaled per chunk by a power of two (exactly undone when the sums meet), so
     the tiles need no pass over the whole map first. Peak memory is a few tile FFTs per
-    thread plus the chunks and halo strips in flight; about 12 tasks per chunk (see
+    thread plus about two chunk rows of pieces and halo strips; 11 to 15 tasks per chunk (see
     ``docs/scale.md`` for measured time and memory against the map size).
 
     Examples

@@ -56,7 +56,7 @@ def _check_finite(h: np.ndarray) -> None:
 
 
 def scaled_heights(h: np.ndarray) -> tuple[np.ndarray, int | None]:
-    """A chunk of heights as a piece ``(h / 2**e, e)``, ``2**e`` nearest its largest ``|h|``.
+    """Return a chunk of heights as a piece ``(h / 2**e, e)``, ``2**e`` nearest max ``|h|``.
 
     ``e`` is None when the chunk has no valid (non-NaN) point.
 
@@ -137,7 +137,7 @@ def coarsen_piece(piece, factor: int, offset: tuple[int, int]):
 
 
 def cut_piece(piece, rows: tuple[int, int], cols: tuple[int, int]):
-    """A copy of part of a piece (so that the rest of it can be freed)."""
+    """Return a copy of part of a piece (so that the rest of it can be freed)."""
     values, e = piece
     return values[..., rows[0]:rows[1], cols[0]:cols[1]].copy(), e
 
