@@ -2,19 +2,24 @@
 
 Steps, each in a fresh subprocess so that peak resident memory (``ru_maxrss``) is its own:
 
-1. write an ``n x n`` float64 map (default 16384^2, 2 GiB) to a chunked NetCDF file in a
-   temporary folder, tile by tile (a sum of plane waves plus white noise, 5 % missing
-   points), so that generation stays within a tile's memory;
+1. for each size ``n`` asked for, write an ``n x n`` float64 map to a chunked NetCDF file
+   in a temporary folder, chunk by chunk (a sum of plane waves plus white noise, 5 %
+   missing points), so that generation stays within a chunk's memory;
 2. open it lazily (``xr.open_dataarray(..., chunks=...)``) and compute G with
-   :func:`xrough.correlation.height_difference_acf_tiled`; print time and peak memory
-   (target: < 3 GiB for 16384^2);
+   :func:`xrough.correlation.height_difference_acf_tiled`; print time, peak memory, the
+   number of tasks in the graph and how often the NetCDF file was read per chunk (each
+   chunk should be read once); then delete the file;
 3. on a small map (default 2048^2) compare time and error against the exact in-memory
    FFT estimator.
 
+At the end a table of all sizes, with the per-size growth of time and memory.
+
 Usage::
 
-    python benchmarks/bench_out_of_core.py                  # 16384^2 and 2048^2
-    python benchmarks/bench_out_of_core.py --size 8192 --small 1024
+    python benchmarks/bench_out_of_core.py                        # 16384^2 and 2048^2
+    python benchmarks/bench_out_of_core.py --sizes 4096 8192 16384 --small 0
+    python benchmarks/bench_out_of_core.py --sizes 32768 --small 0   # 8 GiB of disk
+    python benchmarks/bench_out_of_core.py --sizes 65536 --graph-only   # tasks only
 """
 
 from __future__ import annotations
@@ -79,19 +84,53 @@ WRITE = COMMON + textwrap.dedent(
 
 TILED = COMMON + textwrap.dedent(
     r"""
+    import collections, threading
     import dask, xarray as xr, xrough
+    from xarray.backends.netCDF4_ import NetCDF4ArrayWrapper
     from xrough.correlation import height_difference_acf_tiled
     path, chunk, tile, halo, threads = (sys.argv[1], int(sys.argv[2]), int(sys.argv[3]),
                                         int(sys.argv[4]), int(sys.argv[5]))
+    reads, lock, getitem = collections.Counter(), threading.Lock(), NetCDF4ArrayWrapper.__getitem__
+
+    def counted(self, key):  # every read of the height variable from the file
+        out = getitem(self, key)
+        if out.ndim == 2 and out.size:
+            with lock:
+                reads[repr(key)] += 1
+        return out
+
+    NetCDF4ArrayWrapper.__getitem__ = counted
     topo = xr.open_dataarray(path, chunks={"y": chunk, "x": chunk})
     base = rss()
     t0 = time.perf_counter()
+    G = height_difference_acf_tiled(topo, tile=tile, halo=halo)
+    tasks = len(G.data.__dask_graph__())
     with dask.config.set(scheduler="threads", num_workers=threads):
-        G = height_difference_acf_tiled(topo, tile=tile, halo=halo).compute()
+        G = G.compute()
     t = time.perf_counter() - t0
     print(json.dumps({"t": t, "peak": rss(), "base": base, "nbins": G.sizes["dr"],
-                      "exact_bins": int((G.block == 1).sum()),
+                      "exact_bins": int((G.block == 1).sum()), "tasks": tasks,
+                      "chunks": topo.data.npartitions, "read_chunks": len(reads),
+                      "reads": sum(reads.values()), "max_reads": max(reads.values()),
                       "blocks": sorted(set(int(b) for b in G.block.values))}))
+    """
+)
+
+GRAPH = textwrap.dedent(
+    r"""
+    import json, sys, time
+    import dask.array as dsa, numpy as np, xarray as xr, xrough
+    from xrough.correlation import height_difference_acf_tiled
+    n, chunk, tile, halo = map(int, sys.argv[1:5])
+    small = xrough.topography(np.zeros((2, 2)), spacing=1.0, unit="nm")
+    axis = np.arange(n, dtype=float)
+    topo = xr.DataArray(dsa.zeros((n, n), chunks=chunk), dims=("y", "x"),
+                        coords={d: (d, axis, small[d].attrs) for d in "yx"},
+                        attrs=small.attrs)
+    t0 = time.perf_counter()
+    G = height_difference_acf_tiled(topo, tile=tile, halo=halo)
+    print(json.dumps({"t": time.perf_counter() - t0, "tasks": len(G.data.__dask_graph__()),
+                      "chunks": topo.data.npartitions}))
     """
 )
 
@@ -129,28 +168,53 @@ def run(script: str, *args) -> dict:
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--size", type=int, default=16384)
-    parser.add_argument("--small", type=int, default=2048)
+    parser.add_argument("--sizes", type=int, nargs="+", default=[16384],
+                        help="map sizes (points per side) of the out-of-core runs")
+    parser.add_argument("--small", type=int, default=2048,
+                        help="size of the in-memory comparison (0: skip it)")
     parser.add_argument("--chunk", type=int, default=1024, help="NetCDF and dask chunks")
     parser.add_argument("--tile", type=int, default=1024)
     parser.add_argument("--halo", type=int, default=256)
     parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--tmp", default=None, help="folder for the NetCDF files")
+    parser.add_argument("--graph-only", action="store_true",
+                        help="only build the graphs (no file, no computation): tasks")
     args = parser.parse_args(argv)
     gib = 2.0**30
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "map.nc"
-        w = run(WRITE, path, args.size, args.chunk)
-        print(f"write {args.size}^2 ({args.size**2 * 8 / gib:.2f} GiB): {w['t']:.1f} s, "
-              f"peak {w['peak'] / gib:.2f} GiB", flush=True)
-        r = run(TILED, path, args.chunk, args.tile, args.halo, args.threads)
-        print(f"tiled G {args.size}^2: {r['t']:.1f} s, peak {r['peak'] / gib:.2f} GiB "
-              f"(after imports {r['base'] / gib:.2f} GiB), {r['nbins']} bins, "
-              f"{r['exact_bins']} exact, block sizes {r['blocks']}", flush=True)
-    s = run(SMALL, args.small, args.tile, args.halo)
-    print(f"{args.small}^2 in memory: fft {s['t_fft']:.2f} s, tiled {s['t_tiled']:.2f} s, "
-          f"random (1e6 pairs) {s['t_random']:.2f} s; max relative error of tiled: "
-          f"{s['err_exact']:.1e} (exact bins), {s['err_coarse']:.1e} (block levels); "
-          f"random: {s['err_random']:.1e}")
+    if args.graph_only:
+        for n in args.sizes:
+            r = run(GRAPH, n, args.chunk, args.tile, args.halo)
+            print(f"{n}^2: {r['chunks']} chunks, {r['tasks']} tasks "
+                  f"({r['tasks'] / r['chunks']:.1f} per chunk), built in {r['t']:.1f} s")
+        return
+    rows = []
+    for n in args.sizes:
+        with tempfile.TemporaryDirectory(dir=args.tmp) as tmp:
+            path = Path(tmp) / "map.nc"
+            w = run(WRITE, path, n, args.chunk)
+            print(f"write {n}^2 ({n**2 * 8 / gib:.2f} GiB): {w['t']:.1f} s, "
+                  f"peak {w['peak'] / gib:.2f} GiB", flush=True)
+            r = run(TILED, path, args.chunk, args.tile, args.halo, args.threads)
+        print(f"tiled G {n}^2: {r['t']:.1f} s, peak {r['peak'] / gib:.2f} GiB "
+              f"(after imports {r['base'] / gib:.2f} GiB), {r['tasks']} tasks, "
+              f"{r['reads']} reads of {r['read_chunks']}/{r['chunks']} chunks (at most "
+              f"{r['max_reads']} per chunk), {r['nbins']} bins, {r['exact_bins']} exact, "
+              f"block sizes {r['blocks']}", flush=True)
+        rows.append((n, r))
+    print("\n| map | file GiB | chunks | tasks | reads per chunk | time s | peak GiB |")
+    print("|---|---|---|---|---|---|---|")
+    for n, r in rows:
+        print(f"| {n}² | {n**2 * 8 / gib:.2f} | {r['chunks']} | {r['tasks']} | "
+              f"{r['max_reads']} | {r['t']:.1f} | {r['peak'] / gib:.2f} |")
+    for (n0, r0), (n1, r1) in zip(rows, rows[1:]):
+        print(f"{n0}² -> {n1}²: points x{(n1 / n0) ** 2:.0f}, time x{r1['t'] / r0['t']:.2f}, "
+              f"peak x{r1['peak'] / r0['peak']:.2f}")
+    if args.small:
+        s = run(SMALL, args.small, args.tile, args.halo)
+        print(f"{args.small}^2 in memory: fft {s['t_fft']:.2f} s, tiled {s['t_tiled']:.2f} "
+              f"s, random (1e6 pairs) {s['t_random']:.2f} s; max relative error of tiled: "
+              f"{s['err_exact']:.1e} (exact bins), {s['err_coarse']:.1e} (block levels); "
+              f"random: {s['err_random']:.1e}")
 
 
 if __name__ == "__main__":

@@ -156,3 +156,100 @@ def test_auto_estimator_takes_the_tiled_path_for_chunked_maps():
     exact = topo.rough.acf(dr_max="64 nm")
     np.testing.assert_allclose(G.compute().values, exact.values, rtol=1e-3)
     assert topo.rough.acf().attrs["estimator"] == "fft (all pairs)"
+
+
+class _CountingMap:
+    """A 2D array whose every read of a (non-empty) block is counted, by block."""
+
+    def __init__(self, h):
+        import threading
+
+        self.h, self.shape, self.dtype, self.ndim = h, h.shape, h.dtype, h.ndim
+        self.reads: dict = {}
+        self._lock = threading.Lock()
+
+    def __getitem__(self, key):
+        out = self.h[key]
+        if out.size:
+            with self._lock:
+                block = tuple((k.start, k.stop) for k in key)
+                self.reads[block] = self.reads.get(block, 0) + 1
+        return out
+
+
+def _counted_topography(h, chunk):
+    import dask.array as dsa
+
+    src = _CountingMap(h)
+    ref = xrough.topography(h, spacing=1.0, unit="nm", periodic=False)
+    data = dsa.from_array(src, chunks=chunk, meta=np.empty((0, 0)))
+    return ref.copy(data=data), ref, src
+
+
+def _adds(parts, fan_in=8):
+    """Additions in a tree of sums with fan-in 8 over ``parts`` partial sums."""
+    n = 0
+    while parts > 1:
+        parts = -(-parts // fan_in)
+        n += parts
+    return n
+
+
+def _tiled_tasks(m):
+    """Tasks of the tiled graph (excluding the reads) for the aligned two-level case.
+
+    Map of m x m chunks of c = 64 points, tile = c, halo K = 32 < c, factor f = 4, t = m / 4
+    level-1 tiles per axis. Level 0: a scaled-heights piece per chunk (m^2); per tile the
+    own chunk whole and the K-strips of the neighbours cut ((3m - 2) chunk-tile pairs per
+    axis, m of them the tile's own: (3m - 2)^2 - m^2 cuts); m^2 tile sums; a fan-in-8 tree.
+    Level 1: a coarsened piece per chunk (m^2, 16 x 16 blocks); t^2 tiles of 64 blocks
+    whose halo of 32 blocks holds whole pieces (no cuts); a tree. One final task.
+    """
+    t = m // 4
+    level0 = m**2 + ((3 * m - 2) ** 2 - m**2) + m**2 + _adds(m**2)
+    level1 = m**2 + t**2 + _adds(t**2)
+    return level0 + level1 + 1
+
+
+@pytest.mark.parametrize("m", [4, 8])
+def test_tiled_graph_reads_each_chunk_once_and_grows_linearly(m):
+    """Each chunk of the input is read exactly once (counted by the array itself, whatever
+    dask's graph optimisations do), and the graph has the tasks of ``_tiled_tasks``:
+    about 12 per chunk, linear in the number of chunks and tiles (quadratic in m)."""
+    import dask
+
+    rng = np.random.default_rng(m)
+    h = rng.normal(size=(64 * m, 64 * m))
+    h[rng.random(h.shape) < 0.1] = np.nan
+    topo, ref, src = _counted_topography(h, 64)
+    kw = dict(tile=64, halo=32, factor=4, min_lag_cells=4, dr_max=120)
+    G = height_difference_acf_tiled(topo, **kw)
+    layers = G.data.__dask_graph__().layers
+    (layer,) = [v for k, v in layers.items() if k.startswith("tiled-g-")]
+    assert len(layer) == _tiled_tasks(m)
+    assert sorted(set(G.block.values)) == [1, 4]  # two levels, as _tiled_tasks assumes
+    assert src.reads == {}  # building the graph read nothing
+    with dask.config.set(scheduler="threads", num_workers=2):
+        got = G.compute()
+    assert len(src.reads) == m * m
+    assert set(src.reads.values()) == {1}
+    # the same numbers as from the map in memory (one chunk per tile), to round-off
+    xr.testing.assert_allclose(got, height_difference_acf_tiled(ref, **kw), rtol=1e-12,
+                               atol=0)
+
+
+def test_tiled_chunk_scales_differ_by_far():
+    """Chunks whose heights differ by 2^40 get their own scales; the sums meet exactly on
+    the largest (relative 1e-10 against the in-memory FFT estimator within the halo, as
+    for one scale), and an empty (all-NaN) chunk does not set the scale."""
+    rng = np.random.default_rng(3)
+    h = rng.normal(size=(256, 256)) * 1e-150
+    h[:128, :128] *= 2.0**40
+    h[128:, 128:] = np.nan
+    topo = xrough.topography(h, spacing=1.0, unit="nm", periodic=False)
+    ref = topo.rough.acf(dr_max=40)
+    G = height_difference_acf_tiled(topo.chunk({"y": 128, "x": 128}), tile=128, halo=48,
+                                    dr_max=40).compute()
+    assert (G.block == 1).all()
+    np.testing.assert_allclose(G.values, ref.values, rtol=1e-10, atol=0)
+    np.testing.assert_array_equal(G.pair_count.values, ref.pair_count.values)

@@ -31,8 +31,11 @@ their own lag; a level is only used for lags of at least ``min_lag_cells`` block
 this regrouping moves pairs by at most one block per axis (see Notes of the function for
 the error).
 
-Tiles are dask tasks reading their tile plus halo from the (possibly NetCDF- or
-zarr-backed, chunked) dask array; the reduction is a tree of sums of small lag planes.
+The computation is one dask graph on the chunks of the (possibly NetCDF- or zarr-backed)
+map: each chunk is read once, by one task that scales its heights by their own power of
+two (so no tile waits for a maximum over the whole map) and from which its block
+statistics at every level are derived; a tile takes its chunks and thin halo strips cut
+from the neighbouring ones; the reduction is a tree of sums of small lag planes.
 """
 
 from __future__ import annotations
@@ -48,13 +51,13 @@ import dask.array as dsa
 import numpy as np
 import xarray as xr
 from dask.diagnostics import ProgressBar
+from dask.highlevelgraph import HighLevelGraph
 from tqdm.auto import tqdm
 
 from . import units as u
-from ._kernels import binning
+from ._kernels import binning, tiles
 from ._kernels.pairs import folded_geometric_counts, folded_pair_sums
 from ._kernels.random_pairs import random_pair_sums
-from ._kernels.tiles import coarsen_stats, point_stats, tile_pair_sums
 from ._kernels.uncertainty import g_variance
 from .acf import result_attrs
 from .topography import Grid, grid_of, require_whole_maps
@@ -293,16 +296,22 @@ def _height_scale(da: xr.DataArray) -> xr.DataArray:
 
 
 def _power_of_two(peak):
-    peak = np.asarray(peak, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        exponent = np.where(np.isfinite(peak) & (peak > 0), np.round(np.log2(peak)), 0.0)
-    return np.ldexp(1.0, exponent.astype(int))
+    return np.ldexp(1.0, tiles.power_of_two_exponent(peak))
 
 
 def _scale_back(values, scale, *, power: int, height_unit: str):
     """``values * scale^power``, or a clear error where that leaves the float64 range."""
+    return _times_power_of_two(values, int(np.round(np.log2(float(np.max(scale))))),
+                               power=power, height_unit=height_unit)
+
+
+def _times_power_of_two(values, exponent: int, *, power: int, height_unit: str):
+    """Return ``values * 2^(exponent power)``, or a clear error outside float64's range.
+
+    Heights were scaled by ``2^exponent``; ``values`` is a ``power`` of them.
+    """
     values = np.asarray(values, dtype=float)
-    exponent = int(np.round(np.log2(float(np.max(scale))))) * power
+    exponent = exponent * power
     with np.errstate(over="ignore", under="ignore"):
         out = np.ldexp(values, exponent)
     lost = np.isfinite(values) & (values != 0) & ~(np.isfinite(out) & (out != 0))
@@ -595,64 +604,160 @@ def _bin_idx(ks, spacing, edges):
     return idx
 
 
-def _tile_task(block, pad, inner, ks):
-    """Zero-pad the statistics read for one tile (map edges) and sum its pairs."""
-    ext = np.pad(block, ((0, 0),) + pad)
-    s, n = tile_pair_sums(ext, inner, ks)
-    return np.stack([s, n])
+def _chunk_bounds(chunks: tuple[int, ...]) -> np.ndarray:
+    return np.concatenate([[0], np.cumsum(chunks)]).astype(int)
 
 
-def _add(*parts):
-    return np.sum(parts, axis=0)
+def _overlaps(lo: np.ndarray, hi: np.ndarray, region: tuple[int, int]) -> list:
+    """List the pieces ``[lo, hi)`` (per axis) that overlap ``region``.
+
+    Each as (index, cut within the piece, start of the cut, whether the whole piece lies
+    in the region).
+    """
+    first = int(np.searchsorted(hi, region[0], side="right"))
+    last = int(np.searchsorted(lo, region[1], side="left"))
+    out = []
+    for i in range(first, last):
+        a, b = max(int(lo[i]), region[0]), min(int(hi[i]), region[1])
+        if a < b:
+            out.append((i, (a - int(lo[i]), b - int(lo[i])), a,
+                        a == lo[i] and b == hi[i]))
+    return out
 
 
-def _tree_sum(parts, fan_in: int = 8):
-    parts = list(parts)
+def _scaled_chunk(block, after=()):
+    """Return :func:`~xrough._kernels.tiles.scaled_heights` of a chunk.
+
+    ``after`` are results of tasks that must run before this chunk is read (unused: they
+    only order the graph).
+    """
+    return tiles.scaled_heights(block)
+
+
+def _tiled_graph(arr: dsa.Array, *, tile: int, factor: int, ks_levels, finish,
+                 n_out: int, window: int = 4) -> dsa.Array:
+    """Build the tiled estimator as one explicit dask graph on the chunks of ``arr`` (2D).
+
+    Per chunk of the input (each read once, by one task): its heights scaled by their own
+    power of two (a piece ``(values, e)``, see :mod:`xrough._kernels.tiles`), then its
+    block statistics at each coarser level, coarsened within the chunk (blocks aligned to
+    the whole map; a block that straddles chunks is split into partial blocks, merged
+    exactly where a tile gathers them). Per level and tile: the pieces of the chunks that
+    overlap the tile plus its halo, cut to that region where a piece is not wholly inside
+    it (so that the rest of the chunk can be freed), gathered on their largest exponent
+    and summed, one task per tile; a tree of sums per level; one task ``finish`` taking
+    the level sums, whose ``(3, n_out)`` result is the one chunk of the returned array.
+    Each chunk's first task also waits for the tasks that needed no chunk after the one
+    ``window`` steps before it (row-major), so that the work sweeps the map and memory
+    holds about two chunk rows.
+
+    Tasks: ``C`` per level (``C`` chunks), one per tile, at most one cut per (tile,
+    overlapping chunk) and about ``tiles / 7`` additions per level, plus one.
+    """
+    if any(np.isnan(c) for ch in arr.chunks for c in ch):
+        raise ValueError("the tiled estimator needs known chunk sizes; call "
+                         "compute_chunk_sizes() on the dask array first")
+    name = "tiled-g-" + dask.base.tokenize(arr.name, tile, factor, ks_levels, finish)
+    keys = arr.__dask_keys__()
+    bounds = [_chunk_bounds(ch) for ch in arr.chunks]
+    width = len(arr.chunks[1])
+    dsk: dict = {}
+    piece = {}
+    step = {}  # the last chunk, in row-major order, that each task needs
+    for i in range(len(arr.chunks[0])):
+        for j in range(width):
+            piece[i, j] = (f"{name}-piece-0", i, j)
+            step[piece[i, j]] = i * width + j
+    roots = []
+    for lev, ks in enumerate(ks_levels):
+        cell = factor**lev
+        if lev > 0:
+            finer = cell // factor
+            for (i, j), key in list(piece.items()):
+                offset = (int(bounds[0][i]) // finer, int(bounds[1][j]) // finer)
+                piece[i, j] = (f"{name}-piece-{lev}", i, j)
+                dsk[piece[i, j]] = (functools.partial(tiles.coarsen_piece, factor=factor,
+                                                      offset=offset), key)
+                step[piece[i, j]] = step[key]
+        # cells [lo, hi) of each chunk's piece at this level, per axis
+        spans = [(b[:-1] // cell, -(-b[1:] // cell)) for b in bounds]
+        n_cells = [int(-(-b[-1] // cell)) for b in bounds]
+        parts = []
+        for ty, r0 in enumerate(range(0, n_cells[0], tile)):
+            for tx, c0 in enumerate(range(0, n_cells[1], tile)):
+                start, end = (r0, c0), (min(n_cells[0], r0 + tile), min(n_cells[1], c0 + tile))
+                origin = tuple(s - k for s, k in zip(start, ks))  # of the extended tile
+                hits = [_overlaps(*spans[ax], (max(0, origin[ax]),
+                                               min(n_cells[ax], end[ax] + ks[ax])))
+                        for ax in range(2)]
+                args, origins = [], []
+                for i, rows, y, whole_y in hits[0]:
+                    for j, cols, x, whole_x in hits[1]:
+                        if whole_y and whole_x:
+                            args.append(piece[i, j])
+                        else:
+                            args.append((f"{name}-cut-{lev}", ty, tx, i, j))
+                            dsk[args[-1]] = (functools.partial(tiles.cut_piece, rows=rows,
+                                                               cols=cols), piece[i, j])
+                            step[args[-1]] = step[piece[i, j]]
+                        origins.append((y - origin[0], x - origin[1]))
+                tile_key = (f"{name}-tile-{lev}", ty, tx)
+                dsk[tile_key] = (functools.partial(
+                    tiles.tile_piece_sums, origins=origins,
+                    shape=tuple(e - s + 2 * k for s, e, k in zip(start, end, ks)),
+                    inner=tuple(slice(k, k + e - s) for s, e, k in zip(start, end, ks)),
+                    ks=ks), args)
+                step[tile_key] = max(step[a] for a in args)
+                parts.append(tile_key)
+        roots.append(_tree_sum(dsk, parts, f"{name}-sum-{lev}", step))
+    # A chunk is read only once the tiles, cuts and coarser pieces that needed no chunk
+    # after the one `window` steps earlier are done: the computation sweeps the map row
+    # by row, holding about a row of chunks, whatever order the scheduler prefers.
+    after: dict = {}
+    for key, s in step.items():
+        if not key[0].startswith(f"{name}-piece-0"):
+            after.setdefault(s + window, []).append(key)
+    for (i, j), key in [(ij, (f"{name}-piece-0",) + ij) for ij in piece]:
+        dsk[key] = (_scaled_chunk, keys[i][j], after.get(i * width + j, []))
+    dsk[(name, 0, 0)] = (finish, roots)
+    graph = HighLevelGraph.from_collections(name, dsk, dependencies=[arr])
+    return dsa.Array(graph, name, chunks=((3,), (n_out,)), dtype=float)
+
+
+def _tree_sum(dsk: dict, parts: list, name: str, step: dict, fan_in: int = 8):
+    """Add a tree of :func:`~xrough._kernels.tiles.add_scaled` over ``parts`` to ``dsk``.
+
+    Each sum's last chunk goes to ``step``; returns the key of the root.
+    """
+    depth = 0
     while len(parts) > 1:
-        parts = [dask.delayed(_add)(*parts[i:i + fan_in]) for i in range(0, len(parts), fan_in)]
+        grouped = []
+        for k in range(0, len(parts), fan_in):
+            grouped.append((name, depth, k // fan_in))
+            dsk[grouped[-1]] = (tiles.add_scaled, *parts[k:k + fan_in])
+            step[grouped[-1]] = max(step[p] for p in parts[k:k + fan_in])
+        parts, depth = grouped, depth + 1
     return parts[0]
 
 
-def _level_sums(stats: dsa.Array, tile: int, ks: tuple[int, int]):
-    """Delayed folded (S, N) of one level: one task per tile, a tree of sums."""
-    _, ny, nx = stats.shape
-    ky, kx = ks
-    parts = []
-    for r0 in range(0, ny, tile):
-        r1 = min(ny, r0 + tile)
-        for c0 in range(0, nx, tile):
-            c1 = min(nx, c0 + tile)
-            y0, y1, x0, x1 = max(0, r0 - ky), min(ny, r1 + ky), max(0, c0 - kx), min(nx, c1 + kx)
-            pad = ((ky - (r0 - y0), ky - (y1 - r1)), (kx - (c0 - x0), kx - (x1 - c1)))
-            inner = (slice(ky, ky + r1 - r0), slice(kx, kx + c1 - c0))
-            block = stats[:, y0:y1, x0:x1]
-            parts.append(dask.delayed(_tile_task)(block, pad, inner, ks))
-    return _tree_sum(parts)
+def _assemble(level_sums, *, idxs, assign, keep, nb, dr, pixel_area, height_unit):
+    """Bin each level's folded sums and keep, per bin, the level assigned to it.
 
-
-def _coarsen(stats: dsa.Array, factor: int) -> dsa.Array:
-    chunks = []
-    for ch in stats.chunks[1:]:
-        if any(c % factor for c in ch[:-1]):
-            size = factor * max(1, round(ch[0] / factor))
-            stats = stats.rechunk({len(chunks) + 1: size})
-            ch = stats.chunks[len(chunks) + 1]
-        chunks.append(tuple(-(-c // factor) for c in ch))
-    return stats.map_blocks(coarsen_stats, factor, chunks=((3,),) + tuple(chunks),
-                            dtype=float)
-
-
-def _assemble(level_sums, *, idxs, assign, keep, nb, dr, pixel_area):
-    """Bin each level's folded sums and keep, per bin, the level assigned to it."""
+    ``level_sums`` are pieces ``((S, N), e)`` (see :mod:`xrough._kernels.tiles`); G and
+    its standard error are scaled back from the largest of their exponents.
+    """
+    exponents = [e for _, e in level_sums if e is not None]
+    top = max(exponents) if exponents else 0
     sums = np.zeros(nb)
     counts = np.zeros(nb)
-    for lev, (plane, idx) in enumerate(zip(level_sums, idxs)):
-        s = 0.5 * binning.binned_sum(plane[0], idx, nb)
+    for lev, ((plane, e), idx) in enumerate(zip(level_sums, idxs)):
+        s = plane[0] if e is None or e == top else np.ldexp(plane[0], 2 * (e - top))
+        s = 0.5 * binning.binned_sum(s, idx, nb)
         n = 0.5 * binning.binned_sum(plane[1], idx, nb)
         sel = assign == lev
         sums[sel], counts[sel] = s[sel], n[sel]
     sums, counts = sums[keep], counts[keep]
-    valid = level_sums[0][1][0, 0]
+    valid = level_sums[0][0][1][0, 0]
     has = counts > 0
     g = np.full(counts.shape, np.nan)
     g[has] = 0.5 * sums[has] / counts[has]
@@ -660,6 +765,7 @@ def _assemble(level_sums, *, idxs, assign, keep, nb, dr, pixel_area):
                         pixel_area=pixel_area, geometry="radial")[0]
     se = np.sqrt(se)
     se[~has] = np.nan
+    g, se = (_times_power_of_two(x, top, power=2, height_unit=height_unit) for x in (g, se))
     return np.stack([g, counts, se])
 
 
@@ -684,7 +790,8 @@ def height_difference_acf_tiled(
     topography : xarray.DataArray with dims ("y", "x")
         Heights of an open (non-periodic) map, numpy- or dask-backed (e.g. opened from
         NetCDF or zarr with ``chunks=``); NaN marks missing points. Any chunking works;
-        each task reads one tile plus its halo.
+        each chunk is read once. Chunks of about ``tile`` points per side keep the graph
+        small (numpy input is split into such chunks).
     tile : int
         Tile size in cells (points at the finest level, blocks at coarser ones).
     halo : int
@@ -730,8 +837,12 @@ def height_difference_acf_tiled(
     bin of lags ``>= min_lag_cells`` blocks this shifts G by about
     ``G''(r) b^2 / 6`` (``b`` the block length), a relative error of order
     ``(b / r)^2``: measured below 1e-3 for self-affine and Gaussian-correlated maps with
-    the defaults (``tests/test_scale.py``). Peak memory is a few tile FFTs per thread
-    plus the dask chunks in flight, independent of the map size.
+    the defaults (``tests/test_scale.py``).
+
+    Heights are scaled per chunk by a power of two (exactly undone when the sums meet), so
+    the tiles need no pass over the whole map first. Peak memory is a few tile FFTs per
+    thread plus about two chunk rows of pieces and halo strips; 11 to 15 tasks per chunk (see
+    ``docs/scale.md`` for measured time and memory against the map size).
 
     Examples
     --------
@@ -804,25 +915,13 @@ def height_difference_acf_tiled(
     data = topography.data
     lazy = isinstance(data, dsa.Array)
     arr = data if lazy else dsa.from_array(np.asarray(data), chunks=(tile, tile))
-    arr = arr.astype(np.float64)
-    # heights scaled by a power of two (see _height_scale), G scaled back below
-    scale = abs(arr).max().map_blocks(_power_of_two, dtype=float)
-    arr = arr / scale
-    stats = arr.map_blocks(point_stats, new_axis=0, chunks=((3,),) + arr.chunks,
-                           dtype=float)
-    planes, idxs = [], []
-    for lev in range(used):
-        if lev > 0:
-            stats = _coarsen(stats, factor)
-        planes.append(_level_sums(stats, tile, ks_levels[lev]))
-        idxs.append(_bin_idx(ks_levels[lev], tuple(d * cells[lev] for d in spacing), edges))
-    out = dask.delayed(_assemble)(planes, idxs=idxs, assign=assign, keep=keep, nb=nb, dr=dr,
-                                  pixel_area=grid.pixel_area)
-    res = dsa.from_delayed(out, shape=(3, int(keep.sum())), dtype=float)
+    idxs = [_bin_idx(ks, tuple(d * cell for d in spacing), edges)
+            for ks, cell in zip(ks_levels[:used], cells)]
+    finish = functools.partial(_assemble, idxs=idxs, assign=assign, keep=keep, nb=nb, dr=dr,
+                               pixel_area=grid.pixel_area, height_unit=grid.height_unit)
+    res = _tiled_graph(arr, tile=tile, factor=factor, ks_levels=ks_levels[:used],
+                       finish=finish, n_out=int(keep.sum()))
     hunit = grid.height_unit
-    back = [dsa.map_blocks(_scale_back, res[k], scale, power=2, height_unit=hunit,
-                           dtype=float) for k in (0, 2)]
-    res = dsa.stack([back[0], res[1], back[1]])
     if not lazy:
         show = progress if progress is not None else sys.stderr.isatty()
         if show:

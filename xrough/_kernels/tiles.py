@@ -21,6 +21,13 @@ each ordered pair. For a tile, the cross-correlation of the tile's statistics wi
 statistics of the tile extended by the halo ``K`` on every side (zero outside the map)
 counts every ordered pair whose first point is in the tile exactly once; the folded lag
 planes of all tiles add up to those of the whole map.
+
+Scales: heights are divided by a power of two per *piece* (a chunk of the map, or the
+block statistics derived from it) so that no square overflows; a piece is a pair
+``(values, e)`` meaning ``values * 2**e`` (``e`` is None for a piece without valid
+points). Pieces, tiles and partial sums meet on the largest exponent among them; a
+multiplication by a power of two is exact, so the result is the same as with one global
+scale, without a pass over the whole map first.
 """
 
 from __future__ import annotations
@@ -30,7 +37,41 @@ from scipy import fft as sfft
 
 from .pairs import fold
 
-__all__ = ["point_stats", "coarsen_stats", "tile_pair_sums"]
+__all__ = ["power_of_two_exponent", "scaled_heights", "point_stats", "coarsen_stats",
+           "coarsen_piece", "cut_piece", "merge_stats", "tile_piece_sums", "add_scaled",
+           "tile_pair_sums"]
+
+
+def power_of_two_exponent(peak) -> np.ndarray:
+    """Exponent ``e`` of the power of two nearest ``peak`` (0 for a non-finite or zero peak)."""
+    peak = np.asarray(peak, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        exponent = np.where(np.isfinite(peak) & (peak > 0), np.round(np.log2(peak)), 0.0)
+    return exponent.astype(int)
+
+
+def _check_finite(h: np.ndarray) -> None:
+    if np.isinf(h).any():
+        raise ValueError("heights contain infinite values; mark missing points as NaN")
+
+
+def scaled_heights(h: np.ndarray) -> tuple[np.ndarray, int | None]:
+    """Return a chunk of heights as a piece ``(h / 2**e, e)``, ``2**e`` nearest max ``|h|``.
+
+    ``e`` is None when the chunk has no valid (non-NaN) point.
+
+    Raises
+    ------
+    ValueError
+        Infinite heights.
+    """
+    h = np.asarray(h, dtype=np.float64)
+    _check_finite(h)
+    valid = np.isfinite(h)
+    if not valid.any():
+        return h, None
+    e = int(power_of_two_exponent(np.max(np.abs(h[valid]))))
+    return np.ldexp(h, -e), e
 
 
 def point_stats(h: np.ndarray) -> np.ndarray:
@@ -43,33 +84,38 @@ def point_stats(h: np.ndarray) -> np.ndarray:
     """
     h = np.asarray(h, dtype=np.float64)
     valid = np.isfinite(h)
-    if np.isinf(h).any():
-        raise ValueError("heights contain infinite values; mark missing points as NaN")
+    _check_finite(h)
     out = np.zeros((3,) + h.shape)
     out[0] = valid
     np.copyto(out[1], h, where=valid)
     return out
 
 
-def coarsen_stats(stats: np.ndarray, factor: int) -> np.ndarray:
-    """Merge ``factor x factor`` cells of block statistics (exact, partial cells at the end).
+def coarsen_stats(stats: np.ndarray, factor: int, offset: tuple[int, int] = (0, 0)
+                  ) -> np.ndarray:
+    """Merge ``factor x factor`` cells of block statistics (exact, partial blocks at the ends).
 
     Parameters
     ----------
     stats : ndarray (3, ny, nx)
         ``(n, mu, M2)`` per cell.
     factor : int
-        Cells merged per axis; trailing rows/columns that do not fill a block form partial
-        blocks.
+        Cells merged per axis; rows/columns that do not fill a block form partial blocks.
+    offset : (int, int)
+        Index of the first cell of ``stats`` in the whole map: blocks are aligned to
+        multiples of ``factor`` there, so that the first block may be partial too (the
+        rest of it lies in another piece, see :func:`merge_stats`).
 
     Returns
     -------
-    ndarray (3, ceil(ny / factor), ceil(nx / factor))
+    ndarray (3, my, mx)
+        Blocks ``offset // factor`` to ``(offset + shape - 1) // factor`` per axis.
     """
     _, ny, nx = stats.shape
-    my, mx = -(-ny // factor), -(-nx // factor)
+    oy, ox = (o % factor for o in offset)
+    my, mx = -(-(ny + oy) // factor), -(-(nx + ox) // factor)
     full = np.zeros((3, my * factor, mx * factor))
-    full[:, :ny, :nx] = stats
+    full[:, oy:oy + ny, ox:ox + nx] = stats
     n, mu, m2 = (a.reshape(my, factor, mx, factor) for a in full)
     nn = n.sum(axis=(1, 3))
     s = (n * mu).sum(axis=(1, 3))
@@ -77,6 +123,91 @@ def coarsen_stats(stats: np.ndarray, factor: int) -> np.ndarray:
     dev = mu - mean[:, None, :, None]
     m2n = m2.sum(axis=(1, 3)) + (n * dev * dev).sum(axis=(1, 3))
     return np.stack([nn, mean, m2n])
+
+
+def _cells(values: np.ndarray) -> np.ndarray:
+    """Block statistics of a piece's values: heights (2D) are single points."""
+    return values if values.ndim == 3 else point_stats(values)
+
+
+def coarsen_piece(piece, factor: int, offset: tuple[int, int]):
+    """:func:`coarsen_stats` of a piece ``(values, e)`` (same scale)."""
+    values, e = piece
+    return coarsen_stats(_cells(values), factor, offset), e
+
+
+def cut_piece(piece, rows: tuple[int, int], cols: tuple[int, int]):
+    """Return a copy of part of a piece (so that the rest of it can be freed)."""
+    values, e = piece
+    return values[..., rows[0]:rows[1], cols[0]:cols[1]].copy(), e
+
+
+def _rescale(stats: np.ndarray, shift: int) -> np.ndarray:
+    """Statistics of heights multiplied by ``2**shift`` (exact)."""
+    n, mu, m2 = stats
+    return np.stack([n, np.ldexp(mu, shift), np.ldexp(m2, 2 * shift)])
+
+
+def merge_stats(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Statistics of the union of the points of cells ``a`` and ``b`` (exact merge).
+
+    Cells empty in one of them take the other's values unchanged.
+    """
+    na, nb = a[0], b[0]
+    out = np.where(na > 0, a, b)
+    both = (na > 0) & (nb > 0)
+    if both.any():
+        na, nb = na[both], nb[both]
+        mua, mub = a[1][both], b[1][both]
+        n = na + nb
+        delta = mub - mua
+        out[0][both] = n
+        out[1][both] = mua + delta * (nb / n)
+        out[2][both] = a[2][both] + b[2][both] + delta * delta * (na * nb / n)
+    return out
+
+
+def _gather(pieces, origins, shape):
+    """Merge pieces into the statistics of a region of ``shape`` cells, on one scale."""
+    exponents = [e for _, e in pieces if e is not None]
+    e = max(exponents) if exponents else None
+    out = np.zeros((3,) + tuple(shape))
+    for (values, ep), (y, x) in zip(pieces, origins):
+        if ep is None:
+            continue
+        st = _cells(values)
+        if ep != e:
+            st = _rescale(st, ep - e)
+        where = (slice(None), slice(y, y + st.shape[1]), slice(x, x + st.shape[2]))
+        out[where] = merge_stats(out[where], st)
+    return out, e
+
+
+def tile_piece_sums(pieces, *, origins, shape, inner, ks):
+    """Folded ``(S, N)`` of one tile, as a piece ``(planes (2, Ky+1, Kx+1), e)``.
+
+    ``pieces`` cover the tile extended by the halo (region of ``shape`` cells, zero where
+    no piece lies: outside the map); ``origins`` are their positions in that region and
+    ``inner`` the tile's. ``S`` is in units of ``2**(2 e)``.
+    """
+    ext, e = _gather(pieces, origins, shape)
+    s, n = tile_pair_sums(ext, inner, ks)
+    return np.stack([s, n]), e
+
+
+def add_scaled(*parts):
+    """Sum of folded ``(S, N)`` pieces, ``S`` brought to the largest exponent (exact)."""
+    exponents = [e for _, e in parts if e is not None]
+    total = np.zeros_like(parts[0][0])
+    if not exponents:
+        return total, None
+    e = max(exponents)
+    for planes, ep in parts:
+        if ep is None:
+            continue
+        total[0] += planes[0] if ep == e else np.ldexp(planes[0], 2 * (ep - e))
+        total[1] += planes[1]
+    return total, e
 
 
 def tile_pair_sums(ext: np.ndarray, inner: tuple[slice, slice], ks: tuple[int, int],
