@@ -11,8 +11,8 @@ Functions that work map by map or curve by curve must stay lazy: the result is
 dask-backed, building it runs no graph and ``.compute()`` runs one. A
 :class:`~invariance_support.CountingScheduler` counts the graphs. Not lazy by nature,
 compared only: results whose size depends on the data (the exact gradient's supported
-lags, the spectrum's supported range), the contact solver (iterative on whole maps),
-stitching (re-bins computed curves) and spectra of a model (a few numbers).
+lags, the spectrum's supported range), the contact solver (iterative on whole maps) and
+spectra of a model (a few numbers).
 ``model_spectrum`` and ``self_affine_surface`` take no array input.
 """
 
@@ -169,10 +169,13 @@ CASES = {
                  True, ()),
     "reliable-tip": ("stack", lambda t: xrough.reliable(t, tip_radius="30 nm"),
                      {"scan": 1}, False, ()),
+    # one graph over the measurements; what comes from the values alone (level factors,
+    # mismatch, the verdict in words) is known on dask only after compute (documented):
+    # the verdict is the lazy quality_flag, compared with the values
     "stitch": ("stack", lambda t: xrough.stitch(
         {"fine": t.isel(x=slice(0, 32), y=slice(0, 32)),
          "coarse": t.isel(x=slice(None, None, 2), y=slice(None, None, 2))}, warn=False),
-        {"scan": 1}, False, ()),
+        {"scan": 1}, True, xrough.stitching.STITCH_DIAGNOSTICS),
     "solve_contact": ("periodic-map", lambda t: xrough.solve_contact(
         t, E_star="25 MPa", p0=["0.5 MPa", "1 MPa"]), {"y": 32, "x": 32}, False, ()),
     # G: curve by curve along `scan`, and with `dr` in pieces

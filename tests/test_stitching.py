@@ -370,7 +370,7 @@ def test_unexplained_level_factor_warns():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         quiet = stitch(_levelled_pair([0.05, 0.05], [0.0, 0.1]), warn=True)
-    assert "quality" not in quiet.attrs
+    assert quiet.attrs["quality"] == "good" and int(quiet.quality_flag) == 0
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         loud = stitch(_levelled_pair([0.05, 0.05], [0.0, 0.4]))
@@ -378,7 +378,7 @@ def test_unexplained_level_factor_warns():
     assert len(level) == 1 and "'m0' x 1.22 (ln f = +0.20 +- 0.04, 5.7 sigma)" in level[0]
     assert "the level errors of the scans do not explain it" in level[0]
     assert [w for w in caught if w.category is StitchingMismatchWarning]  # z = 5.7 too
-    assert loud.attrs["quality"] == "questionable"
+    assert loud.attrs["quality"] == "questionable" and int(loud.quality_flag) == 1
     # errors of 100 %: a factor 9 in G is within 1.6 sigma, but beyond the bound [1/2, 2]
     with pytest.warns(LevelFactorWarning, match=r"outside \[1/2, 2\]"):
         stitch(_levelled_pair([1.0, 1.0], [0.0, np.log(9.0)]))

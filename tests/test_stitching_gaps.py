@@ -308,7 +308,7 @@ def test_uncd_gap_is_recorded_warned_and_marked():
     f, err = G.attrs["level_factors"], G.attrs["level_factor_errors"]
     np.testing.assert_allclose(f, [1.107, 0.973, 1.0], atol=1e-3)
     assert np.all(np.abs(np.log(f[:2])) < err[:2])
-    assert "quality" not in G.attrs
+    assert G.attrs["quality"] == "good" and int(G.quality_flag) == 0
     names = G.coverage.attrs["flag_meanings"].split()
     assert names == ["TEM/h", "AFM/h", "stylus/h"]
     assert set(np.unique(G.coverage.values)) == {1, 2, 3, 4}

@@ -49,8 +49,8 @@ from . import units as u
 from ._kernels.acf_curve import acf_problem
 from ._version import __version__
 
-__all__ = ["AcfSpec", "check_acf", "PROVENANCE", "result_attrs", "lag_coord", "mark_gaps",
-           "gap_note"]
+__all__ = ["AcfSpec", "check_acf", "read_acf", "PROVENANCE", "result_attrs", "lag_coord",
+           "mark_gaps", "gap_note"]
 
 #: Attributes that say where data came from; every estimator and result carries them on.
 PROVENANCE = ("source", "source_file", "source_sha256", "format", "overrides", "channel",
@@ -166,6 +166,39 @@ def check_acf(G: xr.DataArray, *, what: str = "G", single: bool = False,
         if problem:
             raise ValueError(f"{what} {problem}")
     return spec
+
+
+def read_acf(G: xr.DataArray, *, what: str = "G", single: bool = False,
+             min_bins: int = 2) -> tuple[xr.DataArray, AcfSpec]:
+    """Check ``G`` (:func:`check_acf`) and return it without its own rating, with its spec.
+
+    The ``quality_flag`` coordinate of a G (a stitched one, :func:`xrough.stitch`, rates
+    the levelling; lazily when G is) says how far G itself can be trusted. A function of
+    G computes its own rating; carried along, G's would be merged with the flags of fits
+    and gradients computed from the same G, so every function of G reads it through
+    here.
+
+    Parameters
+    ----------
+    G, what, single, min_bins
+        As for :func:`check_acf`.
+
+    Returns
+    -------
+    tuple of (xarray.DataArray, AcfSpec)
+
+    Examples
+    --------
+    >>> import numpy as np, xarray as xr
+    >>> G = xr.DataArray([1.0, 4.0], dims="dr", attrs={"units": "nm2"},
+    ...                  coords={"dr": ("dr", [1.0, 2.0], {"units": "nm"}),
+    ...                          "quality_flag": np.int8(1)})
+    >>> G2, spec = read_acf(G)
+    >>> "quality_flag" in G2.coords, spec.unit_str
+    (False, 'nm')
+    """
+    spec = check_acf(G, what=what, single=single, min_bins=min_bins)
+    return G.drop_vars(quality.FLAG, errors="ignore"), spec
 
 
 def _gaps(attrs: dict, length_unit: pint.Unit, what: str) -> np.ndarray:

@@ -25,7 +25,7 @@ from ._kernels.acf_curve import DETERMINED
 from ._kernels.contact import KAPPA_PERSSON
 from ._kernels.gaps import bridge_energy
 from ._kernels.hankel import acf_from_spectrum_kernel
-from .acf import AcfSpec, check_acf, gap_note, lag_coord, mark_gaps, result_attrs
+from .acf import AcfSpec, gap_note, lag_coord, mark_gaps, read_acf, result_attrs
 from .fitting import fit_acf
 from .gradient import rms_gradient
 from .models import model_from_attrs
@@ -253,7 +253,7 @@ def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Datas
     1.0
     """
     E = u.positive_si(E_star, _PRESSURE, what="E_star")
-    spec = check_acf(G)
+    G, spec = read_acf(G)
     positive = spec.dr[spec.dr > 0]
     ac = (positive if a_c is None else
           u.array_in(a_c, spec.length_unit, what="a_c", noun="patch radii", positive=True))
@@ -412,7 +412,7 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
         out = ds["G_sigma"]
         out.attrs = {**ds.attrs, **out.attrs}  # provenance, E_star, theory and the variable's
         return out
-    spec = check_acf(G)
+    G, spec = read_acf(G)
     G_si, error = _si(G, spec)
     lap, why = _laplacian(G, G_si, error, spec)
     full = (E / 2) ** 2 * lap
@@ -606,7 +606,7 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     E = u.positive_si(E_star, _PRESSURE, what="E_star")
     p0s = u.positive_si(p0, _PRESSURE, what="p0", many=True)
     many = np.ndim(p0s) > 0
-    spec = check_acf(G)
+    G, spec = read_acf(G)
     G = G.transpose(..., "dr")
     G_si, error = _si(G, spec)
     p0_da = xr.DataArray(np.atleast_1d(p0s), dims="p0")
@@ -783,7 +783,7 @@ def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
     """
     E = u.positive_si(E_star, _PRESSURE, what="E_star")
     gam = u.positive_si(gamma, _ENERGY, what="gamma")
-    spec = check_acf(G)
+    G, spec = read_acf(G)
     G_si, _ = _si(G, spec)
     res = _per_curve(k.patch_radius_curve, G_si, out={"k": 2}, dr=spec.dr * spec.to_m,
                      E_star=E, gamma=gam) / spec.to_m

@@ -198,24 +198,28 @@ def _progress_bar(total: int, progress, desc: str):
                 leave=False)
 
 
-def _fft_kernel(h: np.ndarray, scale, *, plan: _Plan, workers: int, progress) -> tuple:
+def _fft_kernel(h: np.ndarray, *, plan: _Plan, workers: int, progress) -> tuple:
     """Map (..., *core) heights to pair sums, pair counts per kept bin and valid points.
 
-    The sums are those of ``h / scale`` (see :func:`_height_scale`).
+    Each map is scaled by its own power of two (nearest its largest ``|h|``, see
+    :func:`_scaled_map`), so that no square of a height overflows; the sums are those of
+    the scaled heights, and the exponent of each map is returned with them.
     """
     ncore = len(plan.shape)
     batch = h.shape[: h.ndim - ncore]
-    flat = h.reshape((-1,) + plan.shape) / float(np.max(scale))
+    flat = h.reshape((-1,) + plan.shape)
     idx, _, _ = _geometry(plan.shape[-plan.lag_axes:], plan.spacing, plan.periodic, plan.ks,
                           tuple(plan.edges.tolist()))
     nb = len(plan.edges) - 1
     sums = np.empty((flat.shape[0], int(plan.keep.sum())))
     counts = np.empty_like(sums)
     nvalid = np.empty(flat.shape[0])
+    exponents = np.zeros(flat.shape[0])
     bar = _progress_bar(flat.shape[0], progress, "G(dr) by FFT")
     try:
         for b in range(flat.shape[0]):
-            s, n = folded_pair_sums(flat[b], plan.ks, periodic=plan.periodic, workers=workers)
+            scaled, exponents[b] = _scaled_map(flat[b], b, batch)
+            s, n = folded_pair_sums(scaled, plan.ks, periodic=plan.periodic, workers=workers)
             # the ordered pairs at lag 0 are the valid points themselves
             nvalid[b] = np.prod(plan.shape) if n is None else n[(...,) + (0,) * len(
                 plan.ks)].sum()
@@ -235,7 +239,22 @@ def _fft_kernel(h: np.ndarray, scale, *, plan: _Plan, workers: int, progress) ->
         if bar is not None:
             bar.close()
     shape = batch + (sums.shape[-1],)
-    return sums.reshape(shape), counts.reshape(shape), nvalid.reshape(batch)
+    return (sums.reshape(shape), counts.reshape(shape), nvalid.reshape(batch),
+            exponents.reshape(batch))
+
+
+def _scaled_map(h: np.ndarray, index: int, batch: tuple[int, ...]) -> tuple[np.ndarray, int]:
+    """One map as ``(h / 2**e, e)``, ``2**e`` the power of two nearest its largest ``|h|``.
+
+    Raises
+    ------
+    ValueError
+        Infinite heights, or fewer than 2 valid points (naming the map of a stack).
+    """
+    scaled, exponent = tiles.scaled_heights(h)
+    if exponent is None:
+        raise ValueError(_few_points_message(index, batch))
+    return scaled, exponent
 
 
 def _few_points_message(index: int, batch: tuple[int, ...]) -> str:
@@ -244,26 +263,26 @@ def _few_points_message(index: int, batch: tuple[int, ...]) -> str:
     return f"topography has fewer than 2 valid (non-NaN) points{where}"
 
 
-def _random_kernel(h: np.ndarray, seeds: np.ndarray, scale, *, plan: _Plan, n_per_bin: int,
+def _random_kernel(h: np.ndarray, seeds: np.ndarray, *, plan: _Plan, n_per_bin: int,
                    progress) -> tuple:
-    """Sum G, G^2 and count random pairs of ``h / scale`` per kept bin."""
+    """Sum G, G^2 and count random pairs per kept bin of each map, scaled as in _fft_kernel."""
     ncore = len(plan.shape)
     batch = h.shape[: h.ndim - ncore]
-    flat = h.reshape((-1,) + plan.shape) / float(np.max(scale))
-    if np.isinf(flat).any():
-        raise ValueError("heights contain infinite values; mark missing points as NaN")
+    flat = h.reshape((-1,) + plan.shape)
     nvalid = np.isfinite(flat).reshape(flat.shape[0], -1).sum(axis=1)
-    for b in np.flatnonzero(nvalid < 2)[:1]:
-        raise ValueError(_few_points_message(int(b), batch))
     seeds = np.broadcast_to(seeds, batch).reshape(-1)
     edges = plan.edges
     nb = len(edges) - 1
     out = np.empty((flat.shape[0], 3, int(plan.keep.sum())))
+    exponents = np.zeros(flat.shape[0])
     bar = _progress_bar(flat.shape[0] * nb, progress, "G(dr) by random pairs")
     try:
         for b in range(flat.shape[0]):
+            scaled, exponents[b] = _scaled_map(flat[b], b, batch)
+            if nvalid[b] < 2:
+                raise ValueError(_few_points_message(b, batch))
             rng = np.random.default_rng(int(seeds[b]))
-            res = random_pair_sums(flat[b], plan.spacing, edges, n_per_bin,
+            res = random_pair_sums(scaled, plan.spacing, edges, n_per_bin,
                                    periodic=plan.periodic, rng=rng,
                                    progress=None if bar is None else bar.update)
             out[b] = res[:, plan.keep]
@@ -271,7 +290,8 @@ def _random_kernel(h: np.ndarray, seeds: np.ndarray, scale, *, plan: _Plan, n_pe
         if bar is not None:
             bar.close()
     out = out.reshape(batch + out.shape[1:])
-    return out[..., 0, :], out[..., 1, :], out[..., 2, :], nvalid.reshape(batch).astype(float)
+    return (out[..., 0, :], out[..., 1, :], out[..., 2, :],
+            nvalid.reshape(batch).astype(float), exponents.reshape(batch))
 
 
 def _area_variance(g, pairs, valid, *, dr, pixel_area, geometry):
@@ -285,40 +305,23 @@ def _area_variance(g, pairs, valid, *, dr, pixel_area, geometry):
     return out
 
 
-def _height_scale(da: xr.DataArray) -> xr.DataArray:
-    """Return the power of two nearest the largest ``|h|`` (1 for none), lazily for dask.
-
-    G is computed from ``h / scale`` and multiplied by ``scale^2``, so that no square of a
-    height overflows or underflows on the way.
-    """
-    peak = abs(da).max(skipna=True)
-    return xr.apply_ufunc(_power_of_two, peak, dask="parallelized", output_dtypes=[float])
-
-
-def _power_of_two(peak):
-    return np.ldexp(1.0, tiles.power_of_two_exponent(peak))
-
-
-def _scale_back(values, scale, *, power: int, height_unit: str):
-    """``values * scale^power``, or a clear error where that leaves the float64 range."""
-    return _times_power_of_two(values, int(np.round(np.log2(float(np.max(scale))))),
-                               power=power, height_unit=height_unit)
-
-
-def _times_power_of_two(values, exponent: int, *, power: int, height_unit: str):
+def _times_power_of_two(values, exponent, *, power: int, height_unit: str):
     """Return ``values * 2^(exponent power)``, or a clear error outside float64's range.
 
-    Heights were scaled by ``2^exponent``; ``values`` is a ``power`` of them.
+    Heights were scaled by ``2^exponent`` (a number, or one per curve broadcasting against
+    ``values``); ``values`` is a ``power`` of them.
     """
     values = np.asarray(values, dtype=float)
-    exponent = exponent * power
+    exponent = np.broadcast_to(np.asarray(exponent, dtype=int) * power, values.shape)
     with np.errstate(over="ignore", under="ignore"):
         out = np.ldexp(values, exponent)
     lost = np.isfinite(values) & (values != 0) & ~(np.isfinite(out) & (out != 0))
     if np.any(lost):
-        decade = np.log10(np.max(np.abs(values[lost]))) + exponent * np.log10(2.0)
+        worst = np.argmax(np.where(lost, np.abs(values), -np.inf))
+        e = int(exponent.reshape(-1)[worst])
+        decade = np.log10(np.abs(values.reshape(-1)[worst])) + e * np.log10(2.0)
         raise ValueError(
-            f"heights of about 1e{exponent / power * np.log10(2.0):.0f} {height_unit} make "
+            f"heights of about 1e{e / power * np.log10(2.0):.0f} {height_unit} make "
             f"G reach about 1e{decade:.0f} {u.power_units(height_unit, 2)}, outside the "
             "range of float64 numbers (1e-308 to 1.8e308): check the height scale of the "
             "data (a wrong unit or scale factor), or express the heights in a unit that "
@@ -487,12 +490,11 @@ def height_difference_acf(
     workers = workers if workers is not None else (os.cpu_count() or 1)
     common = dict(input_core_dims=[list(plan.core_dims)], dask="parallelized",
                   dask_gufunc_kwargs={"output_sizes": {"dr": nb}}, keep_attrs=False)
-    scale = _height_scale(da)
-    common["input_core_dims"] = [list(plan.core_dims), []]
+    common["input_core_dims"] = [list(plan.core_dims)]
     if estimator == "fft":
-        sums, counts, valid = xr.apply_ufunc(
-            _fft_kernel, da, scale, output_core_dims=[["dr"], ["dr"], []],
-            output_dtypes=[float, float, float],
+        sums, counts, valid, exponent = xr.apply_ufunc(
+            _fft_kernel, da, output_core_dims=[["dr"], ["dr"], [], []],
+            output_dtypes=[float, float, float, float],
             kwargs={"plan": plan, "workers": workers, "progress": progress}, **common)
         gsum, gsq = 0.5 * sums, None
     else:
@@ -502,15 +504,20 @@ def height_difference_acf(
         nmaps = int(np.prod([da.sizes[d] for d in extra])) if extra else 1
         seeds = np.random.SeedSequence(seed).generate_state(nmaps, dtype=np.uint64)
         seeds = xr.DataArray(seeds.reshape([da.sizes[d] for d in extra]), dims=extra)
-        common["input_core_dims"] = [list(plan.core_dims), [], []]
-        gsum, gsq, counts, valid = xr.apply_ufunc(
-            _random_kernel, da, seeds, scale, output_core_dims=[["dr"], ["dr"], ["dr"], []],
-            output_dtypes=[float, float, float, float],
+        common["input_core_dims"] = [list(plan.core_dims), []]
+        gsum, gsq, counts, valid, exponent = xr.apply_ufunc(
+            _random_kernel, da, seeds,
+            output_core_dims=[["dr"], ["dr"], ["dr"], [], []],
+            output_dtypes=[float, float, float, float, float],
             kwargs={"plan": plan, "n_per_bin": max(1, int(n_pairs) // nb),
                     "progress": progress}, **common)
-    if pool_dims:
-        gsum, counts, valid = (x.sum(pool_dims) for x in (gsum, counts, valid))
-        gsq = gsq.sum(pool_dims) if gsq is not None else None
+    if pool_dims:  # each map's sums brought to the largest exponent of the pooled maps
+        top = exponent.max(pool_dims)
+        shift = exponent - top
+        gsum = (gsum * np.exp2(2 * shift)).sum(pool_dims)
+        gsq = (gsq * np.exp2(4 * shift)).sum(pool_dims) if gsq is not None else None
+        counts, valid = (x.sum(pool_dims) for x in (counts, valid))
+        exponent = top
     has = counts > 0
     G = (gsum / counts.where(has)).where(has)
     dr = plan.dr
@@ -528,9 +535,9 @@ def height_difference_acf(
         sampling = np.sqrt(var / (counts - 1).where(counts > 1))
     total = np.sqrt(area_var + sampling.fillna(0.0) ** 2).where(has)
     hunit = grid.height_unit
-    # back from h / scale (everything above is in scaled heights)
+    # back from h / 2**exponent (everything above is in scaled heights)
     G, total, sampling = (xr.apply_ufunc(
-        _scale_back, x, scale, dask="parallelized", output_dtypes=[float],
+        _times_power_of_two, x, exponent, dask="parallelized", output_dtypes=[float],
         kwargs={"power": 2, "height_unit": hunit}, keep_attrs=False)
         for x in (G, total, sampling))
     G = G.assign_coords(

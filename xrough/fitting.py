@@ -74,7 +74,7 @@ from ._kernels.fitting import (
     fitted_spectrum_acf,
 )
 from ._kernels.shape_factors import ROLLOFFS
-from .acf import check_acf, lag_coord, mark_gaps, result_attrs
+from .acf import lag_coord, mark_gaps, read_acf, result_attrs
 
 __all__ = ["fit_acf", "model_acf", "describe_problems"]
 
@@ -496,7 +496,8 @@ def fit_acf(
         raise ValueError(f"model must be one of {MODELS}, got {model!r}")
     if rolloff not in ROLLOFFS:
         raise ValueError(f"rolloff must be one of {ROLLOFFS}, got {rolloff!r}")
-    spec = acf_spec = check_acf(G)  # spec is the parameter table further down
+    G, spec = read_acf(G)
+    acf_spec = spec  # spec is the parameter table further down
     lateral, dr = spec.length_unit, spec.dr
     g_unit = u.units_of(G, what="G")
     height = g_unit**0.5

@@ -33,7 +33,7 @@ from ._kernels.fitting import fitted_spectrum_gradient
 from ._kernels.hankel import power_law_moment_kernel
 from ._kernels.shape_factors import ROLLOFFS, rolloff_factor, self_affine_factor
 from ._kernels.spectral_models import model_gradient2
-from .acf import check_acf, lag_coord, mark_gaps, result_attrs
+from .acf import lag_coord, mark_gaps, read_acf, result_attrs
 from .fitting import (
     describe_problems,
     fit_acf,
@@ -146,7 +146,7 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto",
     """
     if method not in GRADIENT_METHODS:
         raise ValueError(f"method must be one of {GRADIENT_METHODS}, got {method!r}")
-    spec = check_acf(G)
+    G, spec = read_acf(G)
     G = G.transpose(..., "dr")
     if G.chunks is not None:
         G = G.chunk({"dr": -1})  # each curve needs all its lags

@@ -31,7 +31,7 @@ from ._kernels.hankel import (
     spectrum_support_kernel,
 )
 from ._kernels.spectral_models import SpectrumModel
-from .acf import check_acf, mark_gaps, result_attrs
+from .acf import mark_gaps, read_acf, result_attrs
 from .models import model_attrs, model_from_attrs, self_affine_model
 
 __all__ = [
@@ -413,7 +413,7 @@ def acf_samples(G: Any, noise: Any = None, *, min_bins: int = 4) -> _AcfInput:
     ``noise`` is the relative independent scatter per bin; default ``sampling_error / G``
     when G has that coordinate (the random-pair estimator), else 0.
     """
-    spec = check_acf(G, single=True, min_bins=min_bins)
+    G, spec = read_acf(G, single=True, min_bins=min_bins)
     dr = spec.dr
     g = np.asarray(G.values, dtype=float) * spec.g_factor
     if noise is None:

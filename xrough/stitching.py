@@ -41,6 +41,7 @@ from collections.abc import Mapping
 from typing import Any
 
 import dask
+import dask.array as dsa
 import numpy as np
 import xarray as xr
 
@@ -53,6 +54,7 @@ from .preprocess import reliability_window
 from .topography import grid_of
 
 __all__ = [
+    "STITCH_DIAGNOSTICS",
     "LevelFactorWarning",
     "StitchingGapWarning",
     "StitchingMismatchWarning",
@@ -72,6 +74,13 @@ DEFAULT_LONG_FRACTION = 0.25
 #: Width of the stretch of overlap, from its short end, over which a measurement's level
 #: factor is fitted (:func:`level_factors`), in decades of lag.
 LEVEL_DECADES = 0.2
+
+
+#: Attrs of a stitched G that its values decide: on a lazy (dask) stitch they are not known
+#: before compute and left out (its verdict is the lazy ``quality_flag`` coordinate);
+#: :func:`stitch_curves` with :func:`level_factors` and :func:`stitch_mismatch` give them.
+STITCH_DIAGNOSTICS = ("mismatch_pairs", "mismatch_ratio", "mismatch_z", "level_factors",
+                      "level_factor_errors", "quality", "quality_notes")
 
 
 #: Largest level factor of G (and smallest, its inverse) that :func:`stitch` applies
@@ -217,14 +226,46 @@ def _rebin(dr, g, se, n, centres, edges, lo, hi):
     return out_g, out_se, np.where(keep, W, 0.0)
 
 
-def _measure(name, da, *, lo, hi, edges_own, acf_kwargs):
-    """G of one topography (pooled over extra dims) on the given edges, as numpy."""
+def _rebin_packed(curve, *, dr, centres, edges, lo, hi, g_factor):
+    """Re-bin one curve (:func:`_rebin`) onto the common bins, as one ``(3, nb)`` array.
+
+    ``curve`` is ``(3, n)``: G, its standard error and the pair count; G and its error are
+    multiplied by ``g_factor`` (to the common height unit squared).
+    """
+    g, se, n = np.asarray(curve, dtype=float)
+    return np.stack(_rebin(dr, g * g_factor, se * g_factor, n, centres, edges, lo, hi))
+
+
+def _is_lazy(da: xr.DataArray) -> bool:
+    """Whether the data of a measurement (or of a precomputed G's error coords) is dask."""
+    return da.chunks is not None or any(
+        da.coords[c].chunks is not None for c in ("standard_error", "pair_count")
+        if c in da.coords)
+
+
+def _curve(name: str, da: xr.DataArray, own_edges: np.ndarray, *, chunk: bool,
+           acf_kwargs: dict) -> tuple:
+    """G of one measurement on its own lags: ``(dr, G, standard error, pair count, attrs)``.
+
+    ``dr`` is numpy (the lags are known before any data is read), the others numpy or
+    dask (lazy where the measurement is, or where ``chunk`` asks that a topography in
+    memory be computed in the one graph of all measurements).
+    """
+    if _is_acf(da):
+        if da.ndim != 1:
+            raise ValueError(f"measurement {name!r}: G has dims {da.dims} beyond 'dr'; "
+                             "select or pool them first")
+        se = (da.coords["standard_error"].data if "standard_error" in da.coords
+              else np.full(da.shape, np.nan))
+        cnt = da.coords["pair_count"].data if "pair_count" in da.coords else np.ones(da.shape)
+        return np.asarray(da.dr.values, dtype=float), da.data, se, cnt, dict(da.attrs)
     grid = grid_of(da, what=f"measurement {name!r}")
     extra = tuple(d for d in da.dims if d not in grid.dims)
-    G = height_difference_acf(da, bins=edges_own, pool=extra or None, **acf_kwargs)
-    G = G.compute()
-    return (G.dr.values, G.values, G.standard_error.values,
-            G.pair_count.values.astype(float), dict(G.attrs))
+    if chunk and da.chunks is None:  # a graph of its own, one map per chunk
+        da = da.chunk({d: (1 if d in extra else -1) for d in da.dims})
+    G = height_difference_acf(da, bins=own_edges, pool=extra or None, **acf_kwargs)
+    return (np.asarray(G.dr.values, dtype=float), G.data, G.standard_error.data,
+            G.pair_count.data, dict(G.attrs))
 
 
 def stitch_curves(
@@ -323,54 +364,44 @@ def stitch_curves(
     centres, edges = _common_edges(min(v["lo"] for v in info.values()),
                                    max(v["hi"] for v in info.values()), ppd)
 
-    def task(name):
+    names = list(items)
+    # one graph for all measurements: lazy where any input is, else computed at once
+    # (in parallel threads, or on a dask.distributed Client when one is active)
+    lazy = any(_is_lazy(items[n]) for n in names)
+    n_topo = sum(not _is_acf(items[n]) for n in names)
+    in_graph = lazy or (parallel and n_topo > 1)
+    nb = len(centres)
+    rows, sources, checksums, pixel, scan, kinds = [], [], [], [], [], []
+    for name in names:
         da, i = items[name], info[name]
-        if _is_acf(da):
-            a = da.attrs
-            return (da.dr.values * 1.0, da.values * 1.0,
-                    da.coords["standard_error"].values * 1.0 if "standard_error" in da.coords
-                    else np.full(da.shape, np.nan),
-                    da.coords["pair_count"].values * 1.0 if "pair_count" in da.coords
-                    else np.ones(da.shape), dict(a))
         inner = edges[(edges > i["lo"]) & (edges < i["hi"])] / i["f"]
         own_edges = np.concatenate([[i["lo"] / i["f"]], inner, [i["hi"] / i["f"]]])
-        return _measure(name, da, lo=i["lo"], hi=i["hi"], edges_own=own_edges,
-                        acf_kwargs=acf_kwargs)
-
-    names = list(items)
-    topo_names = [n for n in names if not _is_acf(items[n])]
-    if parallel and len(topo_names) > 1:  # on the active scheduler (distributed if a Client)
-        done = dict(zip(topo_names, dask.compute(
-            *[dask.delayed(task)(n) for n in topo_names])))
-    else:
-        done = {n: task(n) for n in topo_names}
-    nb = len(centres)
-    g = np.full((len(names), nb), np.nan)
-    se = np.full_like(g, np.nan)
-    cnt = np.zeros_like(g)
-    sources, checksums, pixel, scan, kinds = [], [], [], [], []
-    for m, name in enumerate(names):
-        i = info[name]
-        dr, gm, sem, nm, attrs = done[name] if name in done else task(name)
-        if gm.ndim != 1:
-            raise ValueError(f"measurement {name!r}: G has dims beyond 'dr'; select or pool "
-                             "them first")
-        g[m], se[m], cnt[m] = _rebin(dr * i["f"], gm * i["g_factor"], sem * i["g_factor"],
-                                     nm, centres, edges, i["lo"], i["hi"])
+        dr, gm, sem, nm, attrs = _curve(name, da, own_edges, chunk=in_graph,
+                                        acf_kwargs=acf_kwargs)
+        rebin = dict(dr=dr * i["f"], centres=centres, edges=edges, lo=i["lo"], hi=i["hi"],
+                     g_factor=i["g_factor"])
+        if in_graph:  # one array (one collection: G and its errors share their graph)
+            curve = dsa.stack([dsa.asarray(x).astype(float) for x in (gm, sem, nm)])
+            rows.append(curve.rechunk(-1).map_blocks(
+                _rebin_packed, **rebin, chunks=((3,), (nb,)), dtype=float,
+                meta=np.empty((0, 0))))
+        else:
+            rows.append(_rebin_packed(np.stack([gm, sem, nm]).astype(float), **rebin))
         sources.append(str(attrs.get("source_file", attrs.get("source", "")) or name))
         checksums.append(str(attrs.get("source_sha256", "")))
         pixel.append(float(attrs.get("pixel_size", np.nan)) * i["f"])
         scan.append(float(attrs.get("scan_size", np.nan)) * i["f"])
-        kinds.append("G" if _is_acf(items[name]) else
-                     f"{'map' if len(grid_of(items[name]).dims) == 2 else 'profile'}")
+        kinds.append("G" if _is_acf(da) else
+                     f"{'map' if len(grid_of(da).dims) == 2 else 'profile'}")
+    packed = (dsa.stack if in_graph else np.stack)(rows, axis=1)  # (3, measurement, dr)
+    g, se, cnt = packed[0], packed[1], packed[2].astype(np.int64)
     gunits = u.power_units(hunit, 2)
     dims = ("measurement", "dr")
     ds = xr.Dataset(
         {"G": (dims, g, {"units": gunits, "long_name": "height-difference ACF",
                          "symbol": "G"}),
          "standard_error": (dims, se, {"units": gunits, "long_name": "standard error of G"}),
-         "pair_count": (dims, cnt.astype(np.int64), {"units": "1",
-                                                     "long_name": "number of point pairs"})},
+         "pair_count": (dims, cnt, {"units": "1", "long_name": "number of point pairs"})},
         coords={"measurement": ("measurement", names),
                 "dr": ("dr", centres, {"units": lunit, "long_name": "lag distance"}),
                 "dr_min": ("measurement", [info[n]["lo"] for n in names],
@@ -385,7 +416,7 @@ def stitch_curves(
                                   {"long_name": "SHA-256 of the source file ('' if none)"})},
         attrs=result_attrs(None, points_per_decade=ppd, window_rules="; ".join(
             f"{n}: {info[n]['rule']}" for n in names)))
-    return ds
+    return ds.compute() if in_graph and not lazy else ds
 
 
 # ---------------------------------------------------------------------------- mismatch
@@ -552,12 +583,24 @@ def level_factors(curves: xr.Dataset, *, with_errors: bool = False):
     >>> err.round(4).tolist()  # v = 0.05^2 each: 0.0025 / sqrt(0.005)
     [0.0354, 0.0354]
     """
-    g = np.array(curves.G.values, dtype=float)
-    se = np.array(curves.standard_error.values, dtype=float)
-    dr = np.asarray(curves.dr.values, dtype=float)
+    factors, errors = _level_factors(curves.G.values, curves.standard_error.values,
+                                     curves.dr.values, _scan_sizes(curves))
+    return (factors, errors) if with_errors else factors
+
+
+def _scan_sizes(curves: xr.Dataset) -> np.ndarray:
+    """Scan size per measurement (its window's long end where the size is unknown)."""
     scan = np.asarray(curves.scan_size.values, dtype=float)
     if "dr_max" in curves.coords:
         scan = np.where(np.isfinite(scan), scan, np.asarray(curves.dr_max.values, float))
+    return scan
+
+
+def _level_factors(g, se, dr, scan) -> tuple[np.ndarray, np.ndarray]:
+    """Level factors and the errors of their logarithms (:func:`level_factors`), numpy."""
+    g = np.array(g, dtype=float)
+    se = np.array(se, dtype=float)
+    dr = np.asarray(dr, dtype=float)
     order = np.argsort(-np.nan_to_num(scan, nan=-np.inf), kind="stable")
     have = np.isfinite(g) & (g > 0) & (se > 0)
     factors = np.ones(g.shape[0])
@@ -589,7 +632,7 @@ def level_factors(curves: xr.Dataset, *, with_errors: bool = False):
             g[members] *= f
             se[members] *= f
         groups = [grp for k, grp in enumerate(groups) if k not in touching] + [group + [i]]
-    return (factors, np.sqrt(variances)) if with_errors else factors
+    return factors, np.sqrt(variances)
 
 
 def _unexplained_factors(names: list[str], factors: np.ndarray, errors: np.ndarray,
@@ -725,30 +768,43 @@ def stitch(
     else:
         curves = stitch_curves(measurements, points_per_decade=points_per_decade,
                                windows=windows, **kwargs)
-    mism = stitch_mismatch(curves, threshold=threshold, warn=warn)
     names = [str(n) for n in curves.measurement.values]
-    nm = len(names)
-    factors, errors = (level_factors(curves, with_errors=True) if level
-                       else (np.ones(nm), np.zeros(nm)))
-    G, se, n_meas = _combine(curves.G.values * factors[:, None],
-                             curves.standard_error.values * factors[:, None])
-    keep = n_meas > 0
+    coverage_attrs = _coverage_attrs(names)
     lunit = curves.dr.attrs["units"]
     gunits = curves.G.attrs["units"]
-    covered = (np.isfinite(curves.G.values) & (curves.G.values > 0)
-               & (curves.standard_error.values > 0))
+    keep = _window_bins(curves)
     gaps = _uncovered(curves, keep)
+    lazy = any(curves[k].chunks is not None for k in ("G", "standard_error", "pair_count"))
+    stack = dsa.stack if lazy else np.stack  # one array: one collection for dask
+    curves_3d = stack([curves[k].data.astype(float) for k in
+                       ("G", "standard_error", "pair_count")])
+    args = (curves_3d, curves.dr.values, _scan_sizes(curves), keep, level, names, threshold)
+    nk = int(keep.sum())
+    if lazy:  # one small task over the re-binned curves
+        parts = dask.delayed(_combine_curves, nout=4, pure=True)(*args)
+        per_bin = dsa.from_delayed(parts[0], shape=(2, nk), dtype=float)
+        counts = dsa.from_delayed(parts[1], shape=(3, nk), dtype=np.int64)
+        code = dsa.from_delayed(parts[3], shape=(), dtype=np.int8)
+    else:
+        per_bin, counts, (factors, errors), code = _combine_curves(*args)
     out = xr.DataArray(
-        G[keep], dims=("dr",), name="G",
+        per_bin[0], dims=("dr",), name="G",
         coords={"dr": ("dr", curves.dr.values[keep], dict(curves.dr.attrs)),
-                "pair_count": ("dr", curves.pair_count.values.sum(axis=0)[keep],
-                               {"units": "1", "long_name": "number of point pairs averaged"}),
-                "standard_error": ("dr", se[keep], {"units": gunits,
-                                                    "long_name": "standard error of G"}),
-                "n_measurements": ("dr", n_meas[keep].astype(np.int64),
-                                   {"units": "1",
-                                    "long_name": "measurements combined in the bin"}),
-                "coverage": _coverage_coord(covered[:, keep], names)})
+                "pair_count": ("dr", counts[0], {"units": "1", "long_name":
+                                                 "number of point pairs averaged"}),
+                "standard_error": ("dr", per_bin[1], {"units": gunits,
+                                                      "long_name": "standard error of G"}),
+                "n_measurements": ("dr", counts[1], {
+                    "units": "1", "long_name": "measurements combined in the bin"}),
+                "coverage": ("dr", counts[2], coverage_attrs)})
+    diagnostics = {}
+    if not lazy:  # from the values: known at once on numpy, not before compute on dask
+        mism = stitch_mismatch(curves, threshold=threshold, warn=warn)
+        diagnostics = {"mismatch_pairs": ", ".join(str(p) for p in mism.pair.values),
+                       "mismatch_ratio": mism.ratio.values.astype(float),
+                       "mismatch_z": mism.z.values.astype(float),
+                       "level_factors": factors.astype(float),
+                       "level_factor_errors": errors.astype(float)}
     out.attrs = result_attrs(None, **{
         "units": gunits,
         "long_name": "height-difference autocorrelation function",
@@ -761,6 +817,9 @@ def stitch(
                              zip(names, curves.dr_min.values, curves.dr_max.values)),
         "window_rules": curves.attrs.get("window_rules", ""),
         "weighting": "inverse-variance mean of ln G, weights (G_i / standard_error_i)^2",
+        "levelling": (f"each G times a factor fitted next to the seams (level_factors), "
+                      f"at most {LEVEL_FACTOR_BOUND:g} or 1/{LEVEL_FACTOR_BOUND:g} "
+                      "without a mark" if level else "none (level=False)"),
         "points_per_decade": float(curves.attrs.get("points_per_decade", np.nan)),
         "pixel_size": float(np.nanmin(curves.pixel_size.values)) if np.isfinite(
             curves.pixel_size.values).any() else float(curves.dr_min.min()),
@@ -769,11 +828,7 @@ def stitch(
         "reliable_dr_min": float(curves.dr_min.min()),
         "reliable_dr_max": float(curves.dr_max.max()),
         "reliable_dr_units": lunit,
-        "mismatch_pairs": ", ".join(str(p) for p in mism.pair.values),
-        "mismatch_ratio": mism.ratio.values.astype(float),
-        "mismatch_z": mism.z.values.astype(float),
-        "level_factors": factors.astype(float),
-        "level_factor_errors": errors.astype(float),
+        **diagnostics,
         "level_factor_bound": LEVEL_FACTOR_BOUND,
         "uncovered_dr_min": np.array([lo for lo, _, _ in gaps], dtype=float),
         "uncovered_dr_max": np.array([hi for _, hi, _ in gaps], dtype=float),
@@ -786,12 +841,40 @@ def stitch(
                      "(attrs uncovered_dr_min/max); fit, energy, gradient, stress ACF, "
                      "Persson theory, patch radius and spectrum of this G bridge the gap "
                      "or mark what depends on it", StitchingGapWarning)
-    unexplained = _unexplained_factors(names, factors, errors, threshold)
-    for text in unexplained:
-        out = quality.mark(out, text, what="stitch", warn=False)
-        if warn:
-            quality.warn(text, LevelFactorWarning)
+    text = "" if lazy else "; ".join(_unexplained_factors(names, factors, errors, threshold))
+    out = quality.mark_curves(out, xr.DataArray(code), what="stitch", notes=text, warn=False)
+    if text and warn:
+        quality.warn(text, LevelFactorWarning)
     return out
+
+
+def _window_bins(curves: xr.Dataset) -> np.ndarray:
+    """Select the common bins whose centre lies in the window of some measurement."""
+    dr = curves.dr.values
+    lo, hi = curves.dr_min.values[:, None], curves.dr_max.values[:, None]
+    return ((dr >= lo) & (dr <= hi)).any(axis=0)
+
+
+def _combine_curves(curves_3d, dr, scan, keep, level, names, threshold):
+    """Level and combine the re-binned curves (numpy): the stitched G on the kept bins.
+
+    Returns ``[G, standard error]`` and ``[pair count, measurements, coverage bits]`` on
+    the kept bins, ``[level factors, errors of their logs]`` per measurement and the
+    quality code (1 when a level factor is unexplained, :func:`_unexplained_factors`).
+    Bins of a window that hold no data are NaN (count 0). ``curves_3d`` holds G, its
+    standard error and the pair count, each ``(measurement, dr)``.
+    """
+    g, se, cnt = np.asarray(curves_3d, dtype=float)
+    nm = g.shape[0]
+    factors, errors = (_level_factors(g, se, dr, scan) if level
+                       else (np.ones(nm), np.zeros(nm)))
+    G, err, n_meas = _combine(g * factors[:, None], se * factors[:, None])
+    covered = np.isfinite(g) & (g > 0) & (se > 0)
+    per_bin = np.stack([G[keep], err[keep]])
+    counts = np.stack([np.asarray(cnt, dtype=np.int64).sum(axis=0)[keep],
+                       n_meas[keep].astype(np.int64), _coverage_bits(covered[:, keep])])
+    code = np.int8(1 if _unexplained_factors(names, factors, errors, threshold) else 0)
+    return per_bin, counts, np.stack([factors, errors]), code
 
 
 def _uncovered(curves: xr.Dataset, kept: np.ndarray) -> list[tuple[float, float, str]]:
@@ -818,14 +901,19 @@ def _uncovered(curves: xr.Dataset, kept: np.ndarray) -> list[tuple[float, float,
     return gaps
 
 
-def _coverage_coord(covered: np.ndarray, names: list[str]) -> tuple:
+def _coverage_bits(covered: np.ndarray) -> np.ndarray:
     """Per bin, which measurements it holds: bit ``2**i`` for the i-th measurement."""
+    shifts = np.arange(covered.shape[0], dtype=np.int64)[:, None]
+    return (covered.astype(np.int64) << shifts).sum(axis=0).astype(np.int64)
+
+
+def _coverage_attrs(names: list[str]) -> dict:
+    """Attrs of the ``coverage`` coordinate (CF ``flag_masks``, one per measurement)."""
     if len(names) > 62:
         raise ValueError(f"at most 62 measurements can be stitched, got {len(names)}")
-    bits = (covered.astype(np.int64) << np.arange(len(names), dtype=np.int64)[:, None])
-    return ("dr", bits.sum(axis=0).astype(np.int64), {
+    return {
         "units": "1", "long_name": "measurements whose G the bin holds (bit 2**i: the i-th "
         "of stitched_from)",
         "flag_masks": " ".join(str(2**i) for i in range(len(names))),
         "flag_meanings": " ".join("_".join(n.split()) or f"measurement_{i}"
-                                  for i, n in enumerate(names))})
+                                  for i, n in enumerate(names))}

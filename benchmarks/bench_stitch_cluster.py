@@ -1,0 +1,131 @@
+"""Stitching file-backed stacks of three instruments: threads against a dask cluster.
+
+A DataTree of three instruments, each a stack of scans in its own NetCDF file opened
+lazily with one scan per chunk (18 maps, about 100 MB of heights), is stitched as
+``tree.rough.acf()``: one lazy graph, computed once. Timed, interleaved over
+``--repeats`` rounds, each on the same graph:
+
+- ``single``: dask's synchronous scheduler (one thread), the baseline of the scaling;
+- ``threads``: dask's threaded scheduler (the default; one thread per core);
+- ``cluster N``: a ``dask.distributed`` ``LocalCluster`` of N worker processes with one
+  thread each (``--workers``, default 1, 2 and 4), started before the rounds (its start-up
+  is not counted) and kept for all of them.
+
+Printed per scheduler: best and median wall time, and the ratio to the threaded best of
+the same run (the target is a cluster of as many workers as cores within 1.2x of threads).
+Every scheduler's G is checked equal to the threaded one to 1e-12.
+
+Usage::
+
+    python benchmarks/bench_stitch_cluster.py                  # about 100 MB, 3 rounds
+    python benchmarks/bench_stitch_cluster.py --scale 0.5 --workers 2 --repeats 5
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import dask
+import numpy as np
+import xarray as xr
+
+import xrough
+
+#: (name, pixel in nm, pixels per side at scale 1, scans)
+INSTRUMENTS = (("tem", 0.5, 512, 6), ("afm", 4.0, 1024, 6), ("optical", 64.0, 1024, 6))
+
+
+def write_stacks(folder: Path, scale: float) -> dict[str, Path]:
+    """Write each instrument's stack of open self-affine maps to NetCDF; return the paths."""
+    paths = {}
+    for k, (name, pixel, n, scans) in enumerate(INSTRUMENTS):
+        n = max(64, int(n * np.sqrt(scale)))
+        maps = [xrough.self_affine_surface(hurst=0.8, lambda_r=n * pixel / 4,
+                                           lambda_s=4 * pixel, size=n * pixel, n=n,
+                                           rms_gradient=0.3, seed=100 * k + s, unit="nm")
+                for s in range(scans)]
+        stack = xr.concat(maps, dim="scan").assign_attrs(periodic=0)
+        stack.name = "h"
+        paths[name] = folder / f"{name}.nc"
+        stack.to_dataset().to_netcdf(paths[name])
+    return paths
+
+
+def open_tree(paths: dict[str, Path]) -> xr.DataTree:
+    return xr.DataTree.from_dict({name: xr.open_dataset(path, chunks={"scan": 1})
+                                  for name, path in paths.items()})
+
+
+def stitched(paths):
+    """The lazy stitched G of the file-backed tree (built anew: nothing cached)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return open_tree(paths).rough.acf(points_per_decade=10)
+
+
+def timed(paths, **compute_kwargs):
+    G = stitched(paths)
+    t0 = time.perf_counter()
+    out = G.compute(**compute_kwargs)
+    return time.perf_counter() - t0, out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--scale", type=float, default=1.0,
+                        help="data size relative to about 100 MB")
+    parser.add_argument("--workers", type=int, nargs="+", default=[1, 2, 4])
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+
+    from dask.distributed import Client, LocalCluster
+
+    with tempfile.TemporaryDirectory() as tmp:
+        paths = write_stacks(Path(tmp), args.scale)
+        size = sum(p.stat().st_size for p in paths.values()) / 2**20
+        print(f"xrough {xrough.__version__}, dask {dask.__version__}, {os.cpu_count()} cores; "
+              f"{size:.0f} MiB in 3 files, 18 scans, one per chunk")
+        G = stitched(paths)
+        print(f"graph: {len(G.__dask_graph__())} tasks")
+        clusters = {}
+        for n in args.workers:
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                   dashboard_address=None)
+            clusters[f"cluster {n}"] = (cluster, Client(cluster, set_as_default=False))
+        times: dict[str, list[float]] = {"single": [], "threads": [],
+                                         **{k: [] for k in clusters}}
+        ref = None
+        timed(paths)  # warm-up: imports, FFT plans, the page cache of the files
+        for client in (c for _, c in clusters.values()):
+            client.compute(stitched(paths)).result()
+        for _ in range(args.repeats):
+            t, out = timed(paths, scheduler="synchronous")
+            times["single"].append(t)
+            t, ref = timed(paths, scheduler="threads")
+            times["threads"].append(t)
+            for name, (_, client) in clusters.items():
+                G = stitched(paths)
+                t0 = time.perf_counter()
+                got = client.compute(G).result()
+                times[name].append(time.perf_counter() - t0)
+                xr.testing.assert_allclose(got, ref, rtol=1e-12, atol=0)
+            xr.testing.assert_allclose(out, ref, rtol=1e-12, atol=0)
+        for cluster, client in clusters.values():
+            client.close()
+            cluster.close()
+    base = min(times["threads"])
+    print(f"{'scheduler':<12} {'best s':>8} {'median s':>9} {'/ threads':>10} "
+          f"{'single / it':>12}")
+    for name, ts in times.items():
+        print(f"{name:<12} {min(ts):8.2f} {np.median(ts):9.2f} {min(ts) / base:10.2f} "
+              f"{min(times['single']) / min(ts):12.2f}")
+    print("every scheduler's G equal to the threaded one to 1e-12")
+
+
+if __name__ == "__main__":
+    main()
