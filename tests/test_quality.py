@@ -344,3 +344,20 @@ def test_any_two_variables_of_a_lazy_result_compute_together():
             got_a, got_b = dask.compute(lazy[a], lazy[b])
             xr.testing.assert_allclose(got_a, eager[a], rtol=1e-12)
             xr.testing.assert_allclose(got_b, eager[b], rtol=1e-12)
+
+
+def test_mark_curves_keeps_scalar_coords_attrs_under_keep_attrs_false():
+    """A result that already has a flag (e.g. a fit of a G carrying a scalar quality_flag)
+    keeps the units of its scalar coordinates when rated inside contact's functions, which
+    run with keep_attrs=False: persson's default fit needs dr_ref's units."""
+    import numpy as np
+    import xarray as xr
+
+    from xrough import quality
+    ds = xr.Dataset({"a": ((), 1.0)}).assign_coords(
+        dr_ref=((), 10.0, {"units": "nm"}),
+        **{quality.FLAG: quality.flag_coord(0, what="G")})
+    with xr.set_options(keep_attrs=False):
+        out = quality.mark_curves(ds, xr.DataArray(np.int8(0)), what="fit")
+    assert out["dr_ref"].attrs == {"units": "nm"}
+    assert int(out[quality.FLAG]) == 0

@@ -385,7 +385,13 @@ def mark_curves(obj, codes, *, what: str, notes: str = "", warn: bool = True):
     codes = codes if isinstance(codes, xr.DataArray) else xr.DataArray(np.asarray(codes))
     out = _own_output_layers(obj)
     if FLAG in out.coords:
-        codes = np.maximum(out[FLAG].drop_vars(FLAG, errors="ignore"), codes)
+        # the flag alone, without the scalar coordinates it carries out of a Dataset
+        # (dr_ref, lambda_0 of a fit): under keep_attrs=False (contact's functions)
+        # np.maximum would strip their attrs, and assign_coords below would put them back
+        # on the result without units
+        old = out[FLAG]
+        old = old.drop_vars([c for c in old.coords if c not in old.dims])
+        codes = np.maximum(old, codes)
     out = out.assign_coords({FLAG: flag_coord(codes, what=what)})
     flag = out[FLAG]
     if flag.ndim or flag.chunks is not None:
