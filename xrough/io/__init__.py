@@ -112,10 +112,8 @@ def detect_format(path: str | Path) -> str:
     """
     path = Path(path)
     if path.is_dir():
-        from .archive import _is_zarr_store
-
-        hint = (" (a Zarr store: an xrough archive opens with xrough.open_analysis, "
-                "other stores with xarray.open_zarr)") if _is_zarr_store(path) else ""
+        hint = (" (a Zarr store? an xrough archive opens with xrough.open_analysis, "
+                "other stores with xarray.open_zarr)") if path.suffix.lower() == ".zarr" else ""
         raise IsADirectoryError(f"{path.name}: is a directory, not a file{hint}")
     if not path.is_file():
         raise FileNotFoundError(f"no such file: {path}")
