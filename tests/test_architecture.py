@@ -11,7 +11,7 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "xrough"
 #: Imports allowed inside functions: optional extras only.
-OPTIONAL = {"SurfaceTopography", "SurfaceTopography.IO"}
+OPTIONAL = {"SurfaceTopography", "SurfaceTopography.IO", "zarr"}
 
 
 def _module_name(path: Path) -> str:

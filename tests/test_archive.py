@@ -2,13 +2,18 @@
 
 Every result type round-trips identical (a test per type); attributes of every type the
 archive accepts round-trip with their Python type (a property test); a failed save leaves
-the previous file untouched; any measurement name is kept.
+the previous file untouched; any measurement name is kept. The round trips run for both
+storage formats, a NetCDF file and a Zarr store; a stack of scans reopens lazily from Zarr
+with its chunks.
 """
 
+import importlib.util
 import os
+import sys
 import unicodedata
 import warnings
 
+import dask.array as da
 import numpy as np
 import pytest
 import xarray as xr
@@ -35,16 +40,22 @@ def _analysis():
     }
 
 
-def _round_trip(tmp_path, obj, name="x"):
-    path = xrough.save_analysis(tmp_path / f"{abs(hash(name))}.nc", {name: obj})
+#: The storage formats, by the archive's suffix; Zarr needs the optional zarr package.
+SUFFIXES = [".nc", pytest.param(".zarr", marks=pytest.mark.skipif(
+    importlib.util.find_spec("zarr") is None, reason="zarr not installed (xrough[zarr])"))]
+
+
+def _round_trip(tmp_path, obj, name="x", suffix=".nc"):
+    path = xrough.save_analysis(tmp_path / f"{abs(hash(name))}{suffix}", {name: obj})
     return xrough.open_analysis(path)[name]
 
 
-def test_round_trip_of_several_measurements(tmp_path):
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_round_trip_of_several_measurements(tmp_path, suffix):
     one = _analysis()
     other = {"G": one["G"] * 2}
     other["G"].attrs = one["G"].attrs
-    path = xrough.save_analysis(tmp_path / "a.nc", {"afm": one, "stylus": other},
+    path = xrough.save_analysis(tmp_path / f"a{suffix}", {"afm": one, "stylus": other},
                                 history="xrough report afm.x3p")
     back = xrough.open_analysis(path)
     for key, value in one.items():
@@ -139,10 +150,11 @@ RESULT_NAMES = ["topography", "profile", "G_fft", "G_random", "G_tiled", "stitch
                 "gradient_exact", "gradient_simple", "gradient_fit", "gradient_auto_scans"]
 
 
+@pytest.mark.parametrize("suffix", SUFFIXES)
 @pytest.mark.parametrize("name", RESULT_NAMES)
-def test_every_result_type_round_trips_identical(tmp_path, results, name):
+def test_every_result_type_round_trips_identical(tmp_path, results, name, suffix):
     obj = results[name]
-    back = _round_trip(tmp_path, obj, name)
+    back = _round_trip(tmp_path, obj, name, suffix)
     assert type(back) is type(obj)
     xr.testing.assert_identical(back, obj)
 
@@ -152,12 +164,13 @@ def test_result_list_is_complete(results):
     assert "gradient_method" in results["gradient_auto_scans"].coords
 
 
-def test_stitched_one_element_array_attrs_stay_arrays(tmp_path, results):
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_stitched_one_element_array_attrs_stay_arrays(tmp_path, results, suffix):
     """Regression: 1-element array attrs (mismatch_ratio...) came back as scalars."""
     G = results["G_stitched"]
     arrays = [k for k, v in G.attrs.items() if isinstance(v, np.ndarray) and v.size == 1]
     assert arrays, "the example should have a 1-element array attr"
-    back = _round_trip(tmp_path, G)
+    back = _round_trip(tmp_path, G, suffix=suffix)
     for key in arrays:
         assert isinstance(back.attrs[key], np.ndarray) and back.attrs[key].shape == (1,)
 
@@ -190,14 +203,15 @@ _names = st.from_regex(r"[A-Za-z][A-Za-z0-9_]{0,8}", fullmatch=True).filter(
 @settings(max_examples=40, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture,
                                  HealthCheck.too_slow])
+@pytest.mark.parametrize("suffix", SUFFIXES)
 @given(attrs=st.dictionaries(_names, _values, max_size=5),
        coord_attrs=st.dictionaries(_names, _values, max_size=3))
-def test_attrs_of_every_type_round_trip(tmp_path, attrs, coord_attrs):
+def test_attrs_of_every_type_round_trip(tmp_path, suffix, attrs, coord_attrs):
     da = xr.DataArray(np.arange(3.0), dims="dr", name="G", attrs=attrs,
                       coords={"dr": ("dr", [1.0, 2.0, 3.0], coord_attrs)})
     ds = xr.Dataset({"a": da}, attrs=attrs)
     for obj in (da, ds):
-        back = _round_trip(tmp_path, obj)
+        back = _round_trip(tmp_path, obj, suffix=suffix)
         xr.testing.assert_identical(back, obj)
         for key, value in attrs.items():
             assert type(back.attrs[key]) is type(value) or (
@@ -209,32 +223,49 @@ def test_attrs_of_every_type_round_trip(tmp_path, attrs, coord_attrs):
                 assert back.attrs[key].dtype == value.dtype
 
 
-def test_bool_and_none_attrs_round_trip(tmp_path):
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_bool_and_none_attrs_round_trip(tmp_path, suffix):
     """Regression: a boolean attr made the save fail (and destroyed the previous file)."""
     topo = xrough.topography(np.ones((4, 4)), spacing=1.0, unit="nm")
     topo.attrs.update(flag=True, off=np.False_, missing=None, meta={"a": [1, 2]},
                       one=np.array([2.5]), pair=(1, 2))
-    back = _round_trip(tmp_path, topo)
+    back = _round_trip(tmp_path, topo, suffix=suffix)
     xr.testing.assert_identical(back, topo)
     assert back.attrs["flag"] is True and back.attrs["off"] is False
     assert back.attrs["missing"] is None and back.attrs["pair"] == (1, 2)
 
 
-def test_unnamed_dataarray_and_names_clashing_with_coordinates(tmp_path):
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_numpy_types_and_non_finite_attrs_round_trip(tmp_path, suffix):
+    """Zarr's attributes are JSON: numpy scalars and arrays keep their dtype all the same."""
+    G = xr.DataArray([1.0, 2.0], dims="dr", name="G", coords={"dr": [1.0, 2.0]})
+    G.attrs.update(f4=np.float32(1.5), i2=np.int16(-3), u8=np.uint64(2**64 - 1),
+                   nan=float("nan"), inf=-np.inf, f4_inf=np.float32("inf"),
+                   pair=np.array([np.nan, 1.0], dtype="f4"), ints=np.arange(3, dtype="u2"))
+    back = _round_trip(tmp_path, G, suffix=suffix)
+    xr.testing.assert_identical(back, G)
+    for key, value in G.attrs.items():  # (NetCDF gives Python floats back as np.float64)
+        assert type(back.attrs[key]) is type(value) or type(value) is float, key
+        assert np.asarray(back.attrs[key]).dtype == np.asarray(value).dtype, key
+
+
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_unnamed_dataarray_and_names_clashing_with_coordinates(tmp_path, suffix):
     da = xr.DataArray([1.0, 2.0], dims="dr", coords={"dr": [1.0, 2.0]})
-    back = _round_trip(tmp_path, da)
+    back = _round_trip(tmp_path, da, suffix=suffix)
     assert back.name is None
     xr.testing.assert_identical(back, da)
     named = da.rename("dr_values").rename({"dr": "dr"})
-    xr.testing.assert_identical(_round_trip(tmp_path, named, "n"), named)
+    xr.testing.assert_identical(_round_trip(tmp_path, named, "n", suffix), named)
     odd = da.rename("(G)")
-    xr.testing.assert_identical(_round_trip(tmp_path, odd, "o"), odd)
+    xr.testing.assert_identical(_round_trip(tmp_path, odd, "o", suffix), odd)
 
 
-def test_empty_and_nested_mappings_round_trip(tmp_path):
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_empty_and_nested_mappings_round_trip(tmp_path, suffix):
     G = xr.DataArray([1.0], dims="dr", name="G", coords={"dr": [1.0]})
     analysis = {"empty": {}, "a": {"b": {"c": G}}}
-    back = xrough.open_analysis(xrough.save_analysis(tmp_path / "n.nc", analysis))
+    back = xrough.open_analysis(xrough.save_analysis(tmp_path / f"n{suffix}", analysis))
     assert back["empty"] == {}
     xr.testing.assert_identical(back["a"]["b"]["c"], G)
 
@@ -246,17 +277,26 @@ def _contents(directory):
     return sorted(p.name for p in directory.iterdir())
 
 
-def test_refused_attr_names_object_and_attr_and_keeps_previous_file(tmp_path):
+def _snapshot(path):
+    """The bytes of a file, or of every file of a store by its relative path."""
+    if path.is_file():
+        return path.read_bytes()
+    return {str(f.relative_to(path)): f.read_bytes() for f in sorted(path.rglob("*"))
+            if f.is_file()}
+
+
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_refused_attr_names_object_and_attr_and_keeps_previous_file(tmp_path, suffix):
     """Regression: a failed save destroyed the archive at that path."""
     good = _analysis()
-    path = xrough.save_analysis(tmp_path / "a.nc", {"afm": good})
-    before = path.read_bytes()
+    path = xrough.save_analysis(tmp_path / f"a{suffix}", {"afm": good})
+    before = _snapshot(path)
     bad = good["topography"].copy()
     bad.attrs["when"] = complex(1, 2)
     with pytest.raises(ValueError, match=r"afm/topography.*'when'"):
         xrough.save_analysis(path, {"afm": {**good, "topography": bad}})
-    assert path.read_bytes() == before
-    assert _contents(tmp_path) == ["a.nc"]
+    assert _snapshot(path) == before
+    assert _contents(tmp_path) == [f"a{suffix}"]
     coord = good["G"].copy()
     coord["dr"].attrs["origin"] = object()
     with pytest.raises(ValueError, match=r"afm/G \(variable 'dr'\).*'origin'"):
@@ -270,22 +310,24 @@ def test_refused_attr_names_object_and_attr_and_keeps_previous_file(tmp_path):
         xr.testing.assert_identical(back["afm"][key], value)
 
 
-def test_failure_while_writing_keeps_previous_file(tmp_path, monkeypatch):
-    path = tmp_path / "a.nc"
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_failure_while_writing_keeps_previous_file(tmp_path, monkeypatch, suffix):
+    path = tmp_path / f"a{suffix}"
     G = _analysis()["G"]
     xrough.save_analysis(path, {"G": G})
-    before = path.read_bytes()
-    real = xr.DataTree.to_netcdf
+    before = _snapshot(path)
+    method = "to_zarr" if suffix == ".zarr" else "to_netcdf"
+    real = getattr(xr.DataTree, method)
 
     def broken(self, target, *args, **kwargs):
         real(self, target, *args, **kwargs)  # a file on disk, then the failure
         raise RuntimeError("disk hiccup")
 
-    monkeypatch.setattr(xr.DataTree, "to_netcdf", broken)
+    monkeypatch.setattr(xr.DataTree, method, broken)
     with pytest.raises(ValueError, match="previous file at this path is unchanged"):
         xrough.save_analysis(path, {"G": G * 2})
-    assert path.read_bytes() == before
-    assert _contents(tmp_path) == ["a.nc"]
+    assert _snapshot(path) == before
+    assert _contents(tmp_path) == [f"a{suffix}"]
 
 
 def test_missing_directory_and_directory_target(tmp_path):
@@ -328,14 +370,15 @@ def test_safe_name():
     assert len(second.encode()) <= 255 and second.endswith("_2")
 
 
-def test_any_measurement_name_is_kept(tmp_path):
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_any_measurement_name_is_kept(tmp_path, suffix):
     """Regression: forbidden characters broke the save; colliding names lost a result."""
     G = xr.DataArray([1.0, 2.0], dims="dr", name="G", coords={"dr": [1.0, 2.0]})
     names = ["(1).sur", "_(1).sur", "-x", ".x", "a/b", "a_b", "", "é",
              unicodedata.normalize("NFD", "é"), "trailing ", "x" * 300]
     analysis = {name: {"G": G * k} for k, name in enumerate(names, start=1)}
     analysis["flat(2)"] = G
-    back = xrough.open_analysis(xrough.save_analysis(tmp_path / "n.nc", analysis))
+    back = xrough.open_analysis(xrough.save_analysis(tmp_path / f"n{suffix}", analysis))
     assert set(back) == {*names, "flat(2)", PROVENANCE_KEY}
     for k, name in enumerate(names, start=1):
         xr.testing.assert_identical(back[name]["G"], G * k)
@@ -362,3 +405,156 @@ def test_names_equal_as_strings_are_refused(tmp_path):
 
 def test_public_helpers():
     assert "safe_name" in archive.__all__
+
+
+# --- Zarr stores: format, lazy stacks, bad stores -------------------------------------------
+
+
+def test_format_is_chosen_by_suffix_or_argument(tmp_path):
+    pytest.importorskip("zarr")
+    G = xr.DataArray([1.0, 2.0], dims="dr", name="G", coords={"dr": [1.0, 2.0]})
+    store = xrough.save_analysis(tmp_path / "a.ZARR", {"G": G})
+    assert store.is_dir() and (store / ".zgroup").is_file()
+    other = xrough.save_analysis(tmp_path / "b", {"G": G}, format="zarr")
+    assert other.is_dir()
+    again = xrough.save_analysis(other, {"G": G * 2})  # an existing store stays Zarr
+    assert again.is_dir()
+    plain = xrough.save_analysis(tmp_path / "c.zarr", {"G": G}, format="netcdf")
+    assert plain.is_file()
+    for path in (store, other, plain):  # a directory is Zarr, a file NetCDF
+        xr.testing.assert_identical(xrough.open_analysis(path)["G"],
+                                    G * 2 if path == other else G)
+    with pytest.raises(ValueError, match="'netcdf' or 'zarr'"):
+        xrough.save_analysis(tmp_path / "d.zarr", {"G": G}, format="hdf")
+    with pytest.raises(ValueError, match=r"c\.zarr: not a Zarr store"):
+        xrough.open_analysis(plain, format="zarr")
+    assert _contents(tmp_path) == ["a.ZARR", "b", "c.zarr"]
+
+
+def _stack(n_scans=4, n=64):
+    scans = [xrough.self_affine_surface(hurst=0.8, lambda_r="2 um", lambda_s="500 nm",
+                                        size="4 um", n=n, rms_gradient=0.5, seed=s,
+                                        unit="nm") for s in range(n_scans)]
+    return xr.concat(scans, dim="scan")
+
+
+@pytest.mark.parametrize(("suffix", "chunks"), [
+    pytest.param(".zarr", {}, id="zarr-store-chunks"),
+    pytest.param(".nc", {"scan": 1}, id="netcdf-chunks-given")])
+def test_stack_reopens_lazily_with_its_chunks(tmp_path, suffix, chunks):
+    """A stack of scans, one per chunk, reopens as dask with the same chunks; G from it."""
+    if suffix == ".zarr":
+        pytest.importorskip("zarr")
+    stack = _stack()
+    lazy_in = stack.chunk({"scan": 1})
+    path = xrough.save_analysis(tmp_path / f"s{suffix}", {"scans": lazy_in})
+    back = xrough.open_analysis(path, chunks=chunks)["scans"]
+    assert isinstance(back.data, da.Array)
+    assert back.chunks == lazy_in.chunks == ((1, 1, 1, 1), (64,), (64,))
+    xr.testing.assert_identical(back, stack)
+    G_lazy = back.rough.acf(pool="scan")
+    assert isinstance(G_lazy.data, da.Array)
+    G = G_lazy.compute()
+    expected = stack.rough.acf(pool="scan")
+    xr.testing.assert_allclose(G, expected, rtol=1e-12, atol=0)
+    assert G.attrs == expected.attrs
+
+
+def test_zarr_stack_is_read_when_computed_not_at_open(tmp_path):
+    zarr = pytest.importorskip("zarr")
+    stack = _stack(n_scans=2, n=32).chunk({"scan": 1})
+    store = xrough.save_analysis(tmp_path / "s.zarr", {"scans": stack})
+    back = xrough.open_analysis(store, chunks={})["scans"]
+    variable = zarr.open_group(store, mode="r")["scans"].attrs["xrough_dataarray_variable"]
+    zarr.open_array(store / "scans" / variable, mode="r+")[0] = 0.0  # after the open
+    assert float(abs(back.isel(scan=0)).max()) == 0.0
+    np.testing.assert_array_equal(back.isel(scan=1).values, stack.isel(scan=1).values)
+
+
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_lazy_results_are_computed_once_while_written(tmp_path, suffix):
+    """Every chunk of the input is computed once, for the stack and all results from it."""
+    stack = _stack(n_scans=3, n=32).chunk({"scan": 1})
+    calls = []
+
+    def spy(block):
+        calls.append(block.shape)
+        return block
+
+    counted = stack.copy(data=stack.data.map_blocks(spy, meta=np.array((), stack.dtype)))
+    results = {"scans": counted, "G": counted.rough.acf(),
+               "pooled": counted.rough.acf(pool="scan")}
+    assert isinstance(results["G"].data, da.Array) and not calls
+    path = xrough.save_analysis(tmp_path / f"r{suffix}", results)
+    assert len(calls) == 3
+    back = xrough.open_analysis(path)
+    xr.testing.assert_allclose(back["pooled"], stack.rough.acf(pool="scan"),
+                               rtol=1e-12, atol=0)
+    xr.testing.assert_identical(back["scans"], stack)
+
+
+def test_bad_stores_are_refused_naming_the_path(tmp_path):
+    pytest.importorskip("zarr")
+    with pytest.raises(FileNotFoundError, match="missing.zarr"):
+        xrough.open_analysis(tmp_path / "missing.zarr")
+    with pytest.raises(FileNotFoundError, match="missing.nc"):
+        xrough.open_analysis(tmp_path / "missing.nc")
+    (tmp_path / "plain").mkdir()
+    with pytest.raises(ValueError, match="plain: not a Zarr store"):
+        xrough.open_analysis(tmp_path / "plain")
+    (tmp_path / "junk.nc").write_bytes(b"not a netcdf file at all")
+    with pytest.raises(ValueError, match="junk.nc: cannot read as an xrough archive"):
+        xrough.open_analysis(tmp_path / "junk.nc")
+    stack = _stack(n_scans=2, n=32).chunk({"scan": 1})
+
+    def store(name):
+        return xrough.save_analysis(tmp_path / name, {"scans": stack})
+
+    meta = store("meta.zarr")
+    (meta / ".zmetadata").write_text("{not json")
+    with pytest.raises(ValueError, match="meta.zarr: corrupted Zarr store"):
+        xrough.open_analysis(meta)
+    lost = store("lost.zarr")
+    chunk = next(p for p in (lost / "scans").rglob("1.0.0"))
+    chunk.unlink()  # a chunk lost in a copy would read as missing values
+    with pytest.raises(ValueError, match=r"lost.zarr: incomplete Zarr store.*1 of 2"):
+        xrough.open_analysis(lost, chunks={})
+    garbled = store("garbled.zarr")
+    next(p for p in (garbled / "scans").rglob("1.0.0")).write_bytes(b"garbage")
+    with pytest.raises(ValueError, match="garbled.zarr: cannot read as an xrough archive"):
+        xrough.open_analysis(garbled)
+
+
+def test_open_topography_points_a_store_to_open_analysis(tmp_path):
+    pytest.importorskip("zarr")
+    G = xr.DataArray([1.0], dims="dr", name="G", coords={"dr": [1.0]})
+    store = xrough.save_analysis(tmp_path / "a.zarr", {"G": G})
+    with pytest.raises(IsADirectoryError, match="a.zarr: .*xrough.open_analysis"):
+        xrough.open_topography(store)
+
+
+def test_zarr_never_replaces_what_is_not_a_store(tmp_path):
+    pytest.importorskip("zarr")
+    G = xr.DataArray([1.0], dims="dr", name="G", coords={"dr": [1.0]})
+    folder = tmp_path / "data.zarr"
+    folder.mkdir()
+    (folder / "notes.txt").write_text("mine")
+    with pytest.raises(FileExistsError, match="not a Zarr store"):
+        xrough.save_analysis(folder, {"G": G})
+    (tmp_path / "file.zarr").write_text("mine")
+    with pytest.raises(FileExistsError, match="not a Zarr store"):
+        xrough.save_analysis(tmp_path / "file.zarr", {"G": G})
+    assert (folder / "notes.txt").read_text() == "mine"
+    assert _contents(tmp_path) == ["data.zarr", "file.zarr"]
+    store = xrough.save_analysis(tmp_path / "a.zarr", {"G": G})
+    xrough.save_analysis(store, {"G": G * 3})  # a previous store is replaced
+    xr.testing.assert_identical(xrough.open_analysis(store)["G"], G * 3)
+    assert _contents(tmp_path) == ["a.zarr", "data.zarr", "file.zarr"]
+
+
+def test_zarr_without_the_package_says_how_to_install(tmp_path, monkeypatch):
+    G = xr.DataArray([1.0], dims="dr", name="G", coords={"dr": [1.0]})
+    monkeypatch.setitem(sys.modules, "zarr", None)  # import zarr raises ImportError
+    with pytest.raises(ImportError, match=r"xrough\[zarr\]"):
+        xrough.save_analysis(tmp_path / "a.zarr", {"G": G})
+    assert _contents(tmp_path) == []

@@ -8,6 +8,7 @@ writes, argument checks and one-line errors with documented exit codes.
 
 import contextlib
 import decimal
+import importlib.util
 import io
 import json
 import re
@@ -193,6 +194,12 @@ def test_detrend_defaults_to_a_plane_for_maps_and_a_line_for_profiles(files, mon
     assert found == {"afm": "plane", "profile": "line"}
     back = xrough.open_analysis(files / "g.nc")
     assert back["afm"]["G"].attrs["detrend"] == "plane"
+    if importlib.util.find_spec("zarr") is not None:  # -o *.zarr writes a Zarr store
+        status, _, _ = run("acf", "afm.nc", "profile.nc", "-o", "g.zarr", cwd=files,
+                           monkeypatch=monkeypatch, capsys=capsys)
+        assert status == 0 and (files / "g.zarr").is_dir()
+        xr.testing.assert_identical(xrough.open_analysis(files / "g.zarr")["afm"]["G"],
+                                    back["afm"]["G"])
     status, out, _ = run("acf", "afm.nc", "--detrend", "none", "-o", "g_raw.nc",
                          cwd=files, monkeypatch=monkeypatch, capsys=capsys)
     assert status == 0 and "detrend before G: none" in out

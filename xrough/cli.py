@@ -589,6 +589,9 @@ def _measure_all(args: argparse.Namespace, analyse=None) -> list[dict]:
 
 
 def _save(out: Path, analysis: dict, history: str) -> None:
+    if out.suffix.lower() == ".zarr":  # a Zarr store, which save_analysis replaces atomically
+        save_analysis(out, analysis, history=history)
+        return
     _write_atomic(out, lambda tmp: save_analysis(tmp, analysis, history=history))
 
 
@@ -818,7 +821,8 @@ def _parser() -> argparse.ArgumentParser:
         p = sub.add_parser(name, help=helptext, epilog=_EPILOG, formatter_class=formatter)
         file_options(p)
         p.add_argument("-o", "--output", default=f"xrough-{name}.nc",
-                       help="NetCDF output (its folder is created if missing)")
+                       help="NetCDF output, or a Zarr store if it ends in .zarr (its "
+                            "folder is created if missing)")
         p.add_argument("--direction", default="radial", choices=["radial", "x", "y"],
                        help="lags in all directions (default) or along x or y only")
         p.add_argument("--points-per-decade", type=float, default=10,

@@ -112,7 +112,9 @@ def detect_format(path: str | Path) -> str:
     """
     path = Path(path)
     if path.is_dir():
-        raise IsADirectoryError(f"{path.name}: is a directory, not a file")
+        hint = (" (a Zarr store? an xrough archive opens with xrough.open_analysis, "
+                "other stores with xarray.open_zarr)") if path.suffix.lower() == ".zarr" else ""
+        raise IsADirectoryError(f"{path.name}: is a directory, not a file{hint}")
     if not path.is_file():
         raise FileNotFoundError(f"no such file: {path}")
     try:

@@ -1,4 +1,4 @@
-"""Archive a whole analysis to one NetCDF4 file and reopen it identical.
+"""Archive a whole analysis to one NetCDF4 file or Zarr store and reopen it identical.
 
 An analysis is a mapping of names to results (topography, G, fit, Persson results...),
 or a mapping of measurement names to such mappings. It is written as a
@@ -9,20 +9,41 @@ and SHA-256 where the topography came from a file, every parameter in the result
 attrs). :func:`open_analysis` returns the same nested mapping, each object identical to
 what was saved (:func:`xarray.testing.assert_identical`).
 
+Two storage formats
+-------------------
+- **NetCDF4** (the default): one file, read by every NetCDF tool.
+- **Zarr** (a path ending in ``.zarr``, or ``format="zarr"``; needs the optional
+  dependency ``pip install xrough[zarr]``): a directory store of Zarr format 2 with
+  consolidated metadata, one compressed file per chunk. Dask-backed variables keep their
+  chunks in the store, and :func:`open_analysis` with ``chunks={}`` reopens them lazily
+  with the same chunks, so that each dask worker reads its own chunks from the store.
+  Format 2 because every Zarr implementation reads it and its metadata is stable (Zarr
+  format 3 has no specified string data type nor consolidated metadata yet).
+
+Both formats hold the same archive: the same groups, names, attributes and rules below
+(the names and attributes NetCDF accepts), so an analysis moves between them unchanged.
+
 Nothing is lost
 ---------------
-- **Atomic writes.** The file is written under a temporary name in the target's
-  directory and renamed over the target only when complete (:func:`os.replace`), so a
-  failed or interrupted save leaves the previous archive at that path untouched and no
-  partial file behind.
+- **Atomic writes.** The file (or store) is written under a temporary name in the
+  target's directory and renamed over the target only when complete (:func:`os.replace`),
+  so a failed or interrupted save leaves the previous archive at that path untouched and
+  no partial file behind. A previous Zarr store is renamed aside, the new one renamed into
+  its place and only then is the old one deleted; a path that exists and is not a Zarr
+  store is never overwritten by a Zarr archive.
+- **Complete stores.** Every chunk of a Zarr archive is written, even one holding only
+  missing values, so :func:`open_analysis` can tell an incomplete store (a chunk file lost
+  in a copy) from a complete one: it is refused, naming the store and the variable,
+  instead of reading the missing chunk as missing values.
 - **Checked before writing.** Every attribute, variable, coordinate and dimension name
   is checked first; what NetCDF cannot hold raises a :class:`ValueError` naming the
   object and the attribute before anything is written.
 - **Attributes keep their type.** NetCDF attributes are numbers, strings and 1-D numeric
   arrays. Other values are stored in a NetCDF form and their Python type is recorded in
   the attribute ``xrough_attr_types`` (a JSON object), so that they reopen as they were
-  saved: ``bool`` (stored as 0/1), ``None`` (stored as ``""``), numpy arrays of any shape
-  and size (a 1-element array no longer comes back as a scalar), lists and tuples of
+  saved: ``bool`` (stored as 0/1), ``None`` (stored as ``""``), numpy scalars and arrays
+  of any shape and size with their dtype (a 1-element array no longer comes back as a
+  scalar; Zarr's JSON attributes have no dtypes of their own), lists and tuples of
   numbers, ``bytes`` (base64), and dicts, lists of strings, nested lists, big integers
   and strings with NUL characters (JSON text; inside such JSON values, tuples come back
   as lists and numpy scalars as Python numbers). Complex numbers, dates, paths and other
@@ -45,6 +66,7 @@ import json
 import os
 import re
 import secrets
+import shutil
 import unicodedata
 from collections.abc import Mapping
 from pathlib import Path
@@ -66,6 +88,13 @@ _VARIABLE = "xrough_dataarray_variable"  # the variable that holds the DataArray
 _ORIGINAL = "xrough_name"  # the entry's name when its group name differs
 _TYPES = "xrough_attr_types"  # JSON: attr name -> how to restore its Python type
 _DATA = "xrough_data"  # variable name of a DataArray whose name cannot be one
+
+#: Storage formats of an archive, for ``format=``: one NetCDF4 file, or a Zarr store.
+_FORMATS = ("netcdf", "zarr")
+_ZARR_SUFFIX = ".zarr"
+#: Files that make a directory a Zarr store: its root group's metadata (Zarr format 2, 3).
+_ZARR_ROOTS = (".zgroup", "zarr.json")
+_ZARR_CONSOLIDATED = ".zmetadata"
 
 #: Longest name, in bytes of UTF-8, that NetCDF-4 writes and reads back (NC_MAX_NAME - 1).
 _MAX_NAME_BYTES = 255
@@ -209,15 +238,13 @@ def _encode_value(value: Any, where: str, name: str) -> tuple[Any, Any]:
         return value, None
     if isinstance(value, np.generic):
         if value.dtype in _NC_DTYPES:
-            return value, None
+            return value, {"dtype": value.dtype.str}
         raise _refuse(where, name, value, f"has dtype {value.dtype}, which NetCDF "
                       "attributes cannot hold")
     if isinstance(value, np.ndarray):
         tag = {"shape": list(value.shape), "dtype": value.dtype.str}
         if value.dtype.kind in "biuf":
-            stored = _numeric_array(value, where, name, value).ravel()
-            native = value.ndim == 1 and value.size > 1 and value.dtype.kind != "b"
-            return stored, (None if native else tag)
+            return _numeric_array(value, where, name, value).ravel(), tag
         if value.dtype.kind in "USO":
             return _to_json(value.tolist(), where, name), {**tag, "json": True}
         raise _refuse(where, name, value, f"has dtype {value.dtype}, which NetCDF "
@@ -252,6 +279,8 @@ def _decode_value(value: Any, tag: Any) -> Any:
         return items if tag == "list" else tuple(items)
     if isinstance(tag, dict):
         dtype = np.dtype(tag["dtype"])
+        if "shape" not in tag:  # a numpy scalar
+            return dtype.type(value)
         if tag.get("json"):
             return np.asarray(json.loads(value), dtype=dtype).reshape(tag["shape"])
         return np.asarray(value).astype(dtype).reshape(tag["shape"])
@@ -380,46 +409,118 @@ def _tree(analysis: Mapping) -> dict[str, xr.Dataset]:
     return tree
 
 
-def _write_atomic(tree: xr.DataTree, path: Path) -> None:
-    """Write ``tree`` to ``path`` through a temporary file in the same directory."""
+def _format(path: Path, format: str | None) -> str:
+    """Return the storage format: ``format``, else Zarr for a ``.zarr`` path or store."""
+    if format is None:
+        zarr = path.suffix.lower() == _ZARR_SUFFIX or _is_zarr_store(path)
+        return "zarr" if zarr else "netcdf"
+    if not isinstance(format, str) or format.lower() not in _FORMATS:
+        raise ValueError(f"format={format!r}: an archive is 'netcdf' or 'zarr'")
+    return format.lower()
+
+
+def _is_zarr_store(path: Path) -> bool:
+    return path.is_dir() and any((path / name).is_file() for name in _ZARR_ROOTS)
+
+
+def _zarr():
+    """Import zarr, or raise an ImportError saying how to install it."""
+    try:
+        import zarr
+    except ImportError as err:
+        raise ImportError("Zarr archives need the zarr package: pip install "
+                          "'xrough[zarr]' (or pip install zarr)") from err
+    return zarr
+
+
+def _write_netcdf(tree: xr.DataTree, target: Path) -> None:
+    tree.to_netcdf(target, engine="netcdf4")
+
+
+def _write_zarr(tree: xr.DataTree, target: Path) -> None:
+    # every chunk is written, even one of fill values only: open_analysis checks that
+    # none is missing (a missing chunk would otherwise read as fill values)
+    tree.to_zarr(target, mode="w-", consolidated=True, zarr_format=2,
+                 write_empty_chunks=True)
+
+
+def _remove(path: Path) -> None:
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path, ignore_errors=True)
+    else:
+        path.unlink(missing_ok=True)
+
+
+def _move_into_place(tmp: Path, path: Path) -> None:
+    """Rename the complete ``tmp`` to ``path``; a previous store there is deleted last."""
+    if not (tmp.is_dir() and path.exists()):
+        os.replace(tmp, path)
+        return
+    old = path.parent / f".{path.name}.{secrets.token_hex(6)}.old"
+    os.replace(path, old)
+    try:
+        os.replace(tmp, path)
+    except BaseException:
+        os.replace(old, path)
+        raise
+    _remove(old)
+
+
+def _write_atomic(tree: xr.DataTree, path: Path, format: str) -> None:
+    """Write ``tree`` to ``path`` through a temporary file or store in the same directory."""
     directory = path.parent
     if not directory.is_dir():
         raise FileNotFoundError(f"{path}: the directory {directory} does not exist")
-    if path.is_dir():
-        raise IsADirectoryError(f"{path} is a directory; give a file name (.nc)")
+    if format == "netcdf" and path.is_dir():
+        raise IsADirectoryError(f"{path} is a directory; give a file name (.nc), or a "
+                                "name ending in .zarr for a Zarr store")
+    if format == "zarr":
+        _zarr()
+        if path.exists() and not _is_zarr_store(path):
+            what = "a directory" if path.is_dir() else "a file"
+            raise FileExistsError(f"{path} is {what}, not a Zarr store, and is left as it "
+                                  "is; remove it or choose another name")
+    write = _write_netcdf if format == "netcdf" else _write_zarr
     tmp = directory / f".{path.name}.{secrets.token_hex(6)}.tmp"
     try:
-        tree.to_netcdf(tmp, engine="netcdf4")
-        os.replace(tmp, path)
+        write(tree, tmp)
+        _move_into_place(tmp, path)
     except BaseException as err:
-        tmp.unlink(missing_ok=True)
+        _remove(tmp)
         if isinstance(err, (OSError, KeyboardInterrupt, SystemExit, MemoryError)):
             raise
         raise ValueError(f"{path}: could not write the archive ({type(err).__name__}: "
                          f"{err}); any previous file at this path is unchanged") from err
 
 
-def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = None) -> Path:
-    """Write an analysis (nested mapping of results) to a NetCDF4 file, atomically.
+def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = None,
+                  format: str | None = None) -> Path:
+    """Write an analysis (nested mapping of results) to a NetCDF4 file or Zarr store, atomically.
 
     Parameters
     ----------
     path : str or Path
-        Output file (``.nc``). Written under a temporary name in the same directory and
-        renamed over ``path`` when complete: a failed save leaves a previous file at
-        ``path`` unchanged.
+        Output file (``.nc``) or Zarr store (``.zarr``, a directory). Written under a
+        temporary name in the same directory and renamed over ``path`` when complete: a
+        failed save leaves a previous file or store at ``path`` unchanged.
     analysis : mapping
         ``{"topography": topo, "G": G, "fit": fit, ...}`` for one measurement, or
         ``{"afm": {...}, "stylus": {...}}`` for several (one group each), nested to any
         depth. Names may hold any characters (see :func:`safe_name`); the top-level key
-        ``"_provenance"`` is reserved.
+        ``"_provenance"`` is reserved. Dask-backed (lazy) objects are computed while
+        they are written, all of them in one pass (work they share is done once), and
+        keep their chunks in a Zarr store.
     history : str, optional
         A line for the ``history`` attribute (e.g. the command that produced it).
+    format : {"netcdf", "zarr"}, optional
+        The storage format. Default: ``"zarr"`` for a path ending in ``.zarr`` (or an
+        existing Zarr store), ``"netcdf"`` otherwise. Zarr needs the optional dependency
+        ``zarr`` (``pip install xrough[zarr]``).
 
     Returns
     -------
     Path
-        The file written.
+        The file or store written.
 
     Raises
     ------
@@ -428,10 +529,14 @@ def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = 
     ValueError
         Before anything is written: an attribute NetCDF cannot hold (named with its
         object), a variable, coordinate or dimension name NetCDF refuses, a complex
-        variable, the reserved key ``"_provenance"``, two keys equal as strings. While
-        writing: any failure of the NetCDF library (the previous file is kept).
+        variable, the reserved key ``"_provenance"``, two keys equal as strings, an
+        unknown ``format``. While writing: any failure of the NetCDF or Zarr library
+        (e.g. dask chunks a Zarr store cannot hold; the previous file is kept).
     OSError
-        The directory does not exist, ``path`` is a directory, or the disk failed.
+        The directory does not exist, ``path`` is a directory (NetCDF), ``path`` exists
+        and is not a Zarr store (Zarr: ``FileExistsError``), or the disk failed.
+    ImportError
+        ``format="zarr"`` without the zarr package.
 
     See Also
     --------
@@ -441,7 +546,12 @@ def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = 
     -----
     Attributes that NetCDF cannot hold natively (``bool``, ``None``, arrays of any shape,
     lists, tuples, dicts, ``bytes``) are stored with a record of their type and reopen
-    identical; see the module documentation for the rules.
+    identical; see the module documentation for the rules. Both formats follow them.
+
+    Zarr chunks follow the dask chunks of each variable (chunk a stack of scans with
+    ``.chunk({"scan": 1})`` before saving to store one scan per chunk); variables in
+    memory are chunked by Zarr. Dask chunks must be equal along each dimension except
+    the last one, as Zarr's are.
 
     Examples
     --------
@@ -453,8 +563,15 @@ def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = 
     >>> _ = xrough.save_analysis(path, {"(1).sur": {"topography": topo, "G": G}})
     >>> back = xrough.open_analysis(path)
     >>> xr.testing.assert_identical(back["(1).sur"]["G"], G)
+
+    The same as a Zarr store (a directory), chosen by the name's ``.zarr``:
+
+    >>> store = pathlib.Path(tempfile.mkdtemp()) / "analysis.zarr"
+    >>> _ = xrough.save_analysis(store, {"(1).sur": {"topography": topo, "G": G}})
+    >>> xr.testing.assert_identical(xrough.open_analysis(store)["(1).sur"]["G"], G)
     """
     path = Path(path)
+    fmt = _format(path, format)
     tree = _tree(analysis)
     now = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
     root = xr.Dataset(attrs={
@@ -465,17 +582,57 @@ def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = 
         "history": f"{now}: {history or 'written by xrough.save_analysis'}",
     })
     dt = xr.DataTree.from_dict({"/": root, **tree})
-    _write_atomic(dt, path)
+    _write_atomic(dt, path, fmt)
     return path
 
 
-def open_analysis(path: str | Path) -> dict:
-    """Reopen a file written by :func:`save_analysis` as the same nested mapping.
+def _check_zarr_store(path: Path) -> None:
+    """Refuse a directory that is no Zarr store, or a store with missing chunks."""
+    if not path.is_dir():
+        raise ValueError(f"{path}: not a Zarr store (a Zarr store is a directory); a "
+                         "NetCDF archive opens with format='netcdf' or without format=")
+    if not _is_zarr_store(path):
+        raise ValueError(f"{path}: not a Zarr store: the directory has no "
+                         f"{' or '.join(_ZARR_ROOTS)}")
+    zarr = _zarr()
+    try:
+        group = zarr.open_group(path, mode="r")
+        arrays = [(name, node) for name, node in group.members(max_depth=None)
+                  if isinstance(node, zarr.Array)]
+        missing = [(name, node.nchunks - node.nchunks_initialized, node.nchunks)
+                   for name, node in arrays if node.nchunks_initialized < node.nchunks]
+    except Exception as err:  # corrupted metadata: zarr's own errors, JSON errors...
+        raise ValueError(f"{path}: corrupted Zarr store ({type(err).__name__}: "
+                         f"{str(err)[:300]})") from err
+    if missing:
+        listed = ", ".join(f"{name!r} ({lost} of {total})" for name, lost, total in missing)
+        raise ValueError(f"{path}: incomplete Zarr store: chunks missing from {listed}; "
+                         "save_analysis writes every chunk, so files of the store were "
+                         "lost (an interrupted copy?)")
+
+
+def _unreadable(path: Path, fmt: str, err: Exception) -> ValueError:
+    return ValueError(f"{path}: cannot read as an xrough archive ({fmt}): "
+                      f"{type(err).__name__}: {str(err)[:300]}")
+
+
+def open_analysis(path: str | Path, *, format: str | None = None, chunks=None) -> dict:
+    """Reopen a file or store written by :func:`save_analysis` as the same nested mapping.
 
     Parameters
     ----------
     path : str or Path
-        A file written by :func:`save_analysis`.
+        A NetCDF file or Zarr store written by :func:`save_analysis`.
+    format : {"netcdf", "zarr"}, optional
+        The storage format. Default: Zarr for a directory, NetCDF for a file.
+    chunks : None, dict, int or "auto", optional
+        ``None`` (default): every object is read into memory (NumPy) and the file closed.
+        Otherwise every object is opened lazily as dask arrays, nothing but the metadata
+        and the dimension coordinates being read, with ``chunks`` as in
+        :func:`xarray.open_datatree`: ``{}`` keeps the chunks of the store (a Zarr
+        store's chunks are the dask chunks the objects had when saved), a dict such as
+        ``{"scan": 1}`` sets them per dimension. The data are read when computed, by the
+        dask workers from the file or store itself.
 
     Returns
     -------
@@ -484,23 +641,75 @@ def open_analysis(path: str | Path) -> dict:
         saved, and the root's provenance attributes (xrough version, creation time,
         history, ``Conventions``) under the key ``"_provenance"``.
 
+    Raises
+    ------
+    FileNotFoundError
+        ``path`` does not exist.
+    ValueError
+        Not an archive, or a corrupted file or store: unreadable metadata, a directory
+        that is not a Zarr store, a Zarr store with missing chunks (the message names
+        ``path``); an unknown ``format``.
+    ImportError
+        A Zarr store without the zarr package.
+
     See Also
     --------
     save_analysis
+
+    Examples
+    --------
+    A stack of scans saved to Zarr with one scan per chunk reopens lazily with the same
+    chunks, and G is computed from the store:
+
+    >>> import tempfile, pathlib, numpy as np, xarray as xr, xrough
+    >>> scans = xr.concat([xrough.topography(np.random.default_rng(s).normal(size=(32, 32)),
+    ...                                      spacing=1.0, unit="nm") for s in range(4)],
+    ...                   dim="scan").chunk({"scan": 1})
+    >>> store = pathlib.Path(tempfile.mkdtemp()) / "scans.zarr"
+    >>> _ = xrough.save_analysis(store, {"scans": scans})
+    >>> lazy = xrough.open_analysis(store, chunks={})["scans"]
+    >>> lazy.chunks == scans.chunks
+    True
+    >>> G = lazy.rough.acf(pool="scan").compute()
     """
     path = Path(path)
-    out: dict = {}
-    with xr.open_datatree(path, engine="netcdf4") as dt:
-        out[PROVENANCE_KEY] = dict(dt.attrs)
+    if not path.exists():
+        raise FileNotFoundError(f"no such archive: {path}")
+    fmt = _format(path, format) if format is not None else (
+        "zarr" if path.is_dir() else "netcdf")
+    if fmt == "zarr":
+        _check_zarr_store(path)
+        options = {"engine": "zarr",
+                   "consolidated": (path / _ZARR_CONSOLIDATED).is_file() or None}
+    else:
+        if path.is_dir():
+            raise IsADirectoryError(f"{path} is a directory, not a NetCDF file (a Zarr "
+                                    "store opens with format='zarr' or without format=)")
+        options = {"engine": "netcdf4"}
+    lazy = chunks is not None
+    try:
+        dt = xr.open_datatree(path, chunks=chunks, **options)
+    except (FileNotFoundError, PermissionError, ImportError):
+        raise
+    except Exception as err:  # the NetCDF library's OSErrors, zarr's errors, JSON...
+        raise _unreadable(path, fmt, err) from err
+    try:
+        out: dict = {PROVENANCE_KEY: dict(dt.attrs)}
 
         def walk(node: xr.DataTree, target: dict) -> None:
             for child in node.children.values():
                 attrs = _decode_attrs(child.attrs)
                 key = attrs.get(_ORIGINAL, child.name)
                 if attrs.get(_KIND) in ("DataArray", "Dataset"):
-                    target[key] = _restore(child.to_dataset(inherit=False).load())
+                    ds = child.to_dataset(inherit=False)
+                    target[key] = _restore(ds if lazy else ds.load())
                 else:  # a mapping (or an intermediate group of an older archive)
                     walk(child, target.setdefault(key, {}))
 
         walk(dt, out)
+    except Exception as err:
+        dt.close()
+        raise _unreadable(path, fmt, err) from err
+    if not lazy:
+        dt.close()
     return out
