@@ -57,7 +57,7 @@ from tqdm.auto import tqdm
 from . import units as u
 from ._kernels import binning, tiles
 from ._kernels.pairs import folded_geometric_counts, folded_pair_sums
-from ._kernels.random_pairs import random_pair_sums
+from ._kernels.random_pairs import random_pair_sums, valid_points
 from ._kernels.uncertainty import g_variance
 from .acf import result_attrs
 from .topography import Grid, grid_of, require_whole_maps
@@ -69,6 +69,8 @@ _DEFAULT_PAIRS = 1_000_000
 DIRECTIONS = ("radial", "x", "y")
 #: More linear bins than this would be mostly empty and cost memory without information.
 MAX_BINS = 100_000
+#: Points per map whose largest |h| scales the heights of the random-pair estimator.
+_SCALE_SAMPLE = 2**16
 
 
 @dataclass(frozen=True)
@@ -246,32 +248,36 @@ def _few_points_message(index: int, batch: tuple[int, ...]) -> str:
 
 def _random_kernel(h: np.ndarray, seeds: np.ndarray, scale, *, plan: _Plan, n_per_bin: int,
                    progress) -> tuple:
-    """Sum G, G^2 and count random pairs of ``h / scale`` per kept bin."""
+    """Sum G, G^2 and count random pairs of ``h / scale`` per kept bin.
+
+    Reads the drawn points and counts the valid ones in one pass
+    (:func:`~xrough._kernels.random_pairs.valid_points`); no copy of the maps.
+    """
     ncore = len(plan.shape)
     batch = h.shape[: h.ndim - ncore]
-    flat = h.reshape((-1,) + plan.shape) / float(np.max(scale))
-    if np.isinf(flat).any():
-        raise ValueError("heights contain infinite values; mark missing points as NaN")
-    nvalid = np.isfinite(flat).reshape(flat.shape[0], -1).sum(axis=1)
-    for b in np.flatnonzero(nvalid < 2)[:1]:
-        raise ValueError(_few_points_message(int(b), batch))
+    maps = h.reshape((-1,) + plan.shape)
+    scale = float(np.max(scale))
     seeds = np.broadcast_to(seeds, batch).reshape(-1)
     edges = plan.edges
     nb = len(edges) - 1
-    out = np.empty((flat.shape[0], 3, int(plan.keep.sum())))
-    bar = _progress_bar(flat.shape[0] * nb, progress, "G(dr) by random pairs")
+    out = np.empty((maps.shape[0], 3, int(plan.keep.sum())))
+    nvalid = np.empty(maps.shape[0])
+    bar = _progress_bar(maps.shape[0] * nb, progress, "G(dr) by random pairs")
     try:
-        for b in range(flat.shape[0]):
+        for b in range(maps.shape[0]):
+            nvalid[b] = valid_points(maps[b])
+            if nvalid[b] < 2:
+                raise ValueError(_few_points_message(b, batch))
             rng = np.random.default_rng(int(seeds[b]))
-            res = random_pair_sums(flat[b], plan.spacing, edges, n_per_bin,
-                                   periodic=plan.periodic, rng=rng,
+            res = random_pair_sums(maps[b], plan.spacing, edges, n_per_bin,
+                                   periodic=plan.periodic, rng=rng, scale=scale,
                                    progress=None if bar is None else bar.update)
             out[b] = res[:, plan.keep]
     finally:
         if bar is not None:
             bar.close()
     out = out.reshape(batch + out.shape[1:])
-    return out[..., 0, :], out[..., 1, :], out[..., 2, :], nvalid.reshape(batch).astype(float)
+    return out[..., 0, :], out[..., 1, :], out[..., 2, :], nvalid.reshape(batch)
 
 
 def _area_variance(g, pairs, valid, *, dr, pixel_area, geometry):
@@ -285,12 +291,20 @@ def _area_variance(g, pairs, valid, *, dr, pixel_area, geometry):
     return out
 
 
-def _height_scale(da: xr.DataArray) -> xr.DataArray:
+def _height_scale(da: xr.DataArray, *, core_dims=(), points: int | None = None
+                  ) -> xr.DataArray:
     """Return the power of two nearest the largest ``|h|`` (1 for none), lazily for dask.
 
     G is computed from ``h / scale`` and multiplied by ``scale^2``, so that no square of a
-    height overflows or underflows on the way.
+    height overflows or underflows on the way. With ``points``, the largest ``|h|`` of a
+    regular sample of about that many points per map (every ``n / points^(1/ndim)``-th
+    point along each of ``core_dims``) instead of a pass over the whole map: enough for
+    an estimator that reads few points and checks each against the scale (random pairs).
     """
+    if points is not None:
+        per_dim = max(1, int(round(points ** (1 / len(core_dims)))))
+        da = da.isel({d: slice(None, None, max(1, da.sizes[d] // per_dim))
+                      for d in core_dims})
     peak = abs(da).max(skipna=True)
     return xr.apply_ufunc(_power_of_two, peak, dask="parallelized", output_dtypes=[float])
 
@@ -487,7 +501,9 @@ def height_difference_acf(
     workers = workers if workers is not None else (os.cpu_count() or 1)
     common = dict(input_core_dims=[list(plan.core_dims)], dask="parallelized",
                   dask_gufunc_kwargs={"output_sizes": {"dr": nb}}, keep_attrs=False)
-    scale = _height_scale(da)
+    # random pairs read few points: their scale comes from a regular sample of each map
+    scale = _height_scale(da, core_dims=plan.core_dims,
+                          points=_SCALE_SAMPLE if estimator == "random" else None)
     common["input_core_dims"] = [list(plan.core_dims), []]
     if estimator == "fft":
         sums, counts, valid = xr.apply_ufunc(
