@@ -9,10 +9,11 @@ deviation from the FFT G over the bins, and the median reported ``sampling_error
 ``--scaling`` instead times a fixed budget (default 1e4 pairs) on maps of growing size and
 prints each time as a ratio to the smallest map's, and to one pass over the map
 (``np.nanmax(np.abs(h))``, the least any whole-map step costs), all measured in the same
-run: a cost independent of the map size gives ratios near 1 in the first column. The
-same command gives the numbers of the cost model of ``target_error``
-(``--cost-model``): seconds per random pair and per bin, and FFT seconds per
-``M log2 M`` of the transformed shape.
+run: a cost independent of the map size gives ratios near 1 in the first column.
+``--cost-model`` measures the constants of the cost model of ``target_error`` (seconds
+per random pair and per bin, FFT seconds per ``M log2 M`` of the transformed shape, tiled
+seconds per point); ``--check`` times what ``target_error`` chose against the
+alternative on a few maps.
 
 Usage::
 
@@ -20,6 +21,7 @@ Usage::
     python benchmarks/bench_acf_random.py --sizes 1024 --budgets 1e4 1e5
     python benchmarks/bench_acf_random.py --scaling --sizes 1024 2048 4096 8192
     python benchmarks/bench_acf_random.py --cost-model
+    python benchmarks/bench_acf_random.py --check
 """
 
 from __future__ import annotations
@@ -130,6 +132,51 @@ def cost_model(args) -> None:
                   f"tiled / fft = {t_tiled / t_fft:.2f}", flush=True)
 
 
+#: (size, periodic, dr_max in px, target) of --check
+CHECKS = [(1024, True, None, 0.05), (1024, False, 100, 0.05), (1024, False, 100, 0.01),
+          (2048, False, None, 0.02), (4096, False, None, 0.05)]
+
+
+def check_choices(args) -> None:
+    """Time what ``target_error`` chose against the alternative, in the same run.
+
+    The alternative of random pairs is the exact FFT; that of the FFT, random pairs with
+    the budget the target would need (``n_pairs`` from the model's rule). A ratio
+    ``other / chosen`` above 1 means the model chose the faster one. Both are called
+    with the estimator given explicitly; "choice s" is what the call with
+    ``target_error`` took on top (the choice itself and the achieved error).
+    """
+    import math
+    import warnings
+
+    from xrough.correlation import SAMPLING_KAPPA
+
+    print(f"choices of target_error against the alternative, best of {args.repeat}")
+    head = (f"{'size':>6} {'periodic':>8} {'dr_max':>7} {'target':>7} {'chosen':>8} "
+            f"{'pairs':>9} {'chosen s':>9} {'other s':>9} {'other / chosen':>15} "
+            f"{'choice s':>9}")
+    print(head)
+    print("-" * len(head))
+    warnings.simplefilter("ignore")
+    for n, periodic, dr_max, target in CHECKS:
+        topo = surface(n).assign_attrs(periodic=int(periodic))
+        G = topo.rough.acf(target_error=target, dr_max=dr_max, seed=1)
+        chosen = G.attrs["estimator"].split()[0]
+        nb = G.sizes["dr"]
+        pairs = math.ceil(SAMPLING_KAPPA / (target / 2) ** 2) * nb
+        explicit = dict(estimator="random", n_pairs=pairs, seed=1) if chosen == "random" \
+            else {}
+        t_target = best_of(lambda: topo.rough.acf(target_error=target, dr_max=dr_max,
+                                                  seed=1), args.repeat)
+        t_chosen = best_of(lambda: topo.rough.acf(dr_max=dr_max, **explicit), args.repeat)
+        other = {} if chosen == "random" else dict(estimator="random", n_pairs=pairs, seed=1)
+        t_other = best_of(lambda: topo.rough.acf(dr_max=dr_max, **other), args.repeat)
+        print(f"{n:>6} {periodic!s:>8} {dr_max or '-':>7} {target:7.2f} {chosen:>8} "
+              f"{pairs:9d} {t_chosen:9.4f} {t_other:9.4f} {t_other / t_chosen:15.2f} "
+              f"{t_target - t_chosen:9.4f}", flush=True)
+        del topo, G
+
+
 DEFAULT_BUDGETS = [1e4, 1e5, 1e6, 1e7]
 
 
@@ -141,9 +188,13 @@ def main(argv=None) -> None:
                         help="time one budget against the map size")
     parser.add_argument("--cost-model", action="store_true",
                         help="measure the constants of the cost model of target_error")
+    parser.add_argument("--check", action="store_true",
+                        help="time the choices of target_error against the alternative")
     parser.add_argument("--repeat", type=int, default=5)
     args = parser.parse_args(argv)
-    if args.scaling:
+    if args.check:
+        check_choices(args)
+    elif args.scaling:
         args.sizes = args.sizes or [1024, 2048, 4096, 8192]
         scaling_table(args)
     elif args.cost_model:

@@ -74,6 +74,28 @@ def test_choice_follows_the_cost_model(shape, periodic, dr_max, target, expected
         assert "n_pairs" not in G.attrs and G.attrs["sampling_error_budget"] == 0
 
 
+@pytest.mark.parametrize("target, expected", [(0.05, "random"), (0.005, "tiled")])
+def test_map_beyond_memory_weighs_random_pairs_against_tiles(monkeypatch, target, expected):
+    """When the padded FFT would not fit (here: memory pretended to be 64 MB), the exact
+    candidate is the tiled estimator, 3.3e-7 s per map point (0.35 s at 1024²): random
+    pairs win at 5 % (3,200 pairs per bin) and lose at 0.5 % (320,000 per bin). The error
+    floor of a flat G on these bins (0.16 %) is below both targets."""
+    monkeypatch.setattr("xrough.correlation._available_memory", lambda: 64e6)
+    topo = _noise((1024, 1024))
+    options = dict(target_error=target, dr_max=400, points_per_decade=5)
+    if expected == "tiled":
+        G = _acf(topo, **options)
+    else:
+        G = _acf(topo, seed=0, **options)
+    assert G.attrs["estimator"].startswith(expected)
+    assert G.attrs["modelled_seconds_tiled"] == pytest.approx(COST["tiled"] * topo.size)
+    n_pairs = math.ceil(SAMPLING_KAPPA / (target / 2) ** 2) * G.sizes["dr"]
+    random = (COST["bin_2d"] * G.sizes["dr"] + COST["pair"] * n_pairs
+              + COST["count"] * topo.size)
+    assert G.attrs["modelled_seconds_random"] == pytest.approx(random)
+    assert (random < COST["tiled"] * topo.size) == (expected == "random")
+
+
 def test_chunked_map_is_computed_tiled_and_lazily():
     """A map split into dask chunks: random pairs cannot read it, the exact choice is the
     tiled estimator (as for ``estimator='auto'``); nothing is computed at build time."""
@@ -92,19 +114,27 @@ def test_chunked_map_is_computed_tiled_and_lazily():
     assert G.achieved_error.chunks is not None
 
 
-def test_target_below_what_the_map_can_give_uses_the_exact_estimator_and_warns():
-    """On a 32² map even uncorrelated heights give G to no better than about 5 % (the
-    model of standard_error with a flat G; this map's own: 3.8-5.3 %): a 0.1 % target is
-    out of reach for any estimator. One warning, saying so."""
-    topo = _noise((32, 32))
+# (shape, options, target): on a 32² map even uncorrelated heights give G to no better
+# than about 5 % (the model of standard_error with a flat G; this map's own: 3.8-5.3 %);
+# on 100-400 px of a 1024² map the model takes G as ballistic below the first bin, which
+# makes the least error 17 % (white noise's reported one there: 13-17 %).
+UNREACHABLE = [((32, 32), {}, 0.001),
+               ((1024, 1024), {"dr_min": 100, "dr_max": 400, "points_per_decade": 5}, 0.05)]
+
+
+@pytest.mark.parametrize("shape, options, target", UNREACHABLE)
+def test_target_below_what_the_map_can_give_uses_the_exact_estimator_and_warns(
+        shape, options, target):
+    """Out of reach for any estimator: the exact one, marked, and one warning saying so."""
+    topo = _noise(shape)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        G = topo.rough.acf(target_error=0.001)
+        G = topo.rough.acf(target_error=target, **options)
     assert len(caught) == 1 and caught[0].category is xrough.QualityWarning
     assert "below what this map can give" in str(caught[0].message)
     assert G.attrs["estimator"].startswith("fft")
     assert G.attrs["quality"] == "questionable"
-    assert G.attrs["error_floor"] > 0.001
+    assert G.attrs["error_floor"] > target
     assert "no estimator reaches it" in G.attrs["quality_notes"]
     assert int(G.quality_flag) == 1
 

@@ -400,6 +400,20 @@ class _Choice:
     reason: str
 
 
+@functools.lru_cache(maxsize=16)
+def _error_floor(dr: tuple, pairs: tuple, area: float, pixel_area: float,
+                 geometry: str) -> np.ndarray:
+    """Relative ``standard_error`` of a G flat over the bins, taken as the least possible.
+
+    Cached per grid and bins (the quadrature costs about 10 ms for 30 radial bins).
+    """
+    dr = np.asarray(dr)
+    out = np.sqrt(g_variance(dr, np.ones_like(dr), np.asarray(pairs), area=area,
+                             pixel_area=pixel_area, geometry=geometry))
+    out.setflags(write=False)
+    return out
+
+
 def _target_value(target_error) -> float:
     """Read ``target_error`` (a number or a dimensionless string such as ``"2 %"``)."""
     if isinstance(target_error, (bool, np.bool_)):
@@ -417,9 +431,11 @@ def _choose_for_target(da: xr.DataArray, grid: Grid, target: float, *, direction
     """Pick the estimator and budget that reach ``target`` at the least modelled cost.
 
     Shapes, bins and chunks only (no data): the same for numpy and dask. Error model:
-    the finite-area error of :func:`~xrough._kernels.uncertainty.g_variance` for a map
-    of uncorrelated heights of this size (the smallest any surface gives; measured
-    surfaces give more) bounds what any estimator can reach; random pairs add
+    the finite-area error of :func:`~xrough._kernels.uncertainty.g_variance` (the model
+    of ``standard_error``) for a G flat over the bins asked for (uncorrelated heights
+    when the bins start at a pixel; the model takes G as ballistic below the first bin)
+    on a map of this size bounds what any estimator can reach (a G that still rises over
+    the bins gets more); random pairs add
     ``sqrt(SAMPLING_KAPPA / pairs per bin)`` and get at most half the target (a quarter
     of its variance) per bin. Cost model: :data:`COST`.
     """
@@ -448,9 +464,8 @@ def _choose_for_target(da: xr.DataArray, grid: Grid, target: float, *, direction
     maps = int(np.prod([da.sizes[d] for d in extra]))
     points = float(np.prod(shape))
     geometry = ("profile" if len(shape) == 1 else "radial" if lag_axes == 2 else "axis")
-    floor = np.sqrt(g_variance(dr, np.ones_like(dr), pairs * pooled,
-                               area=points * pooled * grid.pixel_area,
-                               pixel_area=grid.pixel_area, geometry=geometry))
+    floor = _error_floor(tuple(dr.tolist()), tuple((pairs * pooled).tolist()),
+                         points * pooled * grid.pixel_area, grid.pixel_area, geometry)
     worst = int(np.nanargmax(floor))
     nb = dr.size
     cost = {exact: maps * (COST["fft"] * transformed if exact == "fft" else
@@ -458,8 +473,8 @@ def _choose_for_target(da: xr.DataArray, grid: Grid, target: float, *, direction
     whole = da.chunks is None or all(len(da.chunksizes[d]) == 1 for d in grid.dims)
     common = dict(floor=float(floor[worst]), floor_dr=float(dr[worst]), cost=cost)
     where = (f"the finite-area error of G is at least {floor[worst]:.2g} at dr = "
-             f"{dr[worst]:.4g} {grid.lateral_unit} on a map of this size (uncorrelated "
-             "heights, the most favourable surface)")
+             f"{dr[worst]:.4g} {grid.lateral_unit} on a map of this size and these bins "
+             "(standard_error of a G flat over the bins, the most favourable surface)")
     if target <= floor[worst]:
         return _Choice(exact, 0, sampling=0.0, reason=(
             f"target_error={target:g} is below what this map can give: {where}; no "
@@ -634,9 +649,10 @@ def height_difference_acf(
     and, for random pairs, the sampling error ``s = sqrt(2 / n)`` of ``n`` pairs per bin
     (``g / G`` of Gaussian increments is chi-squared with one degree of freedom; the
     reported ``sampling_error`` follows it), adding to ``sqrt(a^2 + s^2)``. ``a`` needs
-    the data, so the choice uses its least value, ``a_min``: the finite-area error of a
-    map of uncorrelated heights of this size (the model of ``standard_error`` with a
-    flat G). If ``t <= a_min`` the exact estimator is used and the result marked;
+    the data, so the choice uses its least value, ``a_min``: the model of
+    ``standard_error`` for a G flat over the bins asked for, on a map of this size
+    (uncorrelated heights, if the bins start at a pixel; a G that rises over the bins
+    gets more). If ``t <= a_min`` the exact estimator is used and the result marked;
     otherwise random pairs get ``s = min(t / 2, sqrt(t^2 - a_min^2))`` per bin, which
     keeps ``sqrt(a^2 + s^2) <= t`` wherever ``a <= 0.87 t``. Cost model (seconds,
     measured by ``benchmarks/bench_acf_random.py --cost-model``, :data:`COST`): FFT
