@@ -54,10 +54,11 @@ from dask.diagnostics import ProgressBar
 from dask.highlevelgraph import HighLevelGraph
 from tqdm.auto import tqdm
 
+from . import quality
 from . import units as u
 from ._kernels import binning, tiles
 from ._kernels.pairs import folded_geometric_counts, folded_pair_sums
-from ._kernels.random_pairs import random_pair_sums
+from ._kernels.random_pairs import random_pair_sums, valid_points
 from ._kernels.uncertainty import g_variance
 from .acf import result_attrs
 from .topography import Grid, grid_of, require_whole_maps
@@ -69,6 +70,8 @@ _DEFAULT_PAIRS = 1_000_000
 DIRECTIONS = ("radial", "x", "y")
 #: More linear bins than this would be mostly empty and cost memory without information.
 MAX_BINS = 100_000
+#: Points per map whose largest |h| scales the heights of the random-pair estimator.
+_SCALE_SAMPLE = 2**16
 
 
 @dataclass(frozen=True)
@@ -265,33 +268,41 @@ def _few_points_message(index: int, batch: tuple[int, ...]) -> str:
 
 def _random_kernel(h: np.ndarray, seeds: np.ndarray, *, plan: _Plan, n_per_bin: int,
                    progress) -> tuple:
-    """Sum G, G^2 and count random pairs per kept bin of each map, scaled as in _fft_kernel."""
+    """Sum G, G^2 and count random pairs per kept bin of each map.
+
+    Reads the drawn points and counts the valid ones in one pass
+    (:func:`~xrough._kernels.random_pairs.valid_points`); no copy of the maps. Each map's
+    heights are scaled by the power of two nearest the largest ``|h|`` of a regular sample
+    of it (:func:`_sampled_exponent`), returned with the sums.
+    """
     ncore = len(plan.shape)
     batch = h.shape[: h.ndim - ncore]
-    flat = h.reshape((-1,) + plan.shape)
-    nvalid = np.isfinite(flat).reshape(flat.shape[0], -1).sum(axis=1)
+    maps = h.reshape((-1,) + plan.shape)
     seeds = np.broadcast_to(seeds, batch).reshape(-1)
     edges = plan.edges
     nb = len(edges) - 1
-    out = np.empty((flat.shape[0], 3, int(plan.keep.sum())))
-    exponents = np.zeros(flat.shape[0])
-    bar = _progress_bar(flat.shape[0] * nb, progress, "G(dr) by random pairs")
+    out = np.empty((maps.shape[0], 3, int(plan.keep.sum())))
+    nvalid = np.empty(maps.shape[0])
+    exponents = np.zeros(maps.shape[0])
+    bar = _progress_bar(maps.shape[0] * nb, progress, "G(dr) by random pairs")
     try:
-        for b in range(flat.shape[0]):
-            scaled, exponents[b] = _scaled_map(flat[b], b, batch)
+        for b in range(maps.shape[0]):
+            nvalid[b] = valid_points(maps[b])
             if nvalid[b] < 2:
                 raise ValueError(_few_points_message(b, batch))
+            exponents[b] = _sampled_exponent(maps[b])
             rng = np.random.default_rng(int(seeds[b]))
-            res = random_pair_sums(scaled, plan.spacing, edges, n_per_bin,
+            res = random_pair_sums(maps[b], plan.spacing, edges, n_per_bin,
                                    periodic=plan.periodic, rng=rng,
+                                   scale=np.ldexp(1.0, int(exponents[b])),
                                    progress=None if bar is None else bar.update)
             out[b] = res[:, plan.keep]
     finally:
         if bar is not None:
             bar.close()
     out = out.reshape(batch + out.shape[1:])
-    return (out[..., 0, :], out[..., 1, :], out[..., 2, :],
-            nvalid.reshape(batch).astype(float), exponents.reshape(batch))
+    return (out[..., 0, :], out[..., 1, :], out[..., 2, :], nvalid.reshape(batch),
+            exponents.reshape(batch))
 
 
 def _area_variance(g, pairs, valid, *, dr, pixel_area, geometry):
@@ -303,6 +314,24 @@ def _area_variance(g, pairs, valid, *, dr, pixel_area, geometry):
         out[k] = g_variance(dr, g[k], pairs[k], area=area, pixel_area=pixel_area,
                             geometry=geometry)
     return out
+
+
+def _sampled_exponent(h: np.ndarray, points: int | None = None) -> int:
+    """Exponent of the power of two nearest the largest ``|h|`` of a regular sample of a map.
+
+    About ``points`` (default ``_SCALE_SAMPLE``) points: every ``n / points^(1/ndim)``-th
+    along each axis, instead of a pass over the whole map; enough for an estimator that
+    reads few points and checks each against the scale (random pairs). A sample without a
+    valid point falls back to the whole map.
+    """
+    points = _SCALE_SAMPLE if points is None else points
+    per_dim = max(1, int(round(points ** (1 / h.ndim))))
+    sample = h[tuple(slice(None, None, max(1, n // per_dim)) for n in h.shape)]
+    valid = np.isfinite(sample)
+    if not valid.any():
+        sample = h[np.isfinite(h)]
+        valid = np.ones(sample.shape, dtype=bool)
+    return int(tiles.power_of_two_exponent(np.max(np.abs(sample[valid]), initial=0.0)))
 
 
 def _times_power_of_two(values, exponent, *, power: int, height_unit: str):
@@ -355,6 +384,169 @@ def _choose_estimator(da: xr.DataArray, grid: Grid, direction: str, pool) -> str
     return "fft"
 
 
+#: Cost model of ``target_error``, seconds on the reference machine (2 cores, shared),
+#: measured by ``python benchmarks/bench_acf_random.py --cost-model`` (1024² maps and a
+#: 16384-point profile; the machine's load scatters them by up to 2x, see
+#: docs/performance.md). Costs common to every estimator (standard error, bookkeeping)
+#: cancel in the comparison and are left out.
+COST = {
+    "fft": 1.5e-9,  # per M log2 M, M the transformed points (the map padded by the lags)
+    "tiled": 3.3e-7,  # per map point (tiles, halos and block levels)
+    "pair": 1.6e-7,  # per random pair
+    "bin_2d": 8e-4,  # per bin of radial lags (drawing lag vectors of a 2D annulus)
+    "bin_1d": 2e-4,  # per bin of lags along one axis
+    "count": 3e-10,  # per map point: the random estimator's count of valid points
+}
+#: Variance of ``g = (h(r) - h(r + d))^2 / 2`` over ``G^2`` for Gaussian increments
+#: (``g / G`` is chi-squared with one degree of freedom): random pairs' relative sampling
+#: error per bin is ``sqrt(SAMPLING_KAPPA / pairs)``, the value their ``sampling_error``
+#: reports (measured 7.2-8.0 % against 7.4 % predicted at 370 pairs per bin).
+SAMPLING_KAPPA = 2.0
+
+
+@dataclass(frozen=True)
+class _Choice:
+    """What ``target_error`` chose, from the shape of the map and the bins alone."""
+
+    estimator: str
+    n_pairs: int  # random pairs in all (0 for an exact estimator)
+    floor: float  # smallest relative error a map of this size can give (largest bin)
+    floor_dr: float  # the lag of that bin
+    sampling: float  # relative sampling error given to random pairs (0 if exact)
+    cost: dict  # modelled seconds per candidate
+    reason: str
+
+
+@functools.lru_cache(maxsize=16)
+def _error_floor(dr: tuple, pairs: tuple, area: float, pixel_area: float,
+                 geometry: str) -> np.ndarray:
+    """Relative ``standard_error`` of a G flat over the bins, taken as the least possible.
+
+    Cached per grid and bins (the quadrature costs about 10 ms for 30 radial bins).
+    """
+    dr = np.asarray(dr)
+    out = np.sqrt(g_variance(dr, np.ones_like(dr), np.asarray(pairs), area=area,
+                             pixel_area=pixel_area, geometry=geometry))
+    out.setflags(write=False)
+    return out
+
+
+def _target_value(target_error) -> float:
+    """Read ``target_error`` (a number or a dimensionless string such as ``"2 %"``)."""
+    if isinstance(target_error, (bool, np.bool_)):
+        raise ValueError(f"target_error must be a positive number below 1 (a relative "
+                         f"error), got {target_error!r}")
+    t = u.positive_si(target_error, "[]", what="target_error")
+    if t >= 1:
+        raise ValueError(f"target_error is the relative standard error of G per bin and "
+                         f"must be below 1 (100 %), got {target_error!r}")
+    return t
+
+
+def _choose_for_target(da: xr.DataArray, grid: Grid, target: float, *, direction: str,
+                       pool, binning_options: dict) -> _Choice:
+    """Pick the estimator and budget that reach ``target`` at the least modelled cost.
+
+    Shapes, bins and chunks only (no data): the same for numpy and dask. Error model:
+    the finite-area error of :func:`~xrough._kernels.uncertainty.g_variance` (the model
+    of ``standard_error``) for a G flat over the bins asked for (uncorrelated heights
+    when the bins start at a pixel; the model takes G as ballistic below the first bin)
+    on a map of this size bounds what any estimator can reach (a G that still rises over
+    the bins gets more); random pairs add
+    ``sqrt(SAMPLING_KAPPA / pairs per bin)`` and get at most half the target (a quarter
+    of its variance) per bin. Cost model: :data:`COST`.
+    """
+    exact = _choose_estimator(da, grid, direction, pool)
+    if exact == "tiled":  # the geometry without the (ky+1, kx+1) plane, cached for tiled
+        edges = bin_edges(grid.shape, grid.spacing, False, grid.lateral_unit,
+                          **binning_options)
+        ks = binning.max_lags(grid.shape, grid.spacing, False, edges[-1])
+        geo, rsum = _lattice_bins(tuple(grid.shape), tuple(grid.spacing), ks,
+                                  tuple(edges.tolist()))
+        keep = geo > 0
+        dr, pairs = rsum[keep] / geo[keep], geo[keep] / 2
+        shape, lag_axes, transformed = grid.shape, 2, 0.0
+    else:
+        plan = _plan(grid, direction=direction, **binning_options)
+        dr, pairs, shape, lag_axes = plan.dr, plan.geometric_counts, plan.shape, \
+            plan.lag_axes
+        lag_shape = [n if plan.periodic else n + k for n, k in
+                     zip(shape[-lag_axes:], plan.ks)]
+        per_transform = float(np.prod(lag_shape))
+        transformed = float(np.prod(shape[:-lag_axes])) * per_transform * np.log2(
+            max(per_transform, 2.0))
+    pool_dims = (pool,) if isinstance(pool, str) else tuple(pool or ())
+    extra = [d for d in da.dims if d not in grid.dims]
+    pooled = int(np.prod([da.sizes[d] for d in pool_dims if d in da.sizes]))
+    maps = int(np.prod([da.sizes[d] for d in extra]))
+    points = float(np.prod(shape))
+    geometry = ("profile" if len(shape) == 1 else "radial" if lag_axes == 2 else "axis")
+    floor = _error_floor(tuple(dr.tolist()), tuple((pairs * pooled).tolist()),
+                         points * pooled * grid.pixel_area, grid.pixel_area, geometry)
+    worst = int(np.nanargmax(floor))
+    nb = dr.size
+    cost = {exact: maps * (COST["fft"] * transformed if exact == "fft" else
+                           COST["tiled"] * points)}
+    whole = da.chunks is None or all(len(da.chunksizes[d]) == 1 for d in grid.dims)
+    common = dict(floor=float(floor[worst]), floor_dr=float(dr[worst]), cost=cost)
+    where = (f"the finite-area error of G is at least {floor[worst]:.2g} at dr = "
+             f"{dr[worst]:.4g} {grid.lateral_unit} on a map of this size and these bins "
+             "(standard_error of a G flat over the bins, the most favourable surface)")
+    if target <= floor[worst]:
+        return _Choice(exact, 0, sampling=0.0, reason=(
+            f"target_error={target:g} is below what this map can give: {where}; no "
+            f"estimator reaches it, so the exact one ({exact}) was used: a larger map, "
+            "more maps (pool) or a narrower dr range lower the error"), **common)
+    sampling = np.minimum(target / 2, np.sqrt(target**2 - floor**2))
+    per_bin = int(np.ceil(SAMPLING_KAPPA / float(np.min(sampling)) ** 2))
+    n_pairs = per_bin * nb
+    per_bin_cost = COST["bin_2d"] if lag_axes == 2 else COST["bin_1d"]
+    cost["random"] = maps * (per_bin_cost * nb + COST["pair"] * n_pairs
+                             + COST["count"] * points)
+    budget = (f"random pairs need {n_pairs:,} pairs ({per_bin:,} per bin) for a sampling "
+              f"error of {float(np.min(sampling)):.2g} (at most half the target)")
+    if not whole:
+        return _Choice(exact, 0, sampling=0.0, reason=(
+            f"{exact}: the map is split into dask chunks, which random pairs cannot read "
+            f"({budget}); {where}"), **common)
+    times = f"modelled {cost['random']:.3g} s against {cost[exact]:.3g} s for {exact}"
+    if cost["random"] < cost[exact]:
+        return _Choice("random", n_pairs, sampling=float(np.min(sampling)), reason=(
+            f"random: {budget}, {times}; {where}"), **common)
+    return _Choice(exact, 0, sampling=0.0, reason=(
+        f"{exact}: cheaper than random pairs ({budget}, {times}); {where}"), **common)
+
+
+def _report_choice(G: xr.DataArray, choice: _Choice, target: float) -> xr.DataArray:
+    """Attach the choice (attrs) and the achieved error (coordinate, lazy for dask) to G.
+
+    A curve whose ``standard_error / G`` exceeds the target in any bin is questionable
+    (:func:`xrough.quality.mark_curves`); a target below the map's floor is marked at once.
+    """
+    attrs = dict(G.attrs, target_error=float(target), estimator_choice=choice.reason,
+                 error_floor=choice.floor, error_floor_dr=choice.floor_dr,
+                 sampling_error_budget=choice.sampling,
+                 **{f"modelled_seconds_{k}": float(v) for k, v in choice.cost.items()})
+    rel = (G.standard_error / G).max("dr", skipna=True)
+    G = G.assign_coords(achieved_error=rel.assign_attrs(
+        units="1", long_name="largest relative standard error of G over the bins "
+                             "(standard_error / G)"))
+    G.attrs = attrs
+    what = f"height_difference_acf(target_error={target:g})"
+    lazy = G.chunks is not None
+    detail = "" if lazy or rel.ndim else f" ({float(rel):.3g})"
+    notes = (f"standard_error / G exceeds target_error={target:g} in some bins{detail}: "
+             "its finite-area part, sqrt(standard_error^2 - sampling_error^2), is the "
+             "map's own and no estimator lowers it (a larger map, more maps pooled or a "
+             "narrower dr range do); see coordinate achieved_error")
+    unreachable = target <= choice.floor  # known from the shape: one warning says so
+    G = quality.mark_curves(G, (rel > target).astype(np.int8), what=what, notes=notes,
+                            warn=not unreachable)
+    if unreachable:
+        G = quality.mark(G, choice.reason, level="questionable", what=what)
+    return G
+
+
 def height_difference_acf(
     topography: xr.DataArray,
     *,
@@ -370,6 +562,7 @@ def height_difference_acf(
     seed: int | None = None,
     workers: int | None = None,
     progress: bool | None = None,
+    target_error: Any = None,
 ) -> xr.DataArray:
     r"""Height-difference autocorrelation function ``G(dr)`` of a topography (eq. 1).
 
@@ -417,6 +610,18 @@ def height_difference_acf(
         FFT threads (default: all cores).
     progress : bool, optional
         Progress bar over maps (FFT) or bins (random); default: only in a terminal.
+    target_error : float or str, optional
+        Relative standard error of G wanted in every bin (dimensionless: ``0.02`` or
+        ``"2 %"``), the same in any unit of the map. The estimator and its budget are then
+        chosen for it at the least modelled cost, from the shapes of the map and bins
+        alone (so a dask map stays lazy): random pairs with ``n_pairs`` such that their
+        sampling error ``sqrt(2 / pairs per bin)`` is at most half the target, when the
+        cost model says that is cheaper than the exact estimator (``'fft'``, or
+        ``'tiled'`` where ``'auto'`` would take it); the exact one otherwise, and when
+        the target lies below what a map of this size can give at all (then the result
+        is marked questionable, with a :class:`~xrough.QualityWarning`). Cannot be
+        combined with ``estimator`` (other than ``'auto'``) or ``n_pairs``; ``seed`` is
+        used if random pairs are chosen. See Notes and ``docs/performance.md``.
 
     Returns
     -------
@@ -428,6 +633,12 @@ def height_difference_acf(
         sampling error) and
         ``sampling_error`` (Monte-Carlo error against the all-pairs value; 0 for ``fft``).
         A bin whose pairs all touch missing points is NaN with ``pair_count`` 0.
+        With ``target_error``: coordinate ``achieved_error`` (largest ``standard_error /
+        G`` over the bins, per curve; lazy for dask), ``quality_flag`` (questionable where
+        it exceeds the target) and attrs ``target_error``, ``estimator_choice`` (what was
+        chosen and why), ``n_pairs`` (random), ``sampling_error_budget``,
+        ``error_floor`` and ``error_floor_dr`` (the smallest relative error a map of
+        this size can give, and where), ``modelled_seconds_<estimator>``.
 
     Raises
     ------
@@ -435,7 +646,9 @@ def height_difference_acf(
         Invalid topography (dims, units, spacing, fewer than 2 valid points), unknown
         options, an empty lag range, chunked core dims; heights so large or small that G
         leaves the float64 range (G is computed from heights scaled by a power of two,
-        so anything short of that is exact; raised at compute time for dask input).
+        so anything short of that is exact; raised at compute time for dask input);
+        a ``target_error`` that is not a number in (0, 1) or is given with ``estimator``
+        or ``n_pairs``.
 
     See Also
     --------
@@ -448,6 +661,23 @@ def height_difference_acf(
     correlation a product of real FFTs; ``G = S / (2N)`` per bin. Without missing points a
     periodic map needs one forward and one inverse FFT.
 
+    ``target_error`` ``t`` (section 3.1: run time against error). Errors, relative to G
+    per bin: the finite-area error ``a`` of eq. 1 on this map (in ``standard_error``)
+    and, for random pairs, the sampling error ``s = sqrt(2 / n)`` of ``n`` pairs per bin
+    (``g / G`` of Gaussian increments is chi-squared with one degree of freedom; the
+    reported ``sampling_error`` follows it), adding to ``sqrt(a^2 + s^2)``. ``a`` needs
+    the data, so the choice uses its least value, ``a_min``: the model of
+    ``standard_error`` for a G flat over the bins asked for, on a map of this size
+    (uncorrelated heights, if the bins start at a pixel; a G that rises over the bins
+    gets more). If ``t <= a_min`` the exact estimator is used and the result marked;
+    otherwise random pairs get ``s = min(t / 2, sqrt(t^2 - a_min^2))`` per bin, which
+    keeps ``sqrt(a^2 + s^2) <= t`` wherever ``a <= 0.87 t``. Cost model (seconds,
+    measured by ``benchmarks/bench_acf_random.py --cost-model``, :data:`COST`): FFT
+    ``1.5e-9 M log2 M`` (``M`` points transformed: the map, padded by the largest lag
+    when open), tiled ``3.3e-7`` per map point, random ``8e-4`` per radial bin (``2e-4``
+    along one axis) ``+ 1.6e-7`` per pair ``+ 3e-10`` per map point, each times the
+    number of maps. Whether the target was met is data: ``achieved_error``.
+
     Examples
     --------
     >>> import numpy as np, xrough
@@ -459,9 +689,38 @@ def height_difference_acf(
     1.0
     >>> G.attrs["units"], G.dr.attrs["units"]
     ('um2', 'um')
+
+    Run time against error: a 1024² open map, where 5 % per bin costs less with random
+    pairs than with the padded FFT:
+
+    >>> h = np.random.default_rng(0).normal(size=(1024, 1024))
+    >>> rough = xrough.topography(h, spacing=1.0, unit="nm")
+    >>> Gt = rough.rough.acf(target_error=0.05, dr_max=100, seed=0)
+    >>> Gt.attrs["estimator"], Gt.attrs["n_pairs"], bool(Gt.achieved_error < 0.05)
+    ('random pairs', 60800, True)
     """
     if estimator not in ESTIMATORS:
         raise ValueError(f"estimator must be one of {ESTIMATORS}, got {estimator!r}")
+    if target_error is not None:
+        target = _target_value(target_error)
+        if estimator != "auto":
+            raise ValueError(f"target_error chooses the estimator: give estimator="
+                             f"{estimator!r} or target_error={target_error!r}, not both")
+        if n_pairs != _DEFAULT_PAIRS:
+            raise ValueError("target_error chooses n_pairs: give n_pairs or target_error, "
+                             "not both")
+        options = dict(bins=bins, points_per_decade=points_per_decade, bin_width=bin_width,
+                       dr_min=dr_min, dr_max=dr_max)
+        if bin_width is not None and not (isinstance(bins, str) and bins == "linear"):
+            raise ValueError("bin_width applies to bins='linear' only")
+        choice = _choose_for_target(topography, grid_of(topography), target,
+                                    direction=direction, pool=pool, binning_options=options)
+        random = choice.estimator == "random"
+        G = height_difference_acf(
+            topography, direction=direction, estimator=choice.estimator, pool=pool,
+            n_pairs=choice.n_pairs if random else _DEFAULT_PAIRS,
+            seed=seed if random else None, workers=workers, progress=progress, **options)
+        return _report_choice(G, choice, target)
     if estimator != "random" and (seed is not None or n_pairs != _DEFAULT_PAIRS):
         raise ValueError("n_pairs and seed apply to estimator='random' only")
     if bin_width is not None and not (isinstance(bins, str) and bins == "linear"):
@@ -579,11 +838,15 @@ def height_difference_acf(
 # ---------------------------------------------------------------------------------------
 # maps larger than memory: tile by tile
 # ---------------------------------------------------------------------------------------
-def _lattice_bins(shape, spacing, ks, edges, rows_per_block: int = 256):
+@functools.lru_cache(maxsize=4)
+def _lattice_bins(shape, spacing, ks, edges_key, rows_per_block: int = 256):
     """Geometric pair counts and count-weighted lag sums per bin, a block of rows at a time.
 
-    Equal to the in-memory estimator's geometry without a ``(ky+1, kx+1)`` array.
+    Equal to the in-memory estimator's geometry without a ``(ky+1, kx+1)`` array (ordered
+    pairs; ``edges_key`` is the tuple of the bin edges). Cached per grid and bins: the
+    choice of :func:`height_difference_acf` for a ``target_error`` reads it too.
     """
+    edges = np.asarray(edges_key)
     nb = len(edges) - 1
     counts = np.zeros(nb + 1)
     rsum = np.zeros(nb + 1)
@@ -602,7 +865,10 @@ def _lattice_bins(shape, spacing, ks, edges, rows_per_block: int = 256):
         w = wy[:, None] * wx[None, :]
         counts += np.bincount(idx.ravel(), weights=w.ravel(), minlength=nb + 1)
         rsum += np.bincount(idx.ravel(), weights=(w * np.sqrt(r2)).ravel(), minlength=nb + 1)
-    return counts[:nb], rsum[:nb]
+    counts, rsum = counts[:nb], rsum[:nb]
+    counts.setflags(write=False)
+    rsum.setflags(write=False)
+    return counts, rsum
 
 
 def _bin_idx(ks, spacing, edges):
@@ -879,7 +1145,7 @@ def height_difference_acf_tiled(
                       dr_min=dr_min, dr_max=dr_max)
     nb = len(edges) - 1
     ks_full = binning.max_lags(shape, spacing, False, edges[-1])
-    geo, rsum = _lattice_bins(shape, spacing, ks_full, edges)
+    geo, rsum = _lattice_bins(tuple(shape), tuple(spacing), ks_full, tuple(edges.tolist()))
     keep = geo > 0
     if not keep.any():
         raise ValueError("no lattice lag in the requested dr range")

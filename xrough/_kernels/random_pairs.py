@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["random_pair_sums"]
+__all__ = ["random_pair_sums", "scaled_points", "valid_points"]
 
 _ENUMERATE_MAX = 200_000  # lattice vectors; above this a bin is sampled continuously
 _MAX_DRAWS = 1000  # draws per wanted pair before a bin of mostly missing pairs gives up
@@ -104,8 +104,11 @@ def _draw_lags(rng, count, lo, hi, shape, spacing, periodic):
 
 def random_pair_sums(h: np.ndarray, spacing: tuple[float, ...], edges: np.ndarray,
                      n_per_bin: int, *, periodic: bool, rng: np.random.Generator,
-                     progress=None) -> np.ndarray:
+                     scale: float = 1.0, progress=None) -> np.ndarray:
     """Monte-Carlo sums of ``g = (h(r) - h(r+d))**2 / 2`` per lag bin for one map.
+
+    Only the drawn points are read (no copy of the map, whatever its dtype or memory
+    layout), so the cost grows with the number of pairs and bins, not with the map.
 
     Parameters
     ----------
@@ -122,6 +125,9 @@ def random_pair_sums(h: np.ndarray, spacing: tuple[float, ...], edges: np.ndarra
         missing then ends with fewer; one with none in ten times the budget stops).
     periodic : bool
     rng : numpy.random.Generator
+    scale : float
+        A power of two: the sums are those of ``h / scale`` (exactly: dividing by a power
+        of two rounds nothing), so that no square leaves the float64 range.
     progress : callable, optional
         Called with the number of finished bins.
 
@@ -129,11 +135,15 @@ def random_pair_sums(h: np.ndarray, spacing: tuple[float, ...], edges: np.ndarra
     -------
     ndarray (3, nbins)
         Sum of g, sum of g**2 and number of valid pairs per bin.
+
+    Raises
+    ------
+    ValueError
+        A drawn point is infinite, or lies more than ``2**200`` times ``scale`` from 0
+        (its square could overflow the sums).
     """
     rows = h.ndim - len(spacing)  # 1: a map read as rows of profiles (lags along x only)
     shape = h.shape[rows:]
-    flat = np.ascontiguousarray(h, dtype=np.float64).ravel()
-    strides = np.cumprod((1,) + h.shape[::-1][:-1])[::-1]
     nb = len(edges) - 1
     out = np.zeros((3, nb))
     for b in range(nb):
@@ -145,18 +155,43 @@ def random_pair_sums(h: np.ndarray, spacing: tuple[float, ...], edges: np.ndarra
             if lags is None:
                 break
             drawn += want
-            g = _squared_differences(flat, lags, shape, strides, rows, h.shape[0], periodic,
-                                     rng)
+            g = _squared_differences(h, lags, shape, rows, periodic, rng, scale)
             out[:, b] += g.sum(), (g * g).sum(), g.size
         if progress is not None:
             progress(1)
     return out
 
 
-def _squared_differences(flat, lags, shape, strides, rows, nrows, periodic, rng):
-    """``(h(r) - h(r+d))^2 / 2`` for the given lags and uniform start points; NaN pairs dropped."""
-    start = end = rng.integers(0, nrows, lags[0].size) * strides[0] if rows else 0
-    for lag, n, stride in zip(lags, shape, strides[rows:]):
+#: Drawn heights beyond this many times the scale could overflow the sums of g**2.
+_LARGEST_SCALED = 2.0**200
+
+
+def scaled_points(h: np.ndarray, index: tuple, scale: float) -> np.ndarray:
+    """Return ``h[index] / scale`` in float64, refusing infinite or out-of-scale heights."""
+    v = np.asarray(h[index], dtype=np.float64) / scale
+    with np.errstate(invalid="ignore"):
+        big = np.abs(v) > _LARGEST_SCALED
+    if big.any():
+        if np.isinf(v).any():
+            raise ValueError("heights contain infinite values; mark missing points as NaN")
+        raise ValueError(
+            f"heights up to {np.nanmax(np.abs(v)) * scale:.3g} span more than 1e60 times the "
+            f"largest of a regular sample of the map ({scale:.3g}): the random-pair "
+            "estimator cannot square them safely; use estimator='fft'")
+    return v
+
+
+def _squared_differences(h, lags, shape, rows, periodic, rng, scale):
+    """``(h(r) - h(r+d))^2 / 2`` for the given lags and uniform start points; NaN pairs dropped.
+
+    ``h`` is divided by ``scale``; only the drawn points are read.
+    """
+    start, end = [], []
+    if rows:
+        r = rng.integers(0, h.shape[0], lags[0].size)
+        start.append(r)
+        end.append(r)
+    for lag, n in zip(lags, shape):
         if periodic:
             a = rng.integers(0, n, lag.size)
             e = (a + lag) % n
@@ -164,7 +199,32 @@ def _squared_differences(flat, lags, shape, strides, rows, nrows, periodic, rng)
             lo = np.maximum(0, -lag)
             a = lo + np.floor(rng.random(lag.size) * (n - np.abs(lag))).astype(np.int64)
             e = a + lag
-        start = start + a * stride
-        end = end + e * stride
-    diff = flat[start] - flat[end]
+        start.append(a)
+        end.append(e)
+    diff = scaled_points(h, tuple(start), scale) - scaled_points(h, tuple(end), scale)
     return 0.5 * diff[np.isfinite(diff)] ** 2
+
+
+
+#: Points per block of the counting pass of :func:`valid_points` (fits a core's cache).
+_COUNT_BLOCK = 2**16
+
+
+def valid_points(h: np.ndarray) -> float:
+    """Count the valid (non-NaN) heights of a map; refuse infinite ones.
+
+    One pass over the map in blocks of rows, without a temporary of the map's size: the
+    only step of the random-pair estimator whose cost grows with the map. The count is
+    exact because the finite-area error of G depends on the valid area (its quadrature,
+    :func:`~xrough._kernels.uncertainty.g_variance`, moves by far more than the area's
+    own relative change), which a sample of points would only estimate.
+    """
+    rows = h.reshape(-1, h.shape[-1]) if h.ndim > 1 else h.reshape(1, -1)
+    step = max(1, _COUNT_BLOCK // max(rows.shape[1], 1))
+    count = 0
+    for i in range(0, rows.shape[0], step):
+        finite = np.isfinite(rows[i:i + step])
+        count += int(np.count_nonzero(finite))
+        if not finite.all() and np.isinf(rows[i:i + step]).any():
+            raise ValueError("heights contain infinite values; mark missing points as NaN")
+    return float(count)
