@@ -9,10 +9,16 @@ lazily with one scan per chunk (18 maps, about 100 MB of heights), is stitched a
 - ``threads``: dask's threaded scheduler (the default; one thread per core);
 - ``cluster N``: a ``dask.distributed`` ``LocalCluster`` of N worker processes with one
   thread each (``--workers``, default 1, 2 and 4), started before the rounds (its start-up
-  is not counted) and kept for all of them.
+  is not counted) and kept for all of them, in distributed's default worker environment;
+- ``cluster N, no trim``: the same with ``MALLOC_TRIM_THRESHOLD_`` left unset in the
+  workers (``distributed.nanny.pre-spawn-environ``). distributed sets it to 64 KiB by
+  default, which makes glibc return every large freed array to the system at once, so
+  that each temporary array of the FFTs is mapped afresh (page faults on every use).
 
-Printed per scheduler: best and median wall time, and the ratio to the threaded best of
-the same run (the target is a cluster of as many workers as cores within 1.2x of threads).
+Printed per scheduler: best and median wall time, the ratio of the best to the threaded
+best of the run, and the median (range) of each cluster round over the threaded round
+just before it (the target is a cluster of as many workers as cores within 1.2x of
+threads).
 Every scheduler's G is checked equal to the threaded one to 1e-12.
 
 Usage::
@@ -92,38 +98,42 @@ def main() -> None:
               f"{size:.0f} MiB in 3 files, 18 scans, one per chunk")
         G = stitched(paths)
         print(f"graph: {len(G.__dask_graph__())} tasks")
-        clusters = {}
-        for n in args.workers:
-            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                   dashboard_address=None)
-            clusters[f"cluster {n}"] = (cluster, Client(cluster, set_as_default=False))
-        times: dict[str, list[float]] = {"single": [], "threads": [],
-                                         **{k: [] for k in clusters}}
-        ref = None
+        times: dict[str, list[float]] = {"single": [], "threads": []}
+        paired: dict[str, list[float]] = {}  # cluster / threads, timed one after the other
         timed(paths)  # warm-up: imports, FFT plans, the page cache of the files
-        for client in (c for _, c in clusters.values()):
-            client.compute(stitched(paths)).result()
         for _ in range(args.repeats):
-            t, out = timed(paths, scheduler="synchronous")
+            t, single = timed(paths, scheduler="synchronous")
             times["single"].append(t)
             t, ref = timed(paths, scheduler="threads")
             times["threads"].append(t)
-            for name, (_, client) in clusters.items():
-                G = stitched(paths)
-                t0 = time.perf_counter()
-                got = client.compute(G).result()
-                times[name].append(time.perf_counter() - t0)
-                xr.testing.assert_allclose(got, ref, rtol=1e-12, atol=0)
-            xr.testing.assert_allclose(out, ref, rtol=1e-12, atol=0)
-        for cluster, client in clusters.values():
-            client.close()
-            cluster.close()
+            xr.testing.assert_allclose(single, ref, rtol=1e-12, atol=0)
+        for trim in (True, False):  # one cluster at a time: idle ones would add noise
+            for n in args.workers:
+                env = {} if trim else {
+                    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
+                name = f"cluster {n}" + ("" if trim else ", no trim")
+                times[name], paired[name] = [], []
+                with dask.config.set(env), LocalCluster(
+                        n_workers=n, threads_per_worker=1, processes=True,
+                        dashboard_address=None) as cluster, Client(cluster) as client:
+                    client.compute(stitched(paths)).result()  # warm-up of the workers
+                    for _ in range(args.repeats):
+                        t_threads, _ = timed(paths, scheduler="threads")
+                        times["threads"].append(t_threads)
+                        G = stitched(paths)
+                        t0 = time.perf_counter()
+                        got = client.compute(G).result()
+                        times[name].append(time.perf_counter() - t0)
+                        paired[name].append(times[name][-1] / t_threads)
+                        xr.testing.assert_allclose(got, ref, rtol=1e-12, atol=0)
     base = min(times["threads"])
-    print(f"{'scheduler':<12} {'best s':>8} {'median s':>9} {'/ threads':>10} "
-          f"{'single / it':>12}")
+    print(f"{'scheduler':<22} {'best s':>8} {'median s':>9} {'/ threads':>10} "
+          f"{'paired':>16} {'single / it':>12}")
     for name, ts in times.items():
-        print(f"{name:<12} {min(ts):8.2f} {np.median(ts):9.2f} {min(ts) / base:10.2f} "
-              f"{min(times['single']) / min(ts):12.2f}")
+        pair = (f"{np.median(paired[name]):.2f} ({min(paired[name]):.2f}-"
+                f"{max(paired[name]):.2f})" if name in paired else "")
+        print(f"{name:<22} {min(ts):8.2f} {np.median(ts):9.2f} {min(ts) / base:10.2f} "
+              f"{pair:>16} {min(times['single']) / min(ts):12.2f}")
     print("every scheduler's G equal to the threaded one to 1e-12")
 
 

@@ -201,12 +201,12 @@ def _progress_bar(total: int, progress, desc: str):
                 leave=False)
 
 
-def _fft_kernel(h: np.ndarray, *, plan: _Plan, workers: int, progress) -> tuple:
-    """Map (..., *core) heights to pair sums, pair counts per kept bin and valid points.
+def _fft_kernel(h: np.ndarray, *, plan: _Plan, workers: int, progress) -> np.ndarray:
+    """Map (..., *core) heights to their sums of G per kept bin, packed (:func:`_packed`).
 
     Each map is scaled by its own power of two (nearest its largest ``|h|``, see
     :func:`_scaled_map`), so that no square of a height overflows; the sums are those of
-    the scaled heights, and the exponent of each map is returned with them.
+    the scaled heights, and the exponent of each map is packed with them.
     """
     ncore = len(plan.shape)
     batch = h.shape[: h.ndim - ncore]
@@ -241,9 +241,7 @@ def _fft_kernel(h: np.ndarray, *, plan: _Plan, workers: int, progress) -> tuple:
     finally:
         if bar is not None:
             bar.close()
-    shape = batch + (sums.shape[-1],)
-    return (sums.reshape(shape), counts.reshape(shape), nvalid.reshape(batch),
-            exponents.reshape(batch))
+    return _packed(batch, 0.5 * sums, counts, np.zeros_like(sums), nvalid, exponents)
 
 
 def _scaled_map(h: np.ndarray, index: int, batch: tuple[int, ...]) -> tuple[np.ndarray, int]:
@@ -267,8 +265,8 @@ def _few_points_message(index: int, batch: tuple[int, ...]) -> str:
 
 
 def _random_kernel(h: np.ndarray, seeds: np.ndarray, *, plan: _Plan, n_per_bin: int,
-                   progress) -> tuple:
-    """Sum G, G^2 and count random pairs per kept bin of each map.
+                   progress) -> np.ndarray:
+    """Sum G, G^2 and count random pairs per kept bin of each map, packed (:func:`_packed`).
 
     Reads the drawn points and counts the valid ones in one pass
     (:func:`~xrough._kernels.random_pairs.valid_points`); no copy of the maps. Each map's
@@ -300,9 +298,74 @@ def _random_kernel(h: np.ndarray, seeds: np.ndarray, *, plan: _Plan, n_per_bin: 
     finally:
         if bar is not None:
             bar.close()
-    out = out.reshape(batch + out.shape[1:])
-    return (out[..., 0, :], out[..., 1, :], out[..., 2, :], nvalid.reshape(batch),
-            exponents.reshape(batch))
+    return _packed(batch, out[:, 0], out[:, 2], out[:, 1], nvalid, exponents)
+
+
+def _packed(batch, gsum, counts, gsq, nvalid, exponents) -> np.ndarray:
+    """Pack per map its sums of G, pair counts, sums of G^2, valid points and exponent.
+
+    The sums and counts have one value per kept bin, the exponent is that of the map's
+    scale; shape ``batch + (3 nb + 2,)``.
+
+    One array per map is one task output per map for dask, and pools with one reduction
+    (:func:`_pool`).
+    """
+    n = gsum.shape[0]
+    out = np.concatenate([gsum, counts, gsq, np.reshape(nvalid, (n, 1)),
+                          np.reshape(exponents, (n, 1))], axis=-1)
+    return out.reshape(batch + out.shape[-1:])
+
+
+def _pool(packed: np.ndarray, axis, keepdims: bool = False) -> np.ndarray:
+    """Pool packed sums (:func:`_packed`) over ``axis``: each brought to the largest exponent.
+
+    Sums of G scale with the square of the heights' scale, sums of G^2 with its fourth
+    power, counts not at all; a map whose scale is far below the largest contributes
+    (under)flowing nothing. Usable as the chunk, combine and aggregate step of a dask
+    reduction.
+    """
+    nb = (packed.shape[-1] - 2) // 3
+    exponent = packed[..., -1:]
+    top = np.max(exponent, axis=axis, keepdims=True)
+    shift = exponent - top
+    factor = np.concatenate([np.broadcast_to(np.exp2(2 * shift), shift.shape[:-1] + (nb,)),
+                             np.ones(shift.shape[:-1] + (nb,)),
+                             np.broadcast_to(np.exp2(4 * shift), shift.shape[:-1] + (nb,)),
+                             np.ones(shift.shape[:-1] + (1,))], axis=-1)
+    out = np.sum(packed[..., :-1] * factor, axis=axis, keepdims=keepdims)
+    return np.concatenate([out, top if keepdims else np.squeeze(top, axis)], axis=-1)
+
+
+def _pool_over(data, axis):
+    """:func:`_pool` of numpy data, or one tree reduction of dask data (for ``reduce``)."""
+    if isinstance(data, dsa.Array):
+        return dsa.reduction(data, chunk=_pool, combine=_pool, aggregate=_pool, axis=axis,
+                             dtype=float, concatenate=True, name="pool-pair-sums")
+    return _pool(data, axis)
+
+
+def _finish(packed, *, dr, pixel_area, geometry, height_unit, random) -> np.ndarray:
+    """G, pair count, standard error and sampling error ``(..., 4, nb)`` from packed sums.
+
+    G is the mean of the pair values per bin; its standard error combines the finite-area
+    variance (:func:`_area_variance`) with the Monte-Carlo variance of random pairs (0 for
+    all pairs, ``random=False``); all back from the scaled heights (``2**exponent``).
+    """
+    nb = (packed.shape[-1] - 2) // 3
+    gsum, counts, gsq = packed[..., :nb], packed[..., nb:2 * nb], packed[..., 2 * nb:3 * nb]
+    valid, exponent = packed[..., -2], packed[..., -1:]
+    has = counts > 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        G = np.where(has, gsum / np.where(has, counts, 1.0), np.nan)
+        var = np.clip(gsq / np.where(has, counts, 1.0) - G**2, 0.0, None)
+        sampling = (np.where(counts > 1, np.sqrt(var / np.where(counts > 1, counts - 1, 1.0)),
+                             np.nan) if random else np.zeros_like(G))
+    area_var = _area_variance(G, counts, valid, dr=dr, pixel_area=pixel_area,
+                              geometry=geometry)
+    total = np.where(has, np.sqrt(area_var + np.nan_to_num(sampling) ** 2), np.nan)
+    G, total, sampling = (_times_power_of_two(x, exponent, power=2, height_unit=height_unit)
+                          for x in (G, total, np.where(has, sampling, np.nan)))
+    return np.stack([G, counts, total, sampling], axis=-2)
 
 
 def _area_variance(g, pairs, valid, *, dr, pixel_area, geometry):
@@ -747,15 +810,14 @@ def height_difference_acf(
                              f"(extra dims: {[x for x in da.dims if x not in grid.dims]})")
     nb = int(plan.keep.sum())
     workers = workers if workers is not None else (os.cpu_count() or 1)
-    common = dict(input_core_dims=[list(plan.core_dims)], dask="parallelized",
-                  dask_gufunc_kwargs={"output_sizes": {"dr": nb}}, keep_attrs=False)
-    common["input_core_dims"] = [list(plan.core_dims)]
+    common = dict(output_core_dims=[["packed"]], dask="parallelized",
+                  dask_gufunc_kwargs={"output_sizes": {"packed": 3 * nb + 2}},
+                  output_dtypes=[float], keep_attrs=False)
     if estimator == "fft":
-        sums, counts, valid, exponent = xr.apply_ufunc(
-            _fft_kernel, da, output_core_dims=[["dr"], ["dr"], [], []],
-            output_dtypes=[float, float, float, float],
+        packed = xr.apply_ufunc(
+            _fft_kernel, da, input_core_dims=[list(plan.core_dims)],
             kwargs={"plan": plan, "workers": workers, "progress": progress}, **common)
-        gsum, gsq = 0.5 * sums, None
+        random = False
     else:
         if not (isinstance(n_pairs, (int, np.integer)) and n_pairs > 0):
             raise ValueError(f"n_pairs must be a positive integer, got {n_pairs!r}")
@@ -763,42 +825,24 @@ def height_difference_acf(
         nmaps = int(np.prod([da.sizes[d] for d in extra])) if extra else 1
         seeds = np.random.SeedSequence(seed).generate_state(nmaps, dtype=np.uint64)
         seeds = xr.DataArray(seeds.reshape([da.sizes[d] for d in extra]), dims=extra)
-        common["input_core_dims"] = [list(plan.core_dims), []]
-        gsum, gsq, counts, valid, exponent = xr.apply_ufunc(
-            _random_kernel, da, seeds,
-            output_core_dims=[["dr"], ["dr"], ["dr"], [], []],
-            output_dtypes=[float, float, float, float, float],
+        packed = xr.apply_ufunc(
+            _random_kernel, da, seeds, input_core_dims=[list(plan.core_dims), []],
             kwargs={"plan": plan, "n_per_bin": max(1, int(n_pairs) // nb),
                     "progress": progress}, **common)
-    if pool_dims:  # each map's sums brought to the largest exponent of the pooled maps
-        top = exponent.max(pool_dims)
-        shift = exponent - top
-        gsum = (gsum * np.exp2(2 * shift)).sum(pool_dims)
-        gsq = (gsq * np.exp2(4 * shift)).sum(pool_dims) if gsq is not None else None
-        counts, valid = (x.sum(pool_dims) for x in (counts, valid))
-        exponent = top
-    has = counts > 0
-    G = (gsum / counts.where(has)).where(has)
+        random = True
+    if pool_dims:  # one tree reduction over the maps
+        packed = packed.reduce(_pool_over, dim=list(pool_dims))
     dr = plan.dr
     geometry = ("profile" if len(plan.shape) == 1 else
                 "radial" if plan.lag_axes == 2 else "axis")
-    area_var = xr.apply_ufunc(
-        _area_variance, G, counts, valid, input_core_dims=[["dr"], ["dr"], []],
-        output_core_dims=[["dr"]], dask="parallelized", output_dtypes=[float],
-        kwargs={"dr": plan.dr, "pixel_area": grid.pixel_area,
-                "geometry": geometry}, keep_attrs=False)
-    if gsq is None:
-        sampling = xr.zeros_like(G).where(has)
-    else:
-        var = (gsq / counts.where(has) - G**2).clip(min=0.0)
-        sampling = np.sqrt(var / (counts - 1).where(counts > 1))
-    total = np.sqrt(area_var + sampling.fillna(0.0) ** 2).where(has)
     hunit = grid.height_unit
-    # back from h / 2**exponent (everything above is in scaled heights)
-    G, total, sampling = (xr.apply_ufunc(
-        _times_power_of_two, x, exponent, dask="parallelized", output_dtypes=[float],
-        kwargs={"power": 2, "height_unit": hunit}, keep_attrs=False)
-        for x in (G, total, sampling))
+    out = xr.apply_ufunc(
+        _finish, packed, input_core_dims=[["packed"]], output_core_dims=[["part", "dr"]],
+        dask="parallelized", output_dtypes=[float], keep_attrs=False,
+        dask_gufunc_kwargs={"output_sizes": {"part": 4, "dr": nb}},
+        kwargs={"dr": dr, "pixel_area": grid.pixel_area, "geometry": geometry,
+                "height_unit": hunit, "random": random})
+    G, counts, total, sampling = (out.isel(part=k, drop=True) for k in range(4))
     G = G.assign_coords(
         dr=("dr", dr, {"units": grid.lateral_unit, "long_name": "lag distance"}),
         pair_count=counts.astype(np.int64).assign_attrs(
