@@ -21,6 +21,10 @@ just before it (the target is a cluster of as many workers as cores within 1.2x 
 threads).
 Every scheduler's G is checked equal to the threaded one to 1e-12.
 
+Then, per scheduler, the time of a graph of trivial tasks as many as the stitched graph
+runs after optimisation (``ones * 3`` summed, one chunk per task): the fixed cost of the
+scheduler, which a cluster pays per task and threads barely do.
+
 Usage::
 
     python benchmarks/bench_stitch_cluster.py                  # about 100 MB, 3 rounds
@@ -39,6 +43,7 @@ from pathlib import Path
 import dask
 import numpy as np
 import xarray as xr
+from dask.callbacks import Callback
 
 import xrough
 
@@ -74,6 +79,24 @@ def stitched(paths):
         return open_tree(paths).rough.acf(points_per_decade=10)
 
 
+class TaskCounter(Callback):
+    """Counts the tasks a local scheduler runs."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.count = 0
+
+    def _pretask(self, key, dsk, state):
+        self.count += 1
+
+
+def trivial(n_tasks: int):
+    """A graph of about ``n_tasks`` trivial tasks (one block of ones per task, summed)."""
+    import dask.array as dsa
+
+    return (dsa.ones((n_tasks // 2, 10), chunks=(1, 10)) * 3).sum(split_every=n_tasks)
+
+
 def timed(paths, **compute_kwargs):
     G = stitched(paths)
     t0 = time.perf_counter()
@@ -97,7 +120,12 @@ def main() -> None:
         print(f"xrough {xrough.__version__}, dask {dask.__version__}, {os.cpu_count()} cores; "
               f"{size:.0f} MiB in 3 files, 18 scans, one per chunk")
         G = stitched(paths)
-        print(f"graph: {len(G.__dask_graph__())} tasks")
+        counter = TaskCounter()
+        with counter:
+            G.compute(scheduler="synchronous")
+        n_tasks = counter.count
+        print(f"graph: {len(G.__dask_graph__())} tasks, {n_tasks} run after optimisation")
+        overhead: dict[str, list[float]] = {}
         times: dict[str, list[float]] = {"single": [], "threads": []}
         paired: dict[str, list[float]] = {}  # cluster / threads, timed one after the other
         timed(paths)  # warm-up: imports, FFT plans, the page cache of the files
@@ -107,6 +135,11 @@ def main() -> None:
             t, ref = timed(paths, scheduler="threads")
             times["threads"].append(t)
             xr.testing.assert_allclose(single, ref, rtol=1e-12, atol=0)
+            for sched in ("single", "threads"):
+                t0 = time.perf_counter()
+                trivial(n_tasks).compute(
+                    scheduler="synchronous" if sched == "single" else "threads")
+                overhead.setdefault(sched, []).append(time.perf_counter() - t0)
         for trim in (True, False):  # one cluster at a time: idle ones would add noise
             for n in args.workers:
                 env = {} if trim else {
@@ -126,14 +159,18 @@ def main() -> None:
                         times[name].append(time.perf_counter() - t0)
                         paired[name].append(times[name][-1] / t_threads)
                         xr.testing.assert_allclose(got, ref, rtol=1e-12, atol=0)
+                        t0 = time.perf_counter()
+                        client.compute(trivial(n_tasks)).result()
+                        overhead.setdefault(name, []).append(time.perf_counter() - t0)
     base = min(times["threads"])
     print(f"{'scheduler':<22} {'best s':>8} {'median s':>9} {'/ threads':>10} "
-          f"{'paired':>16} {'single / it':>12}")
+          f"{'paired':>16} {'single / it':>12} {'trivial s':>10}")
     for name, ts in times.items():
         pair = (f"{np.median(paired[name]):.2f} ({min(paired[name]):.2f}-"
                 f"{max(paired[name]):.2f})" if name in paired else "")
         print(f"{name:<22} {min(ts):8.2f} {np.median(ts):9.2f} {min(ts) / base:10.2f} "
-              f"{pair:>16} {min(times['single']) / min(ts):12.2f}")
+              f"{pair:>16} {min(times['single']) / min(ts):12.2f} "
+              f"{min(overhead[name]):10.3f}")
     print("every scheduler's G equal to the threaded one to 1e-12")
 
 

@@ -149,3 +149,22 @@ def test_diagnostics_of_a_lazy_stitch_come_from_its_curves(stacks, file_tree):
     ref = _quiet(stitch, stacks, points_per_decade=8)
     np.testing.assert_allclose(factors, ref.attrs["level_factors"], rtol=1e-12)
     np.testing.assert_allclose(errors, ref.attrs["level_factor_errors"], rtol=1e-12)
+
+
+def test_lazy_precomputed_G_in_pieces_mixed_with_a_map_in_memory():
+    """A precomputed G chunked along dr stitched with a topography in memory: lazy, and
+    equal to the stitch of the same inputs in memory."""
+    topo = xrough.self_affine_surface(hurst=0.7, lambda_r="2 um", lambda_s="40 nm",
+                                      size="8 um", n=1024, rms_height="10 nm",
+                                      profile=True, seed=3, unit="nm")
+    fine = topo.isel(x=slice(0, 256)).assign_attrs(periodic=0)
+    coarse = topo.isel(x=slice(None, None, 4))
+    G_fine = xrough.height_difference_acf(fine)
+    ref = _quiet(stitch, {"fine": G_fine, "coarse": coarse})
+    scheduler = NoNesting()
+    with dask.config.set(scheduler=scheduler):
+        got = _quiet(stitch, {"fine": G_fine.chunk(dr=5), "coarse": coarse})
+        assert got.chunks is not None and scheduler.calls == 0
+        got = got.compute()
+    assert scheduler.calls == 1 and scheduler.nested == 0
+    xr.testing.assert_allclose(got, ref, rtol=1e-12, atol=0)

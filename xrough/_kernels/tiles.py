@@ -66,11 +66,13 @@ def scaled_heights(h: np.ndarray) -> tuple[np.ndarray, int | None]:
         Infinite heights.
     """
     h = np.asarray(h, dtype=np.float64)
-    _check_finite(h)
-    valid = np.isfinite(h)
-    if not valid.any():
+    top, bottom = np.fmax.reduce(h, axis=None), np.fmin.reduce(h, axis=None)  # NaN skipped
+    if np.isnan(top):
         return h, None
-    e = int(power_of_two_exponent(np.max(np.abs(h[valid]))))
+    peak = max(float(top), -float(bottom))
+    if np.isinf(peak):
+        _check_finite(h)
+    e = int(power_of_two_exponent(peak))
     return np.ldexp(h, -e), e
 
 
