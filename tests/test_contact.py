@@ -508,6 +508,48 @@ def test_patch_radius_says_why_it_is_infinite_or_extrapolated():
     assert far.attrs["quality"] == "questionable"
 
 
+def test_patch_radius_below_the_data_is_the_root_of_the_ballistic_continuation():
+    """Ballistic G measured from 1 m: a_c is the closed-form root, not a search bound.
+
+    Below the first lag r0, G is continued as G(r0) (r / r0)^2 = c r^2. Then
+    v_el(a) = E*/4 int_0^a c dr = E* c a / 4 and, with G(a) = c a^2,
+    eq. 44: gamma = E* c a / 4            -> a_c_upper = 4 gamma / (E* c),
+    eq. 46: gamma = E* c a / 4 + E* c a / 8 -> a_c = 8 gamma / (3 E* c).
+    G = gbar^2 dr^2 / 4 has c = gbar^2 / 4: a_c = 32 gamma / (3 E* gbar^2). With
+    E* = 25 MPa, gamma = 50 mJ/m^2, gbar = 1: a_c = 1.6 / 7.5e7 m = 2.133e-8 m (the
+    issue's 2.13e-8 m), a_c_upper = 3.2e-8 m. The search used to stop at 1e-6 x 1 m.
+    """
+    dr = np.geomspace(1.0, 1e3, 40)  # m
+    G = xr.DataArray(dr**2 / 4, dims="dr", attrs={"units": "m2"},
+                     coords={"dr": ("dr", dr, {"units": "m"})})
+    E, gamma, gbar = 25e6, 0.05, 1.0
+    with pytest.warns(xrough.QualityWarning, match="ballistic continuation") as caught:
+        pr = xrough.patch_radius(G, E_star="25 MPa", gamma="50 mJ/m^2")
+    assert len([w for w in caught if w.category is xrough.QualityWarning]) == 1
+    assert float(pr.a_c) == pytest.approx(32 * gamma / (3 * E * gbar**2), rel=1e-9)
+    assert float(pr.a_c) == pytest.approx(2.13e-8, rel=0.05)
+    assert float(pr.a_c_upper) == pytest.approx(16 * gamma / (E * gbar**2), rel=1e-9)
+    assert pr.attrs["quality"] == "questionable"
+
+
+def test_patch_radius_far_beyond_the_data_is_the_root_of_the_flat_continuation():
+    """Beyond the last lag rL (G flat): v_el(a) = v_el - E* G(rL) / (4 a), so eq. 44 gives
+    a = E* G(rL) / (4 (v_el - gamma)) and eq. 46 half of it, for any gamma < v_el (the
+    search used to end 6 decades beyond the data and call such a radius infinite)."""
+    dr = np.geomspace(1e-3, 1e3, 50)
+    G = xr.DataArray(0.01 * dr**2 / 4, dims="dr", attrs={"units": "nm2"},
+                     coords={"dr": ("dr", dr, {"units": "nm"})})  # v_el = E* 5 nm / 4
+    v_el = E_STAR * 5e-9 / 4
+    gamma = v_el * (1 - 1e-9)
+    with pytest.warns(xrough.QualityWarning, match="flat continuation"):
+        pr = xrough.patch_radius(G, E_star=E_STAR, gamma=gamma)
+    plateau = 0.01 * 1e3**2 / 4 * 1e-18  # m^2
+    assert float(pr.a_c_upper) * 1e-9 == pytest.approx(
+        E_STAR * plateau / (4 * (v_el - gamma)), rel=1e-5)
+    assert float(pr.a_c) == pytest.approx(float(pr.a_c_upper) / 2, rel=1e-9)
+    assert float(pr.a_c) > 1e6 * 1e3 and pr.attrs["quality"] == "questionable"
+
+
 def test_energy_and_stress_acf_flag_what_rests_on_continuations():
     """v_el mostly from beyond the data, and a Laplacian of too few bins, are flagged."""
     C = xrough.model_spectrum(hurst=0.3, lambda_r="1 um", lambda_s="1 nm",

@@ -743,11 +743,21 @@ def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
     - refined (eq. 46): the patch grows while ``a_c^2 [v_el(a_c) - gamma]`` decreases:
       the smallest ``a_c`` with ``gamma = v_el(a_c) + E* G(a_c) / (8 a_c)``;
 
-    with ``v_el(a_c) = (E*/4) int_0^{a_c} G(r)/r^2 dr``. When ``gamma`` exceeds the energy
-    of full contact, no finite radius solves the equation and the result is ``inf`` (the
-    surfaces stick everywhere; ``attrs["quality_notes"]`` says so). A radius beyond the
-    lags of G rests on its continuation and is flagged questionable
-    (:mod:`xrough.quality`).
+    with ``v_el(a_c) = (E*/4) int_0^{a_c} G(r)/r^2 dr``. Outside the lags of G the roots
+    are those of G's continuation, in closed form (never a bound of the search):
+
+    - below the first lag ``r0``, G is continued ballistically, ``G = G(r0) (r/r0)^2``,
+      and ``a_c = 8 gamma r0^2 / (3 E* G(r0))``, ``a_c_upper = 4 gamma r0^2 / (E* G(r0))``
+      (for ``G = gbar^2 dr^2 / 4``: ``32 gamma / (3 E* gbar^2)`` and
+      ``16 gamma / (E* gbar^2)``);
+    - beyond the last lag ``rL``, G is continued flat, ``v_el(a) = v_el - E* G(rL) / (4 a)``
+      with ``v_el`` of full contact (eq. 16), and ``a_c = E* G(rL) / (8 (v_el - gamma))``,
+      ``a_c_upper = E* G(rL) / (4 (v_el - gamma))``.
+
+    Either rests on the continuation, not on data, and is flagged questionable
+    (:mod:`xrough.quality`). When ``gamma`` is at least the energy of full contact
+    ``v_el``, no finite radius solves the equation and the result is ``inf`` (the surfaces
+    stick everywhere; ``attrs["quality_notes"]`` says so).
 
     Parameters
     ----------
@@ -807,8 +817,10 @@ def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
          "v_el (elastic_energy(G)), so no patch stops growing: adhesion closes the whole "
          "gap and the surfaces stick everywhere"),
         (finite & (upper > lags[-1]), "questionable",
-         "a_c (or its upper estimate) lies beyond the largest lag of G, where G is "
-         "continued flat: measure larger scales to confirm it"),
+         "a_c (or its upper estimate) lies beyond the largest lag of G: it is the root "
+         "of G's flat continuation (in closed form), not of data: measure larger scales "
+         "to confirm it"),
         (finite & (a_c < lags[0]), "questionable",
-         "a_c lies below the smallest lag of G, where G is continued as dr^2: measure "
-         "finer scales to confirm it")], what="patch_radius")
+         "a_c lies below the smallest lag of G: it is the root of G's ballistic "
+         "continuation (G ~ dr^2, in closed form), not of data: measure finer scales to "
+         "confirm it")], what="patch_radius")
