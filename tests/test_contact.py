@@ -609,3 +609,57 @@ def test_persson_uses_a_gradient_that_does_not_rise_with_dr():
         assert P.attrs["quality"] == level
         assert (level == "questionable") == any("rises with dr" in str(w.message)
                                                for w in caught)
+
+
+def _flat_notes(caught):
+    return [w for w in caught if w.category is xrough.QualityWarning
+            and "flat from its first lag" in str(w.message)]
+
+
+def test_white_noise_roughness_is_not_resolved():
+    """White noise (G flat from the first lag, slope ~0 < FLAT_SLOPE = 0.1): stress ACF and
+    Persson theory failed, NaN, one warning each; a self-affine map is not touched."""
+    h = np.random.default_rng(0).normal(size=(256, 256))
+    G = xrough.height_difference_acf(xrough.topography(h, spacing="1 nm", unit="nm"))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        S = xrough.stress_acf(G, E_star=E_STAR)
+    assert len(_flat_notes(caught)) == 1
+    assert S.attrs["quality"] == "failed" and bool(S.isnull().all())
+    assert "not resolved" in S.attrs["quality_notes"]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        P = xrough.persson(G, E_star=E_STAR, p0=1e5)
+    assert len(_flat_notes(caught)) == 1  # fit and gradient warn of their own problems
+    assert P.attrs["quality"] == "failed"
+    assert all(bool(v.isnull().all()) for v in P.data_vars.values())
+    lazy = xrough.stress_acf(G.chunk(), E_star=E_STAR)  # the check is lazy, in the flag
+    assert int(lazy.quality_flag.compute()) == 2 and bool(lazy.isnull().all().compute())
+
+    topo = xrough.self_affine_surface(hurst=0.8, lambda_r=32, lambda_s=4, size=256, n=256,
+                                      rms_gradient=0.1, unit="nm", seed=1)
+    Gs = xrough.height_difference_acf(topo)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        S = xrough.stress_acf(Gs, E_star=E_STAR)
+        P = xrough.persson(Gs, E_star=E_STAR, p0=1e5)
+    assert not _flat_notes(caught)
+    assert S.attrs["quality"] == "good" and P.attrs["quality"] == "good"
+    assert bool(np.isfinite(S).all()) and bool(np.isfinite(P.a_r).all())
+
+
+@pytest.mark.parametrize(("slope", "flat"), [(0.0, True), (0.05, True), (0.2, False),
+                                             (0.6, False)])
+def test_flat_from_the_first_lag_is_a_slope_below_a_tenth_per_curve(slope, flat):
+    """The criterion: least-squares log-log slope of G over its first decade < 0.1, judged
+    per curve (a second curve rising as dr^1.6 is kept)."""
+    dr = np.geomspace(1.0, 100.0, 21)
+    G = xr.DataArray(np.stack([dr**slope, dr**1.6]), dims=("scan", "dr"),
+                     attrs={"units": "nm2"}, coords={"dr": ("dr", dr, {"units": "nm"})})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        S = xrough.stress_acf(G, E_star=E_STAR)
+    assert S.quality_flag.values.tolist() == [2 if flat else 0, 0]
+    assert bool(S.isel(scan=0).isnull().all()) == flat
+    assert bool(np.isfinite(S.isel(scan=1)).all())
+    assert len(_flat_notes(caught)) == (1 if flat else 0)

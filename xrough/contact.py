@@ -21,7 +21,7 @@ import xarray as xr
 from . import quality
 from . import units as u
 from ._kernels import contact as k
-from ._kernels.acf_curve import DETERMINED
+from ._kernels.acf_curve import DETERMINED, FLAT_SLOPE
 from ._kernels.contact import KAPPA_PERSSON
 from ._kernels.gaps import bridge_energy
 from ._kernels.hankel import acf_from_spectrum_kernel
@@ -142,6 +142,35 @@ def _derivative_checks(why: xr.DataArray, spec: AcfSpec) -> list:
                 span = f" at dr = {at.min():.3g} to {at.max():.3g} {unit}"
         checks.append((hit.any("dr"), "questionable", text.format(span=span)))
     return checks
+
+
+def _unresolved(G_si: xr.DataArray, error: xr.DataArray | None, spec: AcfSpec,
+                depends: str) -> tuple[xr.DataArray, tuple]:
+    """Curves whose G is flat from the first lag, and the :func:`_rate` check that says it.
+
+    Flat: the log-log slope of G over its first decade of lags
+    (:func:`xrough._kernels.contact.first_decade_slope`, weighted by the standard errors)
+    is below :data:`~xrough._kernels.acf_curve.FLAT_SLOPE`. Lazy where G is.
+    """
+    dr = spec.dr * spec.to_m
+    arrays = (G_si,) if error is None else (G_si, error)
+    slope = xr.apply_ufunc(
+        k.first_decade_slope, *arrays, input_core_dims=[["dr"]] * len(arrays),
+        output_core_dims=[[]], vectorize=True, dask="parallelized", output_dtypes=[float],
+        kwargs={"dr": dr}, keep_attrs=False)
+    flat = slope < FLAT_SLOPE
+    found = ""
+    if slope.chunks is None:
+        values = np.asarray(slope.values)[np.asarray(flat.values)]
+        if values.size:
+            found = f" ({values.max():.2g}{' at most' if values.size > 1 else ''})"
+    return flat, (flat, "failed", (
+        f"G is flat from its first lag: its log-log slope over the first decade of lags "
+        f"is below {FLAT_SLOPE:g}{found}, where a rough surface resolved by the lags "
+        "rises as dr^2H or dr^2. The roughness is not resolved: heights are uncorrelated "
+        "from one pixel to the next (white noise, or roughness finer than the pixel), so "
+        f"{depends} would describe the pixels, not the surface; NaN. Measure at a finer "
+        "lateral resolution (or check the data for noise only)"))
 
 
 def _past(lags: xr.DataArray, spec: AcfSpec) -> str:
@@ -358,6 +387,11 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
     remaining values are unchanged. A smooth negative lobe beyond the roll-off is physical,
     because the full-contact stress ACF integrates to 0 over the plane.
 
+    A G that is flat from its first lag (log-log slope below 0.1 over the first decade of
+    lags, :data:`xrough._kernels.acf_curve.FLAT_SLOPE`) does not resolve the roughness
+    (white noise: heights uncorrelated from one pixel to the next); its curve is NaN and
+    failed, with one ``QualityWarning`` (docs/quality.md).
+
     Parameters
     ----------
     G : xarray.DataArray
@@ -423,11 +457,13 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
                              derivative=_DERIVATIVE,
                              equation="eq. 24 (full contact, p0^2 offset left out)")
     few = (G > 0).sum("dr") < 5
+    flat, unresolved = _unresolved(G_si, error, spec, "the Laplacian of G (eq. 24)")
+    out = out.where(~flat).assign_attrs(out.attrs)
     out = mark_gaps(out, spec, what="stress_acf", depends=_GAP_LAPLACIAN)
     return _rate(out, [(few, "questionable", "fewer than 5 valid bins: the Laplacian is "
                         "that of the log-log polygon through them, not of a smoothed G; "
-                        "use more points per decade"), *_derivative_checks(why, spec)],
-                 what="stress_acf")
+                        "use more points per decade"), *_derivative_checks(why, spec),
+                       unresolved], what="stress_acf")
 
 
 def stress_acf_from_spectrum(C: xr.DataArray, dr: Any, *, E_star: Any) -> xr.DataArray:
@@ -546,6 +582,10 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
       (original weighting, independent of ``kappa``) or ``kappa^2 / 4`` (modified:
       ``2 / pi`` for Persson's ``kappa``), ``H`` from the fit;
     - ``G_du = G W`` (eq. 34), the displacement ACF.
+
+    A curve whose G is flat from its first lag (log-log slope below 0.1 over the first
+    decade of lags: the lags do not resolve the roughness, as for white noise) has every
+    output NaN and is failed, with one ``QualityWarning`` (docs/quality.md).
 
     Parameters
     ----------
@@ -725,7 +765,11 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     if not many:
         ds = ds.isel(p0=0)
         checks = [(mask.isel(p0=0), level, note) for mask, level, note in checks]
-    checks += derivative  # per curve, no p0 dim
+    flat, unresolved = _unresolved(G_si, error, spec, "the rms gradient (eq. 26) and the "
+                                   "Laplacian of G (eq. 24), and so every output,")
+    ds = ds.assign({name: v.where(~flat).assign_attrs(v.attrs)
+                    for name, v in ds.data_vars.items()})
+    checks += derivative + [unresolved]  # per curve, no p0 dim
     ds = mark_gaps(ds, spec, what="persson", depends=_GAP_PERSSON)
     return _rate(ds, checks, what="persson", inherited=(
         gradient if set(wanted) - {"sigma_quick"} else None,

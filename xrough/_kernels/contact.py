@@ -16,7 +16,7 @@ from .shape_factors import rolloff_factor, self_affine_factor
 
 __all__ = ["KAPPA_PERSSON", "STEEP_DECAY", "contact_area", "improved_area", "nonincreasing",
            "quick_stress", "stress_asymptote", "energy_curve", "laplacian_curve",
-           "UNDETERMINED", "OUTSIDE_WINDOW",
+           "UNDETERMINED", "OUTSIDE_WINDOW", "first_decade_slope",
            "smooth_tail", "patch_radius_curve"]
 
 #: Persson's small-pressure slope of the contact area, ``a_r ~ kappa p*`` (eq. 29).
@@ -103,6 +103,15 @@ def energy_curve(g, *, dr, a_c) -> np.ndarray:
     cum, below, above = curve.cumulative_g_over_r2(a_c)
     total = curve.cumulative_g_over_r2(np.array([np.inf]))[0][0]
     return np.concatenate([[total, below / total, above / total], cum])
+
+
+def first_decade_slope(g, error=None, *, dr) -> float:
+    """Log-log slope of one G over its first decade of lags (:class:`AcfCurve`).
+
+    Below :data:`~xrough._kernels.acf_curve.FLAT_SLOPE` G is flat from the first lag; NaN
+    with fewer than 3 samples in that decade.
+    """
+    return _curve(g, error, dr).first_decade_slope()
 
 
 #: Codes of :func:`laplacian_curve`'s second row: why a lag has no Laplacian.
