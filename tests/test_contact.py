@@ -508,6 +508,48 @@ def test_patch_radius_says_why_it_is_infinite_or_extrapolated():
     assert far.attrs["quality"] == "questionable"
 
 
+def test_patch_radius_below_the_data_is_the_root_of_the_ballistic_continuation():
+    """Ballistic G measured from 1 m: a_c is the closed-form root, not a search bound.
+
+    Below the first lag r0, G is continued as G(r0) (r / r0)^2 = c r^2. Then
+    v_el(a) = E*/4 int_0^a c dr = E* c a / 4 and, with G(a) = c a^2,
+    eq. 44: gamma = E* c a / 4            -> a_c_upper = 4 gamma / (E* c),
+    eq. 46: gamma = E* c a / 4 + E* c a / 8 -> a_c = 8 gamma / (3 E* c).
+    G = gbar^2 dr^2 / 4 has c = gbar^2 / 4: a_c = 32 gamma / (3 E* gbar^2). With
+    E* = 25 MPa, gamma = 50 mJ/m^2, gbar = 1: a_c = 1.6 / 7.5e7 m = 2.133e-8 m (the
+    issue's 2.13e-8 m), a_c_upper = 3.2e-8 m. The search used to stop at 1e-6 x 1 m.
+    """
+    dr = np.geomspace(1.0, 1e3, 40)  # m
+    G = xr.DataArray(dr**2 / 4, dims="dr", attrs={"units": "m2"},
+                     coords={"dr": ("dr", dr, {"units": "m"})})
+    E, gamma, gbar = 25e6, 0.05, 1.0
+    with pytest.warns(xrough.QualityWarning, match="ballistic continuation") as caught:
+        pr = xrough.patch_radius(G, E_star="25 MPa", gamma="50 mJ/m^2")
+    assert len([w for w in caught if w.category is xrough.QualityWarning]) == 1
+    assert float(pr.a_c) == pytest.approx(32 * gamma / (3 * E * gbar**2), rel=1e-9)
+    assert float(pr.a_c) == pytest.approx(2.13e-8, rel=0.05)
+    assert float(pr.a_c_upper) == pytest.approx(16 * gamma / (E * gbar**2), rel=1e-9)
+    assert pr.attrs["quality"] == "questionable"
+
+
+def test_patch_radius_far_beyond_the_data_is_the_root_of_the_flat_continuation():
+    """Beyond the last lag rL (G flat): v_el(a) = v_el - E* G(rL) / (4 a), so eq. 44 gives
+    a = E* G(rL) / (4 (v_el - gamma)) and eq. 46 half of it, for any gamma < v_el (the
+    search used to end 6 decades beyond the data and call such a radius infinite)."""
+    dr = np.geomspace(1e-3, 1e3, 50)
+    G = xr.DataArray(0.01 * dr**2 / 4, dims="dr", attrs={"units": "nm2"},
+                     coords={"dr": ("dr", dr, {"units": "nm"})})  # v_el = E* 5 nm / 4
+    v_el = E_STAR * 5e-9 / 4
+    gamma = v_el * (1 - 1e-9)
+    with pytest.warns(xrough.QualityWarning, match="flat continuation"):
+        pr = xrough.patch_radius(G, E_star=E_STAR, gamma=gamma)
+    plateau = 0.01 * 1e3**2 / 4 * 1e-18  # m^2
+    assert float(pr.a_c_upper) * 1e-9 == pytest.approx(
+        E_STAR * plateau / (4 * (v_el - gamma)), rel=1e-5)
+    assert float(pr.a_c) == pytest.approx(float(pr.a_c_upper) / 2, rel=1e-9)
+    assert float(pr.a_c) > 1e6 * 1e3 and pr.attrs["quality"] == "questionable"
+
+
 def test_energy_and_stress_acf_flag_what_rests_on_continuations():
     """v_el mostly from beyond the data, and a Laplacian of too few bins, are flagged."""
     C = xrough.model_spectrum(hurst=0.3, lambda_r="1 um", lambda_s="1 nm",
@@ -567,3 +609,57 @@ def test_persson_uses_a_gradient_that_does_not_rise_with_dr():
         assert P.attrs["quality"] == level
         assert (level == "questionable") == any("rises with dr" in str(w.message)
                                                for w in caught)
+
+
+def _flat_notes(caught):
+    return [w for w in caught if w.category is xrough.QualityWarning
+            and "flat from its first lag" in str(w.message)]
+
+
+def test_white_noise_roughness_is_not_resolved():
+    """White noise (G flat from the first lag, slope ~0 < FLAT_SLOPE = 0.1): stress ACF and
+    Persson theory failed, NaN, one warning each; a self-affine map is not touched."""
+    h = np.random.default_rng(0).normal(size=(256, 256))
+    G = xrough.height_difference_acf(xrough.topography(h, spacing="1 nm", unit="nm"))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        S = xrough.stress_acf(G, E_star=E_STAR)
+    assert len(_flat_notes(caught)) == 1
+    assert S.attrs["quality"] == "failed" and bool(S.isnull().all())
+    assert "not resolved" in S.attrs["quality_notes"]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        P = xrough.persson(G, E_star=E_STAR, p0=1e5)
+    assert len(_flat_notes(caught)) == 1  # fit and gradient warn of their own problems
+    assert P.attrs["quality"] == "failed"
+    assert all(bool(v.isnull().all()) for v in P.data_vars.values())
+    lazy = xrough.stress_acf(G.chunk(), E_star=E_STAR)  # the check is lazy, in the flag
+    assert int(lazy.quality_flag.compute()) == 2 and bool(lazy.isnull().all().compute())
+
+    topo = xrough.self_affine_surface(hurst=0.8, lambda_r=32, lambda_s=4, size=256, n=256,
+                                      rms_gradient=0.1, unit="nm", seed=1)
+    Gs = xrough.height_difference_acf(topo)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        S = xrough.stress_acf(Gs, E_star=E_STAR)
+        P = xrough.persson(Gs, E_star=E_STAR, p0=1e5)
+    assert not _flat_notes(caught)
+    assert S.attrs["quality"] == "good" and P.attrs["quality"] == "good"
+    assert bool(np.isfinite(S).all()) and bool(np.isfinite(P.a_r).all())
+
+
+@pytest.mark.parametrize(("slope", "flat"), [(0.0, True), (0.05, True), (0.2, False),
+                                             (0.6, False)])
+def test_flat_from_the_first_lag_is_a_slope_below_a_tenth_per_curve(slope, flat):
+    """The criterion: least-squares log-log slope of G over its first decade < 0.1, judged
+    per curve (a second curve rising as dr^1.6 is kept)."""
+    dr = np.geomspace(1.0, 100.0, 21)
+    G = xr.DataArray(np.stack([dr**slope, dr**1.6]), dims=("scan", "dr"),
+                     attrs={"units": "nm2"}, coords={"dr": ("dr", dr, {"units": "nm"})})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        S = xrough.stress_acf(G, E_star=E_STAR)
+    assert S.quality_flag.values.tolist() == [2 if flat else 0, 0]
+    assert bool(S.isel(scan=0).isnull().all()) == flat
+    assert bool(np.isfinite(S.isel(scan=1)).all())
+    assert len(_flat_notes(caught)) == (1 if flat else 0)

@@ -21,7 +21,7 @@ import xarray as xr
 from . import quality
 from . import units as u
 from ._kernels import contact as k
-from ._kernels.acf_curve import DETERMINED
+from ._kernels.acf_curve import DETERMINED, FLAT_SLOPE
 from ._kernels.contact import KAPPA_PERSSON
 from ._kernels.gaps import bridge_energy
 from ._kernels.hankel import acf_from_spectrum_kernel
@@ -142,6 +142,35 @@ def _derivative_checks(why: xr.DataArray, spec: AcfSpec) -> list:
                 span = f" at dr = {at.min():.3g} to {at.max():.3g} {unit}"
         checks.append((hit.any("dr"), "questionable", text.format(span=span)))
     return checks
+
+
+def _unresolved(G_si: xr.DataArray, error: xr.DataArray | None, spec: AcfSpec,
+                depends: str) -> tuple[xr.DataArray, tuple]:
+    """Curves whose G is flat from the first lag, and the :func:`_rate` check that says it.
+
+    Flat: the log-log slope of G over its first decade of lags
+    (:func:`xrough._kernels.contact.first_decade_slope`, weighted by the standard errors)
+    is below :data:`~xrough._kernels.acf_curve.FLAT_SLOPE`. Lazy where G is.
+    """
+    dr = spec.dr * spec.to_m
+    arrays = (G_si,) if error is None else (G_si, error)
+    slope = xr.apply_ufunc(
+        k.first_decade_slope, *arrays, input_core_dims=[["dr"]] * len(arrays),
+        output_core_dims=[[]], vectorize=True, dask="parallelized", output_dtypes=[float],
+        kwargs={"dr": dr}, keep_attrs=False)
+    flat = slope < FLAT_SLOPE
+    found = ""
+    if slope.chunks is None:
+        values = np.asarray(slope.values)[np.asarray(flat.values)]
+        if values.size:
+            found = f" ({values.max():.2g}{' at most' if values.size > 1 else ''})"
+    return flat, (flat, "failed", (
+        f"G is flat from its first lag: its log-log slope over the first decade of lags "
+        f"is below {FLAT_SLOPE:g}{found}, where a rough surface resolved by the lags "
+        "rises as dr^2H or dr^2. The roughness is not resolved: heights are uncorrelated "
+        "from one pixel to the next (white noise, or roughness finer than the pixel), so "
+        f"{depends} would describe the pixels, not the surface; NaN. Measure at a finer "
+        "lateral resolution (or check the data for noise only)"))
 
 
 def _past(lags: xr.DataArray, spec: AcfSpec) -> str:
@@ -358,6 +387,11 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
     remaining values are unchanged. A smooth negative lobe beyond the roll-off is physical,
     because the full-contact stress ACF integrates to 0 over the plane.
 
+    A G that is flat from its first lag (log-log slope below 0.1 over the first decade of
+    lags, :data:`xrough._kernels.acf_curve.FLAT_SLOPE`) does not resolve the roughness
+    (white noise: heights uncorrelated from one pixel to the next); its curve is NaN and
+    failed, with one ``QualityWarning`` (docs/quality.md).
+
     Parameters
     ----------
     G : xarray.DataArray
@@ -423,11 +457,13 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
                              derivative=_DERIVATIVE,
                              equation="eq. 24 (full contact, p0^2 offset left out)")
     few = (G > 0).sum("dr") < 5
+    flat, unresolved = _unresolved(G_si, error, spec, "the Laplacian of G (eq. 24)")
+    out = out.where(~flat).assign_attrs(out.attrs)
     out = mark_gaps(out, spec, what="stress_acf", depends=_GAP_LAPLACIAN)
     return _rate(out, [(few, "questionable", "fewer than 5 valid bins: the Laplacian is "
                         "that of the log-log polygon through them, not of a smoothed G; "
-                        "use more points per decade"), *_derivative_checks(why, spec)],
-                 what="stress_acf")
+                        "use more points per decade"), *_derivative_checks(why, spec),
+                       unresolved], what="stress_acf")
 
 
 def stress_acf_from_spectrum(C: xr.DataArray, dr: Any, *, E_star: Any) -> xr.DataArray:
@@ -546,6 +582,10 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
       (original weighting, independent of ``kappa``) or ``kappa^2 / 4`` (modified:
       ``2 / pi`` for Persson's ``kappa``), ``H`` from the fit;
     - ``G_du = G W`` (eq. 34), the displacement ACF.
+
+    A curve whose G is flat from its first lag (log-log slope below 0.1 over the first
+    decade of lags: the lags do not resolve the roughness, as for white noise) has every
+    output NaN and is failed, with one ``QualityWarning`` (docs/quality.md).
 
     Parameters
     ----------
@@ -725,7 +765,11 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     if not many:
         ds = ds.isel(p0=0)
         checks = [(mask.isel(p0=0), level, note) for mask, level, note in checks]
-    checks += derivative  # per curve, no p0 dim
+    flat, unresolved = _unresolved(G_si, error, spec, "the rms gradient (eq. 26) and the "
+                                   "Laplacian of G (eq. 24), and so every output,")
+    ds = ds.assign({name: v.where(~flat).assign_attrs(v.attrs)
+                    for name, v in ds.data_vars.items()})
+    checks += derivative + [unresolved]  # per curve, no p0 dim
     ds = mark_gaps(ds, spec, what="persson", depends=_GAP_PERSSON)
     return _rate(ds, checks, what="persson", inherited=(
         gradient if set(wanted) - {"sigma_quick"} else None,
@@ -743,11 +787,21 @@ def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
     - refined (eq. 46): the patch grows while ``a_c^2 [v_el(a_c) - gamma]`` decreases:
       the smallest ``a_c`` with ``gamma = v_el(a_c) + E* G(a_c) / (8 a_c)``;
 
-    with ``v_el(a_c) = (E*/4) int_0^{a_c} G(r)/r^2 dr``. When ``gamma`` exceeds the energy
-    of full contact, no finite radius solves the equation and the result is ``inf`` (the
-    surfaces stick everywhere; ``attrs["quality_notes"]`` says so). A radius beyond the
-    lags of G rests on its continuation and is flagged questionable
-    (:mod:`xrough.quality`).
+    with ``v_el(a_c) = (E*/4) int_0^{a_c} G(r)/r^2 dr``. Outside the lags of G the roots
+    are those of G's continuation, in closed form (never a bound of the search):
+
+    - below the first lag ``r0``, G is continued ballistically, ``G = G(r0) (r/r0)^2``,
+      and ``a_c = 8 gamma r0^2 / (3 E* G(r0))``, ``a_c_upper = 4 gamma r0^2 / (E* G(r0))``
+      (for ``G = gbar^2 dr^2 / 4``: ``32 gamma / (3 E* gbar^2)`` and
+      ``16 gamma / (E* gbar^2)``);
+    - beyond the last lag ``rL``, G is continued flat, ``v_el(a) = v_el - E* G(rL) / (4 a)``
+      with ``v_el`` of full contact (eq. 16), and ``a_c = E* G(rL) / (8 (v_el - gamma))``,
+      ``a_c_upper = E* G(rL) / (4 (v_el - gamma))``.
+
+    Either rests on the continuation, not on data, and is flagged questionable
+    (:mod:`xrough.quality`). When ``gamma`` is at least the energy of full contact
+    ``v_el``, no finite radius solves the equation and the result is ``inf`` (the surfaces
+    stick everywhere; ``attrs["quality_notes"]`` says so).
 
     Parameters
     ----------
@@ -807,8 +861,10 @@ def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
          "v_el (elastic_energy(G)), so no patch stops growing: adhesion closes the whole "
          "gap and the surfaces stick everywhere"),
         (finite & (upper > lags[-1]), "questionable",
-         "a_c (or its upper estimate) lies beyond the largest lag of G, where G is "
-         "continued flat: measure larger scales to confirm it"),
+         "a_c (or its upper estimate) lies beyond the largest lag of G: it is the root "
+         "of G's flat continuation (in closed form), not of data: measure larger scales "
+         "to confirm it"),
         (finite & (a_c < lags[0]), "questionable",
-         "a_c lies below the smallest lag of G, where G is continued as dr^2: measure "
-         "finer scales to confirm it")], what="patch_radius")
+         "a_c lies below the smallest lag of G: it is the root of G's ballistic "
+         "continuation (G ~ dr^2, in closed form), not of data: measure finer scales to "
+         "confirm it")], what="patch_radius")

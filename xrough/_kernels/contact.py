@@ -16,7 +16,7 @@ from .shape_factors import rolloff_factor, self_affine_factor
 
 __all__ = ["KAPPA_PERSSON", "STEEP_DECAY", "contact_area", "improved_area", "nonincreasing",
            "quick_stress", "stress_asymptote", "energy_curve", "laplacian_curve",
-           "UNDETERMINED", "OUTSIDE_WINDOW",
+           "UNDETERMINED", "OUTSIDE_WINDOW", "first_decade_slope",
            "smooth_tail", "patch_radius_curve"]
 
 #: Persson's small-pressure slope of the contact area, ``a_r ~ kappa p*`` (eq. 29).
@@ -105,6 +105,15 @@ def energy_curve(g, *, dr, a_c) -> np.ndarray:
     return np.concatenate([[total, below / total, above / total], cum])
 
 
+def first_decade_slope(g, error=None, *, dr) -> float:
+    """Log-log slope of one G over its first decade of lags (:class:`AcfCurve`).
+
+    Below :data:`~xrough._kernels.acf_curve.FLAT_SLOPE` G is flat from the first lag; NaN
+    with fewer than 3 samples in that decade.
+    """
+    return _curve(g, error, dr).first_decade_slope()
+
+
 #: Codes of :func:`laplacian_curve`'s second row: why a lag has no Laplacian.
 UNDETERMINED, OUTSIDE_WINDOW = 1.0, 2.0
 
@@ -162,12 +171,15 @@ def smooth_tail(lap, g, *, dr, steep: float = STEEP_DECAY) -> np.ndarray:
 
 
 def _first_root(f, lo: float, hi: float, n: int = 4000) -> float:
-    """Smallest root of ``f`` on a log grid of [lo, hi] (inf if ``f`` stays negative)."""
+    """Smallest root of ``f`` on a log grid of [lo, hi]; NaN if ``f`` stays negative.
+
+    ``f(lo) >= 0`` returns ``lo``: the caller handles a root below ``lo`` itself.
+    """
     grid = np.geomspace(lo, hi, n)
     vals = f(grid)
     sign = np.flatnonzero(vals >= 0)
     if sign.size == 0:
-        return np.inf
+        return np.nan
     k = sign[0]
     if k == 0:
         return float(grid[0])
@@ -176,9 +188,23 @@ def _first_root(f, lo: float, hi: float, n: int = 4000) -> float:
 
 
 def patch_radius_curve(g, *, dr, E_star, gamma) -> np.ndarray:
-    """``[a_c (eq. 46), a_c upper (eq. 44)]`` of one curve (m; inf: sticks everywhere)."""
+    """``[a_c (eq. 46), a_c upper (eq. 44)]`` of one curve (m; inf: sticks everywhere).
+
+    Between the first and the last sample the smallest root is searched on a log grid and
+    refined; outside them G is continued as in :class:`AcfCurve` and the roots are closed
+    forms of that continuation, so no search bound is ever returned. Below the first
+    sample ``(r0, G0)``, ``G = c r^2`` with ``c = G0 / r0^2`` gives
+    ``v_el(a) = E* c a / 4`` and the roots ``4 gamma / (E* c)`` (eq. 44) and
+    ``8 gamma / (3 E* c)`` (eq. 46), both increasing functions being 0 - gamma at a = 0.
+    Beyond the last sample ``(rL, GL)``, ``G = GL`` gives
+    ``v_el(a) = v_el - E* GL / (4 a)`` with ``v_el`` of full contact (eq. 16), and the
+    roots ``E* GL / (4 (v_el - gamma))`` (eq. 44) and ``E* GL / (8 (v_el - gamma))``
+    (eq. 46), which exist for ``gamma < v_el`` only (inf otherwise).
+    """
     curve = _curve(g, None, dr)
-    lo, hi = curve.dr[0] * 1e-6, curve.dr[-1] * 1e6
+    r0, r_last = curve.dr[0], curve.dr[-1]
+    c = curve.g[0] / r0**2
+    v_full = E_star / 4 * curve.cumulative_g_over_r2(np.array([np.inf]))[0][0]
 
     def upper(a):
         return E_star / 4 * curve.cumulative_g_over_r2(a)[0] - gamma
@@ -186,4 +212,18 @@ def patch_radius_curve(g, *, dr, E_star, gamma) -> np.ndarray:
     def refined(a):
         return upper(a) + E_star * curve(a) / (8 * a)
 
-    return np.array([_first_root(refined, lo, hi), _first_root(upper, lo, hi)])
+    def root(f, below, beyond):
+        if f(np.array([r0]))[0] >= 0:  # in the ballistic continuation
+            return below
+        inside = _first_root(f, r0, r_last)
+        if np.isfinite(inside):
+            return inside
+        if gamma >= v_full:  # f -> v_full - gamma <= 0 at a -> inf: no root
+            return np.inf
+        return beyond  # in the flat continuation (f increases there)
+
+    return np.array([
+        root(refined, 8 * gamma / (3 * E_star * c),
+             E_star * curve.plateau / (8 * (v_full - gamma))),
+        root(upper, 4 * gamma / (E_star * c),
+             E_star * curve.plateau / (4 * (v_full - gamma)))])
