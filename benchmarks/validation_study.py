@@ -226,13 +226,14 @@ def figures(args, runs: dict, out: Path) -> list[Path]:
             sub = c.isel(p0=i)
             ax.loglog(dr, sub.Gamma_sigma_sim, "o", ms=4, color=color,
                       label=f"simulation, p* = {float(sub.p_star):.2g}")
-            for t, ls in (("persson", "--"), ("modified", "-"), ("persson_kappa", ":")):
+            for t, ls in (("persson", "--"), ("modified", "-"), ("modified_ar2", "-."),
+                          ("persson_kappa", ":")):
                 if t in c.theory:
                     ax.loglog(dr, sub.Gamma_sigma.sel(theory=t), ls, color=color,
                               label=t if i == picks[0] else None)
-            if i == picks[0]:
-                ax.loglog(dr, sub.Gamma_sigma_sa.sel(theory="persson"), "-.", color="0.4",
-                          label="eq. 51")
+            if i == picks[0] and "Gamma_sigma_51" in c:
+                ax.loglog(dr, sub.Gamma_sigma_51, color="0.4", ls=(0, (1, 3)),
+                          label="eq. 51 as printed")
         ax.set(xlabel="dr (px)", ylabel="Gamma_sigma (Pa^2)",
                title=f"H = {h}, lambda_s = {ls0:g} px: partial contact")
         ax.legend(fontsize=7)

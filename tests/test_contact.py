@@ -153,7 +153,12 @@ def test_persson_is_vectorised_over_p0_and_skips_unrequested_work():
     assert again.attrs["gradient_method"] == "simple"
 
 
-@pytest.mark.parametrize("theory", ["persson", "modified"])
+#: W of eq. 49 by theory, written out (the library's is xrough._kernels.contact.weighting).
+_W = {"persson": lambda ds: ds.a_r, "modified": lambda ds: ds.a_ri**2 / ds.a_r,
+      "modified_ar2": lambda ds: ds.a_r**2 / ds.a_ri}
+
+
+@pytest.mark.parametrize("theory", ["persson", "modified", "modified_ar2"])
 def test_partial_contact_stress_acf(theory):
     topo = _surface()
     G = topo.rough.acf()
@@ -163,7 +168,7 @@ def test_partial_contact_stress_acf(theory):
     with pytest.warns(xrough.QualityWarning, match="G_sigma < 0"):
         ds = G.rough.persson(E_star=E_STAR, p0=p0, theory=theory, gradient_method="simple",
                              smooth_full=False)
-    w = ds.a_r if theory == "persson" else ds.a_r**2 / ds.a_ri
+    w = _W[theory](ds)
     expected = p0**2 + full.values * w.values
     assert ds.attrs["quality"] == "questionable"
     np.testing.assert_array_equal(np.isnan(ds.G_sigma.values), expected < 0)
@@ -211,9 +216,9 @@ def test_partial_contact_full_acf_without_roll_off_ringing(hurst, rolloff):
     assert "dr^-4" in smooth.G_sigma.attrs["equation"]
 
 
-@pytest.mark.parametrize("theory", ["persson", "modified"])
+@pytest.mark.parametrize("theory", ["persson", "modified", "modified_ar2"])
 def test_eq51_is_the_small_pressure_asymptote(theory):
-    """Eq. 51 against the full eq. 47/48 deep in a self-affine range at small p*.
+    """Each theory's limit (eq. 51 form) against the full eq. 47/48 at small p*.
 
     lambda_r / lambda_s = 1e6 and p* = 1e-5: Gamma_sigma / Gamma_sigma_sa within 5 % of 1
     from 10 lambda_s to lambda_r / 1000 (measured 0.99-1.03); the remainder is the
@@ -228,8 +233,48 @@ def test_eq51_is_the_small_pressure_asymptote(theory):
     mid = (G.dr >= 0.01) & (G.dr <= 1)
     ratio = (ds.Gamma_sigma / ds.Gamma_sigma_sa)[mid].values
     np.testing.assert_allclose(ratio, 1.0, atol=0.05)
-    w = 1.0 if theory == "persson" else 2 / np.pi
+    kappa = np.sqrt(8 / np.pi)
+    w = {"persson": 1.0, "modified": 2 / kappa, "modified_ar2": kappa**2 / 4}[theory]
     assert f"w = {w:.4g}" in ds.Gamma_sigma_sa.attrs["equation"]
+    # eq. 51 as printed: pi/2 times the original theory's limit, whatever the theory
+    orig = G.rough.persson(E_star=E_STAR, p0=1e-5 * 0.5 * E_STAR, fit=fit,
+                           variables=("Gamma_sigma_sa",))
+    np.testing.assert_allclose(ds.Gamma_sigma_51, np.pi / 2 * orig.Gamma_sigma_sa,
+                               rtol=1e-12)
+
+
+def test_modified_is_pi_over_2_of_the_original_at_small_pressure():
+    """Eq. 49 read as W = a_ri^2 / a_r: (G_sigma - p0^2) is pi/2 x the original's at small p*.
+
+    At small p* (a_r -> sqrt(8/pi) p*, a_ri -> 2 p*) the ratio of the weightings is
+    (a_ri / a_r)^2 -> 4 / kappa^2 = pi / 2, the prefactor of eq. 51 as printed; the
+    other reading, a_r^2 / a_ri, gives a_r / a_ri -> kappa / 2 = sqrt(2 / pi). The
+    corrections are relative -1.79 p*^2 (computed from eq. 29/50: -1.79e-6 at
+    p* = 1e-3), so with p* <= 1e-3 on every lag rtol = 1e-5 leaves them a factor of 5
+    and covers the rounding of G_sigma - p0^2 (p0^2 is ~4 p* of the weighted term).
+    Eq. 51 as printed equals the modified (G_sigma - p0^2) / a_r(0) there.
+    """
+    C = xrough.model_spectrum(hurst=0.7, lambda_r="1 mm", lambda_s="1 nm",
+                              rms_gradient=0.5, unit="um", rolloff="smooth")
+    G = xrough.acf_from_spectrum(C, dr_min="0.1 nm", dr_max="100 mm", points_per_decade=10)
+    fit = xrough.fit_acf(G, rolloff="smooth")
+    gbar = xrough.rms_gradient(G, method="exact")
+    p0 = 1e-3 * E_STAR * float(gbar.min())  # p*(dr) <= 1e-3 everywhere
+    kw = dict(E_star=E_STAR, p0=p0, gradient=gbar, fit=fit)
+    ds = {t: G.rough.persson(theory=t, **kw) for t in ("persson", "modified", "modified_ar2")}
+    assert float(ds["persson"].p_star.max()) <= 1e-3 * (1 + 1e-12)
+    rest = {t: d.G_sigma - p0**2 for t, d in ds.items()}
+    ok = np.isfinite(rest["persson"]) & (G.dr > 0)
+    assert ok.sum() > 50
+    ratio = (rest["modified"] / rest["persson"])[ok]
+    np.testing.assert_allclose(ratio, np.pi / 2, rtol=1e-5)
+    old = (rest["modified_ar2"] / rest["persson"])[ok]
+    np.testing.assert_allclose(old, np.sqrt(2 / np.pi), rtol=1e-5)
+    # eq. 51 as printed is the modified (G_sigma - p0^2) / a_r(0) in the self-affine range
+    mid = (G.dr >= 0.01) & (G.dr <= 1)
+    a_r0 = float(ds["persson"].a_r[np.flatnonzero(np.isfinite(ds["persson"].a_r))[0]])
+    printed = (rest["modified"] / a_r0 / ds["modified"].Gamma_sigma_51)[mid]
+    np.testing.assert_allclose(printed, 1.0, atol=0.05)
 
 
 def test_patch_radius_on_model_g():

@@ -58,7 +58,7 @@ def test_partial_contact_kappa_and_area(comparison):
     np.testing.assert_allclose(c.a_r, contact_area(c.p_star, np.sqrt(8 / np.pi)), rtol=1e-12)
     assert np.all(c.a_r < 0.8 * c.contact_area)
     assert np.all(c.converged == 1)
-    assert list(c.theory.values) == ["persson", "modified", "persson_kappa"]
+    assert list(c.theory.values) == ["persson", "modified", "modified_ar2", "persson_kappa"]
     np.testing.assert_allclose(c.area_error.sel(theory="persson_kappa"),
                                c.a_r_kappa / c.contact_area - 1)
     # the partial-contact stress ACF: within 25 % of <p^2> (measured 2-16 %), on every
@@ -71,8 +71,9 @@ def test_partial_contact_kappa_and_area(comparison):
 def test_paper_theories_do_not_depend_on_kappa():
     """Eq. 48-50 by hand: the original and modified theories use Persson's kappa only.
 
-    A fitted kappa (2.5 here) entering W = a_r^2 / a_ri made the modified G_sigma - p0^2
-    grow as kappa^2, 2.5x the paper's; now only "persson_kappa" uses it.
+    A fitted kappa (2.5 here) entering the modified weighting made its G_sigma - p0^2
+    depend on kappa; now only "persson_kappa" uses it. Modified: W = a_ri^2 / a_r (and the
+    other reading, "modified_ar2", W = a_r^2 / a_ri), both divided by a_ri(0).
     """
     topo = _surface(seed=2)
     kw = dict(E_star=E_STAR, p0=[1e3, 1e4], full_contact=False, smooth_full=False)
@@ -83,7 +84,7 @@ def test_paper_theories_do_not_depend_on_kappa():
     # each of the three theories inherits the same warnings: said once per call
     messages = [str(w.message) for w in caught if w.category is xrough.QualityWarning]
     assert messages and all(messages.count(m) == 2 for m in messages), messages
-    for name in ("persson", "modified"):
+    for name in ("persson", "modified", "modified_ar2"):
         xr.testing.assert_identical(fitted.Gamma_sigma.sel(theory=name),
                                     given.Gamma_sigma.sel(theory=name))
     assert not np.allclose(fitted.G_sigma.sel(theory="persson_kappa"),
@@ -98,13 +99,14 @@ def test_paper_theories_do_not_depend_on_kappa():
     p_star = p0 / (E_STAR * gbar)
     a_r = erf(np.sqrt(2) * p_star)  # eq. 29, kappa = sqrt(8/pi)
     a_ri = (1 - a_r**2) * erf(np.sqrt(np.pi) * p_star) + a_r**3  # eq. 50
-    g_sigma = p0**2 + full * a_r**2 / a_ri  # eq. 48-49, modified
-    g_sigma[g_sigma < 0] = np.nan  # a stress ACF of compressive stresses is never < 0
     first = np.flatnonzero(np.isfinite(gbar))[0]
-    gamma = g_sigma / a_ri[:, first:first + 1]  # eq. 47, modified
-    got = fitted.Gamma_sigma.sel(theory="modified").values
-    np.testing.assert_allclose(got, gamma, rtol=1e-10)
-    assert np.isfinite(gamma).mean() > 0.7  # the comparison is not of NaN with NaN
+    for name, weight in (("modified", a_ri**2 / a_r), ("modified_ar2", a_r**2 / a_ri)):
+        g_sigma = p0**2 + full * weight  # eq. 48-49
+        g_sigma[g_sigma < 0] = np.nan  # a stress ACF of compressive stresses is never < 0
+        gamma = g_sigma / a_ri[:, first:first + 1]  # eq. 47, modified
+        got = fitted.Gamma_sigma.sel(theory=name).values
+        np.testing.assert_allclose(got, gamma, rtol=1e-10)
+        assert np.isfinite(gamma).mean() > 0.7  # the comparison is not of NaN with NaN
     # and the original theory: W = a_r, divided by a_r(0)
     g_sigma = p0**2 + full * a_r
     g_sigma[g_sigma < 0] = np.nan

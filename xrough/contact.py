@@ -34,7 +34,8 @@ from .preprocess import reliability_window
 __all__ = ["elastic_energy", "stress_acf", "stress_acf_from_spectrum", "persson",
            "patch_radius", "KAPPA_PERSSON"]
 
-THEORIES = ("persson", "modified")
+#: Theories of partial contact by their weighting of eq. 49 (:data:`k.WEIGHTINGS`).
+THEORIES = tuple(k.WEIGHTINGS)
 _ENERGY = "[mass] / [time] ** 2"
 _PRESSURE = "[pressure]"
 #: Share of v_el from a continuation of G beyond the data above which v_el is questionable.
@@ -365,8 +366,9 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
               \left[\Delta r \frac{dG}{d\Delta r}\right]
 
     Partial contact: ``G_sigma = p0^2 + G_sigma_full W[a_r(p*(dr))]`` with
-    ``p* = p0 / (E* gbar(dr))`` and ``W = a_r`` (``theory="persson"``, eq. 49) or
-    ``W = a_r^2 / a_ri`` (``"modified"``, eq. 49-50).
+    ``p* = p0 / (E* gbar(dr))`` and ``W = a_r`` (``theory="persson"``, eq. 49),
+    ``W = a_ri^2 / a_r`` (``"modified"``, eq. 49-50) or ``W = a_r^2 / a_ri``
+    (``"modified_ar2"``, the other reading of the garbled eq. 49; see :func:`persson`).
 
     Differentiating a measured G twice would amplify its noise: the Laplacian is taken of a
     smoothing spline of ``ln G`` against ``ln dr``, weighted by the standard errors, whose
@@ -400,7 +402,7 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
         Contact modulus (Pa for numbers).
     p0 : float, str, Quantity or array, optional
         Mean pressure(s) (Pa); None for full contact. Several values give a ``p0`` dim.
-    theory : {'persson', 'modified'}
+    theory : {'persson', 'modified', 'modified_ar2'}
         Weighting of eq. 49.
     gradient : xarray.DataArray, optional
         Precomputed ``gbar(dr)`` (e.g. from :func:`xrough.rms_gradient`), reused instead of
@@ -518,9 +520,9 @@ def stress_acf_from_spectrum(C: xr.DataArray, dr: Any, *, E_star: Any) -> xr.Dat
 
 
 PERSSON_VARIABLES = ("p_star", "a_r", "a_ri", "sigma_c", "sigma_quick", "G_sigma",
-                     "Gamma_sigma", "Gamma_sigma_sa", "G_du")
+                     "Gamma_sigma", "Gamma_sigma_sa", "Gamma_sigma_51", "G_du")
 #: The outputs that need the fit of G.
-_NEED_FIT = ("sigma_quick", "Gamma_sigma_sa")
+_NEED_FIT = ("sigma_quick", "Gamma_sigma_sa", "Gamma_sigma_51")
 
 
 def _gradient_on(gradient: xr.DataArray, G: xr.DataArray, spec: AcfSpec) -> xr.DataArray:
@@ -569,18 +571,34 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
       ``lambda_r`` (eq. 41) and ``E* sqrt(c_ro(H)) lambda_r sigma_h / dr^2`` beyond it
       (eq. 42), or ``p0`` where that is larger, with ``H``, ``sigma_h``, ``lambda_r`` from
       :func:`xrough.fit_acf` (or ``fit``);
-    - ``G_sigma = p0^2 + G_sigma_full W`` (eq. 30/48), ``W = a_r`` or ``a_r^2 / a_ri``
-      (eq. 49), with ``G_sigma_full = (E*/2)^2 Laplacian(G)`` (eq. 24). As in the paper
+    - ``G_sigma = p0^2 + G_sigma_full W`` (eq. 30/48), with ``W`` of eq. 49: ``a_r``
+      (``"persson"``, the original theory), ``a_ri^2 / a_r`` (``"modified"``) or
+      ``a_r^2 / a_ri`` (``"modified_ar2"``). The print of eq. 49 is garbled; ``"modified"``
+      is the reading that the order of its subscripts, eq. 51's prefactor ``pi / 2`` (the
+      small-p* ratio ``(a_ri / a_r)^2 = 4 / kappa^2`` of ``G_sigma - p0^2`` to the
+      original's) and the contact solver support (docs: validation), ``"modified_ar2"``
+      the other one. ``G_sigma_full = (E*/2)^2 Laplacian(G)`` (eq. 24). As in the paper
       (section 3.7), ``G_sigma_full`` is continued beyond its roll-off by a steep power
       law ``dr^-4`` from where it first falls faster than that or changes sign,
       searching from where G reaches a quarter of its largest value (``smooth_full``): in
       partial contact the coupling of modes smears out the ringing of the full-contact
       ACF, whose sign changes the simulation does not show;
-    - ``Gamma_sigma = G_sigma / a(dr -> 0)`` (eq. 47, ``a = a_r`` or ``a_ri``);
-    - ``Gamma_sigma_sa``: eq. 51, the small-pressure asymptote of ``Gamma_sigma`` in the
+    - ``Gamma_sigma = G_sigma / a(dr -> 0)`` (eq. 47, ``a = a_r``; ``a_ri`` for both
+      modified weightings);
+    - ``Gamma_sigma_sa``: the small-pressure limit of this theory's ``Gamma_sigma`` in the
       self-affine range, ``w E*^2 H^2 gbar(0) sqrt(G / c_sa(H)) / dr`` with ``w = 1``
-      (original weighting, independent of ``kappa``) or ``kappa^2 / 4`` (modified:
-      ``2 / pi`` for Persson's ``kappa``), ``H`` from the fit;
+      (original weighting, independent of ``kappa``), ``2 / kappa`` (``"modified"``;
+      ``sqrt(pi / 2)`` for Persson's ``kappa``) or ``kappa^2 / 4`` (``"modified_ar2"``;
+      ``2 / pi``), ``H`` from the fit and ``c_sa`` xrough's, defined by
+      ``gbar^2(dr) = c_sa(H) G / dr^2`` (as in eq. 41);
+    - ``Gamma_sigma_51``: eq. 51 as printed,
+      ``pi gbar(lambda_s) H^2 E*^2 sqrt(G c_sa) / (2 dr)`` with the print's ``c_sa`` read
+      as ``1 / c_sa`` of xrough (the one convention in which it is a limit of eq. 47-50):
+      ``w = pi / 2`` in the form above, whatever ``theory`` and ``kappa``. It is the
+      small-p* limit of ``(G_sigma - p0^2) / a_r(0)`` with the ``"modified"`` weighting
+      and Persson's ``kappa``, i.e. ``pi / 2`` times ``Gamma_sigma_sa`` of the original
+      theory and ``sqrt(pi / 2)`` times that of ``"modified"`` (which divides by
+      ``a_ri(0)``);
     - ``G_du = G W`` (eq. 34), the displacement ACF.
 
     A curve whose G is flat from its first lag (log-log slope below 0.1 over the first
@@ -595,8 +613,9 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
         Contact modulus (Pa for numbers), > 0.
     p0 : float, str, Quantity or array
         Mean pressure(s), > 0; several give a ``p0`` dim (vectorised).
-    theory : {'persson', 'modified'}
-        Weighting of eq. 49 for ``G_sigma``, ``Gamma_sigma`` and ``G_du``.
+    theory : {'persson', 'modified', 'modified_ar2'}
+        Weighting of eq. 49 for ``G_sigma``, ``Gamma_sigma``, ``Gamma_sigma_sa`` and
+        ``G_du``.
     kappa : float
         Small-pressure slope of the contact area (simulations suggest about 2).
     gradient : xarray.DataArray, optional
@@ -609,8 +628,8 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
         Only these outputs (others are not computed); default all of
         ``p_star, a_r, a_ri, sigma_c, sigma_quick, G_sigma, Gamma_sigma, G_du``.
     fit : xarray.Dataset, optional
-        Precomputed :func:`xrough.fit_acf` result for ``sigma_quick`` and
-        ``Gamma_sigma_sa``.
+        Precomputed :func:`xrough.fit_acf` result for ``sigma_quick``,
+        ``Gamma_sigma_sa`` and ``Gamma_sigma_51``.
     smooth_full : bool
         Continue ``G_sigma_full`` beyond its roll-off by ``dr^-4`` (the paper's choice for
         partial contact); False keeps eq. 24 with its ringing.
@@ -674,9 +693,9 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
         with np.errstate(divide="ignore", invalid="ignore"):
             p_star = p0_da / (E * gbar)
         a_r = k.contact_area(p_star, kappa)
-        need_ai = theory == "modified" or "a_ri" in wanted
+        need_ai = theory != "persson" or "a_ri" in wanted
         a_ri = k.improved_area(p_star, a_r) if need_ai else None
-        weight = a_r if theory == "persson" else a_r**2 / a_ri
+        weight = k.weighting(theory, a_r, a_ri)
     if "p_star" in wanted:
         out["p_star"] = p_star.assign_attrs(
             units="1", long_name="reduced pressure p0 / (E* gbar)", equation="eq. 29")
@@ -707,7 +726,7 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
         out["sigma_quick"] = np.maximum(est, p0_da).assign_attrs(
             units="Pa", long_name="quick estimate of the mean contact stress",
             equation="eq. 41 (dr < lambda_r), eq. 42 (dr > lambda_r), at least p0")
-    if {"Gamma_sigma", "Gamma_sigma_sa"} & set(wanted):
+    if {"Gamma_sigma", "Gamma_sigma_sa", "Gamma_sigma_51"} & set(wanted):
         gbar0 = xr.apply_ufunc(_first_finite, gbar, input_core_dims=[["dr"]],
                                dask="parallelized", output_dtypes=[float])
     if "G_sigma" in wanted or "Gamma_sigma" in wanted:
@@ -731,25 +750,32 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
         if "Gamma_sigma" in wanted:
             p_zero = p0_da / (E * gbar0)
             a0 = k.contact_area(p_zero, kappa)
-            if theory == "modified":
+            if theory != "persson":
                 a0 = k.improved_area(p_zero, a0)
             out["Gamma_sigma"] = (g_sigma / a0).assign_attrs(
                 units="Pa2", long_name="reduced stress autocorrelation function",
                 equation=f"eq. 47 ({theory}: divided by "
-                f"{'a_ri' if theory == 'modified' else 'a_r'} at the smallest dr); {tail}")
-    if "Gamma_sigma_sa" in wanted:
+                f"{'a_r' if theory == 'persson' else 'a_ri'} at the smallest dr); {tail}")
+    if {"Gamma_sigma_sa", "Gamma_sigma_51"} & set(wanted):
         if fit is None:
             fit = fit_acf(G)
         hurst = fit["hurst"].drop_vars([c for c in fit["hurst"].coords
                                         if c not in fit["hurst"].dims])
-        w = 1.0 if theory == "persson" else float(kappa) ** 2 / 4
-        out["Gamma_sigma_sa"] = xr.apply_ufunc(
-            k.stress_asymptote, dr_m, G_si, hurst, gbar0, dask="parallelized",
-            output_dtypes=[float], keep_attrs=False,
-            kwargs={"E_star": E, "weight": w}).expand_dims(p0=p0_da.sizes["p0"]).assign_attrs(
-            units="Pa2", long_name="small-pressure asymptote of the reduced stress ACF",
-            equation=f"eq. 51: w E*^2 H^2 gbar(0) sqrt(G / c_sa(H)) / dr, w = {w:.4g} "
-            f"({theory}); self-affine range, p* -> 0")
+        asymptotes = {
+            "Gamma_sigma_sa": (k.asymptote_weight(theory, float(kappa)),
+                               f"small-p* limit of eq. 47-50 ({theory})"),
+            "Gamma_sigma_51": (k.EQ51_PRINTED, "eq. 51 as printed, its c_sa read as "
+                               "1 / c_sa(H) of xrough")}
+        for name in [n for n in asymptotes if n in wanted]:
+            w, what = asymptotes[name]
+            out[name] = xr.apply_ufunc(
+                k.stress_asymptote, dr_m, G_si, hurst, gbar0, dask="parallelized",
+                output_dtypes=[float], keep_attrs=False,
+                kwargs={"E_star": E, "weight": w}).expand_dims(
+                p0=p0_da.sizes["p0"]).assign_attrs(
+                units="Pa2", long_name="small-pressure asymptote of the reduced stress ACF",
+                equation=f"eq. 51: w E*^2 H^2 gbar(0) sqrt(G / c_sa(H)) / dr, w = {w:.4g} "
+                f"({what}); c_sa(H) = gbar^2 dr^2 / G; self-affine range, p* -> 0")
     if "G_du" in wanted:
         out["G_du"] = (_strip(G) * weight).assign_attrs(
             units=G.attrs["units"], long_name="displacement autocorrelation function",

@@ -155,17 +155,20 @@ def compare_with_simulation(
        (the full-contact one without the ``p0^2`` offset, as eq. 24).
     4. Predictions from ``G``: eq. 24 in full contact; :func:`xrough.persson` per theory
        (``G_sigma`` of eq. 30/48, ``Gamma_sigma`` of eq. 47 and its small-pressure
-       asymptote eq. 51) and the areas ``a_r(0)`` (eq. 29), ``a_ri(0)`` (eq. 50) at the
-       smallest lag.
+       limit ``Gamma_sigma_sa``; eq. 51 as printed, ``Gamma_sigma_51``,
+       which does not depend on the theory) and the areas ``a_r(0)`` (eq. 29),
+       ``a_ri(0)`` (eq. 50) at the smallest lag.
 
-    The theories, as the paper defines them and one named variant:
+    The theories, as the paper defines them, and named variants:
 
     ``"persson"``
         the original theory: ``W = a_r`` with Persson's ``a_r = erf(sqrt(2) p*)``
         (``kappa = sqrt(8/pi)``);
     ``"modified"``
-        ``W = a_r^2 / a_ri`` (eq. 49-50) with the same ``a_r``, ``Gamma_sigma`` divided by
-        ``a_ri(0)``;
+        ``W = a_ri^2 / a_r`` (eq. 49-50) with the same ``a_r``, ``Gamma_sigma`` divided by
+        ``a_ri(0)``: the reading of the garbled eq. 49 that the contact solver supports;
+    ``"modified_ar2"``
+        the other reading, ``W = a_r^2 / a_ri``, otherwise as ``"modified"``;
     ``"persson_kappa"``
         the original theory with ``a_r = erf(sqrt(pi) kappa p* / 2)`` and the ``kappa``
         fitted to the simulation (or given): a correction of the contact area that is not
@@ -179,7 +182,7 @@ def compare_with_simulation(
     ``"persson_kappa"`` and ``a_r_kappa``.
 
     Errors: ``area_error = a_theory / a_sim - 1`` per load (``a_r`` for "persson",
-    ``a_ri`` for "modified", ``a_r_kappa`` for "persson_kappa"); ``stress_error``
+    ``a_ri`` for both modified weightings, ``a_r_kappa`` for "persson_kappa"); ``stress_error``
     (``stress_error_rms``) is the largest (rms) ``|G_sigma - G_sigma_sim|`` over
     ``error_range`` divided by the simulated ``G_sigma(dr -> 0)``, i.e. ``<p^2>`` of the
     field (the stress variance in full contact), over the lags where the theory predicts
@@ -196,7 +199,8 @@ def compare_with_simulation(
     p0 : float, str, Quantity or sequence of them
         Mean pressures of partial contact (Pa for numbers), > 0.
     theory : str or tuple of str
-        Any of ``"persson"``, ``"modified"`` and ``"persson_kappa"`` (above).
+        Any of ``"persson"``, ``"modified"``, ``"modified_ar2"`` and ``"persson_kappa"``
+        (above).
     kappa : float, optional
         Slope of eq. 29 for ``"persson_kappa"``; ``None`` fits it (above).
     full_contact : bool
@@ -257,7 +261,7 @@ def compare_with_simulation(
     >>> cmp.G_sigma.dims, cmp.G_sigma.attrs["units"], cmp.contact_area.attrs["units"]
     (('theory', 'p0', 'dr'), 'Pa2', '1')
     >>> cmp.theory.values.tolist()
-    ['persson', 'modified', 'persson_kappa']
+    ['persson', 'modified', 'modified_ar2', 'persson_kappa']
     >>> 1.0 < cmp.attrs["kappa"] < 3.5, float(cmp.full_contact_area)
     (True, 1.0)
     """
@@ -319,20 +323,26 @@ def compare_with_simulation(
     a_r = contact_area(p_star, KAPPA_PERSSON)
     a_r_kappa = contact_area(p_star, kappa_used)
     a_ri = improved_area(p_star, a_r)
-    areas = {"persson": a_r, "modified": a_ri, "persson_kappa": a_r_kappa}
+    areas = {"persson": a_r, "modified": a_ri, "modified_ar2": a_ri,
+             "persson_kappa": a_r_kappa}
     wanted = ("G_sigma", "Gamma_sigma", "Gamma_sigma_sa")
     predicted = {v: [] for v in wanted}
+    printed = None  # eq. 51 as printed: the same for every theory
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         for name in names:
             ds = persson(G, E_star=E, p0=p0s, theory=name.removesuffix("_kappa"),
                          kappa=kappa_used if name == "persson_kappa" else KAPPA_PERSSON,
-                         gradient=gbar, fit=fit, variables=wanted, smooth_full=smooth_full)
+                         gradient=gbar, fit=fit, smooth_full=smooth_full,
+                         variables=wanted + (() if printed is not None else
+                                             ("Gamma_sigma_51",)))
             if ds.sizes.get("p0") is None:
                 ds = ds.expand_dims("p0")
             ds = ds.reindex(dr=G["dr"].values, method="nearest", tolerance=1e-9 * dr[-1])
             for v in wanted:  # NaN off gbar's lags
                 predicted[v].append(ds[v].transpose("p0", "dr").values)
+            if printed is None:
+                printed = ds["Gamma_sigma_51"].transpose("p0", "dr").values
     for message in dict.fromkeys((w.category, str(w.message)) for w in caught):
         quality.warn(message[1], message[0])  # once, not once per theory
     g_th, gam_th, gam_sa = (np.stack(predicted[v]) for v in wanted)
@@ -369,7 +379,7 @@ def compare_with_simulation(
         "area_error": (("theory", "p0"), area_err, {
             "units": "1", "long_name": "relative error of the predicted contact area",
             "definition": "a_theory / a_sim - 1, a_theory = a_r (persson), a_ri "
-            "(modified) or a_r_kappa (persson_kappa)"}),
+            "(modified, modified_ar2) or a_r_kappa (persson_kappa)"}),
         "G_sigma_sim": (("p0", "dr"), S_part.values, {
             "units": "Pa2", "long_name": "simulated stress autocorrelation function",
             "definition": "<p^2> - G_p(dr), G_p the height-difference ACF of the pressure",
@@ -382,10 +392,15 @@ def compare_with_simulation(
             "definition": "G_sigma_sim / contact_area"}),
         "Gamma_sigma": (("theory", "p0", "dr"), gam_th, {
             "units": "Pa2", "long_name": "predicted reduced stress ACF",
-            "equation": "eq. 47 (divided by a_r(0), modified: a_ri(0))"}),
+            "equation": "eq. 47 (divided by a_r(0); both modified: a_ri(0))"}),
         "Gamma_sigma_sa": (("theory", "p0", "dr"), gam_sa, {
             "units": "Pa2", "long_name": "small-pressure asymptote of the reduced stress "
-            "ACF", "equation": "eq. 51 (self-affine range)"}),
+            "ACF", "equation": "small-p* limit of eq. 47-50 per theory (self-affine "
+            "range)"}),
+        "Gamma_sigma_51": (("p0", "dr"), printed, {
+            "units": "Pa2", "long_name": "eq. 51 as printed", "equation":
+            "eq. 51: pi gbar(0) H^2 E*^2 sqrt(G / c_sa(H)) / (2 dr), c_sa(H) = gbar^2 "
+            "dr^2 / G (the print's c_sa read as its reciprocal)"}),
         "stress_error": (("theory", "p0"), err_max.values, {
             **err_attrs, "long_name": "largest stress-ACF error relative to G_sigma_sim(0)",
             "definition": "max |G_sigma - G_sigma_sim| / G_sigma_sim(dr -> 0) over "

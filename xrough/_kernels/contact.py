@@ -14,13 +14,23 @@ from scipy import optimize, special
 from .acf_curve import AcfCurve, require_acf
 from .shape_factors import rolloff_factor, self_affine_factor
 
-__all__ = ["KAPPA_PERSSON", "STEEP_DECAY", "contact_area", "improved_area", "nonincreasing",
+__all__ = ["KAPPA_PERSSON", "STEEP_DECAY", "WEIGHTINGS", "EQ51_PRINTED", "contact_area",
+           "improved_area", "weighting", "asymptote_weight", "nonincreasing",
            "quick_stress", "stress_asymptote", "energy_curve", "laplacian_curve",
            "UNDETERMINED", "OUTSIDE_WINDOW", "first_decade_slope",
            "smooth_tail", "patch_radius_curve"]
 
 #: Persson's small-pressure slope of the contact area, ``a_r ~ kappa p*`` (eq. 29).
 KAPPA_PERSSON = float(np.sqrt(8 / np.pi))
+
+#: Weightings ``W(a_r)`` of eq. 49 by theory name: the original ``a_r``; the modified
+#: ``a_ri^2 / a_r`` (the reading of the garbled print that the subscripts' order, eq. 51's
+#: prefactor and the contact solver support); the other reading ``a_r^2 / a_ri``.
+WEIGHTINGS = {"persson": "a_r", "modified": "a_ri^2 / a_r", "modified_ar2": "a_r^2 / a_ri"}
+
+#: Prefactor of eq. 51 as printed, ``pi / 2``, relative to the small-p* limit of the
+#: original theory (``w = 1`` in :func:`stress_asymptote`).
+EQ51_PRINTED = float(np.pi / 2)
 
 #: Power law ``dr^-STEEP_DECAY`` that replaces the full-contact stress ACF beyond its
 #: roll-off in partial contact (the paper's "steep power law", section 3.7).
@@ -53,6 +63,38 @@ def improved_area(p_star, a_r):
     return (1 - a_r**2) * special.erf(np.sqrt(np.pi) * p_star) + a_r**3
 
 
+def weighting(theory: str, a_r, a_ri):
+    """Eq. 49: the weighting ``W`` of ``G_sigma_full`` in partial contact (dimensionless).
+
+    ``a_r`` for ``"persson"`` (original theory), ``a_ri^2 / a_r`` for ``"modified"`` and
+    ``a_r^2 / a_ri`` for ``"modified_ar2"`` (:data:`WEIGHTINGS`); ``a_ri`` is only read by
+    the modified ones (eq. 50). At small ``p*`` (``a_r -> kappa p*``, ``a_ri -> 2 p*``)
+    ``W / a_r`` tends to 1, ``4 / kappa^2`` (``pi / 2`` for Persson's ``kappa``) and
+    ``kappa / 2``.
+    """
+    if theory == "persson":
+        return a_r
+    if theory == "modified":
+        return a_ri**2 / a_r
+    if theory == "modified_ar2":
+        return a_r**2 / a_ri
+    raise ValueError(f"theory must be one of {tuple(WEIGHTINGS)}, got {theory!r}")
+
+
+def asymptote_weight(theory: str, kappa: float = KAPPA_PERSSON) -> float:
+    """Prefactor ``w`` of :func:`stress_asymptote` for ``theory`` (eq. 47-50 at small p*).
+
+    ``Gamma_sigma = (G_sigma - p0^2) / a(0)`` with ``W`` of eq. 49 and ``a = a_r`` (original)
+    or ``a_ri`` (modified), in the limits ``a_r -> kappa p*``, ``a_ri -> 2 p*``: ``w = 1``
+    (original), ``2 / kappa`` (``"modified"``; ``sqrt(pi / 2)`` for Persson's ``kappa``) and
+    ``kappa^2 / 4`` (``"modified_ar2"``; ``2 / pi``).
+    """
+    weights = {"persson": 1.0, "modified": 2 / kappa, "modified_ar2": kappa**2 / 4}
+    if theory not in weights:
+        raise ValueError(f"theory must be one of {tuple(WEIGHTINGS)}, got {theory!r}")
+    return float(weights[theory])
+
+
 def _hurst_or_nan(hurst):
     """H clipped into (0, 1) for the shape factors; a failed fit's NaN H stays NaN later."""
     return np.clip(np.where(np.isfinite(hurst), hurst, 0.5), 1e-3, 1 - 1e-3)
@@ -76,9 +118,12 @@ def stress_asymptote(dr, g, hurst, gbar0, E_star, weight=1.0):
     """Eq. 51: ``Gamma_sigma ~ w E*^2 H^2 gbar(0) sqrt(G / c_sa(H)) / dr`` (Pa^2).
 
     The small-pressure limit of eq. 47/48 in the self-affine range, from
-    ``G_sigma_full = (E*/2)^2 (2H)^2 G / dr^2``, ``gbar^2(dr) = c_sa G / dr^2`` and
-    ``a_r -> kappa p*``: ``w = 1`` for the original weighting (``kappa`` cancels) and
-    ``w = kappa^2 / 4`` for the modified one (``2 / pi`` for Persson's ``kappa``).
+    ``G_sigma_full = (E*/2)^2 (2H)^2 G / dr^2``, ``gbar^2(dr) = c_sa G / dr^2`` (xrough's
+    ``c_sa``) and ``a_r -> kappa p*``, ``a_ri -> 2 p*``: ``w`` of :func:`asymptote_weight`
+    per theory (``w = 1`` for the original weighting, where ``kappa`` cancels).
+    ``w =`` :data:`EQ51_PRINTED` is eq. 51 as printed,
+    ``pi gbar(lambda_s) H^2 E*^2 sqrt(G c_sa) / (2 dr)``, whose ``c_sa`` is the reciprocal
+    of xrough's (``G / (gbar^2 dr^2)``).
     """
     h = _hurst_or_nan(hurst)
     with np.errstate(divide="ignore", invalid="ignore"):
