@@ -774,6 +774,7 @@ def test_spectrum_numpy_and_dask_agree(backend):
     expected = _stacked([fit_acf(G.isel(scan=k)) for k in range(2)], "spectrum")
     expected.attrs = {k: v for k, v in expected.attrs.items()
                       if k not in ("reduced_chi2", "plateau", "ballistic_regime")}
+    expected.attrs["rolloff"] = "auto"  # several fits: each has its rolloff_shape
     if backend == "dask":
         import dask
 
@@ -856,3 +857,32 @@ def test_a_fit_that_does_not_determine_h_is_not_good():
     assert float(fit.hurst_std) > 0.25
     assert fit.attrs["quality"] == "questionable"
     assert int(fit.fit_problems) & 1 << PROBLEMS.index("hurst_undetermined")
+
+
+def test_rolloff_shape_chosen_by_evidence():
+    """A smooth-roll-off map: the sharp shape alone gives H = 0.64 at a reduced chi^2 of
+    1.8 (nothing else flags it); 'auto' fits both and keeps the smooth one (chi^2 0.1)."""
+    topo = xrough.self_affine_surface(hurst=0.8, lambda_r=128, lambda_s=4, size=1024,
+                                      n=1024, rms_height=1, rolloff="smooth", unit="nm",
+                                      seed=1)
+    G = topo.rough.acf()
+    fit = fit_acf(G)
+    sharp = fit_acf(G, rolloff="sharp")
+    assert fit.attrs["rolloff"] == "smooth" and int(fit.rolloff_shape) == 1
+    assert "AIC" in fit.attrs["rolloff_choice"] and sharp.attrs["rolloff_choice"] == "given"
+    assert abs(float(fit.hurst) - 0.8) < 0.05 < abs(float(sharp.hurst) - 0.8)
+    assert float(fit.reduced_chi2_other_rolloff) == pytest.approx(float(sharp.reduced_chi2))
+    assert np.isnan(float(sharp.reduced_chi2_other_rolloff))
+    # what rebuilds the model from the fit uses the shape fitted
+    smooth = fit_acf(G, rolloff="smooth")
+    xr.testing.assert_allclose(gradient_from_fit(fit, [1.0, 100.0]),
+                               gradient_from_fit(smooth, [1.0, 100.0]))
+    xr.testing.assert_allclose(model_acf(fit, [1.0, 100.0]), model_acf(smooth, [1.0, 100.0]))
+    with pytest.raises(ValueError, match="differs from the 'smooth' spectrum"):
+        gradient_from_fit(fit, [1.0], rolloff="sharp")
+    # the exact G of a sharp spectrum keeps the sharp shape
+    dr = np.geomspace(0.5, 5e3, 30)
+    G = g_array(spectrum_acf(0.7, "sharp", lambda_r=300, lambda_s=5, dr=dr).values, dr)
+    assert fit_acf(G).attrs["rolloff"] == "sharp"
+    with pytest.raises(ValueError, match="rolloff must be one of"):
+        fit_acf(G, model="eq36", rolloff="auto")

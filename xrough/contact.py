@@ -26,7 +26,7 @@ from ._kernels.contact import KAPPA_PERSSON
 from ._kernels.gaps import bridge_energy
 from ._kernels.hankel import acf_from_spectrum_kernel
 from .acf import AcfSpec, gap_note, lag_coord, mark_gaps, read_acf, result_attrs
-from .fitting import fit_acf
+from .fitting import fit_acf, rolloff_shapes
 from .gradient import rms_gradient
 from .models import model_from_attrs
 from .preprocess import reliability_window
@@ -717,12 +717,13 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
                                                   what="lambda_r"), "m")
         hf = u.conversion_factor(u.as_length_unit(u.units_of(fit["sigma_h"], what="sigma_h"),
                                                   what="sigma_h"), "m")
-        params = [fit[v].drop_vars([c for c in fit[v].coords if c not in fit[v].dims])
-                  for v in ("hurst", "sigma_h", "lambda_r")]
+        params = [a.drop_vars([c for c in a.coords if c not in a.dims])
+                  for a in (fit["hurst"], fit["sigma_h"], fit["lambda_r"],
+                            rolloff_shapes(fit))]
         est = xr.apply_ufunc(
             k.quick_stress, dr_m, G_si, params[0], params[1] * hf, params[2] * lf,
-            dask="parallelized", output_dtypes=[float], keep_attrs=False,
-            kwargs={"E_star": E, "rolloff": str(fit.attrs.get("rolloff", "sharp"))})
+            params[3], dask="parallelized", output_dtypes=[float], keep_attrs=False,
+            kwargs={"E_star": E})
         out["sigma_quick"] = np.maximum(est, p0_da).assign_attrs(
             units="Pa", long_name="quick estimate of the mean contact stress",
             equation="eq. 41 (dr < lambda_r), eq. 42 (dr > lambda_r), at least p0")

@@ -224,8 +224,8 @@ def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec,
             dr_ref = reference_lag(dr[use], spec.length_unit)
             fixed, _ = fixed_spectrum(None, spec.length_unit, np.inf)
             fit = {"use": use, "dr_ref": dr_ref, "weighted": weighted, "fixed": fixed,
-                   "rolloff": "sharp", "lambda_0": np.inf, "unit": spec.unit_str}
-            fit_gradient = {"dr_ref": dr_ref, "lam_0": np.inf, "rolloff": "sharp",
+                   "rolloff": "auto", "lambda_0": np.inf, "unit": spec.unit_str}
+            fit_gradient = {"dr_ref": dr_ref, "lam_0": np.inf,
                             "g_factor": 1.0}
     if fitted.chunks is None and Gl.chunks is not None:
         fitted = fitted.chunk()
@@ -543,7 +543,8 @@ def gradient_from_fit(params: xr.Dataset, dr: Any = None, *,
         logarithmic points over the fitted range.
     rolloff : {'sharp', 'smooth'}, optional
         Roll-off shape; default ``params.attrs["rolloff"]``.  For eq. 36 it selects
-        ``c_ro(H)``; a spectrum fit only accepts its own shape.
+        ``c_ro(H)``; a spectrum fit only accepts its own shape (per fit: the variable
+        ``rolloff_shape``, used when ``attrs["rolloff"]`` is ``"auto"``).
 
     Returns
     -------
@@ -597,7 +598,7 @@ def gradient_from_fit(params: xr.Dataset, dr: Any = None, *,
     lateral, height, model = fit_units(params)
     own = params.attrs.get("rolloff", "sharp")
     rolloff = own if rolloff is None else rolloff
-    if rolloff not in ROLLOFFS:
+    if rolloff not in ROLLOFFS and not (model == "spectrum" and rolloff == own == "auto"):
         raise ValueError(f"rolloff must be one of {ROLLOFFS}, got {rolloff!r}")
     values = fit_lags(dr, lateral, params)
     if model == "spectrum":

@@ -100,14 +100,16 @@ def _hurst_or_nan(hurst):
     return np.clip(np.where(np.isfinite(hurst), hurst, 0.5), 1e-3, 1 - 1e-3)
 
 
-def quick_stress(dr, g, hurst, sigma_h, lambda_r, E_star, rolloff: str = "sharp"):
+def quick_stress(dr, g, hurst, sigma_h, lambda_r, shape, *, E_star):
     """Eq. 41 below ``lambda_r`` and eq. 42 beyond it: quick mean contact stress (Pa).
 
-    ``E* sqrt(c_sa(H) G) / dr`` and ``E* sqrt(c_ro(H)) lambda_r sigma_h / dr^2``.
+    ``E* sqrt(c_sa(H) G) / dr`` and ``E* sqrt(c_ro(H)) lambda_r sigma_h / dr^2``;
+    ``shape``: the roll-off of each fit, index in ``ROLLOFFS`` (0 sharp, 1 smooth).
     """
     h = _hurst_or_nan(hurst)
     c_sa = self_affine_factor(h)
-    c_ro = rolloff_factor(h, rolloff=rolloff)
+    c_ro = np.where(np.asarray(shape) == 1, rolloff_factor(h, rolloff="smooth"),
+                    rolloff_factor(h, rolloff="sharp"))
     with np.errstate(divide="ignore", invalid="ignore"):
         sa = E_star * np.sqrt(c_sa * g) / dr
         ro = E_star * np.sqrt(c_ro) * lambda_r * sigma_h / dr**2

@@ -21,7 +21,7 @@ import numpy as np
 from scipy import optimize
 
 from .hankel import acf_from_spectrum_kernel
-from .shape_factors import rolloff_crossover, self_affine_constant
+from .shape_factors import ROLLOFFS, rolloff_crossover, self_affine_constant
 from .spectral_models import SpectrumModel, model_gradient2
 
 __all__ = [
@@ -34,6 +34,8 @@ __all__ = [
     "H_BOUNDS",
     "PROBLEMS",
     "PROBLEM_LEVELS",
+    "AIC_MARGIN",
+    "information_criterion",
     "fit_problems",
     "fit_eq36_kernel",
     "fit_spectrum_kernel",
@@ -49,7 +51,7 @@ SPECTRUM_PARAMETERS = ("sigma_h", "G_sa", "hurst", "lambda_r", "lambda_s", "C_r"
 FLAGS = ("lambda_r_resolved", "lambda_s_resolved")
 SPECTRUM_OUTPUTS = (*SPECTRUM_PARAMETERS, *(f"{p}_std" for p in SPECTRUM_PARAMETERS),
                     "reduced_chi2", "n_bins", *FLAGS, "rms_misfit", "reduced_chi2_eq36",
-                    "fit_problems", "quality")
+                    "rolloff_shape", "reduced_chi2_other_rolloff", "fit_problems", "quality")
 #: The checks of a fit (bit k of ``fit_problems``) and the quality level each implies
 #: (1 questionable, 2 failed; see :func:`fit_problems`).
 PROBLEM_LEVELS = {
@@ -80,6 +82,13 @@ OUTSIDE = 10.0
 #: interval spans half of the range 0 < H < 1 (a rough and a smooth surface alike), e.g.
 #: on a map of a few pixels or a G of a few bins.
 HURST_STD_MAX = 0.25
+#: ``rolloff="auto"`` fits both shapes of :data:`ROLLOFFS` and keeps the smooth one only
+#: when its Akaike information criterion (AIC = chi^2 + 2 p weighted, n ln(RSS/n) + 2 p
+#: unweighted; both shapes have the same p, so this compares chi^2) is lower than the
+#: sharp one's by more than AIC_MARGIN: a difference of 2 (a likelihood ratio of e) is the
+#: usual threshold of substantial support (Burnham & Anderson 2002); below it the data do
+#: not tell the shapes apart and the paper's eq. 35 (sharp) is kept.
+AIC_MARGIN = 2.0
 #: Bounds of H in the fit (the model degenerates at H = 0 and H = 1).
 H_BOUNDS = (0.01, 0.99)
 #: Hurst exponents tried for the starting point (linear least squares at each).
@@ -436,8 +445,56 @@ def _grid_starts(theta, free, lower, upper, x, ly, w, cutoffs, lam_0, rolloff):
     return [t for _, t in trials[:_N_RESTARTS]]
 
 
+def information_criterion(chi2: float, n: int, p: int, weighted: bool) -> float:
+    """Akaike's information criterion of a least-squares fit (Gaussian errors).
+
+    ``chi2``: reduced chi^2 of the (log) residuals, ``n`` bins, ``p`` free parameters.
+    Weighted (known standard errors): ``chi^2 + 2 p``; unweighted (variance estimated):
+    ``n ln(RSS/n) + 2 p``.  Only differences between fits of the same bins mean anything.
+    """
+    total = chi2 * (n - p)
+    if not weighted:
+        with np.errstate(divide="ignore"):
+            total = n * np.log(total / n)
+    return float(total + 2 * p)
+
+
 def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lambda_0, unit):
     """Fit the model spectrum to one G (one length unit); the values of ``SPECTRUM_OUTPUTS``.
+
+    ``rolloff``: one of :data:`ROLLOFFS`, or ``"auto"``: both are fitted and the sharp one
+    is kept unless the smooth one has an AIC lower by more than :data:`AIC_MARGIN`
+    (``rolloff_shape`` is the index of the shape kept in :data:`ROLLOFFS`,
+    ``reduced_chi2_other_rolloff`` the reduced chi^2 of the other; NaN for one shape).
+    """
+    kw = {"dr": dr, "use": use, "dr_ref": dr_ref, "weighted": weighted, "fixed": fixed,
+          "lambda_0": lambda_0, "unit": unit}
+    if rolloff != "auto":
+        out = _fit_spectrum_shape(G, se, rolloff=rolloff, **kw)
+        return _with_shape(out, ROLLOFFS.index(rolloff), np.nan)
+    fits = [_fit_spectrum_shape(G, se, rolloff=shape, **kw) for shape in ROLLOFFS]
+    at = {name: k for k, name in enumerate(SPECTRUM_OUTPUTS)}
+
+    def aic(out):
+        chi2, n = out[at["reduced_chi2"]], int(out[at["n_bins"]])
+        if not np.isfinite(chi2) or out[at["quality"]] == 2:
+            return np.inf
+        return information_criterion(chi2, n, int(np.count_nonzero(np.isnan(fixed))) + 1,
+                                     weighted)
+
+    sharp, smooth = (aic(out) for out in fits)
+    k = 1 if smooth < sharp - AIC_MARGIN or (np.isinf(sharp) and np.isfinite(smooth)) else 0
+    return _with_shape(fits[k], k, fits[1 - k][at["reduced_chi2"]])
+
+
+def _with_shape(out, shape, chi2_other):
+    at = SPECTRUM_OUTPUTS.index("rolloff_shape")
+    out[at], out[at + 1] = shape, chi2_other
+    return out
+
+
+def _fit_spectrum_shape(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lambda_0, unit):
+    """Fit the model spectrum of one roll-off shape to one G (see :func:`fit_spectrum_kernel`).
 
     Optimiser parameters ``theta = [ln(G_sa/G_ref), H, ln eta, ln eps]`` with
     ``eta = (dr_max/lambda_r)^(2-2H)`` and ``eps = (lambda_s/dr_min)^(2H)``: each of
@@ -633,7 +690,7 @@ def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lam
         keep = np.array([False, False, not free[1], not free[2], not free[3], False])
         out[~keep], std[~keep] = np.nan, np.nan
     return np.array([*out, *std, chi2, n, resolved_r, resolved_s, rms_misfit, chi2_eq36,
-                     bits, code], dtype=float)
+                     np.nan, np.nan, bits, code], dtype=float)
 
 
 # --------------------------------------------------------------------------------------
@@ -687,23 +744,29 @@ def _fitted_cutoffs(lam_r, lam_s, r_ok, s_ok, lam_0):
     return lr, ls
 
 
-def fitted_spectrum_acf(H, G_sa, lam_r, lam_s, r_ok, s_ok, *, dr, dr_ref, lam_0, rolloff):
-    """G (eq. 9) at lags ``dr`` of one fitted spectrum (NaN where the fit failed)."""
+def fitted_spectrum_acf(H, G_sa, lam_r, lam_s, r_ok, s_ok, shape, *, dr, dr_ref, lam_0):
+    """G (eq. 9) at lags ``dr`` of one fitted spectrum (NaN where the fit failed).
+
+    ``shape``: the roll-off, index in :data:`ROLLOFFS` (variable ``rolloff_shape``).
+    """
     if not (np.isfinite(H) and np.isfinite(G_sa)):
         return np.full(dr.shape, np.nan)
+    rolloff = ROLLOFFS[int(shape)]
     lr, ls = _fitted_cutoffs(lam_r, lam_s, r_ok, s_ok, lam_0)
     return G_sa * _acf_shape(dr / dr_ref, H, lr / dr_ref, ls / dr_ref, lam_0 / dr_ref,
                              rolloff)
 
 
-def fitted_spectrum_gradient(H, G_sa, lam_r, lam_s, r_ok, s_ok, *, dr, dr_ref, lam_0, rolloff,
+def fitted_spectrum_gradient(H, G_sa, lam_r, lam_s, r_ok, s_ok, shape, *, dr, dr_ref, lam_0,
                              g_factor):
     """Gbar (eq. 26, closed form) at lags ``dr`` of one fitted spectrum (NaN if it failed).
 
-    ``g_factor`` converts ``G_sa`` to the lateral unit squared.
+    ``shape``: the roll-off, index in :data:`ROLLOFFS`; ``g_factor`` converts ``G_sa`` to
+    the lateral unit squared.
     """
     if not (np.isfinite(H) and np.isfinite(G_sa)):
         return np.full(dr.shape, np.nan)
+    rolloff = ROLLOFFS[int(shape)]
     lr, ls = _fitted_cutoffs(lam_r, lam_s, r_ok, s_ok, lam_0)
     c = 2 * np.pi * G_sa * g_factor / dr_ref ** (2 * H) / self_affine_constant(H)
     with np.errstate(divide="ignore"):

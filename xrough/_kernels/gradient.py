@@ -169,5 +169,5 @@ def _fit_gradient(g, se, dr, fit, fit_gradient):
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         return fitted_spectrum_gradient(
             params["hurst"], params["G_sa"], params["lambda_r"], params["lambda_s"],
-            params["lambda_r_resolved"], params["lambda_s_resolved"],
+            params["lambda_r_resolved"], params["lambda_s_resolved"], params["rolloff_shape"],
             dr=np.where(dr > 0, dr, np.nan), **fit_gradient), bits, code
