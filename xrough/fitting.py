@@ -754,8 +754,11 @@ def fit_spectrum_inputs(params: xr.Dataset, lateral: pint.Unit) -> tuple[list, d
 
 
 def rolloff_shapes(params: xr.Dataset) -> xr.DataArray:
-    """Roll-off shape of each fit (index in ``ROLLOFFS``): the variable ``rolloff_shape``,
-    or, for fits without it, ``attrs["rolloff"]`` (default ``'sharp'``)."""
+    """Return the roll-off shape of each fit (index in ``ROLLOFFS``).
+
+    The variable ``rolloff_shape``, or, for fits without it, ``attrs["rolloff"]``
+    (default ``'sharp'``).
+    """
     if "rolloff_shape" in params.variables:
         return params["rolloff_shape"]
     own = params.attrs.get("rolloff", "sharp")

@@ -227,7 +227,7 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None):
     >>> G = xrough.acf_from_spectrum(C, dr_min="1 nm", dr_max="100 um")
     >>> axes = G.rough.persson(E_star="25 MPa", p0="0.1 MPa").rough.plot()
     >>> len(axes)
-    9
+    10
     """
     if variables is None and _is_fit(ds):
         return np.array([plot_fit(ds, ax=None if axes is None else np.ravel(axes)[0])])
