@@ -245,7 +245,8 @@ G_FUNCTIONS: dict[str, tuple[Callable, dict]] = {
         xrough.fit_acf(G), np.geomspace(2, 2e4, 9) * f), {"rtol": _FIT}),
     "gradient_from_fit-eq36": (lambda G, f: xrough.gradient_from_fit(
         xrough.fit_acf(G, model="eq36")), {"rtol": _FIT}),
-    "spectrum": (lambda G, f: xrough.spectrum(G), {"rtol": _HANKEL}),
+    "spectrum": (lambda G, f: xrough.spectrum(G), {
+        "rtol": _HANKEL, "tolerances": {"standard_error": (1e-8, 0.0)}}),
     "rms_gradient_exact": (lambda G, f: xrough.rms_gradient_exact(G), {"rtol": _HANKEL}),
     "rms_gradient-simple": (lambda G, f: xrough.rms_gradient(G, method="simple"),
                             {"rtol": 1e-10}),
@@ -302,7 +303,9 @@ def test_functions_of_G_are_unit_invariant(case, unit):
     - 1e-9 (spectrum, exact gbar): the Hankel transform of eq. 10/11 sums oscillating
       terms, whose cancellation amplifies the round-off of the scaled inputs (measured
       4e-12); the end of the supported range (attrs) is interpolated where a relative
-      change crosses support_rtol: 1e-8 (measured 2e-10);
+      change crosses support_rtol: 1e-8 (measured 2e-10); the standard error of C
+      propagates one perturbation of G per eigenvector of G's error covariance, whose
+      small eigenvectors carry the round-off: 1e-8 (measured 1.2e-9);
     - 1e-7 (fits and everything from them: gbar 'fit', sigma_quick): the least-squares
       optimiser stops at its own tolerance and works on ln G_sa, which shifts by ln 1e6
       between nm and um, so the steps differ in the last digits (measured 5e-11 on the
@@ -779,8 +782,9 @@ def test_stitch_keeps_the_provenance_of_every_measurement(tmp_path):
 
 FROM_G = {
     "fit_acf": lambda G: xrough.fit_acf(G),
-    # G of a 512 nm map does not fix C to 1 % anywhere (no plateau): a looser support
-    "spectrum": lambda G: xrough.spectrum(G, support_rtol=0.1),
+    # G of a 128^2 map without a plateau does not fix C to 1 % anywhere, and from one
+    # map its standard error exceeds 50 % everywhere: looser support, no error bound
+    "spectrum": lambda G: xrough.spectrum(G, support_rtol=0.1, max_error=np.inf),
     "rms_gradient": lambda G: xrough.rms_gradient(G),
     "rms_gradient_exact": lambda G: xrough.rms_gradient_exact(G),
     "persson": lambda G: xrough.persson(G, E_star="25 MPa", p0="1 MPa"),

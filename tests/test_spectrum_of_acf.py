@@ -279,9 +279,10 @@ def surface_model(q):
 def test_surface_with_fixed_amplitudes_gives_its_model_spectrum():
     # fixed moduli sqrt(C/A) and random phases: the all-pairs G of a periodic map does not
     # depend on the phases, so it is the model's up to the discreteness of the modes (no
-    # statistical error)
+    # statistical error; G's standard_error assumes Gaussian amplitudes, so its bound is
+    # lifted with max_error=inf)
     topo = xrough.self_affine_surface(**SURFACE, n=1024, seed=0, random_amplitudes=False)
-    C = spectrum(topo.rough.acf(points_per_decade=20))
+    C = spectrum(topo.rough.acf(points_per_decade=20), max_error=np.inf)
     q = C.q.values
     sup = C.supported.values == 1
     q_0, q_r, q_s = 2 * np.pi / 4000, 2 * np.pi / 1000, 2 * np.pi / 20
@@ -293,18 +294,29 @@ def test_surface_with_fixed_amplitudes_gives_its_model_spectrum():
 
 
 def test_surfaces_with_random_amplitudes_scatter_around_the_model():
-    # Gaussian amplitudes: C of each map scatters around the model; the mean of 6 maps
-    # agrees within 4 standard errors of that mean (plus 3 % for the binning of G)
+    """Gaussian amplitudes: C of each map scatters around the model; the mean of 12 maps
+    agrees within 4 standard errors of that mean (plus 3 % for the binning of G), and
+    the modelled standard error of C (the finite-area error of G, correlated between its
+    radial bins, propagated) is 0.5 to 2.5 times the scatter between the maps from
+    1.4 q_r to q_s / 5 (measured 0.74-1.9; 12 maps estimate a scatter to +-21 %).
+    Above q_s / 4, with C jumping at q_s within 2.6 pixels, the scatter grows to 3-9
+    times the model, which leaves out the angles of the few lattice vectors in the
+    first bins (docs/spectra.md); those q are not compared."""
     q = np.geomspace(0.009, 0.17, 15)  # from 1.4 q_r to q_s / 1.8
-    curves = []
-    for seed in range(6):
+    curves, errors = [], []
+    for seed in range(12):
         topo = xrough.self_affine_surface(**SURFACE, n=512, seed=seed)
-        C = spectrum(topo.rough.acf(points_per_decade=20), q, support_rtol=0.05)
-        assert np.all(C.supported.values == 1)
+        C = spectrum(topo.rough.acf(points_per_decade=20), q, support_rtol=0.05,
+                     max_error=np.inf)
         curves.append(C.values)
+        errors.append(C.standard_error.values)
     ratio = np.array(curves) / surface_model(q)
     mean, sem = ratio.mean(axis=0), ratio.std(axis=0, ddof=1) / np.sqrt(len(curves))
     np.testing.assert_array_less(np.abs(mean - 1), 4 * sem + 0.03)
+    modelled = np.median(np.array(errors) / surface_model(q), axis=0)
+    away = q <= 2 * np.pi / 20 / 5
+    quotient = (modelled / ratio.std(axis=0, ddof=1))[away]
+    assert np.all((quotient > 0.5) & (quotient < 2.5)), np.round(quotient, 2)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -318,7 +330,7 @@ def test_lattice_scatter_of_measured_g_is_no_sampling_change(seed):
     model as in test_surfaces_with_random_amplitudes_scatter_around_the_model.
     """
     topo = xrough.self_affine_surface(**SURFACE, n=512, seed=seed)
-    C = spectrum(topo.rough.acf(points_per_decade=20))
+    C = spectrum(topo.rough.acf(points_per_decade=20), max_error=np.inf)  # the rule alone
     q_r, q_s = 2 * np.pi / 1000, 2 * np.pi / 20
     assert q_r < C.attrs["q_min_supported"] < 3 * q_r
     assert q_s / 3 < C.attrs["q_max_supported"] < q_s
@@ -332,7 +344,7 @@ def test_measured_maps_keep_their_supported_range(name):
     matrix 8.85-20.6 um-1; rtol 1 % on the ends).
     """
     topo = xrough.open_topography(data_path("instruments", name))
-    C = spectrum(xrough.height_difference_acf(topo))
+    C = spectrum(xrough.height_difference_acf(topo), max_error=np.inf)  # the rule alone
     expected = {"opd-1.opd": (800, 3380), "sur-2.sur": (111, 249), "matrix-3.txt": (8.85, 20.6)}
     np.testing.assert_allclose([C.attrs["q_min_supported"], C.attrs["q_max_supported"]],
                                expected[name], rtol=0.01)
@@ -348,14 +360,17 @@ def noisy_acf(seed):
 
 def test_noisy_g_stays_finite_and_its_support_says_where_c_holds():
     G = noisy_acf(2)
-    # 5 % independent noise: C stays finite, but nothing holds to 1 %
+    # 5 % independent noise: C stays finite, but its standard error exceeds 10 %
+    # everywhere: nothing is supported, and the result says so
     assert np.all(np.isfinite(spectrum(G, support_rtol=np.inf).values))
-    with pytest.raises(ValueError, match="does not determine C anywhere .* smooth="):
-        spectrum(G, noise=0.05)
-    # smoothed over a decade, C holds to 20 % (one standard deviation over noisy copies)
-    # around the roll-off; there it lies within 2 x 20 % of the model (the scatter of the
-    # copies estimates the error, a maximum over the range may reach two of them)
-    C = spectrum(G, noise=0.05, smooth=1.0, support_rtol=0.2)
+    with pytest.warns(xrough.QualityWarning, match="exceeds max_error=0.1 at every q"):
+        C = spectrum(G, noise=0.05)
+    assert C.attrs["quality"] == "questionable" and not C.supported.any()
+    assert np.isnan(C.attrs["q_min_supported"])
+    # smoothed over a decade, the standard error of C is below 20 % around the roll-off;
+    # there C lies within 2 x 20 % of the model (a maximum over the range may reach two
+    # standard errors)
+    C = spectrum(G, noise=0.05, smooth=1.0, max_error=0.2)
     a = C.attrs
     assert a["q_min_supported"] < 2 * np.pi / LAMBDA_R < a["q_max_supported"]
     assert a["smooth_decades"] == 1.0 and a["noise"] == pytest.approx(0.05, rel=1e-12)
@@ -367,7 +382,7 @@ def test_noisy_g_stays_finite_and_its_support_says_where_c_holds():
 def test_random_pair_estimate_brings_its_own_noise():
     topo = xrough.self_affine_surface(**SURFACE, n=512, seed=3)
     G = topo.rough.acf(estimator="random", n_pairs=20_000, seed=1)
-    C = spectrum(G, smooth=0.5, support_rtol=0.5)
+    C = spectrum(G, smooth=0.5, support_rtol=0.5, max_error=0.5)
     expected = np.median(np.nan_to_num(G.sampling_error.values / G.values))
     np.testing.assert_allclose(C.attrs["noise"], expected, rtol=1e-12, atol=0)
     assert C.attrs["noise"] > 0.01

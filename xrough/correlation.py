@@ -696,7 +696,10 @@ def height_difference_acf(
         sampling error) and
         ``sampling_error`` (Monte-Carlo error against the all-pairs value; 0 for ``fft``).
         A bin whose pairs all touch missing points is NaN with ``pair_count`` 0.
-        With ``target_error``: coordinate ``achieved_error`` (largest ``standard_error /
+        Attrs name the measurement: ``direction``, ``lag_geometry`` (``'profile'``,
+        ``'axis'`` or ``'radial'``: how the bins average, which sets how their errors
+        correlate, :func:`xrough.spectrum`), ``pixel_size``, ``scan_size`` (in the unit
+        of ``dr``), ``periodic``, ``bins``. With ``target_error``: coordinate ``achieved_error`` (largest ``standard_error /
         G`` over the bins, per curve; lazy for dask), ``quality_flag`` (questionable where
         it exceeds the target) and attrs ``target_error``, ``estimator_choice`` (what was
         chosen and why), ``n_pairs`` (random), ``sampling_error_budget``,
@@ -861,6 +864,7 @@ def height_difference_acf(
         "equation": "eq. 1: G(dr) = 1/2 <(h(r) - h(r + dr))^2>",
         "estimator": "fft (all pairs)" if estimator == "fft" else "random pairs",
         "direction": direction if len(grid.dims) == 2 else "x",
+        "lag_geometry": geometry,
         "periodic": int(grid.periodic),
         "bins": bins if isinstance(bins, str) else "explicit",
         "pixel_size": float(min(grid.spacing)),
@@ -1265,6 +1269,7 @@ def height_difference_acf_tiled(
         "equation": "eq. 1: G(dr) = 1/2 <(h(r) - h(r + dr))^2>",
         "estimator": "tiled (exact within the halo, block levels beyond)",
         "direction": "radial",
+        "lag_geometry": "radial",
         "periodic": 0,
         "bins": bins if isinstance(bins, str) else "explicit",
         "pixel_size": float(min(spacing)),

@@ -20,6 +20,7 @@ import numpy as np
 import pint
 import xarray as xr
 
+from . import quality
 from . import units as _units
 from ._kernels.binning import decade_aligned_grid, log_range
 from ._kernels.hankel import (
@@ -27,10 +28,13 @@ from ._kernels.hankel import (
     acf_from_spectrum_kernel,
     acf_plateau_kernel,
     smooth_acf_kernel,
+    spectrum_error_kernel,
     spectrum_from_acf_kernel,
     spectrum_support_kernel,
+    support_grid,
 )
 from ._kernels.spectral_models import SpectrumModel
+from ._kernels.uncertainty import g_covariance
 from .acf import mark_gaps, read_acf, result_attrs
 from .models import model_attrs, model_from_attrs, self_affine_model
 
@@ -400,6 +404,8 @@ class _AcfInput:
     length_unit: pint.Unit
     unit_str: str
     gaps: np.ndarray  # lag ranges no measurement covers (AcfSpec.gaps)
+    covariance: np.ndarray | None = None  # of the relative statistical errors (bins x bins)
+    error_model: str = "none"  # how ``covariance`` was built
 
 
 #: What of C(q) depends on G inside a gap (:func:`xrough.acf.mark_gaps`).
@@ -407,11 +413,14 @@ _GAP = ("C(q), a transform of G over all lags, takes G there as the bridge: C at
         "order of 2 pi / dr inside the gap rests on it")
 
 
-def acf_samples(G: Any, noise: Any = None, *, min_bins: int = 4) -> _AcfInput:
+def acf_samples(G: Any, noise: Any = None, *, min_bins: int = 4,
+                covariance: bool = False) -> _AcfInput:
     """One checked G (:func:`xrough.acf.check_acf`): its valid bins at ``dr > 0`` in ``dr``'s unit.
 
     ``noise`` is the relative independent scatter per bin; default ``sampling_error / G``
-    when G has that coordinate (the random-pair estimator), else 0.
+    when G has that coordinate (the random-pair estimator), else 0.  With ``covariance``,
+    also the covariance of the relative statistical errors of the bins
+    (:func:`_error_covariance`).
     """
     G, spec = read_acf(G, single=True, min_bins=min_bins)
     dr = spec.dr
@@ -425,8 +434,61 @@ def acf_samples(G: Any, noise: Any = None, *, min_bins: int = 4) -> _AcfInput:
         if not np.all(np.isfinite(rel) & (rel >= 0)):
             raise ValueError(f"noise must be a relative scatter >= 0, got {noise!r}")
     valid = np.isfinite(g) & (dr > 0)
-    return _AcfInput(dr[valid], g[valid], np.nan_to_num(rel[valid]), spec.length_unit,
-                     spec.unit_str, spec.gaps)
+    rel = np.nan_to_num(rel[valid])
+    cov, model = (_error_covariance(G, spec, dr[valid], g[valid], valid, rel) if covariance
+                  else (None, "none"))
+    return _AcfInput(dr[valid], g[valid], rel, spec.length_unit, spec.unit_str, spec.gaps,
+                     cov, model)
+
+
+def _error_covariance(G, spec, dr, g, valid, noise) -> tuple[np.ndarray | None, str]:
+    """Covariance of the relative statistical errors of G's valid bins, and its model.
+
+    The finite-area error of G as :func:`~xrough._kernels.uncertainty.g_covariance`
+    models it for the lag geometry of G (attr ``lag_geometry``; the area from
+    ``scan_size``; periodic), scaled bin by bin to G's own finite-area variance
+    (``standard_error^2 - sampling_error^2``: it knows the valid area and the pairs of
+    an open map), that scale smoothed over 0.25 decades; plus ``noise`` (independent).
+    A G without ``standard_error`` has ``noise`` alone; one without the geometry (a
+    stitched G) is taken as a radial average over a square of twice its largest lag with
+    pixels of its smallest.
+    """
+    diag = np.diag(noise**2)
+    if "standard_error" not in G.coords:
+        return (diag if np.any(noise > 0) else None,
+                "noise (independent)" if np.any(noise > 0) else "none")
+    se = np.asarray(G["standard_error"].values, dtype=float)[valid] * spec.g_factor
+    sampling = (np.asarray(G["sampling_error"].values, dtype=float)[valid] * spec.g_factor
+                if "sampling_error" in G.coords else np.zeros_like(se))
+    area_var = se**2 - np.nan_to_num(sampling) ** 2
+    geometry = G.attrs.get("lag_geometry")
+    pixel, size = G.attrs.get("pixel_size"), G.attrs.get("scan_size")
+    if geometry in ("profile", "axis", "radial") and pixel and size:
+        pixel, size = float(pixel), float(size)  # in the unit of dr, as G was made
+        model = f"finite-area model of a {geometry} G over its scan_size"
+    else:
+        geometry, pixel, size = "radial", float(dr[0]), 2.0 * float(dr[-1])
+        model = ("finite-area model of a radial G over a square twice its largest lag (G "
+                 "has no lag_geometry: assumed)")
+    # in units of the pixel and of G's median (the relative covariance is the same in
+    # any unit, and so is its quadrature)
+    r, g0 = dr / pixel, float(np.median(g))
+    q = np.geomspace(np.pi / (8 * size / pixel), 2 * np.pi,
+                     int(40 * np.log10(16 * size / pixel)) + 2)
+    C = spectrum_from_acf_kernel(q, r, smooth_acf_kernel(r, g / g0, 0.5))
+    cov = g_covariance(r, q, C, size=size / pixel, pixel=1.0, geometry=geometry) * g0**2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        log_ratio = np.log(area_var / np.diag(cov))
+    ok = np.isfinite(log_ratio)
+    if not ok.any():
+        return (diag if np.any(noise > 0) else None), model
+    # G's own variance sets the level, smoothly (a Gaussian window of 0.25 decades in
+    # log dr): it knows the valid area and the pairs of an open map; bin-to-bin wiggles
+    # of it would become spurious curvature of G
+    x = np.log10(dr)
+    kernel = np.exp(-0.5 * ((x[:, None] - x[None, ok]) / 0.25) ** 2)
+    scale = np.exp(kernel @ log_ratio[ok] / kernel.sum(axis=1))
+    return np.sqrt(np.outer(scale, scale)) * cov / np.outer(g, g) + diag, model
 
 
 def check_spectrum_options(smooth, support_rtol, interpolation, points_per_decade) -> None:
@@ -441,16 +503,48 @@ def check_spectrum_options(smooth, support_rtol, interpolation, points_per_decad
         raise ValueError(f"points_per_decade must be positive, got {points_per_decade!r}")
 
 
-def _support(acf: _AcfInput, *, smooth, support_rtol, interpolation) -> tuple[float, float]:
-    q_lo, q_hi = spectrum_support_kernel(acf.dr, acf.G, rtol=support_rtol, noise=acf.noise,
-                                         smooth=smooth, interpolation=interpolation)
+def _support(acf: _AcfInput, *, smooth, support_rtol, interpolation,
+             max_error: float = np.inf) -> tuple[float, float, np.ndarray | None, bool]:
+    """Return ``(q_lo, q_hi)``, the error of C on the support grid, and the bound's fate.
+
+    The last is whether the statistical bound was met; if not, the range is that without it.
+    """
+    statistical = acf.covariance is not None and np.isfinite(max_error)
+    error = (spectrum_error_kernel(support_grid(acf.dr), acf.dr, acf.G, acf.covariance,
+                                   smooth=smooth, interpolation=interpolation)
+             if acf.covariance is not None else None)
+    # the noise is statistical: it enters through the covariance, against max_error
+    options = dict(rtol=support_rtol, smooth=smooth, interpolation=interpolation)
+    q_lo, q_hi = spectrum_support_kernel(acf.dr, acf.G, error=error if statistical else None,
+                                         max_error=max_error, **options)
+    met = bool(np.isfinite(q_lo))
+    if not met and statistical:
+        q_lo, q_hi = spectrum_support_kernel(acf.dr, acf.G, **options)
     if not np.isfinite(q_lo):
-        noisy = " or smooth=<decades> (the samples scatter)" if np.any(acf.noise > 0) else ""
         raise ValueError(
             f"G does not determine C anywhere to within support_rtol={support_rtol:g}: the "
-            f"extrapolation beyond dr = {acf.dr[0]:g}..{acf.dr[-1]:g} {acf.unit_str} or noise "
-            f"dominates; pass a larger support_rtol{noisy}, or measure G over a wider range")
-    return q_lo, q_hi
+            f"extrapolation beyond dr = {acf.dr[0]:g}..{acf.dr[-1]:g} {acf.unit_str} "
+            "dominates; pass a larger support_rtol, or measure G over a wider range")
+    return q_lo, q_hi, error, met or not statistical
+
+
+def _error_at(q: np.ndarray, acf: _AcfInput, grid_error, *, smooth, interpolation):
+    """Return the standard error of C at ``q`` (log-log interpolated inside the grid)."""
+    if acf.covariance is None:
+        return np.zeros(q.shape)
+    grid = support_grid(acf.dr)
+    if grid_error is None:
+        grid_error = spectrum_error_kernel(grid, acf.dr, acf.G, acf.covariance,
+                                           smooth=smooth, interpolation=interpolation)
+    out = np.empty(q.shape)
+    inside = (q >= grid[0]) & (q <= grid[-1])
+    with np.errstate(divide="ignore"):
+        out[inside] = np.exp(np.interp(np.log(q[inside]), np.log(grid),
+                                       np.log(np.maximum(grid_error, 1e-300))))
+    if not inside.all():
+        out[~inside] = spectrum_error_kernel(q[~inside], acf.dr, acf.G, acf.covariance,
+                                             smooth=smooth, interpolation=interpolation)
+    return out
 
 
 def spectrum(
@@ -460,6 +554,7 @@ def spectrum(
     smooth: float | None = None,
     noise: Any = None,
     support_rtol: float = 0.01,
+    max_error: float = 0.1,
     interpolation: str = "hermite",
     points_per_decade: float = 20,
 ) -> xr.DataArray:
@@ -506,12 +601,16 @@ def spectrum(
         window of this many decades (power laws pass unchanged).  For noisy ``G`` (random
         pairs): 0.5 to 1.
     noise : float or array_like, optional
-        Relative random scatter of the bins, independent from bin to bin, used for the
-        supported range.  Default: ``sampling_error / G`` if ``G`` has that coordinate (the
-        random-pair estimator), else 0.  ``standard_error`` is not used: finite-area errors
-        are correlated across bins and are not amplified.
+        Relative random scatter of the bins, independent from bin to bin, added to the
+        statistical error of ``G``.  Default: ``sampling_error / G`` if ``G`` has that
+        coordinate (the random-pair estimator), else 0.
     support_rtol : float
-        Relative change of ``C`` allowed for ``q`` to count as supported (see Notes).
+        Relative change of ``C`` allowed for ``q`` to count as determined by ``G`` (the
+        extrapolation and sampling of ``G``; see Notes).
+    max_error : float
+        Largest relative standard error of ``C`` (coordinate ``standard_error``: the
+        statistical error of ``G``, from ``standard_error`` and ``noise``, propagated; see
+        Notes) for ``q`` to count as supported; ``numpy.inf`` to leave it out.
     interpolation : {'hermite', 'power law'}
         ``'power law'`` drops the quintic correction (kinks at the samples; for
         comparison).
@@ -523,10 +622,17 @@ def spectrum(
     xarray.DataArray
         ``C`` on dim ``"q"`` (``units`` ``"<len>-1"``, long_name "angular wavenumber"), data
         in ``"<len>4"`` with ``<len>`` the unit of ``dr``; int8 coord ``supported`` (1 inside
-        the supported range); attrs ``equation="eq. 10/11"``, ``q_min_supported``,
-        ``q_max_supported`` (in ``<len>-1``), ``support_rtol``, ``sigma_h2`` (in
+        the supported range); coord ``standard_error`` (``"<len>4"``: the statistical
+        error of ``C`` as an estimate of the surface's spectrum, 0 for a ``G`` without
+        errors); attrs ``equation="eq. 10/11"``, ``q_min_supported``,
+        ``q_max_supported`` (in ``<len>-1``), ``support_rtol``, ``max_error``,
+        ``error_model`` (how the errors of ``G`` were modelled), ``sigma_h2`` (in
         ``<len>2``), ``smooth_decades`` (0 for none), ``noise`` (median relative scatter
         assumed), ``interpolation``, ``dr_min``, ``dr_max`` (data range, in ``<len>``).
+        Where ``G`` determines ``C`` but nowhere within ``max_error``: nothing is marked
+        supported, ``q_min_supported`` and ``q_max_supported`` are NaN, the default grid
+        covers what ``G`` determines, and the result is questionable (attrs ``quality``,
+        ``quality_notes`` and a :class:`~xrough.QualityWarning`).
 
     Raises
     ------
@@ -534,7 +640,7 @@ def spectrum(
         ``G`` not 1-D, missing units, ``G`` not in length^2, a coordinate that is not a
         length, fewer than 4 valid bins, non-increasing lags, negative or zero ``G``,
         ``G(0) != 0``, a ``G`` that decreases overall (not a height-difference ACF), bad
-        options or ``q``, or no supported range at all.
+        options or ``q``, or a ``G`` that determines ``C`` nowhere to ``support_rtol``.
 
     See Also
     --------
@@ -547,8 +653,7 @@ def spectrum(
     and changes by at most ``support_rtol |C|`` when the extrapolation changes: the
     measured log-log slope at the smallest lag turns ballistic sooner (within 0.2 instead of
     1 decade) or later (after one more decade), the same for the turn to flat at the
-    largest lag, and, with ``noise``, ``G`` is perturbed by that independent relative
-    scatter (standard deviation over 16 seeded copies).  Changes are evaluated on a grid
+    largest lag.  Changes are evaluated on a grid
     of 10 per decade over ``[2 pi / dr_max, 2 pi / dr_min]``, and the largest within
     +-0.2 decades counts (the difference of two extrapolations oscillates in ``q``); the
     longest interval that passes is reported, its ends interpolated.  A ballistic ``G``
@@ -565,6 +670,26 @@ def spectrum(
     ``support_rtol`` is not compared (its halves differ by that scatter).
     Above the roll-off the interpolation error (next paragraph) is not measured.
 
+    **Statistical error.** A ``G`` estimated from one finite map or profile scatters
+    around the surface's ``G`` (``standard_error``); the errors of nearby bins are
+    strongly correlated, since they come from the same few largest wavelengths of the
+    map.  Their covariance is modelled as for ``standard_error`` (Gaussian heights,
+    :func:`~xrough._kernels.uncertainty.g_correlation`, for the lag geometry and size
+    of the measurement; ``sampling_error`` and ``noise`` independent) and propagated
+    linearly to ``C`` (coordinate ``standard_error``).  Inside the supported range it is
+    at most ``max_error |C|``.  The model is that of a Gaussian surface with random
+    amplitudes, :func:`~xrough._kernels.uncertainty.g_covariance`, scaled to the median
+    of ``G``'s own ``standard_error`` (a map with missing points has less area); a ``G``
+    without ``standard_error`` (a model, or a file) has ``noise`` only, and one without
+    ``lag_geometry`` (stitched) is taken as a square map twice its largest lag.  Measured
+    on Gaussian profiles and maps (``benchmarks/spectrum_errors.py``, docs/spectra.md):
+    the modelled error is 0.7 to 2 times the scatter of ``C`` between realisations
+    (below 1 only near a cutoff of ``C`` at the pixel scale).  A single profile
+    determines little: on one of 2^17 points (H = 0.8, ``lambda_r`` = 1024 and
+    ``lambda_s`` = 4 pixels) the default 10 % keeps 24 to 163 ``q_r``, where ``C`` is
+    within 24 % of its model; without the bound the range began at 1.4 ``q_r``, with
+    errors up to 55 %.
+
     **Accuracy** (docs/spectra.md): with noise-free ``G`` sampled at 20 points per decade,
     ``C`` is accurate to ~1e-5 where it is smooth.  A jump of ``C`` (the cutoff ``q_s`` of
     eq. 35) rings in ``G`` as ``dr^-3/2``, which no logarithmic grid follows: ``C`` is off
@@ -576,9 +701,9 @@ def spectrum(
     the largest error inside it below ``q_s / 4`` is 1.7 / 0.6 / 0.3 % and
     3.4 / 1.4 / 0.5 % (before: the numbers above; smooth roll-off: 0.65 / 0.34 / 0.24 %
     and 0.30 / 0.12 / 0.09 %, range unchanged).  Noise is amplified where ``C`` is small
-    compared with ``sigma_h^2 dr^2`` (below the roll-off): independent 5 % scatter leaves
-    nothing supported at 1 %, and with ``smooth=1`` about one decade around the roll-off
-    at 20 %.
+    compared with ``sigma_h^2 dr^2`` (below the roll-off): with independent 5 % scatter
+    the standard error of ``C`` is at least 47 %, and with ``smooth=1`` it is below 20 %
+    over 0.8 to 5.3 ``q_r``.
 
     Examples
     --------
@@ -599,24 +724,30 @@ def spectrum(
     [1, 1, 1]
     """
     check_spectrum_options(smooth, support_rtol, interpolation, points_per_decade)
-    acf = acf_samples(G, noise)
-    q_lo, q_hi = _support(acf, smooth=smooth, support_rtol=support_rtol,
-                          interpolation=interpolation)
+    if not (isinstance(max_error, (int, float, np.floating)) and max_error > 0):
+        raise ValueError(f"max_error must be a positive relative error, got {max_error!r}")
+    acf = acf_samples(G, noise, covariance=True)
+    q_lo, q_hi, grid_error, bounded = _support(
+        acf, smooth=smooth, support_rtol=support_rtol, interpolation=interpolation,
+        max_error=max_error)
     q_arr = (decade_aligned_grid(0.5 * q_lo, 2.0 * q_hi, points_per_decade) if q is None
              else _units.array_in(q, acf.length_unit**-1, what="q", noun="wavenumbers"))
     g = acf.G if smooth is None else smooth_acf_kernel(acf.dr, acf.G, smooth)
     values = spectrum_from_acf_kernel(q_arr, acf.dr, g, interpolation=interpolation)
+    error = _error_at(q_arr, acf, grid_error, smooth=smooth, interpolation=interpolation)
     q_unit = _units.power_units(acf.unit_str, -1)
-    supported = ((q_arr >= q_lo) & (q_arr <= q_hi)).astype(np.int8)
+    supported = ((q_arr >= q_lo) & (q_arr <= q_hi) & bounded).astype(np.int8)
     attrs = {
         "units": _units.power_units(acf.unit_str, 4),
         "long_name": "isotropic height spectrum",
         "equation": "eq. 10/11",
         "estimator": "Hankel transform of G (eq. 10/11)",
         "spectrum_kind": "isotropic 2D",
-        "q_min_supported": q_lo,
-        "q_max_supported": q_hi,
+        "q_min_supported": q_lo if bounded else np.nan,
+        "q_max_supported": q_hi if bounded else np.nan,
         "support_rtol": float(support_rtol),
+        "max_error": float(max_error),
+        "error_model": acf.error_model,
         "sigma_h2": acf_plateau_kernel(acf.dr, g),
         "smooth_decades": 0.0 if smooth is None else float(smooth),
         "noise": float(np.median(acf.noise)),
@@ -625,7 +756,7 @@ def spectrum(
         "dr_max": float(acf.dr[-1]),
     }
     attrs = result_attrs(G, **attrs)
-    return mark_gaps(xr.DataArray(
+    C = xr.DataArray(
         values,
         dims=("q",),
         coords={
@@ -634,7 +765,18 @@ def spectrum(
                 "long_name": "1 where G determines C (q_min_supported <= q <= "
                              "q_max_supported), 0 where extrapolation or noise dominates",
                 "units": "1"}),
+            "standard_error": ("q", error, {
+                "long_name": "standard error of C", "units": _units.power_units(
+                    acf.unit_str, 4)}),
         },
         name="C",
         attrs=attrs,
-    ), acf, what="spectrum", depends=_GAP)
+    )
+    if not bounded:
+        C = quality.mark(C, (
+            f"the standard error of C exceeds max_error={max_error:g} at every q that G "
+            f"determines to support_rtol={support_rtol:g} (q = {q_lo:.4g} to {q_hi:.4g} "
+            f"{q_unit}; model: {acf.error_model}): nothing is marked supported; average "
+            "more measurements, pass smooth=<decades> or a larger max_error"),
+            what="spectrum")
+    return mark_gaps(C, acf, what="spectrum", depends=_GAP)
