@@ -114,6 +114,28 @@ def test_units_parsing_and_formatting():
     assert u.to_si(other.Quantity(2, "nm"), "[length]", what="dx") == pytest.approx(2e-9)
 
 
+@pytest.mark.parametrize("text, expected", [
+    ("50 mJ/m2", ("[mass] / [time] ** 2", 0.05)),
+    ("1 J/m2", ("[mass] / [time] ** 2", 1.0)),
+    ("25 N/mm2", ("[pressure]", 25e6)),
+    ("3 kg*m/s2 / mm2", ("[pressure]", 3e6)),
+    ("1e-6 m", ("[length]", 1e-6)),
+])
+def test_unit_strings_as_people_write_them(text, expected):
+    """Powers glued to a symbol ("m2") parse inside pint's grammar ("mJ/m2") as they do in
+    a CF product ("J m-2"); an exponent after a number ("1e-6") stays a number."""
+    dimension, si = expected
+    assert u.to_si(text, dimension, what="x") == pytest.approx(si, rel=1e-12)
+
+
+def test_unit_in_the_wrong_case_is_named_with_a_suggestion():
+    with pytest.raises(ValueError) as err:
+        u.quantity("25 MPA", what="E_star")
+    message = str(err.value)
+    assert message.startswith("E_star: 'MPA' is not a unit (did you mean 'MPa'")
+    assert message.count("MPA") == 2  # the symbol and the value, not the prefix twice more
+
+
 def test_netcdf_round_trip_topography_and_G(tmp_path):
     rng = np.random.default_rng(0)
     h = rng.normal(size=(16, 20))

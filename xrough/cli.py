@@ -29,8 +29,6 @@ import warnings
 from collections.abc import Callable
 from pathlib import Path
 
-import matplotlib
-import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 from tqdm.auto import tqdm
@@ -39,6 +37,7 @@ from . import units as u
 from ._version import __version__
 from .io import BRIDGE, FORMATS, detect_format, list_channels, open_topography
 from .io.archive import safe_name, save_analysis
+from .plot import pyplot
 from .preprocess import DETREND_MODES, detrend
 from .quality import QualityWarning, notes_of, warn, worst
 from .spectra import acf_from_spectrum, model_spectrum
@@ -405,6 +404,7 @@ def _demo(args: argparse.Namespace) -> int:
     for name, obj in (("topography.nc", topo), ("G_fft.nc", G), ("G_random.nc", Gr),
                       ("persson.nc", contact)):
         _write_atomic(out / name, obj.to_netcdf)
+    plt = pyplot("Agg")  # figures go to files
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
     topo.rough.plot(ax=axes[0])
     G.rough.plot(ax=axes[1], label="all pairs (FFT)")
@@ -681,6 +681,7 @@ def _report_figure(measured: list[dict], p0_text: str):
     """G of every file and the contact area, each axis in one unit for all files."""
     curves = [m["results"]["G"] for m in measured]
     dr_unit, g_unit = _common_units(curves)
+    plt = pyplot("Agg")  # figures go to files
     fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(12, 4.5))
     for m, G in zip(measured, curves):
         G.name = G.name or "G"
@@ -735,7 +736,7 @@ def _report(args: argparse.Namespace) -> int:
     try:
         _write_atomic(png, lambda p: fig.savefig(p, dpi=120, format="png"))
     finally:
-        plt.close(fig)
+        pyplot().close(fig)
     if args.json:
         _emit_json({"xrough_version": __version__, "output": str(out), "figure": str(png),
                     "parameters": {"E_star": _number(E_star, "Pa"), "p0": _number(p0, "Pa"),
@@ -852,7 +853,6 @@ def main(argv: list[str] | None = None) -> int:
         Exit status: 0 success, 1 bad input or data (after one line on stderr naming the
         file or argument). Usage errors exit with status 2 (``SystemExit``, argparse's).
     """
-    matplotlib.use("Agg")  # figures go to files
     args = _parser().parse_args(argv)
     try:
         with warnings.catch_warnings():

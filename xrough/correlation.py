@@ -699,9 +699,10 @@ def height_difference_acf(
         Attrs name the measurement: ``direction``, ``lag_geometry`` (``'profile'``,
         ``'axis'`` or ``'radial'``: how the bins average, which sets how their errors
         correlate, :func:`xrough.spectrum`), ``pixel_size``, ``scan_size`` (in the unit
-        of ``dr``), ``periodic``, ``bins``. With ``target_error``: coordinate ``achieved_error`` (largest ``standard_error /
-        G`` over the bins, per curve; lazy for dask), ``quality_flag`` (questionable where
-        it exceeds the target) and attrs ``target_error``, ``estimator_choice`` (what was
+        of ``dr``), ``periodic``, ``bins``. With ``target_error``: coordinate
+        ``achieved_error`` (largest ``standard_error / G`` over the bins, per curve;
+        lazy for dask), ``quality_flag`` (questionable where it exceeds the target) and
+        attrs ``target_error``, ``estimator_choice`` (what was
         chosen and why), ``n_pairs`` (random), ``sampling_error_budget``,
         ``error_floor`` and ``error_floor_dr`` (the smallest relative error a map of
         this size can give, and where), ``modelled_seconds_<estimator>``.

@@ -27,7 +27,6 @@ from __future__ import annotations
 import re
 import textwrap
 
-import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 
@@ -104,9 +103,24 @@ def _with_gaps(x: np.ndarray, arrays: list[np.ndarray], breaks: np.ndarray):
     return xg, [np.insert(a.astype(float), breaks, np.nan) for a in arrays]
 
 
+def pyplot(backend: str | None = None):
+    """Return :mod:`matplotlib.pyplot`, imported when the first figure is made.
+
+    ``import xrough`` does not import it (about one second); ``backend`` (e.g.
+    ``"Agg"`` for figures that only go to files) is selected first.
+    """
+    if backend is not None:
+        import matplotlib
+
+        matplotlib.use(backend)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
 def _axes(ax):
     if ax is None:  # a new figure makes room for its labels when drawn
-        _, ax = plt.subplots(layout="constrained")
+        _, ax = pyplot().subplots(layout="constrained")
     return ax
 
 
@@ -243,7 +257,7 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None):
     if axes is None:
         ncol = min(3, len(names))
         nrow = -(-len(names) // ncol)
-        _, axes = plt.subplots(nrow, ncol, figsize=(4.5 * ncol, 3.6 * nrow),
+        _, axes = pyplot().subplots(nrow, ncol, figsize=(4.5 * ncol, 3.6 * nrow),
                                squeeze=False, layout="constrained")
     flat = np.ravel(axes)
     for name, ax in zip(names, flat):

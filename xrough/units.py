@@ -54,16 +54,40 @@ except OSError:  # pragma: no cover - read-only home
 ureg.formatter.default_format = "~"
 
 
+#: A unit symbol with its power glued on ("m2", "mm2", "s-1") inside pint's grammar.
+_GLUED_POWER = re.compile(r"(?<![\w*^.])([A-Za-zµμ_]+)(-?\d+)(?![\w.])")
+
+
 def _cf_to_pint(text: str) -> str:
-    """Rewrite a CF/UDUNITS product ("J m-2", "um4") for pint; leave anything else alone."""
+    """Rewrite CF/UDUNITS powers for pint; leave anything else alone.
+
+    A CF product ("J m-2", "um4"), and powers glued to a symbol inside pint's grammar
+    ("mJ/m2", "N/mm2").
+    """
     text = text.strip()
     tokens = text.replace("·", " ").split()
     matches = [_CF_TOKEN.match(tok) for tok in tokens]
     if not tokens or not all(m and m.group(2) is None for m in matches):
-        return text  # not a CF product: pint's own grammar ("mJ/m^2", "meter ** 2")
+        # pint's own grammar ("mJ/m^2", "meter ** 2"), with CF powers ("mJ/m2")
+        return _GLUED_POWER.sub(r"\1**\2", text)
     out = [f"{m.group(1)}**{m.group(3)}" if m.group(3) is not None else m.group(1)
            for m in matches]
     return "*".join(out)
+
+
+def _did_you_mean(text: str) -> str:
+    """``" (did you mean 'MPa'?)"`` when a symbol of ``text`` is a unit in another case."""
+    hints = []
+    for word in re.findall(r"[A-Za-zµμ_]+", text):
+        if word in ureg:
+            continue
+        for prefix in ("", "n", "u", "µ", "m", "c", "k", "M", "G", "T", "p", "f"):
+            for base in ("Pa", "N", "J", "W", "m", "g", "s", "K", "Hz", "V", "A", "rad"):
+                if (prefix + base).lower() == word.lower() and prefix + base in ureg:
+                    hints.append((-sum(a == b for a, b in zip(word, prefix + base)),
+                                  prefix + base))
+    hints = list(dict.fromkeys(h for _, h in sorted(hints)))
+    return f" (did you mean {' or '.join(repr(h) for h in hints)}?)" if hints else ""
 
 
 
@@ -101,7 +125,11 @@ def parse_units(units: str | pint.Unit, *, what: str = "units") -> pint.Unit:
                 return q.units
         except Exception:  # noqa: BLE001 - fall through to the clear message below
             pass
-        raise ValueError(f"{what}: cannot understand the unit {units!r} ({err})") from None
+        reason = (f"{err.unit_names[0]!r} is not a unit" if isinstance(
+            err, pint.errors.UndefinedUnitError) and err.unit_names else str(err))
+        head = (f"{what}: " if reason == f"{units.strip()!r} is not a unit" else
+                f"{what}: cannot understand the unit {units!r}: ")
+        raise ValueError(f"{head}{reason}{_did_you_mean(units)}") from None
 
 
 def format_units(unit: pint.Unit | str) -> str:
@@ -218,12 +246,22 @@ def quantity(value: Any, *, default_units: str | pint.Unit = "", what: str = "va
         match = _NUMBER_UNIT.match(value)
         try:
             if match:  # "2 um4", "25 MPa", "50 mJ m-2": number, then a CF or pint unit
-                q = ureg.Quantity(float(match.group(1)), parse_units(match.group(2), what=what)
-                                  if match.group(2).strip() else "")
+                unit_text = match.group(2)
+                if unit_text.strip():
+                    unit = parse_units(unit_text, what=what)  # names the unit if it fails
+                else:
+                    unit = ""
+                q = ureg.Quantity(float(match.group(1)), unit)
             else:
                 q = ureg.Quantity(value)
+        except ValueError as err:
+            if str(err).startswith(f"{what}: "):  # parse_units said what is wrong
+                raise ValueError(f"{err} in {value!r}") from None
+            raise ValueError(f"{what}: cannot parse {value!r} as a quantity ({err})"
+                             f"{_did_you_mean(value)}") from None
         except Exception as err:  # noqa: BLE001
-            raise ValueError(f"{what}: cannot parse {value!r} as a quantity ({err})") from None
+            raise ValueError(f"{what}: cannot parse {value!r} as a quantity ({err})"
+                             f"{_did_you_mean(value)}") from None
         if not isinstance(q, pint.Quantity):
             q = ureg.Quantity(q)
         return q
