@@ -416,7 +416,12 @@ def test_output_into_a_missing_folder_is_created(files, monkeypatch, capsys):
     (("report", "afm.nc", "--E-star", "25 nm", "--p0", "1MPa"), "not a pressure"),
     (("report", "afm.nc", "--E-star", "25MPa", "--p0", "1MPa", "--gamma", "1 m"),
      "--gamma"),
-    (("report", "afm.nc", "--E-star", "1e300", "--p0", "1MPa"), "--E-star"),
+    (("report", "afm.nc", "--E-star", "1e300", "--p0", "1MPa"), "--E-star 1e300: the value "
+     "has no unit"),
+    (("report", "afm.nc", "--E-star", "25", "--p0", "1MPa"), "e.g. --E-star 25MPa"),
+    (("report", "afm.nc", "--E-star", "25MPa", "--p0", "0.1"), "--p0 0.1: the value has no"),
+    (("report", "afm.nc", "--E-star", "-25MPa", "--p0", "1MPa"), "--E-star must be positive"),
+    (("report", "afm.nc", "--E-star", "25MPA", "--p0", "1MPa"), "did you mean 'MPa'"),
     (("acf", "afm.nc", "--height-scale", "nan"), "--height-scale"),
     (("acf", "profile.nc", "--direction", "y"), "--direction 'x'"),
     (("acf", "afm.nc", "--points-per-decade", "inf"), "--points-per-decade"),

@@ -696,19 +696,44 @@ def _report_figure(measured: list[dict], p0_text: str):
     return fig
 
 
-def _si(text: str) -> str | float:
-    """Read a plain number as SI (as the API does); anything else keeps its unit."""
+#: The physical options of ``report``: dimension and an example with its unit.
+_QUANTITIES = {"--E-star": ("[pressure]", "25MPa"), "--p0": ("[pressure]", "0.1MPa"),
+               "--gamma": ("[mass] / [time] ** 2", "50mJ/m2")}
+
+
+def _quantity(args: argparse.Namespace, option: str) -> float | None:
+    """Read a physical ``option`` of ``report`` in SI: positive, with its unit.
+
+    A plain number is refused: on a command line a bare ``25`` would be 25 Pa, silently.
+    """
+    text = getattr(args, option.lstrip("-").replace("-", "_"))
+    if text is None:
+        return None
+    dimension, example = _QUANTITIES[option]
     try:
-        return float(text)
+        float(text)
     except ValueError:
-        return text
+        return u.positive_si(text, dimension, what=option)
+    raise ValueError(f"{option} {text}: the value has no unit; write it with one, e.g. "
+                     f"{option} {example}")
+
+
+def _negative_values_attached(argv: list[str]) -> list[str]:
+    """``--E-star -25MPa`` as ``--E-star=-25MPa``: argparse takes ``-25MPa`` for an option."""
+    out: list[str] = []
+    k = 0
+    while k < len(argv):
+        if argv[k] in _QUANTITIES and k + 1 < len(argv) and re.match(r"-[\d.]", argv[k + 1]):
+            out.append(f"{argv[k]}={argv[k + 1]}")
+            k += 2
+        else:
+            out.append(argv[k])
+            k += 1
+    return out
 
 
 def _report(args: argparse.Namespace) -> int:
-    E_star = u.positive_si(_si(args.E_star), "[pressure]", what="--E-star")
-    p0 = u.positive_si(_si(args.p0), "[pressure]", what="--p0")
-    gamma = (u.positive_si(_si(args.gamma), "[mass] / [time] ** 2", what="--gamma")
-             if args.gamma else None)
+    E_star, p0, gamma = (_quantity(args, option) for option in _QUANTITIES)
     out = _output(args.output)
     png = out.with_suffix(".png")
 
@@ -830,11 +855,12 @@ def _parser() -> argparse.ArgumentParser:
                        help="log-spaced bins of G per decade of lag (default 10)")
         if name == "report":
             p.add_argument("--E-star", required=True, dest="E_star",
-                           help="contact modulus, e.g. 25MPa (a plain number is in Pa)")
+                           help="contact modulus with its unit, e.g. 25MPa")
             p.add_argument("--p0", required=True,
-                           help="mean pressure, e.g. 0.1MPa (a plain number is in Pa)")
-            p.add_argument("--gamma", help="work of adhesion, e.g. 50mJ/m^2 (a plain "
-                           "number is in J/m^2); adds the adhesive patch radius")
+                           help="mean pressure with its unit, e.g. 0.1MPa")
+            p.add_argument("--gamma",
+                           help="work of adhesion with its unit, e.g. 50mJ/m2; adds the "
+                           "adhesive patch radius")
         p.set_defaults(func=func)
     return parser
 
@@ -853,7 +879,8 @@ def main(argv: list[str] | None = None) -> int:
         Exit status: 0 success, 1 bad input or data (after one line on stderr naming the
         file or argument). Usage errors exit with status 2 (``SystemExit``, argparse's).
     """
-    args = _parser().parse_args(argv)
+    args = _parser().parse_args(_negative_values_attached(
+        sys.argv[1:] if argv is None else list(argv)))
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("default")  # shown once each, as one line
