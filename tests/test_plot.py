@@ -284,3 +284,21 @@ def test_infinite_patch_radius_is_marked():
 def test_other_datasets_still_say_nothing_to_plot():
     with pytest.raises(ValueError, match="nothing to plot"):
         xr.Dataset({"a": 1.0}).rough.plot()
+
+
+def test_fit_plot_through_the_accessor_draws_the_data_given():
+    """``fit.rough.plot(G=G)`` draws G (a line and its error band) under the model;
+    without G only the model; G= on a Dataset that is not a fit is refused."""
+    C = xrough.model_spectrum(hurst=0.8, lambda_r="1 um", lambda_s="10 nm",
+                              rms_gradient=0.5, unit="nm")
+    G = xrough.acf_from_spectrum(C, dr_min="1 nm", dr_max="100 um")
+    G = G.assign_coords(standard_error=0.02 * G)
+    fit = G.rough.fit()
+    (alone,) = fit.rough.plot()
+    (both,) = fit.rough.plot(G=G)
+    assert len(both.lines) == len(alone.lines) + 1
+    assert len(both.collections) >= 1  # the error band of G
+    np.testing.assert_allclose(both.lines[0].get_ydata()[:3], G.values[:3])
+    with pytest.raises(ValueError, match="not one"):
+        G.rough.persson(E_star="25 MPa", p0="0.1 MPa").rough.plot(G=G)
+    plt.close("all")

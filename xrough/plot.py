@@ -207,13 +207,14 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
     return ax
 
 
-def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None):
+def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None,
+                 G: xr.DataArray | None = None):
     """One panel per variable of a result Dataset (Persson theory, energy, ...).
 
     Variables on ``dr``, ``q`` or ``a_c`` are drawn against it (log axes, see
     :func:`plot_loglog`); scalars are skipped. A fit (:func:`xrough.fit_acf`) goes to
-    :func:`plot_fit` and a patch radius (:func:`xrough.patch_radius`) to
-    :func:`plot_patch_radius`, each in one panel.
+    :func:`plot_fit` (with ``G``: the data under the model) and a patch radius
+    (:func:`xrough.patch_radius`) to :func:`plot_patch_radius`, each in one panel.
 
     Parameters
     ----------
@@ -223,6 +224,9 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None):
         The variables to draw (default: every one on ``dr``, ``q`` or ``a_c``).
     axes : array of matplotlib.axes.Axes, optional
         Axes to draw into, one per variable (default: a new figure, three panels a row).
+    G : xarray.DataArray, optional
+        For a fit: the G it was fitted to, drawn with its error band under the model
+        (``fit.rough.plot(G=G)``).
 
     Returns
     -------
@@ -232,7 +236,7 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None):
     Raises
     ------
     ValueError
-        Nothing in ``ds`` can be drawn.
+        Nothing in ``ds`` can be drawn, or ``G`` given for a Dataset that is not a fit.
 
     Examples
     --------
@@ -242,9 +246,17 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None):
     >>> axes = G.rough.persson(E_star="25 MPa", p0="0.1 MPa").rough.plot()
     >>> len(axes)
     10
+
+    A fit with the data it was fitted to:
+
+    >>> ax, = G.rough.fit().rough.plot(G=G)
+    >>> len(ax.lines) >= 2  # the data and the model
+    True
     """
     if variables is None and _is_fit(ds):
-        return np.array([plot_fit(ds, ax=None if axes is None else np.ravel(axes)[0])])
+        return np.array([plot_fit(ds, ax=None if axes is None else np.ravel(axes)[0], G=G)])
+    if G is not None:
+        raise ValueError("G= draws the data under a fit (fit_acf); this Dataset is not one")
     if variables is None and _is_patch_radius(ds):
         return np.array([plot_patch_radius(ds, ax=None if axes is None
                                            else np.ravel(axes)[0])])
