@@ -255,7 +255,7 @@ def test_dataset_accessor(G, profiles):
 def test_datatree_acf_is_stitch(tree, profiles):
     G = tree.rough.acf()
     xr.testing.assert_identical(G, stitching.stitch(tree))
-    assert G.attrs["stitched_from"] == "fine/h, medium/h, coarse/h"
+    assert G.attrs["stitched_from"] == "fine, medium, coarse"
     xr.testing.assert_identical(tree.rough.acf(points_per_decade=5, warn=False),
                                 xrough.stitch(tree, points_per_decade=5, warn=False))
     xr.testing.assert_identical(tree.rough.stitch_curves(points_per_decade=5),
@@ -264,7 +264,7 @@ def test_datatree_acf_is_stitch(tree, profiles):
 
 def test_datatree_plot(tree):
     ax = tree.rough.plot()
-    names = ["fine/h", "medium/h", "coarse/h"]
+    names = ["fine", "medium", "coarse"]
     lines = ax.get_lines()
     assert [ln.get_label() for ln in lines] == [*names, "stitched"]
     assert [t.get_text() for t in ax.get_legend().get_texts()] == [*names, "stitched"]

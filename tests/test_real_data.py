@@ -635,4 +635,4 @@ def test_stitched_G_spans_the_instruments(chains):
     """The union of the windows: from below 1 nm (AFM) to beyond 50 um (stylus)."""
     G = chains("uncd-stitched").get("G")
     assert G.dr.values[0] < 1.0 and G.dr.values[-1] > 5e4
-    assert G.attrs["stitched_from"] == "TEM/h, AFM/h, stylus/h"
+    assert G.attrs["stitched_from"] == "TEM, AFM, stylus"

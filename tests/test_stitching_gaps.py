@@ -310,7 +310,7 @@ def test_uncd_gap_is_recorded_warned_and_marked():
     assert np.all(np.abs(np.log(f[:2])) < err[:2])
     assert G.attrs["quality"] == "good" and int(G.quality_flag) == 0
     names = G.coverage.attrs["flag_meanings"].split()
-    assert names == ["TEM/h", "AFM/h", "stylus/h"]
+    assert names == ["TEM", "AFM", "stylus"]
     assert set(np.unique(G.coverage.values)) == {1, 2, 3, 4}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", xrough.QualityWarning)
@@ -335,10 +335,10 @@ def test_uncd_miscalibrated_afm_warns(scale):
         G = _uncd(scale).rough.acf(unit="nm")
     level = [str(w.message) for w in caught if w.category is LevelFactorWarning]
     assert len(level) == 1, [str(w.message) for w in caught]
-    assert "'TEM/h' x " in level[0] and "'AFM/h' x " in level[0]
+    assert "'TEM' x " in level[0] and "'AFM' x " in level[0]
     f = G.attrs["level_factors"]
     assert not 0.5 <= f[0] <= 2.0
-    assert f"'TEM/h' x {f[0]:.3g}" in level[0]
+    assert f"'TEM' x {f[0]:.3g}" in level[0]
     assert G.attrs["quality"] == "questionable"
     assert "height calibrations" in G.attrs["quality_notes"]
     # the mismatch warning itself does not fire (|z| < 3), as documented

@@ -107,7 +107,7 @@ def test_datatree_stitch_is_one_lazy_graph(stacks, file_tree):
                        {k: v for k, v in ref.attrs.items() if k not in STITCH_DIAGNOSTICS},
                        rtol=1e-12)
     assert int(got.quality_flag) == int(ref.quality_flag)
-    assert got.attrs["stitched_from"] == "tem/h, afm/h, optical/h"
+    assert got.attrs["stitched_from"] == "tem, afm, optical"
 
 
 def test_eager_stitch_computes_once_without_nesting(stacks):

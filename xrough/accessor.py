@@ -166,10 +166,10 @@ class RoughDataTreeAccessor:
     ...     "stylus": topo.isel(x=slice(None, None, 4)).to_dataset(name="h")})
     >>> G = tree.rough.acf(points_per_decade=5)
     >>> G.attrs["stitched_from"]
-    'afm/h, stylus/h'
+    'afm, stylus'
     >>> ax = tree.rough.plot(points_per_decade=5)
     >>> [t.get_text() for t in ax.get_legend().get_texts()]
-    ['afm/h', 'stylus/h', 'stitched']
+    ['afm', 'stylus', 'stitched']
     """
 
     def __init__(self, obj: xr.DataTree) -> None:

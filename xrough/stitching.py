@@ -113,9 +113,12 @@ def _as_mapping(measurements: Any) -> dict[str, xr.DataArray]:
         items = {str(k): v for k, v in measurements.data_vars.items()}
     elif isinstance(measurements, xr.DataTree):
         items = {}
-        for node in measurements.subtree:
-            for name, var in node.dataset.data_vars.items():
-                items[f"{node.path.strip('/')}/{name}".strip("/")] = var
+        for node in measurements.subtree:  # named by their node; "node/var" for several
+            variables = node.dataset.data_vars
+            path = node.path.strip("/")
+            for name, var in variables.items():
+                items[path if path and len(variables) == 1 else
+                      f"{path}/{name}".strip("/")] = var
     elif isinstance(measurements, Mapping):
         items = {str(k): v for k, v in measurements.items()}
     else:
@@ -290,7 +293,7 @@ def stitch_curves(
         ``dr``, from :func:`xrough.height_difference_acf`). A Dataset aligns its members
         on shared dims, so measurements on different grids go in a DataTree (one node
         each) or a dict; every data variable of a DataTree is a measurement, named by
-        its path.
+        its node (``"afm"``; ``"afm/h"`` when the node holds several variables).
     points_per_decade : float
         Common log bins, centred on ``10**(k / points_per_decade)`` in ``unit``.
     windows : mapping of str to (dr_min, dr_max), optional
