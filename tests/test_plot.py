@@ -210,14 +210,28 @@ def test_micrometres_print_as_mu():
     assert topo.x.attrs["units"] == "um"  # data stay CF
     G = _model_G(unit="um")
     ax = G.rough.plot()
-    assert "(µm)" in ax.get_xlabel() and "µm2" in ax.get_ylabel()
+    assert "(µm)" in ax.get_xlabel() and "(µm²)" in ax.get_ylabel()
     assert "um" not in ax.get_xlabel().replace("µm", "")
     assert G.attrs["units"] == "um2" and G.dr.attrs["units"] == "um"
     assert plot.display_unit("um") == "µm"
-    assert plot.display_unit("um2") == "µm2"
-    assert plot.display_unit("um-1") == "µm-1"
-    assert plot.display_unit("J m-2") == "J m-2"
-    assert plot.display_unit("mum") == "mum"
+    assert plot.display_unit("um2") == "µm²"
+    assert plot.display_unit("um-1") == "1/µm"
+    assert plot.display_unit("J m-2") == "J/m²"
+    assert plot.display_unit("mJ m-2") == "mJ/m²"
+    assert plot.display_unit("Pa2") == "Pa²"
+    assert plot.display_unit("1") == ""  # dimensionless: no "(1)"
+    assert plot.display_unit("not a unit um") == "not a unit µm"  # as written
+
+
+def test_dimensionless_labels_have_no_unit():
+    da = xrough.topography(np.zeros(4), spacing=1.0, unit="nm")
+    a_r = xr.DataArray([0.1, 0.2], dims="dr", name="a_r",
+                       coords={"dr": ("dr", [1.0, 2.0], {"units": "nm"})},
+                       attrs={"units": "1", "long_name": "relative contact area"})
+    ax = a_r.rough.plot()
+    assert ax.get_ylabel() == "relative contact area"
+    assert da.attrs["units"] == "nm"
+    plt.close("all")
 
 
 # --- fits and patch radii -------------------------------------------------------------------

@@ -31,6 +31,7 @@ import numpy as np
 import xarray as xr
 
 from . import fitting, stitching
+from . import units as _units
 
 __all__ = ["plot", "plot_topography", "plot_loglog", "plot_dataset", "plot_stitched",
            "plot_fit", "plot_patch_radius", "display_unit", "BAND_FLOOR"]
@@ -42,9 +43,11 @@ _MICRO = re.compile(r"(?<![A-Za-z])u(?=m(?![A-Za-z]))|(?<![A-Za-z])micro(?=m)")
 
 
 def display_unit(units: str) -> str:
-    """Write a CF unit string for a label: micro as ``µ`` (``um`` -> ``µm``).
+    """Write a unit string for a label as people write it: ``µm``, ``nm²``, ``J/m²``.
 
-    Only for display; data attrs keep the CF spelling.
+    Powers as superscripts, negative ones as a quotient, dimensionless as nothing (pint's
+    compact pretty format, as the command line writes values). Only for display; data
+    attrs keep the CF spelling.
 
     Parameters
     ----------
@@ -57,16 +60,21 @@ def display_unit(units: str) -> str:
 
     Examples
     --------
-    >>> display_unit("um"), display_unit("um2"), display_unit("um-1"), display_unit("mum")
-    ('µm', 'µm2', 'µm-1', 'mum')
+    >>> display_unit("um"), display_unit("nm2"), display_unit("um-1"), display_unit("J m-2")
+    ('µm', 'nm²', '1/µm', 'J/m²')
+    >>> display_unit("1")
+    ''
     """
-    return _MICRO.sub("µ", str(units))
+    try:
+        return format(_units.parse_units(str(units)), "~P")
+    except (ValueError, TypeError):  # not a unit pint knows: as written, micro as µ
+        return _MICRO.sub("µ", str(units))
 
 
 def _label(da: xr.DataArray, default: str) -> str:
     name = da.attrs.get("long_name", da.name or default)
-    units = da.attrs.get("units")
-    return f"{name} ({display_unit(units)})" if units else str(name)
+    units = display_unit(da.attrs["units"]) if da.attrs.get("units") else ""
+    return f"{name} ({units})" if units else str(name)
 
 
 def _wrap(text: str, length_points: float, fontsize: float) -> str:
