@@ -293,6 +293,20 @@ def test_infinite_patch_radius_is_marked():
     ax = patch.rough.plot()[0]
     assert any("inf" in t.get_text() for t in ax.texts)
     assert any(ln.get_marker() == ">" for ln in ax.get_lines())
+    # no finite radius: no scale, so no tick values drawn at arbitrary radii
+    ax.figure.canvas.draw()
+    assert all(t.get_text() == "" for t in ax.get_xticklabels())
+    assert ax.get_title() == "γ = 10 J/m², E* = 25 MPa"
+
+
+def test_legends_and_titles_write_values_with_their_units():
+    G = _model_G()
+    ax = G.rough.persson(E_star="25 MPa", p0=["0.1 MPa", "1 MPa"]).a_r.rough.plot()
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["p0 = 100 kPa",
+                                                                   "p0 = 1 MPa"]
+    ax = G.rough.patch_radius(E_star="25 MPa", gamma="50 mJ/m2").rough.plot()[0]
+    assert ax.get_title() == "γ = 50 mJ/m², E* = 25 MPa"
+    plt.close("all")
 
 
 def test_other_datasets_still_say_nothing_to_plot():

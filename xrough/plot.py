@@ -71,6 +71,21 @@ def display_unit(units: str) -> str:
         return _MICRO.sub("µ", str(units))
 
 
+def _coord_text(obj, dim: str, value) -> str:
+    """``"p0 = 0.1 MPa"`` for a legend: a coordinate value with its unit, compact prefix.
+
+    A name (string coordinate, e.g. a measurement) stands alone.
+    """
+    if isinstance(value, (str, np.str_)):
+        return str(value)
+    units = obj[dim].attrs.get("units") if dim in obj.coords else None
+    try:
+        q = _units.ureg.Quantity(float(value), _units.parse_units(units)).to_compact()
+        return f"{dim} = {q.magnitude:.3g} {display_unit(format(q.units, '~'))}".rstrip()
+    except (ValueError, TypeError):
+        return f"{dim} = {value}"
+
+
 def _label(da: xr.DataArray, default: str) -> str:
     name = da.attrs.get("long_name", da.name or default)
     units = display_unit(da.attrs["units"]) if da.attrs.get("units") else ""
@@ -200,7 +215,8 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
         x, (y, *rest) = _with_gaps(x, [y] + ([se] if se is not None else []), breaks)
         label = user_label if k == 0 else None
         if extra:
-            index = ", ".join(f"{d}={line[d].item()}" for d in extra if d in line.coords)
+            index = ", ".join(_coord_text(da, d, line[d].item()) for d in extra
+                              if d in line.coords)
             label = f"{user_label} ({index})" if user_label else index
         (ln,) = ax.plot(x, y, label=label, **kwargs)
         if se is not None:
@@ -403,7 +419,7 @@ def plot_patch_radius(patch: xr.Dataset, *, ax=None, **kwargs):
     b = (upper.stack(_row=extra) if extra else upper.expand_dims("_row")).values
     if extra:
         stacked = a_c.stack(_row=extra)
-        rows = [", ".join(f"{d}={stacked[d].values[i]}" for d in extra)
+        rows = [", ".join(_coord_text(a_c, d, stacked[d].values[i]) for d in extra)
                 for i in range(stacked.sizes["_row"])]
     else:
         rows = [str(a_c.attrs.get("long_name", "a_c")).split(",")[0]]
@@ -426,14 +442,19 @@ def plot_patch_radius(patch: xr.Dataset, *, ax=None, **kwargs):
                         textcoords="offset points", ha="right", fontsize="small")
     ax.set_xscale("log")
     ax.set_xlim(lo, hi * 1.5)
+    if not finite.size:  # every radius infinite: no scale to show
+        ax.xaxis.set_major_formatter("")
+        ax.xaxis.set_minor_formatter("")
     ax.set_ylim(-0.8, len(rows) - 0.2)
     ax.set_yticks(y, rows)
     _set_labels(ax, _label(a_c, "a_c").replace(", upper estimate", ""), "")
     gamma, E = patch.attrs.get("gamma"), patch.attrs.get("E_star")
     if gamma is not None and E is not None:
-        ax.set_title(f"γ = {gamma:.3g} {patch.attrs.get('gamma_units', '')}, "
-                     f"E* = {E:.3g} {patch.attrs.get('E_star_units', '')}",
-                     fontsize="medium")
+        g_text = _coord_text(xr.Dataset(coords={"γ": ((), gamma, {
+            "units": patch.attrs.get("gamma_units", "")})}), "γ", gamma)
+        e_text = _coord_text(xr.Dataset(coords={"E*": ((), E, {
+            "units": patch.attrs.get("E_star_units", "")})}), "E*", E)
+        ax.set_title(f"{g_text}, {e_text}", fontsize="medium")
     ax.legend(loc="lower right", fontsize="small")
     return ax
 
