@@ -113,10 +113,13 @@ def api_results(path):
     fit = G.rough.fit()
     gbar = G.rough.gradient()
     contact = G.rough.persson(E_star=E_STAR, p0=P0, gradient=gbar, fit=fit)
-    return {"sigma_h": fit.sigma_h, "lambda_r": fit.lambda_r, "rms grad": gbar.isel(dr=0),
+    # the smallest lag where Persson theory gives numbers (NaN below: undetermined)
+    k = int(np.flatnonzero(np.isfinite(contact.a_r) & np.isfinite(contact.sigma_c))[0])
+    at = contact.isel(dr=k)
+    return {"sigma_h (fit)": fit.sigma_h, "lambda_r": fit.lambda_r,
+            "rms grad": gbar.sel(dr=float(at.dr)),
             "v_el": G.rough.energy(E_star=E_STAR).v_el,
-            "a_r": contact.a_r.isel(dr=0), "sigma_c": contact.sigma_c.isel(dr=0),
-            "at dr": contact.dr.isel(dr=0),
+            "a_r": at.a_r, "sigma_c": at.sigma_c, "at dr": at.dr,
             "patch radius": G.rough.patch_radius(E_star=E_STAR, gamma=GAMMA).a_c,
             "H": fit.hurst}
 
@@ -146,11 +149,11 @@ def test_sigma_h_is_printed_in_the_height_unit(report):
     _, out, _ = report
     rows = {r["measurement"]: r for r in table(out)}
     for name in ("afm", "stylus"):  # the same surface: heights in nm and in m
-        number, unit = rows[name]["sigma_h"].split()
+        number, unit = rows[name]["sigma_h (fit)"].split()
         assert unit == "nm" and 50 < float(number) < 80, rows[name]
         assert rows[name]["lambda_r"].endswith("µm")
         assert rows[name]["v_el"].endswith("J/m²") and rows[name]["sigma_c"].endswith("Pa")
-    assert rows["afm"]["sigma_h"] == rows["stylus"]["sigma_h"]  # unit invariance
+    assert rows["afm"]["sigma_h (fit)"] == rows["stylus"]["sigma_h (fit)"]  # unit invariance
 
 
 def test_multi_file_figure_draws_every_file_in_the_axis_unit(files, report):
@@ -183,6 +186,17 @@ def test_report_states_the_default_detrending(report):
     """The report detrended nothing by default, and did not say so."""
     _, out, _ = report
     assert "detrend before G: plane" in out
+
+
+def test_report_footer_says_which_file_got_which_detrending(files, monkeypatch, capsys):
+    """A map and a profile are detrended differently by default (plane, line): the
+    footer said 'line, plane' without saying which file got which."""
+    status, out, _ = run("report", "afm.nc", "profile.nc", "--E-star", E_STAR, "--p0", P0,
+                         "-o", "mixed.nc", cwd=files, monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 0
+    footer = next(line for line in out.splitlines() if line.startswith("detrend before G"))
+    assert footer.startswith("detrend before G: afm plane, profile line"), footer
+    assert "sigma_h from the fit of G" in footer
 
 
 def test_detrend_defaults_to_a_plane_for_maps_and_a_line_for_profiles(files, monkeypatch,
@@ -470,7 +484,7 @@ def test_report_prints_quality_notes_not_flagged_numbers(files, monkeypatch, cap
     row = table(out)[0]
     fit = xrough.open_analysis(files / "tilted.nc")["tilted_map"]["fit"]
     assert fit.attrs["quality"] == "failed"
-    assert row["H"] == row["sigma_h"] == row["lambda_r"] == "failed"
+    assert row["H"] == row["sigma_h (fit)"] == row["lambda_r"] == "failed"
     notes = out[out.index("quality ("):]
     assert "tilted_map: fit failed: " in notes and fit.attrs["quality_notes"] in notes
     assert "QualityWarning" not in err and "fit_acf" not in err  # said once, on stdout

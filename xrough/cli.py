@@ -430,7 +430,7 @@ def _demo(args: argparse.Namespace) -> int:
           f"{_text(topo.attrs['rms_height'], topo.attrs['units'])}); FFT estimator "
           f"{t_fft:.2f} s, random pairs {t_rnd:.2f} s; median |G/G_model - 1| "
           f"= {np.median(rel):.2%}")
-    finest = contact.isel(dr=0)
+    finest = _finest(contact)
     rows = [
         ("Hurst exponent H (fit)", f"{float(fit.hurst):.3f} +- {float(fit.hurst_std):.3f}",
          f"{args.hurst}"),
@@ -620,7 +620,18 @@ def _acf(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-_COLUMNS = ("measurement", "sigma_h", "H", "lambda_r", "rms grad", "v_el", "a_r",
+def _finest(contact: xr.Dataset) -> xr.Dataset:
+    """Return Persson theory at the smallest lag where it is determined.
+
+    Below that lag it is NaN: the Laplacian of G is not determined there, or the lag
+    lies outside a reliable window.
+    """
+    determined = np.flatnonzero(np.isfinite(contact.a_r.values)
+                                & np.isfinite(contact.sigma_c.values))
+    return contact.isel(dr=int(determined[0]) if determined.size else 0)
+
+
+_COLUMNS = ("measurement", "sigma_h (fit)", "H", "lambda_r", "rms grad", "v_el", "a_r",
             "sigma_c", "at dr", "patch radius")
 
 
@@ -645,7 +656,8 @@ def _row(m: dict, gamma: bool) -> tuple[tuple[str, ...], dict]:
     r = m["results"]
     fit, gbar, contact, energy = r["fit"], r["gradient"], r["persson"], r["energy"]
     levels = {key: level for key, (level, _) in _quality(r).items()}
-    finest = contact.isel(dr=0)
+    finest = _finest(contact)
+    gbar_there = gbar.sel(dr=float(finest.dr), method="nearest")
     patch, patch_json = "-", None
     if gamma:
         a_c = r["patch"].a_c
@@ -655,7 +667,7 @@ def _row(m: dict, gamma: bool) -> tuple[tuple[str, ...], dict]:
     row = (m["name"], _rated(_show(fit.sigma_h, none="no plateau"), lf),
            _rated(f"{float(fit.hurst):.3f}+-{float(fit.hurst_std):.3f}", lf),
            _rated(_show(fit.lambda_r, none="no roll-off"), lf),
-           _rated(_show(gbar.isel(dr=0), digits=3), lg),
+           _rated(_show(gbar_there, digits=3), lg),
            _rated(_show(energy.v_el, digits=3), levels["energy"]),
            _rated(_show(finest.a_r, digits=3), lp),
            _rated(_show(finest.sigma_c, digits=3), lp), _show(finest.dr), patch)
@@ -667,7 +679,7 @@ def _row(m: dict, gamma: bool) -> tuple[tuple[str, ...], dict]:
         "sigma_h": {**_number(fit.sigma_h), "std": _finite(fit.sigma_h_std)},
         "hurst": {**_number(fit.hurst), "std": _finite(fit.hurst_std)},
         "lambda_r": {**_number(fit.lambda_r), "std": _finite(fit.lambda_r_std)},
-        "rms_gradient": _number(gbar.isel(dr=0)),
+        "rms_gradient": _number(gbar_there),
         "v_el": _number(energy.v_el),
         "a_r": _number(finest.a_r),
         "sigma_c": _number(finest.sigma_c),
@@ -774,15 +786,17 @@ def _report(args: argparse.Namespace) -> int:
     for row in rows:
         print("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())
     modes = sorted({m["detrend"] for m in measured})
+    if len(modes) > 1:  # say which file got which
+        modes = [f"{m['name']} {m['detrend']}" for m in measured]
     notes = [f"  {m['name']}: {_RATED[key]} {level}: {'; '.join(text)}"
              for m in measured for key, (level, text) in _quality(m["results"]).items()
              if level != "good"]
     if notes:
         print("quality (a number marked ? is questionable; failed: it means nothing):")
         print("\n".join(notes))
-    print(f"detrend before G: {', '.join(modes)} (--detrend to change); rms grad, "
-          "a_r and sigma_c "
-          "at the finest resolution where the rms gradient is determined (column 'at dr'); "
+    print(f"detrend before G: {', '.join(modes)} (--detrend to change); sigma_h from the "
+          "fit of G (info gives the rms height of the heights); rms grad, a_r and sigma_c "
+          "at the finest resolution where Persson theory is determined (column 'at dr'); "
           f"{parameters}")
     print(f"wrote {out} and {png}")
     return EXIT_OK
