@@ -256,3 +256,24 @@ def test_command_line_writes_remove_their_killed_temporaries(tmp_path):
     left.write_bytes(b"half")
     xrough.cli._write_atomic(tmp_path / "out.nc", lambda p: p.write_bytes(b"done"))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.nc"]
+
+
+@pytest.mark.parametrize("error", [FileNotFoundError(2, "No such file or directory"),
+                                   RuntimeError("NetCDF: HDF error"), KeyError("x")])
+def test_library_errors_on_an_existing_file_name_it(tmp_path, monkeypatch, error):
+    """What the NetCDF library raises on a damaged file (a FileNotFoundError for a file
+    that exists, too) is a ValueError naming the file, the original chained."""
+    path = xrough.save_analysis(tmp_path / "a.nc", _small())
+
+    def broken(*args, **kwargs):
+        raise error
+
+    monkeypatch.setattr(xr, "open_datatree", broken)
+    with pytest.raises(ValueError, match=r"a\.nc: cannot read as an xrough archive "
+                                         r"\(netcdf\)") as caught:
+        xrough.open_analysis(path)
+    assert caught.value.__cause__ is error
+    monkeypatch.undo()
+    monkeypatch.setattr(archive, "_restore", broken)  # a failure while reading the groups
+    with pytest.raises(ValueError, match=r"a\.nc: cannot read as an xrough archive"):
+        xrough.open_analysis(path)

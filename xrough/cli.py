@@ -37,7 +37,7 @@ from tqdm.auto import tqdm
 from . import units as u
 from ._version import __version__
 from .io import BRIDGE, FORMATS, detect_format, list_channels, open_topography
-from .io.archive import _clean_temps, _temp, safe_name, save_analysis
+from .io.archive import remove_stale_temporaries, safe_name, save_analysis, temporary_name
 from .io.netcdf import write as write_netcdf
 from .preprocess import DETREND_MODES, detrend
 from .quality import QualityWarning, notes_of, warn, worst
@@ -295,14 +295,14 @@ def _write_atomic(path: Path, write: Callable[[Path], object]) -> None:
 
     A failure leaves ``path`` as it was (absent or the previous file) and no debris.
     """
-    tmp = _temp(path, "tmp")
+    tmp = temporary_name(path)
     try:
         write(tmp)
         os.replace(tmp, path)
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
-    _clean_temps(path)  # what killed writes to ``path`` left behind
+    remove_stale_temporaries(path)  # what killed writes to ``path`` left behind
 
 
 def _group_names(paths: list[str]) -> list[str]:

@@ -113,7 +113,7 @@ _ZARR_ROOTS = (".zgroup", "zarr.json")
 _ZARR_CONSOLIDATED = ".zmetadata"
 #: Temporary files of the earlier naming (no process id) older than this are stale.
 _STALE_SECONDS = 3600
-#: The suffix :func:`_temp` appends: ``.<pid>-<12 hex digits>.tmp`` (or ``.old``).
+#: The suffix :func:`temporary_name` appends: ``.<pid>-<12 hex digits>.tmp`` (or ``.old``).
 _TEMP_SUFFIX = re.compile(r"\.(?:(\d+)-)?[0-9a-f]{12}\.(?:tmp|old)$")
 
 #: Longest name, in bytes of UTF-8, that NetCDF-4 writes and reads back (NC_MAX_NAME - 1).
@@ -471,8 +471,30 @@ def _remove(path: Path) -> None:
         path.unlink(missing_ok=True)
 
 
-def _temp(path: Path, kind: str) -> Path:
-    """Return a temporary name next to ``path``, with this process's id (:func:`_clean_temps`)."""
+def temporary_name(path: Path, kind: str = "tmp") -> Path:
+    """Return a temporary name next to ``path`` that :func:`remove_stale_temporaries` knows.
+
+    ``.<name>.<process id>-<12 random hex digits>.<kind>``, in the directory of ``path``:
+    hidden, unique, and telling which process writes it.
+
+    Parameters
+    ----------
+    path : Path
+        The target file or store.
+    kind : {"tmp", "old"}
+        ``"tmp"`` for a file or store being written, ``"old"`` for a store set aside.
+
+    Returns
+    -------
+    Path
+
+    Examples
+    --------
+    >>> import os
+    >>> name = temporary_name(Path("out/a.nc")).name
+    >>> name.startswith(f".a.nc.{os.getpid()}-") and name.endswith(".tmp")
+    True
+    """
     return path.parent / f".{path.name}.{os.getpid()}-{secrets.token_hex(6)}.{kind}"
 
 
@@ -492,7 +514,7 @@ def _running(pid: int) -> bool:
 def _temp_of(name: str, target: str) -> tuple[bool, str | None]:
     """Tell whether ``name`` is a temporary name of ``target``, and its process id.
 
-    Names made by :func:`_temp`, also nested (the temporary file of a save to such a name).
+    Names made by :func:`temporary_name`, also nested (the temporary file of a save to such a name).
     """
     pid, depth = None, 0
     while name != target:
@@ -504,27 +526,47 @@ def _temp_of(name: str, target: str) -> tuple[bool, str | None]:
     return depth > 0, pid
 
 
-def _clean_temps(path: Path) -> None:
-    """Remove the temporary files of earlier saves to ``path`` whose process has ended.
+def remove_stale_temporaries(path: Path) -> None:
+    """Remove the temporary files that killed saves to ``path`` left behind.
 
-    Only names made by :func:`_temp` for this very target (``.<name>.<pid>-<12 hex>.tmp``
-    or ``.old``, or nested) whose process is no longer running, and names of the earlier
-    form without a process id (``.<name>.<12 hex>.tmp``) untouched for
-    :data:`_STALE_SECONDS`, are removed: nothing else in the directory is touched.
+    Removed are names made by :func:`temporary_name` for this very target (also nested:
+    the temporary file of a save to such a temporary name) whose process is no longer
+    running, and names of the earlier form without a process id (``.<name>.<12 hex>.tmp``)
+    untouched for an hour. Nothing else in the directory is touched; a temporary file of
+    a save still running is kept. On Windows only the earlier form is removed. Best
+    effort: a file that cannot be removed is left, without an error.
+
+    Parameters
+    ----------
+    path : Path
+        The target file or store, after a successful save to it.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> for name in (".a.nc.999999999-0123456789ab.tmp", ".b.nc.999999999-0123456789ab.tmp"):
+    ...     _ = (folder / name).write_bytes(b"left by a killed save")
+    >>> remove_stale_temporaries(folder / "a.nc")  # process 999999999 is not running
+    >>> sorted(p.name for p in folder.iterdir())  # another target's is kept
+    ['.b.nc.999999999-0123456789ab.tmp']
     """
     stale = []
-    with os.scandir(path.parent) as entries:
-        for entry in entries:
-            ours, pid = _temp_of(entry.name, path.name)
-            if not ours:
-                continue
-            if pid is not None:
-                if not _running(int(pid)):
+    try:
+        with os.scandir(path.parent) as entries:
+            for entry in entries:
+                ours, pid = _temp_of(entry.name, path.name)
+                if not ours:
+                    continue
+                if pid is not None:
+                    if not _running(int(pid)):
+                        stale.append(Path(entry.path))
+                elif time.time() - entry.stat(follow_symlinks=False).st_mtime > _STALE_SECONDS:
                     stale.append(Path(entry.path))
-            elif time.time() - entry.stat(follow_symlinks=False).st_mtime > _STALE_SECONDS:
-                stale.append(Path(entry.path))
-    for temp in stale:
-        _remove(temp)
+        for temp in stale:
+            _remove(temp)
+    except OSError:  # best effort: the save itself has succeeded
+        pass
 
 
 def _move_into_place(tmp: Path, path: Path) -> None:
@@ -532,7 +574,7 @@ def _move_into_place(tmp: Path, path: Path) -> None:
     if not (tmp.is_dir() and path.exists()):
         os.replace(tmp, path)
         return
-    old = _temp(path, "old")
+    old = temporary_name(path, "old")
     os.replace(path, old)
     try:
         os.replace(tmp, path)
@@ -576,7 +618,7 @@ def _write_atomic(tree: xr.DataTree, path: Path, format: str) -> None:
             raise FileExistsError(f"{path} is {what}, not a Zarr store, and is left as it "
                                   "is; remove it or choose another name")
     write = _write_netcdf if format == "netcdf" else _write_zarr
-    tmp = _temp(path, "tmp")
+    tmp = temporary_name(path, "tmp")
     try:
         write(tree, tmp)
         _add_checksums(tmp, format)
@@ -587,7 +629,7 @@ def _write_atomic(tree: xr.DataTree, path: Path, format: str) -> None:
             raise
         raise ValueError(f"{path}: could not write the archive ({type(err).__name__}: "
                          f"{err}); any previous file at this path is unchanged") from err
-    _clean_temps(path)
+    remove_stale_temporaries(path)
 
 
 def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = None,
