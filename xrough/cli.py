@@ -21,7 +21,6 @@ import inspect
 import json
 import os
 import re
-import secrets
 import sys
 import time
 import traceback
@@ -36,7 +35,8 @@ from tqdm.auto import tqdm
 from . import units as u
 from ._version import __version__
 from .io import BRIDGE, FORMATS, detect_format, list_channels, open_topography
-from .io.archive import safe_name, save_analysis
+from .io.archive import remove_stale_temporaries, safe_name, save_analysis, temporary_name
+from .io.netcdf import write as write_netcdf
 from .plot import pyplot
 from .preprocess import DETREND_MODES, detrend
 from .quality import QualityWarning, notes_of, warn, worst
@@ -294,13 +294,14 @@ def _write_atomic(path: Path, write: Callable[[Path], object]) -> None:
 
     A failure leaves ``path`` as it was (absent or the previous file) and no debris.
     """
-    tmp = path.with_name(f".{path.name}.{os.getpid()}-{secrets.token_hex(4)}.tmp")
+    tmp = temporary_name(path)
     try:
         write(tmp)
         os.replace(tmp, path)
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+    remove_stale_temporaries(path)  # what killed writes to ``path`` left behind
 
 
 def _group_names(paths: list[str]) -> list[str]:
@@ -401,8 +402,9 @@ def _demo(args: argparse.Namespace) -> int:
     contact = G.rough.persson(E_star=E_star, p0=p0)
     energy = G.rough.energy(E_star=E_star)
     patch = G.rough.patch_radius(E_star=E_star, gamma=gamma)
-    for name, obj in (("topography.nc", topo), ("G_fft.nc", G), ("G_random.nc", Gr),
-                      ("persson.nc", contact)):
+    # the topography with checksums, as xrough.io.netcdf writes it (read back verified)
+    _write_atomic(out / "topography.nc", lambda tmp: write_netcdf(topo, tmp))
+    for name, obj in (("G_fft.nc", G), ("G_random.nc", Gr), ("persson.nc", contact)):
         _write_atomic(out / name, obj.to_netcdf)
     plt = pyplot("Agg")  # figures go to files
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))

@@ -30,7 +30,20 @@ Nothing is lost
   so a failed or interrupted save leaves the previous archive at that path untouched and
   no partial file behind. A previous Zarr store is renamed aside, the new one renamed into
   its place and only then is the old one deleted; a path that exists and is not a Zarr
-  store is never overwritten by a Zarr archive.
+  store is never overwritten by a Zarr archive. A killed save cannot clean up: the next
+  save to the same path removes the temporary files (``.<name>.<pid>-<12 hex>.tmp`` or
+  ``.old``) that earlier saves to that path left, once their process has ended, and
+  nothing else.
+- **Checksums.** Every group and variable gets an attribute ``xrough_sha256``, the
+  SHA-256 of its contents (dims, dtype, attributes and values; a group's attributes,
+  variables and subgroups) as read back from the written file; :func:`open_analysis`
+  compares them and refuses a file or
+  store whose values or attributes changed since (a flipped byte), naming the file and
+  the variable. The attributes do not appear in the reopened objects. An archive written
+  before checksums (none anywhere) opens with one ``UserWarning`` that it is unverified.
+- **Errors name the file.** Whatever the NetCDF, HDF5 or Zarr library raises on a
+  corrupted file reaches the caller as a :class:`ValueError` starting with the path, the
+  original exception chained.
 - **Complete stores.** Every chunk of a Zarr archive is written, even one holding only
   missing values, so :func:`open_analysis` can tell an incomplete store (a chunk file lost
   in a copy) from a complete one: it is refused, naming the store and the variable,
@@ -67,7 +80,9 @@ import os
 import re
 import secrets
 import shutil
+import time
 import unicodedata
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -76,6 +91,7 @@ import numpy as np
 import xarray as xr
 
 from .._version import __version__
+from . import _checksum
 
 __all__ = ["save_analysis", "open_analysis", "safe_name", "PROVENANCE_KEY"]
 
@@ -95,6 +111,10 @@ _ZARR_SUFFIX = ".zarr"
 #: Files that make a directory a Zarr store: its root group's metadata (Zarr format 2, 3).
 _ZARR_ROOTS = (".zgroup", "zarr.json")
 _ZARR_CONSOLIDATED = ".zmetadata"
+#: Temporary files of the earlier naming (no process id) older than this are stale.
+_STALE_SECONDS = 3600
+#: The suffix :func:`temporary_name` appends: ``.<pid>-<12 hex digits>.tmp`` (or ``.old``).
+_TEMP_SUFFIX = re.compile(r"\.(?:(\d+)-)?[0-9a-f]{12}\.(?:tmp|old)$")
 
 #: Longest name, in bytes of UTF-8, that NetCDF-4 writes and reads back (NC_MAX_NAME - 1).
 _MAX_NAME_BYTES = 255
@@ -451,12 +471,110 @@ def _remove(path: Path) -> None:
         path.unlink(missing_ok=True)
 
 
+def temporary_name(path: Path, kind: str = "tmp") -> Path:
+    """Return a temporary name next to ``path`` that :func:`remove_stale_temporaries` knows.
+
+    ``.<name>.<process id>-<12 random hex digits>.<kind>``, in the directory of ``path``:
+    hidden, unique, and telling which process writes it.
+
+    Parameters
+    ----------
+    path : Path
+        The target file or store.
+    kind : {"tmp", "old"}
+        ``"tmp"`` for a file or store being written, ``"old"`` for a store set aside.
+
+    Returns
+    -------
+    Path
+
+    Examples
+    --------
+    >>> import os
+    >>> name = temporary_name(Path("out/a.nc")).name
+    >>> name.startswith(f".a.nc.{os.getpid()}-") and name.endswith(".tmp")
+    True
+    """
+    return path.parent / f".{path.name}.{os.getpid()}-{secrets.token_hex(6)}.{kind}"
+
+
+def _running(pid: int) -> bool:
+    """Whether process ``pid`` may still be running (and writing its temporary file)."""
+    if pid == os.getpid() or os.name == "nt":  # os.kill(pid, 0) would end it on Windows
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # exists, owned by someone else
+        return True
+    return True
+
+
+def _temp_of(name: str, target: str) -> tuple[bool, str | None]:
+    """Tell whether ``name`` is a temporary name of ``target``, and its process id.
+
+    Names made by :func:`temporary_name`, also nested (the temporary file of a save to such a name).
+    """
+    pid, depth = None, 0
+    while name != target:
+        match = _TEMP_SUFFIX.search(name)
+        if match is None or not name.startswith("."):
+            return False, None
+        pid = match[1] if depth == 0 else pid
+        name, depth = name[1:match.start()], depth + 1
+    return depth > 0, pid
+
+
+def remove_stale_temporaries(path: Path) -> None:
+    """Remove the temporary files that killed saves to ``path`` left behind.
+
+    Removed are names made by :func:`temporary_name` for this very target (also nested:
+    the temporary file of a save to such a temporary name) whose process is no longer
+    running, and names of the earlier form without a process id (``.<name>.<12 hex>.tmp``)
+    untouched for an hour. Nothing else in the directory is touched; a temporary file of
+    a save still running is kept. On Windows only the earlier form is removed. Best
+    effort: a file that cannot be removed is left, without an error.
+
+    Parameters
+    ----------
+    path : Path
+        The target file or store, after a successful save to it.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> for name in (".a.nc.999999999-0123456789ab.tmp", ".b.nc.999999999-0123456789ab.tmp"):
+    ...     _ = (folder / name).write_bytes(b"left by a killed save")
+    >>> remove_stale_temporaries(folder / "a.nc")  # process 999999999 is not running
+    >>> sorted(p.name for p in folder.iterdir())  # another target's is kept
+    ['.b.nc.999999999-0123456789ab.tmp']
+    """
+    stale = []
+    try:
+        with os.scandir(path.parent) as entries:
+            for entry in entries:
+                ours, pid = _temp_of(entry.name, path.name)
+                if not ours:
+                    continue
+                if pid is not None:
+                    if not _running(int(pid)):
+                        stale.append(Path(entry.path))
+                elif time.time() - entry.stat(follow_symlinks=False).st_mtime > _STALE_SECONDS:
+                    stale.append(Path(entry.path))
+        for temp in stale:
+            _remove(temp)
+    except OSError:  # best effort: the save itself has succeeded
+        pass
+
+
 def _move_into_place(tmp: Path, path: Path) -> None:
     """Rename the complete ``tmp`` to ``path``; a previous store there is deleted last."""
     if not (tmp.is_dir() and path.exists()):
         os.replace(tmp, path)
         return
-    old = path.parent / f".{path.name}.{secrets.token_hex(6)}.old"
+    old = temporary_name(path, "old")
     os.replace(path, old)
     try:
         os.replace(tmp, path)
@@ -466,8 +584,27 @@ def _move_into_place(tmp: Path, path: Path) -> None:
     _remove(old)
 
 
+def _open_tree(path: Path, fmt: str, chunks=None) -> xr.DataTree:
+    """Open an archive as a DataTree, the same way for checksumming and for reading."""
+    if fmt == "zarr":
+        return xr.open_datatree(path, chunks=chunks, engine="zarr",
+                                consolidated=(path / _ZARR_CONSOLIDATED).is_file() or None)
+    return xr.open_datatree(path, chunks=chunks, engine="netcdf4")
+
+
+def _add_checksums(tmp: Path, fmt: str) -> None:
+    """Store the checksum of every group and variable of the written ``tmp``, read back."""
+    with _open_tree(tmp, fmt) as tree:
+        sums = _checksum.tree_checksums(tree)
+    _checksum.stamp(tmp, sums, fmt)
+
+
 def _write_atomic(tree: xr.DataTree, path: Path, format: str) -> None:
-    """Write ``tree`` to ``path`` through a temporary file or store in the same directory."""
+    """Write ``tree`` to ``path`` through a temporary file or store in the same directory.
+
+    The checksums are added to the temporary file from what it holds, read back; once it
+    is in place, temporary files that earlier, killed saves to ``path`` left are removed.
+    """
     directory = path.parent
     if not directory.is_dir():
         raise FileNotFoundError(f"{path}: the directory {directory} does not exist")
@@ -481,9 +618,10 @@ def _write_atomic(tree: xr.DataTree, path: Path, format: str) -> None:
             raise FileExistsError(f"{path} is {what}, not a Zarr store, and is left as it "
                                   "is; remove it or choose another name")
     write = _write_netcdf if format == "netcdf" else _write_zarr
-    tmp = directory / f".{path.name}.{secrets.token_hex(6)}.tmp"
+    tmp = temporary_name(path, "tmp")
     try:
         write(tree, tmp)
+        _add_checksums(tmp, format)
         _move_into_place(tmp, path)
     except BaseException as err:
         _remove(tmp)
@@ -491,6 +629,7 @@ def _write_atomic(tree: xr.DataTree, path: Path, format: str) -> None:
             raise
         raise ValueError(f"{path}: could not write the archive ({type(err).__name__}: "
                          f"{err}); any previous file at this path is unchanged") from err
+    remove_stale_temporaries(path)
 
 
 def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = None,
@@ -547,6 +686,10 @@ def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = 
     Attributes that NetCDF cannot hold natively (``bool``, ``None``, arrays of any shape,
     lists, tuples, dicts, ``bytes``) are stored with a record of their type and reopen
     identical; see the module documentation for the rules. Both formats follow them.
+
+    After writing, the file is read back once to store the SHA-256 checksum of every
+    group and variable (attribute ``xrough_sha256``), which :func:`open_analysis`
+    verifies. Temporary files that killed saves to ``path`` left are removed.
 
     Zarr chunks follow the dask chunks of each variable (chunk a stack of scans with
     ``.chunk({"scan": 1})`` before saving to store one scan per chunk); variables in
@@ -628,7 +771,8 @@ def open_analysis(path: str | Path, *, format: str | None = None, chunks=None) -
     chunks : None, dict, int or "auto", optional
         ``None`` (default): every object is read into memory (NumPy) and the file closed.
         Otherwise every object is opened lazily as dask arrays, nothing but the metadata
-        and the dimension coordinates being read, with ``chunks`` as in
+        and the dimension coordinates being read (and compared with their checksums;
+        the values of the other variables are not), with ``chunks`` as in
         :func:`xarray.open_datatree`: ``{}`` keeps the chunks of the store (a Zarr
         store's chunks are the dask chunks the objects had when saved), a dict such as
         ``{"scan": 1}`` sets them per dimension. The data are read when computed, by the
@@ -647,8 +791,17 @@ def open_analysis(path: str | Path, *, format: str | None = None, chunks=None) -
         ``path`` does not exist.
     ValueError
         Not an archive, or a corrupted file or store: unreadable metadata, a directory
-        that is not a Zarr store, a Zarr store with missing chunks (the message names
-        ``path``); an unknown ``format``.
+        that is not a Zarr store, a Zarr store with missing chunks, a group or variable
+        whose checksum does not match its contents or is missing (the message names
+        ``path``, and the variable); any error of the NetCDF, HDF5 or Zarr library on
+        the file (chained); an unknown ``format``.
+    PermissionError
+        ``path`` cannot be read (the message names it).
+
+    Warns
+    -----
+    UserWarning
+        An archive written before checksums: its values cannot be verified.
     ImportError
         A Zarr store without the zarr package.
 
@@ -679,37 +832,61 @@ def open_analysis(path: str | Path, *, format: str | None = None, chunks=None) -
         "zarr" if path.is_dir() else "netcdf")
     if fmt == "zarr":
         _check_zarr_store(path)
-        options = {"engine": "zarr",
-                   "consolidated": (path / _ZARR_CONSOLIDATED).is_file() or None}
-    else:
-        if path.is_dir():
-            raise IsADirectoryError(f"{path} is a directory, not a NetCDF file (a Zarr "
-                                    "store opens with format='zarr' or without format=)")
-        options = {"engine": "netcdf4"}
+    elif path.is_dir():
+        raise IsADirectoryError(f"{path} is a directory, not a NetCDF file (a Zarr "
+                                "store opens with format='zarr' or without format=)")
     lazy = chunks is not None
     try:
-        dt = xr.open_datatree(path, chunks=chunks, **options)
-    except (FileNotFoundError, PermissionError, ImportError):
+        dt = _open_tree(path, fmt, chunks)
+    except ImportError:
         raise
-    except Exception as err:  # the NetCDF library's OSErrors, zarr's errors, JSON...
-        raise _unreadable(path, fmt, err) from err
+    except PermissionError as err:
+        raise PermissionError(f"{path}: cannot read the archive ({err})") from err
+    except Exception as err:  # the NetCDF library's OSErrors (also FileNotFoundError for a
+        raise _unreadable(path, fmt, err) from err  # corrupted file), zarr's errors, JSON
     try:
-        out: dict = {PROVENANCE_KEY: dict(dt.attrs)}
-
-        def walk(node: xr.DataTree, target: dict) -> None:
-            for child in node.children.values():
-                attrs = _decode_attrs(child.attrs)
-                key = attrs.get(_ORIGINAL, child.name)
-                if attrs.get(_KIND) in ("DataArray", "Dataset"):
-                    ds = child.to_dataset(inherit=False)
-                    target[key] = _restore(ds if lazy else ds.load())
-                else:  # a mapping (or an intermediate group of an older archive)
-                    walk(child, target.setdefault(key, {}))
-
-        walk(dt, out)
+        out = _read_tree(dt, path, lazy)
     except Exception as err:
         dt.close()
+        if isinstance(err, ValueError) and str(err).startswith(f"{path}: "):
+            raise  # already says what is wrong with which file
         raise _unreadable(path, fmt, err) from err
     if not lazy:
         dt.close()
+    return out
+
+
+def _read_tree(dt: xr.DataTree, path: Path, lazy: bool) -> dict:
+    """Return the nested mapping of an opened archive, comparing every checksum on the way."""
+    name = str(path)
+    checked = any(_checksum.has_checksums(node.attrs, node.to_dataset(inherit=False).variables)
+                  for node in dt.subtree)
+    if not checked:
+        warnings.warn(f"{path}: an archive written before xrough stored checksums; its "
+                      "values cannot be verified (save it again to add them)", UserWarning,
+                      stacklevel=3)
+
+    def verified(node: xr.DataTree, ds: xr.Dataset) -> xr.Dataset:
+        if checked:
+            _checksum.verify_group(name, node.path, node.attrs, ds.variables, node.children)
+        ds = ds.copy()
+        for var in ds.variables.values():
+            var.attrs = dict(var.attrs)
+        _checksum.strip_checksums(ds)
+        return ds
+
+    out: dict = {PROVENANCE_KEY: verified(dt, dt.to_dataset(inherit=False)).attrs}
+
+    def walk(node: xr.DataTree, target: dict) -> None:
+        for child in node.children.values():
+            ds = child.to_dataset(inherit=False)
+            ds = verified(child, ds if lazy else ds.load())
+            attrs = _decode_attrs(ds.attrs)
+            key = attrs.get(_ORIGINAL, child.name)
+            if attrs.get(_KIND) in ("DataArray", "Dataset"):
+                target[key] = _restore(ds)
+            else:  # a mapping (or an intermediate group of an older archive)
+                walk(child, target.setdefault(key, {}))
+
+    walk(dt, out)
     return out

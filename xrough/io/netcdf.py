@@ -1,7 +1,10 @@
 """NetCDF topographies: xrough's own files and the common ``heights(x, y)`` layout.
 
 xrough writes a topography with :meth:`xarray.DataArray.to_netcdf` (CF ``units`` on the
-heights and on every coordinate); :func:`read` gives back the identical DataArray.
+heights and on every coordinate) and adds the SHA-256 checksum of every variable and of
+the root group (attribute ``xrough_sha256``); :func:`read` compares them, refuses a file
+whose values changed since (naming the file and the variable) and gives back the
+identical DataArray.
 
 Files from other programs are read too when they hold one height variable (``height``,
 ``heights``, ``topography``, ``z``... or the only data variable) on dims ``x`` and ``y`` in
@@ -27,6 +30,7 @@ import xarray as xr
 
 from .. import units as u
 from ..topography import topography
+from . import _checksum
 from ._common import check_file, reader_errors
 
 __all__ = ["sniff", "read", "write"]
@@ -278,7 +282,8 @@ def read(path, *, variable: str | None = None, group: str | None = None,
     ------
     ValueError
         No or several candidate variables, dims other than ``x``/``y``, missing units, a
-        truncated or corrupted file (the message names the file).
+        truncated or corrupted file, a checksum that does not match (the message names
+        the file).
     FileNotFoundError, IsADirectoryError
         ``path`` is not a file.
 
@@ -298,14 +303,22 @@ def read(path, *, variable: str | None = None, group: str | None = None,
         return _read(path, variable, group, unit, height_unit, size)
 
 
+def _open(path: Path, group: str | None = None) -> xr.Dataset:
+    """Open a NetCDF file as :func:`read` does (and as :func:`write` checksums it)."""
+    return xr.open_dataset(path, engine="netcdf4", group=group, decode_times=False)
+
+
 def _read(path: Path, variable, group, unit, height_unit, size) -> xr.DataArray:
     name = path.name
     check_netcdf3(path)
     try:
-        with xr.open_dataset(path, engine="netcdf4", group=group, decode_times=False) as ds:
+        with _open(path, group) as ds:
             ds = ds.load()
     except OSError as err:
-        raise ValueError(f"{name}: cannot read as NetCDF ({err})") from None
+        raise ValueError(f"{name}: cannot read as NetCDF ({err})") from err
+    if _checksum.has_checksums(ds.attrs, ds.variables):  # written by xrough: verify
+        _checksum.verify_group(name, group or "/", ds.attrs, ds.variables)
+        _checksum.strip_checksums(ds)
     var = _choose(ds, name, variable)
     da = ds[var]
     own = "units" in da.attrs and all("units" in da[d].attrs for d in ("x", "y")
@@ -364,15 +377,35 @@ def _read(path: Path, variable, group, unit, height_unit, size) -> xr.DataArray:
     return topography(da)
 
 
-def write(topo: xr.DataArray, path) -> None:
+def write(topo: xr.DataArray, path, *, format: str = "NETCDF4") -> None:
     """Write a topography to NetCDF (the DataArray as it is, read back identical).
+
+    A SHA-256 checksum of every variable (values, dims and attributes, as read back) and
+    of the file's root group is stored in its attribute ``xrough_sha256``; :func:`read`
+    compares them and refuses a file whose values changed since (a corrupted file).
 
     Parameters
     ----------
     topo : xarray.DataArray
         A topography (:func:`xrough.topography`).
     path : str or Path
-        The output file (NetCDF-4).
+        The output file.
+    format : {"NETCDF4", "NETCDF4_CLASSIC", "NETCDF3_64BIT", "NETCDF3_CLASSIC"}
+        The NetCDF format (as in :meth:`xarray.DataArray.to_netcdf`).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile, numpy as np, xrough
+    >>> topo = xrough.topography(np.arange(12.0).reshape(3, 4), spacing="2 nm", unit="nm")
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     write(topo, pathlib.Path(tmp) / "t.nc", format="NETCDF3_64BIT")
+    ...     back = read(pathlib.Path(tmp) / "t.nc")
+    >>> back.identical(topo)
+    True
     """
     topography(topo)  # validate before writing
-    topo.to_netcdf(path, engine="netcdf4")
+    path = Path(path)
+    topo.to_netcdf(path, engine="netcdf4", format=format)
+    with _open(path) as ds:
+        sums = _checksum.dataset_checksums(ds.attrs, ds.variables)
+    _checksum.stamp(path, {"/": sums}, "netcdf")
