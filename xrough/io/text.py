@@ -435,7 +435,7 @@ def _stated_steps(header: _Header, n: int, lunit: str | None) -> list[float]:
                 value *= u.conversion_factor(q[1], lunit)
             except Exception:  # noqa: BLE001 - a unit pint cannot convert states nothing
                 continue
-        out += [value / d for d in divisors if value > 0]
+        out += [value / d for d in divisors if value > 0 and d > 0]
     return out
 
 
