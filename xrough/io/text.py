@@ -17,20 +17,34 @@ Gwyddion, SPIP or MountainsMap export it, and as SurfaceTopography reads it). xr
 Header lines (with or without ``#``/``%`` comment markers) of the forms ``key: value``,
 ``key = value`` or ``key,value`` (CSV exports such as Bruker Dektak) become attributes, and
 the usual keys give sizes and units: ``Width``/``Height`` and ``Value units`` (Gwyddion
-ASCII export), ``x-length``/``y-length``, ``x-unit``/``z-unit``, ``unit``, ``pixel size``...
-A line of column names just above the data (``Lateral um,Raw Micrometer``,
-``x [mm]  h [nm]`` or ``[mm];[mm]``) gives the unit of each column. A header scale factor
-such as ``height conversion factor (-> m)=6.30079e-008`` multiplies the raw heights and
-gives their unit. A header that states the size (or the points) of a map along x and y
-makes the block a matrix whatever its number of columns.
+ASCII export; ``Breite``/``Höhe`` in its German version, and ``Channel``/``Kanal`` gives
+``attrs["channel"]``), ``x-length``/``y-length``, ``x-unit``/``z-unit``, ``unit``,
+``pixel size``... A line of column names just above the data (``Lateral um,Raw
+Micrometer``, ``x [mm]  h [nm]``, ``µm µm`` or ``[mm];[mm]``, possibly under a line of
+titles such as ``X;Y;valid``) gives the unit of each column. A header scale factor such as
+``height conversion factor (-> m)=6.30079e-008`` multiplies the raw heights and gives their
+unit. A header that states the size (or the points) of a map along x and y makes the block
+a matrix whatever its number of columns. UTF-16 files (with a byte-order mark) are decoded.
+
+Some columns are not data: a first column titled ``index`` (or ``no``, ``nr``...) that
+counts up by one is dropped (``attrs["index_column"]``); a last column titled ``valid``
+(1 = measured, 0 = missing, as in ``.hfm`` profile exports) turns the heights it marks 0
+into NaN and is dropped (``attrs["valid_column"]``, ``attrs["invalid_points"]``). A single
+whole number on the line before x-y pairs is their count (``attrs["points"]``), checked
+against them (equal, or one less: the last index counted from 0).
 
 Header-stated sizes are checked against the data, never silently spread over fewer
-points: stated point counts must match, a profile must cover the stated ``Length``, and a
-matrix whose header gives width and height must have square pixels (a file cut at a line
-boundary would not); ``size=``/``spacing=`` state rectangular pixels explicitly.
+points: stated point counts must match and a profile must cover the stated ``Length``. A
+matrix's ``Width``/``Height`` are ``n * spacing`` along x and y, each with its own pixel
+size: rectangular pixels are read as stated (a matrix cut at a line boundary without
+stated point counts cannot be told from one with rectangular pixels).
 
-Profiles whose ``x`` column is uniform within the precision it is printed with are read on
-a uniform grid (the spacing from a least-squares fit of the positions). Others are
+Profiles whose ``x`` column is uniform are read on a uniform grid (the spacing from a
+least-squares fit of the positions): exactly uniform, or departing from a uniform grid by
+no more than the rounding of the printed digits, when those digits resolve the sampling
+(one unit of the last digit at most a tenth of the step) or the header states the step
+(a spacing, or a length over the points). Whole numbers for a step of about 1 cannot tell
+a missing or extra sample from rounding: ``0, 1, 2, 4, 5...`` is not uniform. Others are
 **non-uniformly sampled** and never resampled silently: they are returned on their
 measured ``x`` with ``attrs["sampling"] = "non-uniform"`` unless ``resample=True`` asks for
 linear interpolation onto a uniform grid.
@@ -58,6 +72,9 @@ _TOKEN_PARTS = re.compile(r"^[-+]?(\d*)(?:\.(\d*))?(?:[eE]([-+]?\d+))?$")
 # Magic strings of text-based formats that have their own reader.
 _OTHER_TEXT_FORMATS = (b"aISO-1.0", b"aBCR-1.0", b"bISO-1.0", b"bBCR-1.0", b"\\*File list",
                        b"?*File list")
+#: Printed rounding is taken as the only departure of ``x`` from a uniform grid only when one
+#: unit of the last printed digit is at most this fraction of the step.
+_ROUNDING_RESOLVES = 0.1
 _RESERVED_ATTRS = {"units", "long_name", "periodic", "sampling", "source", "source_file",
                    "source_sha256", "format", "overrides", "name", "standard_name"}
 
@@ -76,10 +93,11 @@ _UNIT_NAMES = {
 }
 
 # Normalised header keys (lower case, without spaces, '-', '_', '.') and what they mean.
-_X_SIZE = {"width", "xlength", "lengthx", "xrange", "rangex", "xscansize", "scansizex",
-           "sizex", "xscanrange", "fastscansize"}
-_Y_SIZE = {"height", "ylength", "lengthy", "yrange", "rangey", "yscansize", "scansizey",
-           "sizey", "yscanrange", "slowscansize"}
+# (``Breite``, ``Höhe``: Gwyddion's ASCII export in German)
+_X_SIZE = {"width", "breite", "xlength", "lengthx", "xrange", "rangex", "xscansize",
+           "scansizex", "sizex", "xscanrange", "fastscansize"}
+_Y_SIZE = {"height", "höhe", "hoehe", "ylength", "lengthy", "yrange", "rangey", "yscansize",
+           "scansizey", "sizey", "yscanrange", "slowscansize"}
 _XY_SIZE = {"scansize", "scanrange", "imagesize", "size"}
 _PROFILE_SIZE = {"length", "scanlength", "profilelength", "evaluationlength"}
 _X_SPACING = {"pixelsize", "xspacing", "spacingx", "dx", "xstep", "stepx", "stepsize",
@@ -92,11 +110,14 @@ _Z_UNIT = {"zunit", "zunits", "unitz", "valueunits", "valueunit", "heightunit",
            "heightunits", "unitdata", "dataunit", "dataunits", "zscaleunit"}
 _ANY_UNIT = {"unit", "units", "lengthunit"}
 # Keys too common to mean a size or spacing unless the value carries a length unit.
-_NEEDS_UNIT = {"width", "height", "size", "length", "resolution", "spacing", "range"}
+_NEEDS_UNIT = {"width", "height", "breite", "höhe", "hoehe", "size", "length", "resolution",
+               "spacing", "range"}
 # Raw values times this factor are heights, e.g. ``height conversion factor (-> m)=6.3e-08``.
 _CONVERSION = re.compile(r"^(?:height|z|value|data)\s*(?:conversion|scale|scaling)\s*"
                          r"factor\s*(?:[(\[]\s*-*>\s*(?P<unit>[^)\]]*?)\s*[)\]])?\s*$",
                          re.IGNORECASE)
+#: Keys naming the channel (Gwyddion's ASCII export writes ``Channel``, ``Kanal`` in German).
+_CHANNEL = {"channel", "kanal", "channelname", "kanalname"}
 _X_COUNT = {"xpixels", "nx", "pointsperline", "samplesperline", "xres", "npointsx"}
 _Y_COUNT = {"ypixels", "ny", "lines", "numberoflines", "yres", "npointsy"}
 
@@ -266,6 +287,8 @@ class _Header:
         self.unit = {"x": None, "y": None, "z": None, "any": None}
         self.count = {"x": None, "y": None}
         self.height_factor: tuple[float, str | None, str] | None = None
+        self.channel: str | None = None
+        self.lines: set[int] = set()  # indices of lines read as titles, units or counts
 
     def add(self, key: str, value: str) -> None:
         name = _attr_name(key)
@@ -274,6 +297,8 @@ class _Header:
                 name += "_"
             self.attrs[name] = _attr_value(value)
         k = _norm_key(key)
+        if k in _CHANNEL and value and self.channel is None:
+            self.channel = value.strip()
         factor = _CONVERSION.match(key.strip())
         if factor and self.height_factor is None and _NUM_RE.match(value.strip()):
             target = factor.group("unit")
@@ -354,11 +379,18 @@ def _quanta(tokens: list[str]) -> np.ndarray:
     return out
 
 
-def _uniform_fit(x: np.ndarray, quanta: np.ndarray):
+def _uniform_fit(x: np.ndarray, quanta: np.ndarray, stated_steps=()):
     """Least-squares uniform grid through ``x`` and whether ``x`` lies on it.
 
-    ``x`` is accepted as uniform when every position is within one rounding step of its
-    printed value from the fitted grid (the rounding of the file, not of the sampling).
+    ``x`` is uniform when it is exactly uniform (to floating-point precision), or when its
+    departures from the fitted grid are those of rounding to the printed digits: every
+    position within half a unit of its last printed digit (plus the fit's own error,
+    ``2 / sqrt(n)`` units) of the grid. Rounding is only accepted as the explanation when
+    the printed digits resolve the sampling (one unit of the last digit at most
+    :data:`_ROUNDING_RESOLVES` of the step) or when the header states the step (a spacing,
+    or a length over the points: ``stated_steps``) and the fit agrees with it to 0.5 %.
+    Otherwise (whole numbers for a step of about 1, say) a missing or shifted sample
+    looks like rounding, and only exactly uniform ``x`` is uniform.
 
     Returns
     -------
@@ -370,15 +402,41 @@ def _uniform_fit(x: np.ndarray, quanta: np.ndarray):
     scale = np.max(np.abs(x))
     step, origin = (x[-1] - x[0]) / (n - 1), x[0]
     dev = np.abs(x - (origin + step * i))
-    if dev.max() > 1e-12 * scale:  # not exactly uniform: fit through the rounded values
-        step, origin = np.polyfit(i, x, 1)
-        dev = np.abs(x - (origin + step * i))
-        finest = np.nanmin(quanta) if np.any(np.isfinite(quanta)) else 0.0
-        if abs(origin) < 0.5 * finest:  # the fit's offset is below the printed precision
-            origin = 0.0
-    tol = np.where(np.isfinite(quanta), quanta, 0.0) * (1 + 1e-9) + 1e-12 * scale
-    uniform = bool(step > 0 and np.all(dev <= tol))
+    if dev.max() <= 1e-12 * scale:
+        return bool(step > 0), float(step), float(origin), float(dev.max())
+    # not exactly uniform: fit through the rounded values
+    step, origin = np.polyfit(i, x, 1)
+    dev = np.abs(x - (origin + step * i))
+    finite = np.isfinite(quanta)
+    finest = np.nanmin(quanta) if np.any(finite) else 0.0
+    if abs(origin) < 0.5 * finest:  # the fit's offset is below the printed precision
+        origin = 0.0
+    q = np.where(finite, quanta, 0.0)
+    tol = q * (0.5 * (1 + 1e-9) + 2 / np.sqrt(n)) + 1e-12 * scale
+    resolved = bool(np.all(q <= _ROUNDING_RESOLVES * abs(step))) or any(
+        abs(step - s) <= 0.005 * abs(s) for s in stated_steps)
+    uniform = bool(step > 0 and resolved and np.all(dev <= tol))
     return uniform, float(step), float(origin), float(dev.max())
+
+
+def _stated_steps(header: _Header, n: int, lunit: str | None) -> list[float]:
+    """List the steps of a profile's ``x`` that its header states (spacing, length / points).
+
+    In ``lunit``; a length gives two candidates, ``L / n`` and ``L / (n - 1)``.
+    """
+    out = []
+    for q, divisors in ((header.spacing["x"], (1,)),
+                        (header.size["profile"] or header.size["x"], (n, n - 1))):
+        if q is None:
+            continue
+        value = q[0]
+        if q[1] is not None and lunit is not None and q[1] != lunit:
+            try:
+                value *= u.conversion_factor(q[1], lunit)
+            except Exception:  # noqa: BLE001 - a unit pint cannot convert states nothing
+                continue
+        out += [value / d for d in divisors if value > 0 and d > 0]
+    return out
 
 
 def _data_block(name: str, lines: list[str]):
@@ -442,6 +500,8 @@ def _parse(path: Path, encoding: str | None):
     else:
         delimiter = None
     tokens = [_tokens(lines[i], delimiter, decimal_comma) for i in rows]
+    header = _Header()
+    rows, tokens = _point_count_line(name, lines, rows, tokens, header)
     ncols = len(tokens[0])
     for i, tok in zip(rows, tokens):
         if len(tok) != ncols:
@@ -451,14 +511,21 @@ def _parse(path: Path, encoding: str | None):
         values = np.array(tokens, dtype=float)
     except ValueError as err:
         raise ValueError(f"{name}: cannot read the numbers ({err})") from None
-    header = _Header()
     first = rows[0]
     names = None
-    before = [i for i in range(first) if lines[i].strip()]
+    before = [i for i in range(first) if lines[i].strip() and i not in header.lines]
     if before:
         names = _column_names(lines[before[-1]], ncols, delimiter)
+        if names is not None:
+            header.lines.add(before[-1])
+            if len(before) > 1 and all(_is_unit_label(n) for n in names):
+                # a line of units under a line of titles: ``X;Y;valid`` then ``[mm];[mm];[1/0]``
+                titles = _column_names(lines[before[-2]], ncols, delimiter)
+                if titles is not None:
+                    header.lines.add(before[-2])
+                    names = [f"{t} {n}" for t, n in zip(titles, names)]
     for i in before:
-        if names is not None and i == before[-1]:
+        if i in header.lines:
             continue
         kv = _split_key_value(lines[i])
         if kv:
@@ -468,7 +535,72 @@ def _parse(path: Path, encoding: str | None):
             kv = _split_key_value(lines[i])
             if kv:
                 header.add(*kv)
+    values, tokens, names = _drop_index_column(values, tokens, names, header)
+    values, tokens, names = _apply_valid_column(name, values, tokens, names, header)
     return values, tokens, names, header
+
+
+def _is_unit_label(name: str) -> bool:
+    """Whether a column name is only a unit, such as ``[mm]`` or ``[1/0]``."""
+    return bool(re.fullmatch(r"[\[(][^\])]*[\])]", name.strip()))
+
+
+def _point_count_line(name, lines, rows, tokens, header):
+    """Take a first data line holding one whole number before wider lines as a point count.
+
+    Some x-y exports write a line of units, then the number of points, then the points.
+    The count is checked against the lines that follow and kept in ``attrs["points"]``: it
+    may equal their number or their number less one (the index of the last point counted
+    from 0, as in such files found in the wild); anything else is refused.
+    """
+    if len(tokens) < 2 or len(tokens[0]) != 1 or len(tokens[1]) < 2 or \
+            not re.fullmatch(r"\+?\d+", tokens[0][0]):
+        return rows, tokens
+    stated, found = int(tokens[0][0]), len(rows) - 1
+    if stated not in (found, found - 1):
+        raise ValueError(f"{name}: line {rows[0] + 1} states {stated} points but {found} "
+                         "lines of points follow (truncated file?)")
+    header.lines.add(rows[0])
+    header.attrs["points"] = stated
+    return rows[1:], tokens[1:]
+
+
+def _apply_valid_column(name, values, tokens, names, header):
+    """Turn a last column titled ``valid`` (1 = measured, 0 = missing) into NaN heights.
+
+    The column is removed and the heights (the column before it) of the points it marks
+    0 become NaN; ``attrs["valid_column"]`` keeps its title and ``attrs["invalid_points"]``
+    the number of missing points.
+    """
+    if not names or values.shape[1] < 3 or not _norm_key(names[-1]).startswith("valid"):
+        return values, tokens, names
+    flag = values[:, -1]
+    if not np.all(np.isin(flag, (0.0, 1.0))):
+        bad = int(np.argmax(~np.isin(flag, (0.0, 1.0))))
+        raise ValueError(f"{name}: the column {names[-1]!r} marks valid points with 1 and "
+                         f"missing ones with 0, but data line {bad + 1} has {flag[bad]:g}")
+    values = values[:, :-1].copy()
+    values[flag == 0, -1] = np.nan
+    header.attrs["valid_column"] = names[-1]
+    header.attrs["invalid_points"] = int(np.count_nonzero(flag == 0))
+    return values, [t[:-1] for t in tokens], names[:-1]
+
+
+def _drop_index_column(values, tokens, names, header):
+    """Remove a leading column of row numbers (``index, x in µm, y in µm``).
+
+    Only a column whose title says it is an index *and* whose values count up by one is
+    removed; its title is kept in ``attrs["index_column"]``.
+    """
+    if not names or values.shape[1] < 2 or \
+            _norm_key(names[0]) not in ("index", "idx", "no", "nr", "number", "pointindex"):
+        return values, tokens, names
+    first = values[:, 0]
+    if not (np.all(np.isfinite(first)) and np.all(np.diff(first) == 1)
+            and first[0] == round(first[0])):
+        return values, tokens, names
+    header.attrs["index_column"] = names[0]
+    return values[:, 1:], [t[1:] for t in tokens], names[1:]
 
 
 # ---------------------------------------------------------------------------------------
@@ -489,25 +621,6 @@ def _header_has_map_geometry(header: _Header) -> bool:
     sizes = (header.size["x"] is not None and header.size["y"] is not None)
     counts = header.count["x"] is not None and header.count["y"] is not None
     return sizes or counts
-
-
-def _check_pixels(name, size, nrows, ncols, header) -> None:
-    """Refuse a matrix whose stated sizes give non-square pixels (a truncated file?).
-
-    A file cut at a line boundary still parses, and the header's height spread over the
-    remaining lines would silently stretch ``dy``; the point counts, when the header
-    states them, have already been checked.
-    """
-    if header.count["x"] is not None and header.count["y"] is not None:
-        return
-    ly, lx = size
-    dy, dx = ly / nrows, lx / ncols
-    if not np.isclose(dy, dx, rtol=1e-3):
-        raise ValueError(
-            f"{name}: the header states a {ly:g} x {lx:g} area but the matrix has "
-            f"{nrows} lines of {ncols} points, so a pixel would be {dy / dx:.4g} times as "
-            "tall as wide (a truncated file?); if the pixels really are rectangular, pass "
-            "size=(Ly, Lx) or spacing=(dy, dx)")
 
 
 def _check_profile_length(name, x, header, lunit) -> None:
@@ -570,7 +683,8 @@ def _nonuniform(name, x, h, lunit, hunit, attrs, resample, size, spacing):
     return da
 
 
-def _profile(name, x, h, xtok, lunit, hunit, attrs, resample, size, spacing):
+def _profile(name, x, h, xtok, lunit, hunit, attrs, resample, size, spacing,
+             stated_steps=()):
     if x.size < 2:
         raise ValueError(f"{name}: a profile needs at least 2 points")
     if not np.all(np.isfinite(x)):
@@ -584,7 +698,7 @@ def _profile(name, x, h, xtok, lunit, hunit, attrs, resample, size, spacing):
         raise ValueError(f"{name}: the x column is not monotonic (point {bad + 1} at "
                          f"{x[bad]:g}, the next at {x[bad + 1]:g}): a re-entrant or "
                          "unsorted profile cannot be read")
-    uniform, step, origin, dev = _uniform_fit(x, q)
+    uniform, step, origin, dev = _uniform_fit(x, q, stated_steps)
     if not uniform:
         return _nonuniform(name, x, h, lunit, hunit, attrs, resample, size, spacing)
     if spacing is not None or size is not None:
@@ -707,6 +821,8 @@ def _read(path: Path, *, unit, height_unit, spacing, size, resample, layout, col
     values, tokens, names, header = _parse(path, encoding)
     nrows, ncols = values.shape
     attrs = dict(header.attrs)
+    if header.channel is not None:
+        attrs.setdefault("channel", header.channel)
     if names:
         attrs["columns"] = ", ".join(names)
     if layout is None:
@@ -749,7 +865,6 @@ def _read(path: Path, *, unit, height_unit, spacing, size, resample, layout, col
             dy = header.spacing["y"] or dx
             if sx is not None and sy is not None:
                 size, lunit = _lateral_pair(name, sx, sy, unit, header.lateral_unit())
-                _check_pixels(name, size, nrows, ncols, header)
             elif dx is not None:
                 spacing, lunit = _lateral_pair(name, dx, dy, unit, header.lateral_unit())
             else:
@@ -813,7 +928,8 @@ def _read(path: Path, *, unit, height_unit, spacing, size, resample, layout, col
         if column is not None and names:
             attrs["height_column"] = names[hcol]
         return _profile(name, values[:, 0], values[:, hcol], [t[0] for t in tokens],
-                        lunit, hunit, attrs, resample, size, spacing)
+                        lunit, hunit, attrs, resample, size, spacing,
+                        _stated_steps(header, nrows, lunit))
 
     # x-y-z points
     if ncols != 3:
