@@ -37,7 +37,7 @@ from ._version import __version__
 from .io import BRIDGE, FORMATS, detect_format, list_channels, open_topography
 from .io.archive import remove_stale_temporaries, safe_name, save_analysis, temporary_name
 from .io.netcdf import write as write_netcdf
-from .plot import pyplot
+from .plot import display_unit, pyplot
 from .preprocess import DETREND_MODES, detrend
 from .quality import QualityWarning, notes_of, warn, worst
 from .spectra import acf_from_spectrum, model_spectrum
@@ -407,19 +407,18 @@ def _demo(args: argparse.Namespace) -> int:
     for name, obj in (("G_fft.nc", G), ("G_random.nc", Gr), ("persson.nc", contact)):
         _write_atomic(out / name, obj.to_netcdf)
     plt = pyplot("Agg")  # figures go to files
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.5), layout="constrained")  # titles fit
     topo.rough.plot(ax=axes[0])
     G.rough.plot(ax=axes[1], label="all pairs (FFT)")
     Gr.rough.plot(ax=axes[1], label=f"random pairs ({args.pairs:,} pairs)", linestyle="--")
     axes[1].plot(exact.dr, exact, "k:", label="model spectrum, eq. 9")
     axes[1].legend()
     axes[2].semilogx(contact.dr, contact.a_r)
-    axes[2].set_xlabel(f"resolution dr ({G.dr.attrs['units']})")
+    axes[2].set_xlabel(f"resolution dr ({display_unit(G.dr.attrs['units'])})")
     axes[2].set_ylabel("relative contact area a_r")
     axes[0].set_title(f"synthetic surface, H = {args.hurst}, rms gradient 0.5")
     axes[1].set_title("height-difference ACF G(dr)")
     axes[2].set_title(f"Persson theory, E* = {E_star}, p0 = {p0}")
-    fig.tight_layout()
     _write_atomic(out / "demo.png", lambda p: fig.savefig(p, dpi=120, format="png"))
     plt.close(fig)
     rel = np.abs(G.values / exact.values - 1)
@@ -703,7 +702,7 @@ def _report_figure(measured: list[dict], p0_text: str):
         contact = m["results"]["persson"]
         factor = u.conversion_factor(contact.dr.attrs["units"], dr_unit)
         ax1.semilogx(contact.dr.values * factor, contact.a_r.values, label=m["name"])
-    ax1.set_xlabel(f"resolution dr ({dr_unit})")
+    ax1.set_xlabel(f"resolution dr ({display_unit(dr_unit)})")
     ax1.set_ylabel(f"relative contact area at p0 = {p0_text}")
     ax1.legend()
     fig.tight_layout()
