@@ -1,10 +1,14 @@
-"""Untrusted files: the native readers (X3P, SUR, SDF, Gwyddion, NetCDF) under mutation.
+"""Untrusted files: the native readers (X3P, SUR, SDF, Gwyddion, NetCDF, Nanoscope, Igor,
+text, npy) under mutation.
 
 Each format has a regression test per defect found by fuzzing (truncated NetCDF read as
-zeros, a corrupted ``.gwy`` that hangs the third-party parser, allocation bombs), a
-loop over 1000 seeded mutations of a small valid file (truncation, flipped bytes, absurd
-sizes in the header, zero length) and a smaller hypothesis test. Every outcome must be a
-``ValueError``/``OSError`` naming the file, or a read that gives a valid topography.
+zeros, a corrupted ``.gwy`` that hangs the third-party parser, allocation bombs, two bytes
+inserted before the data), a loop over 1000 seeded mutations of a small valid file
+(truncation, flipped bytes, absurd sizes in the header, zero length), a loop over 500
+mutations of each real file of the test data, and a smaller hypothesis test. Every
+outcome must be a ``ValueError``/``OSError`` naming the file, or a read that gives a valid
+topography; the loops count clean errors, identical, plausible and garbage reads and
+print them as a table with ``-s`` (the numbers in docs/io.md).
 """
 
 import hashlib
@@ -31,7 +35,7 @@ from test_io_x3p_sdf_sur import SDF_HEADER, sur_object
 
 import xrough
 from conftest import data_path
-from xrough.io import gwy, ibw, nanoscope, netcdf, sdf, sur, text, x3p
+from xrough.io import gwy, ibw, nanoscope, netcdf, npy, sdf, sur, text, x3p
 from xrough.io._common import reader_errors
 
 MUTATIONS = 1000
@@ -169,29 +173,60 @@ def mutate_x3p(raw: bytes, rng: np.random.Generator) -> bytes:
 # ---------------------------------------------------------------------------- checking
 
 
-def outcome(read, path, name: str) -> str:
-    """Read a mutated file: a clean error or a valid topography, else the test fails."""
+#: Errors a reader may raise on a corrupted file (with the file's name in the message).
+ALLOWED = (ValueError, OSError)
+
+
+def outcome(read, path, name: str):
+    """Read a mutated file: a clean error or a valid topography, else the test fails.
+
+    Returns ``"clean error"`` or the topography read. Anything but ``ALLOWED`` (an
+    ``AssertionError``, ``TokenError``, ``IndexError``, ``struct.error``,
+    ``UnicodeDecodeError``...), an allowed error whose message does not name the file, or
+    a read still running after 30 s fails the test.
+    """
     try:
-        da = read(path)
-    except (ValueError, OSError) as err:
+        result = run_bounded(lambda: read(path))  # a hang fails the test
+        if "error" in result:
+            raise result["error"]
+        da = result["value"]
+    except ALLOWED as err:
         assert path.name in str(err), f"{name}: the message does not name the file: {err!r}"
         return "clean error"
     except Exception as err:  # noqa: BLE001
         pytest.fail(f"{name}: {path.name} raised {type(err).__name__}: {err}")
     assert isinstance(da, xr.DataArray)
     xrough.topography(da)  # a read must give a valid topography
-    return "read"
+    return da
+
+
+def classify(da: xr.DataArray, original: xr.DataArray) -> str:
+    """``identical`` (the original's heights), ``plausible`` or ``garbage``.
+
+    ``garbage``: another shape, or more than half of the heights changed (beyond a
+    relative 1e-12, float rounding) -- what shifted data or a wrong scale gives;
+    ``plausible``: a read of the original's shape where at most half of the heights changed
+    (a few flipped data bytes).
+    """
+    if da.shape != original.shape:
+        return "garbage"
+    a, b = da.values, original.values
+    if np.array_equal(a, b, equal_nan=True):
+        return "identical"
+    changed = ~np.isclose(a, b, rtol=1e-12, atol=0, equal_nan=True)
+    return "plausible" if changed.mean() <= 0.5 else "garbage"
 
 
 def fuzz_loop(tmp_path, fmt: str, seeds, read, mutator=mutate, n=MUTATIONS,
-              suffix=None, max_bytes=256 << 20, sniff=None):
-    """``n`` seeded mutations of the seed files; count the outcomes.
+              suffix=None, max_bytes=256 << 20, sniff=None, traced_every=5):
+    """``n`` seeded mutations of the seed files; count the outcomes (see :func:`classify`).
 
-    Every fifth read runs under :mod:`tracemalloc` (which slows reading tenfold) and must
-    stay below ``max_bytes``; the others are bounded by the readers' size checks.
+    Every ``traced_every``-th read runs under :mod:`tracemalloc` (which slows reading
+    tenfold) and must stay below ``max_bytes``; the others are bounded by the readers'
+    size checks.
     """
     rng = np.random.default_rng([ord(c) for c in fmt])
-    counts = Counter()
+    counts = Counter({"clean error": 0, "identical": 0, "plausible": 0, "garbage": 0})
     originals = []
     for k, seed in enumerate(seeds):
         path = tmp_path / f"seed{k}{suffix or '.' + fmt}"
@@ -204,7 +239,7 @@ def fuzz_loop(tmp_path, fmt: str, seeds, read, mutator=mutate, n=MUTATIONS,
         path.write_bytes(content)
         if sniff is not None:  # format detection never fails, whatever the content
             assert sniff(content[:4096], path) in (True, False)
-        traced = i % 5 == 0
+        traced = bool(traced_every) and i % traced_every == 0
         if traced:
             tracemalloc.start()
         try:
@@ -215,15 +250,26 @@ def fuzz_loop(tmp_path, fmt: str, seeds, read, mutator=mutate, n=MUTATIONS,
                 tracemalloc.stop()
         assert peak < max(10 * len(seed), max_bytes), (
             f"{path.name}: {peak} bytes allocated for a {len(content)}-byte file")
-        if result == "read":
-            same = read(path).identical(originals[i % len(seeds)])
-            result += " (as the original)" if same else " (the values the mutated file states)"
+        if not isinstance(result, str):
+            result = classify(result, originals[i % len(seeds)])
         counts[result] += 1
         path.unlink()
     OUTCOMES[fmt] = counts
     print(f"\n{fmt}: {n} mutations: {dict(counts)}")
     assert sum(counts.values()) == n
     return counts
+
+
+@pytest.fixture(scope="module", autouse=True)
+def outcome_table():
+    """Print the outcome counts of the loops as a Markdown table (shown with ``-s``)."""
+    yield
+    if OUTCOMES:
+        print("\n\n| seed | mutations | clean error | identical | plausible | garbage |\n"
+              "|---|---|---|---|---|---|")
+        for fmt, c in OUTCOMES.items():
+            print(f"| {fmt} | {sum(c.values())} | {c['clean error']} | {c['identical']} | "
+                  f"{c['plausible']} | {c['garbage']} |")
 
 
 # -------------------------------------------------------------------- NetCDF defects
@@ -588,6 +634,183 @@ def test_row_orientation_sur_real_file_agrees_with_the_bridge():
     np.testing.assert_allclose(native.values, bridged.values, rtol=1e-7)
 
 
+# -------------------------------------------------------------- shifted data
+
+
+def insert(raw: bytes, at: int, extra: bytes = b"ab") -> bytes:
+    return raw[:at] + extra + raw[at:]
+
+
+def npy_bytes(_tmp_path=None, values=None):
+    buffer = io.BytesIO()
+    np.save(buffer, np.arange(24.0).reshape(4, 6) if values is None else values)
+    return buffer.getvalue()
+
+
+def read_npy(path):
+    return npy.read(path, size=("4 um", "6 um"), unit="nm")
+
+
+def asylum_trailer(start: int, n: int = 2, length: int = 16) -> bytes:
+    """Asylum's thumbnails and text trailer as its software appends them to a wave."""
+    fields = (f"Version:2;DataType:Byte;DataLength:{length};NumberOfFiles:{n};"
+              + "".join(f"Layer{k}FileStart:{start + k * length};" for k in range(n))
+              + "IsImage:1;IsARDF:0;")
+    size = len(fields) + len(" 0000 MFP3D")
+    return bytes(range(n * length)) + f"{fields} {size:04d} MFP3D".encode()
+
+
+def causes(err: BaseException) -> list[str]:
+    """The type names of the exceptions chained below ``err``, nearest first."""
+    names = []
+    while err.__cause__ is not None:
+        err = err.__cause__
+        names.append(type(err).__name__)
+    return names
+
+
+def with_checksum(wave: bytes) -> bytes:
+    """A version-5 wave with its header checksum recomputed (the 384 bytes sum to 0)."""
+    head = bytearray(wave)
+    head[2:4] = b"\0\0"
+    total = int(np.frombuffer(bytes(head[:384]), dtype="<i2").astype(np.int64).sum())
+    struct.pack_into("<H", head, 2, -total % 65536)
+    return bytes(head)
+
+
+#: (seed, reader, where two bytes go: in the header and just before the data; message)
+SHIFTED = {
+    "spm": (lambda _: make_nanoscope([("Height", bump(6, 8), {})]), nanoscope.read,
+            (100, 8191, 8192), r"the file has 8290 bytes, 2 more than its header accounts"),
+    "sur": (lambda _: sur_object(np.arange(12).reshape(3, 4)), sur.read, (200, 511, 512),
+            r"the file has 538 bytes, 2 more than the headers of its 1 object"),
+    "ibw": (lambda _: make_ibw(np.arange(30.0).reshape(6, 5), (1e-9, 2e-9)), ibw.read,
+            (384, 500), r"2 bytes follow the wave's sections, which end at byte 624"),
+    "nc": (lambda tmp: netcdf_bytes(tmp, "NETCDF3_64BIT"), netcdf.read, (None,),
+           r"2 more than its header accounts for \(the data end at byte \d+"),
+    "nc4": (lambda tmp: netcdf_bytes(tmp, "NETCDF4"), netcdf.read, (1000, 4000),
+            r"corrupted NetCDF-4 \(HDF5\) file: the superblock states an end of file at "
+            r"byte \d+, the file has \d+ bytes"),
+    "npy": (npy_bytes, read_npy, (128, 130),
+            r"the header declares shape \(4, 6\) of float64 \(192 bytes\) but the file "
+            r"holds 194 bytes"),
+}
+
+
+@pytest.mark.parametrize("fmt", sorted(SHIFTED))
+def test_two_inserted_bytes_are_refused(tmp_path, fmt):
+    """Two bytes inserted before the data shift every point: the sizes no longer add up."""
+    make, read, positions, message = SHIFTED[fmt]
+    raw = make(tmp_path)
+    path = tmp_path / f"seed.{fmt}"
+    path.write_bytes(raw)
+    original = read(path)
+    if positions == (None,):  # NetCDF-3: inside the data, and before its last byte
+        positions = (len(raw) - 200, len(raw) - 1)
+    for at in positions:
+        path = tmp_path / f"shifted{at}.{fmt}"
+        path.write_bytes(insert(raw, at))
+        with pytest.raises(ValueError, match=rf"shifted{at}\.{fmt}: .*{message}"):
+            read(path)
+    # appended bytes too (Asylum's thumbnails excepted, see the next test)
+    path.write_bytes(raw + b"ab")
+    with pytest.raises(ValueError, match=rf"{path.name}: "):
+        read(path)
+    path.write_bytes(raw)
+    xr.testing.assert_identical(read(path), original)
+
+
+def test_ibw_asylum_thumbnails_are_checked_not_refused(tmp_path):
+    wave = make_ibw(np.arange(30.0).reshape(6, 5), (1e-9, 2e-9))
+    path = tmp_path / "thumbs.ibw"
+    path.write_bytes(wave + asylum_trailer(len(wave)))
+    np.testing.assert_array_equal(ibw.read(path).values, np.arange(30.0).reshape(6, 5).T)
+    path.write_bytes(insert(wave, 384) + asylum_trailer(len(wave)))  # data shifted by 2
+    with pytest.raises(ValueError, match=r"thumbs\.ibw: the file has 782 bytes; the wave's "
+                                         r"sections end at byte 624, the Asylum thumbnail "
+                                         r"trailer states thumbnails from byte 624 of 32 bytes"
+                                         r" and 124 bytes of trailer, 780 in all"):
+        ibw.read(path)
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("name, read, positions", [
+    ("di-1.di", nanoscope.read, (100, 26000, 40959, 40960, 565248)),
+    ("sur-2.sur", sur.read, (200, 511, 512, 600)),
+    ("spot_1-1000nm.ibw", ibw.read, (200, 384, 1000, 2097536)),
+    ("nc-1.nc", netcdf.read, (340, 500, 700, 859)),
+])
+def test_two_inserted_bytes_in_real_files_are_refused(tmp_path, name, read, positions):
+    """Before these checks 98.8 % of di-1.di's pixels moved and the file read silently."""
+    raw = data_path("instruments", name).read_bytes()
+    for at in positions:
+        path = tmp_path / f"shifted-{at}-{name}"
+        path.write_bytes(insert(raw, at, b"\0\0"))
+        with pytest.raises(ValueError, match=re.escape(path.name) + ": .*(more than|follow|"
+                                             "checksum|Asylum thumbnail trailer states)"):
+            read(path)
+
+
+def test_npy_header_length_beyond_the_file_allocates_nothing(tmp_path):
+    """A 16-byte file whose version-2 header length states 2.4 GB of header text."""
+    path = tmp_path / "long.npy"
+    path.write_bytes(b"\x93NUMPY\x02\x00" + struct.pack("<I", 0x8E000000) + b"{'de")
+
+    def read():
+        with pytest.raises(ValueError, match=r"long\.npy: truncated or damaged file: the "
+                                             r"header length field states 2382364672 bytes"):
+            read_npy(path)
+
+    assert peak_bytes(read) < 4 << 20  # numpy's parser would allocate the 2.4 GB first
+
+
+# ----------------------------------------------------- third-party errors in words
+
+
+def test_ibw_point_count_disagreeing_with_the_data_names_the_field(tmp_path):
+    wave = bytearray(make_ibw(np.arange(30.0).reshape(6, 5), (1e-9, 2e-9)))
+    struct.pack_into("<i", wave, 64 + 12, 100000)  # npnts
+    path = tmp_path / "count.ibw"
+    path.write_bytes(with_checksum(bytes(wave)))
+    with pytest.raises(ValueError, match=r"count\.ibw: corrupted Igor binary wave: the wave "
+                                         r"header's point count npnts 100000 is not the "
+                                         r"product of its dimensions nDim \[6, 5, 0, 0\]"):
+        ibw.read(path)
+    struct.pack_into("<4i", wave, 64 + 68, 100000, 1, 0, 0)  # nDim agrees, the data not
+    path.write_bytes(with_checksum(bytes(wave)))
+    with pytest.raises(ValueError, match=r"count\.ibw: .*npnts 100000 of 8 bytes needs "
+                                         r"800000 bytes of data, the binary header's wfmSize"
+                                         r" 560 leaves 240"):
+        ibw.read(path)
+
+
+def test_sur_unit_that_breaks_the_unit_parser_names_the_field(tmp_path):
+    path = tmp_path / "paren.sur"
+    path.write_bytes(sur_object(np.arange(6).reshape(2, 3), units="um("))
+    with pytest.raises(ValueError, match=r"^paren\.sur: Z unit: cannot understand the unit "
+                                         r"'um\(': not a unit expression \(TokenError: "
+                                         ) as err:
+        sur.read(path)
+    assert "TokenError" in causes(err.value)  # chained, not hidden
+
+
+@pytest.mark.parametrize("header, cause", [
+    (b"{'descr': '<f8', 'fortran_order': False, 'shape': (4, 6 }", "TokenError"),
+    (b"{'descr': '<f8', 'fortran_order': False, 'shape': (4, 6), ", "TokenError|Syntax"),
+    (b"{'descr': 'zz', 'fortran_order': False, 'shape': (4, 6), }", "ValueError|TypeError"),
+    (b"{'descr': '<f8', 'fortran_order': False, 'shape': (4, 'a'), }", "ValueError"),
+])
+def test_npy_damaged_header_names_the_file(tmp_path, header, cause):
+    text = header + b" " * (117 - len(header)) + b"\n"
+    path = tmp_path / "head.npy"
+    path.write_bytes(b"\x93NUMPY\x01\x00" + struct.pack("<H", len(text)) + text
+                     + bytes(192))
+    with pytest.raises(ValueError, match=r"^head\.npy: cannot read as a NumPy \.npy array: "
+                                         r"damaged header") as err:
+        read_npy(path)
+    assert re.fullmatch(cause, causes(err.value)[0])
+
+
 # ------------------------------------------------------------------ fuzzing: loops
 
 
@@ -608,16 +831,8 @@ def test_fuzz_sdf(tmp_path):
     assert counts["clean error"] > 0 and sum(counts.values()) == MUTATIONS
 
 
-def bounded_gwy_read(path):
-    """``gwy.read`` that fails the test instead of hanging."""
-    result = run_bounded(lambda: gwy.read(path))
-    if "error" in result:
-        raise result["error"]
-    return result["value"]
-
-
 def test_fuzz_gwy(tmp_path):
-    counts = fuzz_loop(tmp_path, "gwy", [gwy_bytes(tmp_path)], bounded_gwy_read,
+    counts = fuzz_loop(tmp_path, "gwy", [gwy_bytes(tmp_path)], gwy.read,
                        mutator=lambda raw, rng: mutate(raw, rng, header=len(raw)),
                        sniff=gwy.sniff)
     assert counts["clean error"] > 0
@@ -637,7 +852,7 @@ SEEDS = {
     "x3p": (x3p_bytes, x3p.read),
     "sur": (sur_bytes, sur.read),
     "sdf": (sdf_text_bytes, sdf.read),
-    "gwy": (gwy_bytes, bounded_gwy_read),
+    "gwy": (gwy_bytes, gwy.read),
     "nc": (netcdf_bytes, netcdf.read),
 }
 
@@ -704,4 +919,39 @@ def test_fuzz_text(tmp_path):
         counts = fuzz_loop(tmp_path, "txt", seeds, lambda p: text.read(p, resample=True),
                            mutator=lambda raw, rng: mutate(raw, rng, header=len(raw)),
                            sniff=text.sniff)
+    assert counts["clean error"] > 0
+
+
+def test_fuzz_npy(tmp_path):
+    seeds = [npy_bytes(), npy_bytes(values=np.arange(24, dtype=">i2").reshape(4, 6))]
+    counts = fuzz_loop(tmp_path, "npy", seeds,
+                       read_npy, mutator=lambda raw, rng: mutate(raw, rng, header=128),
+                       sniff=npy.sniff)
+    assert counts["clean error"] > 0
+
+
+# ------------------------------------------------- 500 mutations of each real file
+
+#: Real files: (reader, length of the header where 70 % of the mutations fall).
+REAL = {
+    "di-1.di": (nanoscope.read, 40960),
+    "sur-2.sur": (sur.read, 512),
+    "spot_1-1000nm.ibw": (ibw.read, 384),
+    "nc-1.nc": (netcdf.read, 340),
+    "sdf-1.sdf": (sdf.read, 545),
+}
+REAL_MUTATIONS = 500
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("name", sorted(REAL))
+def test_fuzz_real_files(tmp_path, name):
+    """Mutations of the real files; shifted data (a cut or repeated chunk) never reads."""
+    read, header = REAL[name]
+    seed = data_path("instruments", name).read_bytes()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        counts = fuzz_loop(tmp_path, name, [seed], read, suffix=name,
+                           mutator=lambda raw, rng: mutate(raw, rng, header=header),
+                           n=REAL_MUTATIONS, traced_every=0)
     assert counts["clean error"] > 0

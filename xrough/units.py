@@ -117,19 +117,23 @@ def parse_units(units: str | pint.Unit, *, what: str = "units") -> pint.Unit:
         raise TypeError(f"{what}: expected a unit string, got {type(units).__name__}")
     try:
         return ureg.Unit(_cf_to_pint(units))
-    except (pint.errors.UndefinedUnitError, pint.errors.DefinitionSyntaxError, ValueError,
-            AttributeError, TypeError) as err:
+    except Exception as err:  # noqa: BLE001 - pint's parser also raises TokenError, ...
         try:  # allow scale prefixes written like "1e-6 m" via a full parse
             q = ureg.Quantity(_cf_to_pint(units))
             if q.magnitude == 1:
                 return q.units
         except Exception:  # noqa: BLE001 - fall through to the clear message below
             pass
-        reason = (f"{err.unit_names[0]!r} is not a unit" if isinstance(
-            err, pint.errors.UndefinedUnitError) and err.unit_names else str(err))
+        if isinstance(err, pint.errors.UndefinedUnitError) and err.unit_names:
+            reason = f"{err.unit_names[0]!r} is not a unit"
+        elif isinstance(err, (pint.errors.DefinitionSyntaxError, ValueError, AttributeError,
+                              TypeError)):
+            reason = str(err)
+        else:  # the expression parser's own errors: TokenError, AssertionError...
+            reason = f"not a unit expression ({type(err).__name__}: {err})"
         head = (f"{what}: " if reason == f"{units.strip()!r} is not a unit" else
                 f"{what}: cannot understand the unit {units!r}: ")
-        raise ValueError(f"{head}{reason}{_did_you_mean(units)}") from None
+        raise ValueError(f"{head}{reason}{_did_you_mean(units)}") from err
 
 
 def format_units(unit: pint.Unit | str) -> str:

@@ -19,6 +19,11 @@ layer, ``values[j, i] = wave[i, j]``, at ``x = i * sfA[0]``, ``y = j * sfA[1]`` 
 ``sfB`` are kept in attributes). A negative ``sfA`` reverses that axis so that coordinates
 increase. Note that Asylum's ``ScanSize`` is ``(n - 1) * sfA``, the distance between the
 first and last points, while a topography's size is ``n * sfA``.
+
+Sizes: the wave header's point count ``npnts`` must be the product of its dimensions and
+fill the data size the binary header's ``wfmSize`` leaves; the sections end the file,
+except for the thumbnails and text trailer Asylum's software appends, whose stated start,
+sizes and length must then end it. Inserted or cut bytes are refused, naming the file.
 """
 
 from __future__ import annotations
@@ -43,6 +48,9 @@ __all__ = ["sniff", "read", "channels", "default_channel"]
 _CHECKSUM_BYTES = {1: (8 + 110,), 2: (16 + 110,), 3: (20 + 110,), 5: (64 + 320, 64 + 316)}
 _LENGTH_PREFIXES = ("Height", "ZSensor", "Amplitude", "Deflection")
 _OTHER_UNITS = (("Phase", "deg"), ("Potential", "V"), ("Current", "A"), ("Frequency", "Hz"))
+#: Bytes per point of Igor's numeric types (the type code without its flags).
+_ITEM_SIZES = {2: 4, 4: 8, 8: 1, 0x10: 2, 0x20: 4, 0x80: 8}
+_ASYLUM_TAIL = re.compile(rb" (\d{4}) MFP3D\Z")
 
 
 def _byte_order(head: bytes) -> tuple[str, int] | None:
@@ -114,7 +122,61 @@ def _check(path: Path, blob: bytes) -> tuple[str, dict]:
     if len(blob) < needed:
         raise fail(path, f"truncated file: the headers declare {needed} bytes but the file "
                          f"has {len(blob)}")
+    _check_points(path, blob, order, header)
+    _check_tail(path, blob, needed)
     return order, header
+
+
+def _check_points(path: Path, blob: bytes, order: str, header: dict) -> None:
+    """Refuse a wave whose point count, dimensions and data size disagree."""
+    npnts, kind = struct.unpack_from(order + "ih", blob, 64 + 12)
+    ndim = struct.unpack_from(order + "4i", blob, 64 + 68)
+    itemsize = _ITEM_SIZES.get(kind & ~0x41)  # without the unsigned and complex flags
+    if itemsize is None:  # text or unknown data: left to the wave parser
+        return
+    itemsize *= 2 if kind & 0x01 else 1
+    dims = [n for n in ndim if n]
+    count = int(np.prod(dims, dtype=object)) if dims else 0
+    data_size = header["wfmSize"] - 320
+    if min(ndim) < 0 or count != npnts:
+        raise fail(path, f"corrupted Igor binary wave: the wave header's point count npnts "
+                         f"{npnts} is not the product of its dimensions nDim {list(ndim)}")
+    if data_size != npnts * itemsize:
+        raise fail(path, f"corrupted Igor binary wave: the wave header's point count npnts "
+                         f"{npnts} of {itemsize} bytes needs {npnts * itemsize} bytes of "
+                         f"data, the binary header's wfmSize {header['wfmSize']} leaves "
+                         f"{data_size}")
+
+
+def _check_tail(path: Path, blob: bytes, end: int) -> None:
+    """Refuse bytes after the wave's sections unless they are Asylum's thumbnails.
+
+    Asylum's software appends 8-bit thumbnails of the channels and a text trailer
+    (``...;HeightTraceFileStart:2112969;...;IsARDF:0; 0506 MFP3D``: the trailer's length
+    and the thumbnails' start, number and length); their sum must end the file.
+    """
+    extra = len(blob) - end
+    if not extra:
+        return
+    match = _ASYLUM_TAIL.search(blob[-16:])
+    if match is None or int(match.group(1)) > extra:
+        raise fail(path, f"{extra} bytes follow the wave's sections, which end at byte "
+                         f"{end} by the binary header's section sizes (bytes inserted into "
+                         "the file shift the data)")
+    length = int(match.group(1))
+    fields = dict(re.findall(rb"(\w+):([^;]*);", blob[-length:]))
+    try:
+        start = min(int(v) for k, v in fields.items() if k.endswith(b"FileStart"))
+        thumbnails = int(fields[b"NumberOfFiles"]) * int(fields[b"DataLength"])
+    except (KeyError, ValueError) as err:
+        raise fail(path, f"corrupted Igor binary wave: the Asylum thumbnail trailer at the "
+                         f"end of the file does not state its thumbnails ({err!r})") from err
+    if start != end or end + thumbnails + length != len(blob):
+        raise fail(path, f"the file has {len(blob)} bytes; the wave's sections end at byte "
+                         f"{end}, the Asylum thumbnail trailer states thumbnails from byte "
+                         f"{start} of {thumbnails} bytes and {length} bytes of trailer, "
+                         f"{end + thumbnails + length} in all (bytes inserted into the file "
+                         "shift the data)")
 
 
 def _text(raw) -> str:
@@ -187,7 +249,7 @@ def _load(path: Path):
     try:
         wave = binarywave.load(io.BytesIO(blob))["wave"]
     except Exception as err:  # noqa: BLE001 - a corrupted stream fails in many ways
-        raise fail(path, f"corrupted Igor binary wave ({type(err).__name__}: {err})") from None
+        raise fail(path, f"corrupted Igor binary wave ({type(err).__name__}: {err})") from err
     return blob, header, wave
 
 

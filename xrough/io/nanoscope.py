@@ -44,6 +44,10 @@ Sizes: the data length of each image must be ``Samps/line x Number of lines x
 Bytes/pixel``. When it is not, but the scan list's resolution fits, the image is read with
 the scan list's points over the stated ``Scan Size``, with a ``UserWarning`` and
 ``attrs["header_inconsistency"]``; any other mismatch is an error naming the file.
+The header text must fit in the header length the ``\*File list`` states, every section's
+data must lie after it, and the last ``Data offset + Data length`` must be the file's size:
+bytes inserted into the file or cut from it (which would shift the data against the
+offsets) are refused.
 
 Channels: :func:`channels` lists them, :func:`default_channel` names the one read without
 ``channel=``; two different height quantities on the main scan line (``Height`` and
@@ -367,7 +371,58 @@ def _channels(path: Path):
             raise fail(path, f"channel {name!r}: Data length {info['length']} is smaller than "
                              f"{info['nx']} x {info['ny']} points of {elsize} bytes")
         info["elsize"] = elsize
+    if not is_text:
+        _check_layout(path, text, sections, out)
     return text, is_text, sections, version, out
+
+
+def _check_layout(path: Path, text: str, sections, infos: list[dict]) -> None:
+    r"""Refuse a file whose size or header length disagrees with its header.
+
+    The ``\*File list``'s ``Data length`` is the length of the header, every section's
+    ``Data offset`` and ``Data length`` place its data after it, and the last of them ends
+    where the file ends: bytes inserted or cut anywhere before the end shift the data
+    against the offsets, which these sums reveal.
+    """
+    size = path.stat().st_size
+    header = _section_value(sections[0][1], "Data length")
+    header_length = None
+    if header is not None:
+        try:
+            header_length = int(float(header.split()[0]))
+        except (IndexError, ValueError):
+            raise fail(path, f"the file list's 'Data length: {header}' (the header length) "
+                             "is not an integer") from None
+        if len(text) > header_length:
+            raise fail(path, f"the header text runs to byte {len(text)}, beyond the header "
+                             f"length {header_length} its file list states (bytes inserted "
+                             "into the header?)")
+    names = {id(info["entries"]): f"channel {info['name']!r}" for info in infos}
+    last = None
+    for number, (name, entries) in enumerate(sections[1:], start=1):
+        what = names.get(id(entries), f"section {number} ({name!r})")
+        offset, length = (_section_value(entries, key) for key in ("Data offset",
+                                                                  "Data length"))
+        if offset is None or length is None:
+            continue
+        try:
+            offset, length = int(float(offset.split()[0])), int(float(length.split()[0]))
+        except (IndexError, ValueError):
+            raise fail(path, f"{what}: 'Data offset: {offset}' or "
+                             f"'Data length: {length}' is not an integer") from None
+        if header_length is not None and offset < header_length:
+            raise fail(path, f"{what}: Data offset {offset} lies inside "
+                             f"the {header_length}-byte header")
+        end = offset + length
+        if end > size:
+            raise fail(path, f"truncated file: {what} needs bytes "
+                             f"{offset}..{end} by its Data offset and Data length, the file "
+                             f"has {size} bytes")
+        last = end if last is None else max(last, end)
+    if last is not None and size != last:
+        raise fail(path, f"the file has {size} bytes, {size - last} more than its header "
+                         f"accounts for (the last data ends at byte {last} by Data offset + "
+                         "Data length): bytes inserted into the file shift the data")
 
 
 def _describe(info) -> str:

@@ -15,9 +15,11 @@ attribute the periodicity.
 
 Untrusted files: the header of a NetCDF-3 file (classic, 64-bit offset, CDF-5) is walked
 with bounds before the NetCDF library sees it, and every variable's declared size and
-offset is compared with the file's size. A truncated file or a header declaring more data
-than the file holds is refused (the library would read the missing bytes as zeros, or
-allocate what the header claims). Every failure is a ``ValueError`` naming the file.
+offset is compared with the file's size. A truncated file, a header declaring more data
+than the file holds (the library would read the missing bytes as zeros, or allocate what
+the header claims), variables whose data overlap, or bytes beyond the data the header
+places (inserted bytes shift the data) are refused. Every failure is a ``ValueError``
+naming the file.
 """
 
 from __future__ import annotations
@@ -131,6 +133,60 @@ def check_netcdf3(path: Path) -> None:
             _check_netcdf3_header(buf, path.name)
 
 
+def check_hdf5_size(path: Path) -> None:
+    r"""Check a NetCDF-4 (HDF5) file's size against the end of file its superblock states.
+
+    The HDF5 library refuses a file shorter than that address but reads a longer one
+    without a word; bytes inserted into the file shift every object after them.
+
+    Parameters
+    ----------
+    path : Path
+        The file; files that do not start with the HDF5 signature are left alone.
+
+    Raises
+    ------
+    ValueError
+        The file's size is not the superblock's end-of-file address; the message names the
+        file and both numbers.
+
+    Examples
+    --------
+    A version-2 superblock (8-byte addresses) stating an end of file at byte 100:
+
+    >>> import tempfile
+    >>> head = b"\x89HDF\r\n\x1a\n" + bytes([2, 8, 8, 0]) + bytes(16)
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = Path(tmp) / "short.nc"
+    ...     _ = path.write_bytes(head + (100).to_bytes(8, "little") + bytes(16))
+    ...     check_hdf5_size(path)
+    Traceback (most recent call last):
+    ...
+    ValueError: short.nc: truncated NetCDF-4 (HDF5) file: the superblock states an end ...
+    """
+    with open(path, "rb") as fh:
+        head = fh.read(64)
+    if not head.startswith(_HDF5) or len(head) < 14:
+        return
+    version = head[8]
+    if version in (0, 1):  # then base, free-space and end-of-file addresses
+        width, at = head[13], 24 + 4 * version
+    elif version in (2, 3):  # then base, superblock-extension and end-of-file addresses
+        width, at = head[9], 12
+    else:
+        return  # an unknown superblock: left to the library
+    if width not in (2, 4, 8) or len(head) < at + 3 * width:
+        return
+    base = int.from_bytes(head[at:at + width], "little")
+    end = base + int.from_bytes(head[at + 2 * width:at + 3 * width], "little")
+    size = path.stat().st_size
+    if size != end:
+        raise ValueError(f"{path.name}: {'truncated' if size < end else 'corrupted'} "
+                         f"NetCDF-4 (HDF5) file: the superblock states an end of file at "
+                         f"byte {end}, the file has {size} bytes (bytes inserted into or cut "
+                         "from the file shift its objects)")
+
+
 def _check_netcdf3_header(buf, name: str) -> None:
     h = _Header(buf, name)
     h.pos = 4
@@ -172,6 +228,7 @@ def _check_netcdf3_header(buf, name: str) -> None:
     records = [v for v in variables if v[1]]
     recsize = sum(n + (-n) % 4 for *_, n in records) if len(records) > 1 else (
         records[0][3] if records else 0)
+    spans = []  # (begin, end with padding, variable) of the data the header places
     for var, record, begin, nbytes in variables:
         if begin < header_end:
             raise h.fail(f"variable {var!r} starts at byte {begin}, inside the header "
@@ -185,6 +242,19 @@ def _check_netcdf3_header(buf, name: str) -> None:
         if end > h.size:
             raise h.fail(f"variable {var!r} needs the bytes {begin} to {end} by its "
                          f"header, the file has {h.size} bytes")
+        spans.append((begin, end + (-nbytes) % 4, var, record))
+    if streaming:
+        return
+    fixed = sorted(s for s in spans if not s[3])
+    for (_, end, var, _), (begin, _, other, _) in zip(fixed, fixed[1:]):
+        if begin < end:
+            raise h.fail(f"the data of variable {other!r} (from byte {begin}) overlaps that "
+                         f"of {var!r} (to byte {end}) by their offsets in the header")
+    last = max((end for _, end, *_ in spans), default=header_end)
+    if h.size > last:
+        raise h.fail(f"the file has {h.size} bytes, {h.size - last} more than its header "
+                     f"accounts for (the data end at byte {last} by the variables' offsets "
+                     "and sizes): bytes inserted into the file shift the data")
 
 
 def sniff(head: bytes, path: Path) -> bool:
@@ -311,6 +381,7 @@ def _open(path: Path, group: str | None = None) -> xr.Dataset:
 def _read(path: Path, variable, group, unit, height_unit, size) -> xr.DataArray:
     name = path.name
     check_netcdf3(path)
+    check_hdf5_size(path)
     try:
         with _open(path, group) as ds:
             ds = ds.load()

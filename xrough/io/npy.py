@@ -1,7 +1,9 @@
 """NumPy ``.npy`` arrays: a 2D height map ``(y, x)`` or a 1D profile.
 
 A ``.npy`` file stores numbers only: no lateral size and no units. They must be given to
-:func:`read` (or :func:`xrough.io.open_topography`); nothing is guessed.
+:func:`read` (or :func:`xrough.io.open_topography`); nothing is guessed. The header's
+length and the data size its shape and dtype give must add up to the file's size; any
+damaged header is a ``ValueError`` naming the file.
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ import numpy.lib.format as npformat
 import xarray as xr
 
 from ..topography import topography
+from ._common import check_file, reader_errors
 
 __all__ = ["sniff", "read"]
 
@@ -37,8 +40,24 @@ def sniff(head: bytes, path: Path) -> bool:
 
 
 def _check_size(path: Path) -> None:
-    """Refuse a header that declares more data than the file holds, before allocating."""
+    """Refuse a damaged header, or one whose data size is not the file's, before allocating.
+
+    The header (a Python literal) states the shape and dtype; the data follow it and end
+    the file, so a size that does not add up means a truncated file, bytes inserted into
+    the file or appended to it.
+    """
     name = path.name
+    size = path.stat().st_size
+    with open(path, "rb") as fh:
+        head = fh.read(12)
+    # the header's length: 2 bytes in version 1, 4 in later ones; checked before numpy's
+    # parser reads (and allocates) that many bytes
+    width = 2 if head[6:8] == b"\x01\x00" else 4
+    if len(head) >= 8 + width:
+        length = int.from_bytes(head[8:8 + width], "little")
+        if 8 + width + length > size:
+            raise ValueError(f"{name}: truncated or damaged file: the header length field "
+                             f"states {length} bytes of header, the file has {size} bytes")
     try:
         with open(path, "rb") as fh:
             version = npformat.read_magic(fh)
@@ -47,20 +66,21 @@ def _check_size(path: Path) -> None:
             else:
                 shape, _, dtype = npformat.read_array_header_2_0(fh)
             offset = fh.tell()
-    except FileNotFoundError:
+    except (FileNotFoundError, IsADirectoryError):
         raise
-    except (ValueError, OSError, EOFError, SyntaxError, TypeError) as err:
+    except Exception as err:  # noqa: BLE001 - the header parser raises SyntaxError, TokenError...
         raise ValueError(f"{name}: cannot read as a NumPy .npy array: damaged header "
-                         f"({err})") from None
+                         f"({type(err).__name__}: {err})") from err
     if dtype.hasobject:
         raise ValueError(f"{name}: the array holds Python objects, not numbers (refused: "
                          "loading them would run code)")
     needed = int(np.prod(shape, dtype=object)) * dtype.itemsize
-    available = path.stat().st_size - offset
-    if needed > available:
-        raise ValueError(f"{name}: truncated or damaged file: the header declares shape "
-                         f"{tuple(shape)} of {dtype} ({needed} bytes) but the file holds "
-                         f"{available} bytes of data")
+    available = size - offset
+    if needed != available:
+        raise ValueError(f"{name}: truncated or damaged file: "
+                         f"the header declares shape {tuple(shape)} of {dtype} ({needed} "
+                         f"bytes) but the file holds {available} bytes of data after its "
+                         f"{offset}-byte header")
 
 
 def read(path, *, spacing=None, size=None, unit: str | None = None,
@@ -102,14 +122,15 @@ def read(path, *, spacing=None, size=None, unit: str | None = None,
     ((3, 4), 'um', 'nm', 1.0)
     """
     path = Path(path)
+    check_file(path)
+    with reader_errors(path, "a NumPy .npy array"):
+        return _read(path, spacing, size, unit, height_unit, periodic)
+
+
+def _read(path: Path, spacing, size, unit, height_unit, periodic) -> xr.DataArray:
     name = path.name
     _check_size(path)
-    try:
-        arr = np.load(path, allow_pickle=False)
-    except FileNotFoundError:
-        raise
-    except (ValueError, OSError, EOFError) as err:
-        raise ValueError(f"{name}: cannot read as a NumPy .npy array ({err})") from None
+    arr = np.load(path, allow_pickle=False)
     if not isinstance(arr, np.ndarray):
         raise ValueError(f"{name}: not a single .npy array")
     if arr.dtype.kind not in "iuf" or arr.ndim not in (1, 2):

@@ -23,7 +23,10 @@ stored line is ``y = 0``), after the inversion flag has been applied.
 Safety: the points a header declares are checked against the file's size (plain data) or
 against ``max_points`` (default :data:`xrough.io._common.MAX_POINTS`) and the stream
 directory (compressed data, each stream inflated with a cap at the size the directory
-states) before anything is allocated; every failure is a ``ValueError`` naming the file.
+states) before anything is allocated; the objects' sizes (header, comment, private zone,
+points or compressed streams) must add up to the file's size, so that inserted or cut
+bytes, which shift the data, are refused; every failure is a ``ValueError`` naming the
+file.
 
 Not read: the private zone, the client zone, intensity/RGB/binary images, spectra and
 force curves (only height objects: profiles, surfaces and series or layers of them).
@@ -105,7 +108,7 @@ def _unit(text: str, path: Path, what: str) -> str:
     try:
         return u.format_units(u.as_length_unit(clean, what=f"{what} unit"))
     except ValueError as err:
-        raise ValueError(f"{path.name}: {err}") from None
+        raise ValueError(f"{path.name}: {err}") from err
 
 
 def _header(raw: bytes, pos: int, path: Path, index: int) -> dict:
@@ -288,11 +291,16 @@ def _read(path: Path, index: int, max_points: int | None):
     if not 0 <= index < n_objects:
         raise ValueError(f"{path.name}: index={index} but the file has {n_objects} "
                          f"object{'s' if n_objects > 1 else ''} (0 to {n_objects - 1})")
-    pos = 0
-    for k in range(index + 1):
-        h = first if k == 0 else _header(raw, pos, path, k)
-        if k < index:
-            _, pos = _points(raw, h, path, k, decode=False)
+    pos, headers = 0, []
+    for k in range(n_objects):  # every object's size, to check them against the file's
+        headers.append(first if k == 0 else _header(raw, pos, path, k))
+        _, pos = _points(raw, headers[-1], path, k, decode=False)
+    if pos != len(raw):
+        raise ValueError(f"{path.name}: the file has {len(raw)} bytes, {len(raw) - pos} more "
+                         f"than the headers of its {n_objects} object(s) account for (the "
+                         f"last data ends at byte {pos} by their comment, private zone and "
+                         "point sizes): bytes inserted into the file shift the data")
+    h = headers[index]
     kind = OBJECT_TYPES.get(h["object_type"], f"type {h['object_type']}")
     if h["object_type"] not in _HEIGHT_TYPES:
         raise ValueError(f"{path.name}: object {index} is a {kind}, not heights; choose "
@@ -344,20 +352,17 @@ def _read(path: Path, index: int, max_points: int | None):
         attrs["inversion"] = int(h["inversion"])
     if n_objects > 1:
         attrs.update(n_objects=n_objects, object_index=index)
-    try:
-        if ny == 1:
-            return topography(heights[0], spacing=dx, unit=lateral_unit,
-                              height_unit=height_unit, attrs=attrs)
-        dy = _f32(h["dy"])
-        y_unit = _unit(h["dy_unit"], path, "Y")
-        if y_unit != lateral_unit:
-            dy *= u.conversion_factor(y_unit, lateral_unit)
-        if h["y_offset"]:
-            attrs["y_offset"] = _f32(h["y_offset"]) * u.conversion_factor(y_unit,
-                                                                          lateral_unit)
-        if not dy > 0:
-            raise ValueError(f"the Y spacing must be positive, got {dy}")
-        return topography(heights, spacing=(dy, dx), unit=lateral_unit,
+    # a ValueError without the file's name gets it from ``reader_errors``
+    if ny == 1:
+        return topography(heights[0], spacing=dx, unit=lateral_unit,
                           height_unit=height_unit, attrs=attrs)
-    except ValueError as err:
-        raise ValueError(f"{path.name}: {err}") from None
+    dy = _f32(h["dy"])
+    y_unit = _unit(h["dy_unit"], path, "Y")
+    if y_unit != lateral_unit:
+        dy *= u.conversion_factor(y_unit, lateral_unit)
+    if h["y_offset"]:
+        attrs["y_offset"] = _f32(h["y_offset"]) * u.conversion_factor(y_unit, lateral_unit)
+    if not dy > 0:
+        raise ValueError(f"the Y spacing must be positive, got {dy}")
+    return topography(heights, spacing=(dy, dx), unit=lateral_unit, height_unit=height_unit,
+                      attrs=attrs)
