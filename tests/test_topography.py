@@ -174,7 +174,7 @@ def test_plots_return_axes():
     assert ax.get_ylabel() == "height (nm)"
     G = topo.rough.acf()
     ax = G.rough.plot()
-    assert "nm2" in ax.get_ylabel() and ax.get_xscale() == "log"
+    assert "nm²" in ax.get_ylabel() and ax.get_xscale() == "log"
     stack = xr.concat([topo, 2 * topo], dim="scan").rough.acf()
     ax = stack.rough.plot()
     assert len(ax.get_lines()) == 2
