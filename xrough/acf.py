@@ -166,8 +166,9 @@ def check_acf(G: xr.DataArray, *, what: str = "G", single: bool = False,
                               unit=unit_str)
         if not problem and "standard_error" in G.coords:
             se = G.coords["standard_error"].broadcast_like(G)
-            factor = u.conversion_factor(u.units_of(se, what="coordinate 'standard_error'"),
-                                         g_unit)
+            factor = (1.0 if "units" not in se.attrs else  # unit-less: read as G's
+                      u.conversion_factor(u.units_of(se, what="coordinate 'standard_error'"),
+                                          g_unit))
             problem = relative_error_problem(
                 lines, np.moveaxis(np.asarray(se.values, dtype=float) * factor,
                                    se.get_axis_num("dr"), -1), dr, unit=unit_str)
