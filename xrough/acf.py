@@ -46,7 +46,7 @@ import xarray as xr
 
 from . import quality
 from . import units as u
-from ._kernels.acf_curve import acf_problem
+from ._kernels.acf_curve import acf_problem, relative_error_problem
 from ._version import __version__
 
 __all__ = ["AcfSpec", "check_acf", "read_acf", "PROVENANCE", "result_attrs", "lag_coord",
@@ -161,8 +161,18 @@ def check_acf(G: xr.DataArray, *, what: str = "G", single: bool = False,
                    gaps=_gaps(G.attrs, length_unit, what))
     if G.chunks is None:
         lines = np.moveaxis(np.asarray(G.values, dtype=float), G.get_axis_num("dr"), -1)
-        problem = acf_problem(dr, lines.reshape(-1, dr.size), min_bins=min_bins,
+        problem = acf_problem(dr, lines.reshape(-1, dr.size) * spec.g_factor,
+                              min_bins=min_bins,
                               unit=unit_str)
+        if not problem and "standard_error" in G.coords:
+            se = G.coords["standard_error"].broadcast_like(G)
+            factor = (1.0 if "units" not in se.attrs else  # unit-less: read as G's
+                      u.conversion_factor(u.units_of(se, what="coordinate 'standard_error'"),
+                                          g_unit))
+            problem = relative_error_problem(
+                lines, np.moveaxis(np.asarray(se.values, dtype=float) * factor,
+                                   se.get_axis_num("dr"), -1), dr, unit=unit_str)
+            problem = f"coordinate {problem}" if problem else ""
         if problem:
             raise ValueError(f"{what} {problem}")
     return spec

@@ -28,8 +28,8 @@ from ._kernels.hankel import acf_from_spectrum_kernel
 from .acf import AcfSpec, gap_note, lag_coord, mark_gaps, read_acf, result_attrs
 from .fitting import fit_acf, rolloff_shapes
 from .gradient import rms_gradient
-from .models import model_from_attrs
 from .preprocess import reliability_window
+from .spectra import spectrum_input
 
 __all__ = ["elastic_energy", "stress_acf", "stress_acf_from_spectrum", "persson",
            "patch_radius", "KAPPA_PERSSON"]
@@ -482,7 +482,9 @@ def stress_acf_from_spectrum(C: xr.DataArray, dr: Any, *, E_star: Any) -> xr.Dat
     Parameters
     ----------
     C : xarray.DataArray
-        A model spectrum from :func:`xrough.model_spectrum`.
+        A model spectrum from :func:`xrough.model_spectrum` (read as every function of a
+        spectrum reads it: values in length^4 that match the model of its attrs, on
+        wavenumbers in 1/length).
     dr : array_like
         Lags in the length unit of ``C``.
     E_star : float, str or Quantity
@@ -493,6 +495,13 @@ def stress_acf_from_spectrum(C: xr.DataArray, dr: Any, *, E_star: Any) -> xr.Dat
     xarray.DataArray
         ``G_sigma`` on ``dr`` in Pa^2.
 
+    Raises
+    ------
+    ValueError
+        ``C`` without a model in its attrs, values that do not match it (NaN, negative or
+        modified), values or wavenumbers without length units, or a bad ``E_star`` or
+        ``dr``.
+
     Examples
     --------
     >>> C = xrough.model_spectrum(hurst=0.8, lambda_r="1 um", lambda_s="10 nm",
@@ -502,11 +511,12 @@ def stress_acf_from_spectrum(C: xr.DataArray, dr: Any, *, E_star: Any) -> xr.Dat
     2.5e+09
     """
     E = u.positive_si(E_star, _PRESSURE, what="E_star")
-    model = model_from_attrs(C.attrs)
+    spec = spectrum_input(C)  # dims, units and values, as every function of a spectrum
+    model = spec.model
     if model is None:
         raise ValueError("stress_acf_from_spectrum needs a model spectrum "
                          "(xrough.model_spectrum)")
-    lunit = u.parse_units(C["q"].attrs["units"]) ** -1
+    lunit = spec.length_unit
     dr = u.array_in(dr, lunit, what="dr", noun="distances")
     knots = 0.0 if model.rolloff == "sharp" else 160.0
     g_q2 = acf_from_spectrum_kernel(dr, lambda q: q**2 * model(q), model.breakpoints,

@@ -100,10 +100,21 @@ def self_affine_model(
         amplitude = float(q.to("").magnitude)
     if not (np.isfinite(amplitude) and amplitude > 0):
         raise ValueError(f"{name} must be positive and finite, got {value!r}")
-    c_r = {"C_r": amplitude, "rms_height": amplitude**2 / shape.shape_moment(0),
-           "rms_gradient": amplitude**2 / shape.shape_moment(2)}[name]
-    return SpectrumModel(hurst=float(hurst), q_r=q_r, q_s=q_s, q_0=q_0, C_r=float(c_r),
-                         rolloff=rolloff)
+    if name != "C_r":  # the range where the square of an rms (C_r) fits in a float
+        u.positive_si(f"{amplitude!r} {unit}" if name == "rms_height" else amplitude,
+                      "[length]" if name == "rms_height" else "[]", what=name)
+    with np.errstate(over="ignore", under="ignore"):
+        c_r = {"C_r": amplitude, "rms_height": np.square(amplitude) / shape.shape_moment(0),
+               "rms_gradient": np.square(amplitude) / shape.shape_moment(2)}[name]
+        model = SpectrumModel(hurst=float(hurst), q_r=q_r, q_s=q_s, q_0=q_0,
+                              C_r=float(c_r), rolloff=rolloff)
+        moments = (model.C_r, model.moment(0), model.moment(2))
+    if not all(np.isfinite(m) and m >= np.finfo(float).tiny for m in moments):
+        raise ValueError(
+            f"{name} = {value!r} gives C_r = {moments[0]:g} {unit}^4, rms height^2 = "
+            f"{moments[1]:g} {unit}^2 and rms gradient^2 = {moments[2]:g}: not all "
+            f"within float64 (1e-308 to 1e308); choose {name} or the unit so that they are")
+    return model
 
 
 def model_attrs(model: SpectrumModel) -> dict:

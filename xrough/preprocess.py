@@ -42,7 +42,7 @@ import xarray as xr
 
 from . import units as u
 from ._kernels import detrend as k
-from .topography import Grid, grid_of, require_whole_maps
+from .topography import Grid, check_finite, grid_of, require_whole_maps
 
 __all__ = [
     "DETREND_MODES",
@@ -107,6 +107,7 @@ def _label(mode: str, per_line: bool) -> str:
 
 
 def _detrend_kernel(h, *, coords, degree, per_line):
+    check_finite(h)
     if per_line:
         return k.detrend(h, coords[-1:], degree, strict=False)
     return k.detrend(h, coords, degree, strict=True)
@@ -146,7 +147,8 @@ def detrend(topography: xr.DataArray, *, mode: str = "plane",
     ------
     ValueError
         Unknown ``mode``, ``per_line`` on a profile, invalid topography (dims, units,
-        spacing), core dims split into dask chunks, or a map with fewer valid points than
+        spacing), core dims split into dask chunks, infinite heights (an invalid point:
+        :func:`mask_outliers` turns them into NaN), or a map with fewer valid points than
         the fit has coefficients.
 
     See Also
@@ -193,6 +195,7 @@ def detrend(topography: xr.DataArray, *, mode: str = "plane",
 
 
 def _fit_kernel(h, *, coords, degree, per_line):
+    check_finite(h)
     if per_line:
         return k.fit_polynomial(h, coords[-1:], degree, strict=False)[0]
     return k.fit_polynomial(h, coords, degree, strict=True)[0]
@@ -297,6 +300,7 @@ def _window_pixels(window: Any, grid: Grid) -> tuple[int, ...]:
 
 
 def _mask_kernel(h, *, nd, threshold, method, size, periodic):
+    h = np.where(np.isinf(h), np.nan, h)  # invalid points, left out of the statistics
     bad = k.outlier_mask(h, nd=nd, threshold=threshold, method=method, size=size,
                          periodic=periodic)
     return np.where(bad, np.nan, h)
@@ -315,8 +319,10 @@ def mask_outliers(topography: xr.DataArray, *, threshold: float = 5.0, method: s
     Parameters
     ----------
     topography : xarray.DataArray with dims (..., "y", "x") or (..., "x")
-        Heights with length units; NaN marks missing points (left as they are). Each
-        map of a stack gets its own statistics.
+        Heights with length units; NaN marks missing points (left as they are). Infinite
+        heights are invalid points: they are masked (set to NaN, counted in
+        ``outliers_masked``) and left out of the statistics. Each map of a stack gets
+        its own statistics.
     threshold : float
         Positive number of standard deviations. The default 5 flags a point of Gaussian
         data with probability 5.7e-7 (0.6 false positives per million points); 3.5
@@ -418,7 +424,7 @@ def mask_outliers(topography: xr.DataArray, *, threshold: float = 5.0, method: s
     attrs.pop("outliers_masked", None)
     attrs.pop("outlier_fraction", None)
     if result.chunks is None:
-        before = int(np.isfinite(topography.values).sum())
+        before = int((~np.isnan(topography.values)).sum())
         masked = before - int(np.isfinite(result.values).sum())
         attrs["outliers_masked"] = masked
         attrs["outlier_fraction"] = masked / before if before else 0.0
@@ -436,6 +442,10 @@ def _stencil_steps(n: int) -> np.ndarray:
     return steps[steps <= kmax]
 
 
+def _curvature_kernel(h, **kwargs):
+    return k.min_curvature(check_finite(h), **kwargs)
+
+
 def _tip_cutoff(topography: xr.DataArray, grid: Grid, tip_radius: float,
                 safety_factor: float) -> tuple[float | None, str]:
     """Stencil length below which tips of radius R cannot follow the curvature."""
@@ -447,7 +457,7 @@ def _tip_cutoff(topography: xr.DataArray, grid: Grid, tip_radius: float,
     for axis, (n, step) in enumerate(zip(grid.shape, grid.spacing)):
         steps = _stencil_steps(n)
         low = xr.apply_ufunc(
-            k.min_curvature, topography, input_core_dims=[list(grid.dims)],
+            _curvature_kernel, topography, input_core_dims=[list(grid.dims)],
             output_core_dims=[["stencil"]], dask="parallelized", output_dtypes=[float],
             dask_gufunc_kwargs={"output_sizes": {"stencil": len(steps)}},
             kwargs={"nd": nd, "axis": axis, "steps": steps, "spacing": step,
@@ -531,8 +541,10 @@ def reliable(
     Raises
     ------
     ValueError
-        Non-positive lengths or factors, ``long_fraction`` outside ``(0, 1]``, or an empty
-        window (``dr_min >= dr_max``, e.g. a tip too blunt for the scan).
+        Non-positive lengths or factors, ``long_fraction`` outside ``(0, 1]``, an empty
+        window (``dr_min >= dr_max``, e.g. a tip too blunt for the scan), or infinite
+        heights (mask them with :func:`mask_outliers`; dask input is checked only when
+        ``tip_radius`` reads it).
 
     See Also
     --------
@@ -573,6 +585,8 @@ def reliable(
     ('nm', 'dr_min: lateral resolution 10 nm; dr_max: 0.5 x scan size 64 nm')
     """
     grid = _validated(topography)
+    if topography.chunks is None:  # dask input is read only by the tip rule (and checked)
+        check_finite(topography.values)
     lunit = grid.lateral_unit
     for name, value in (("safety_factor", safety_factor), ("min_pixels", min_pixels),
                         ("long_fraction", long_fraction)):

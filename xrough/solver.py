@@ -26,6 +26,7 @@ from ._kernels.solver import (
     _solve_approach,
     _solve_load,
 )
+from ._kernels.tiles import scaled_heights
 from .topography import check_valid_points, grid_of
 
 __all__ = ["solve_contact", "ConvergenceWarning"]
@@ -71,6 +72,26 @@ def _fields(results: list[dict], key: str, factor: float) -> np.ndarray:
         r[key] = None
     out *= factor
     return out
+
+
+#: Largest load, relative to the scale of the heights, that float64 solves (its square and
+#: the pressures' sums stay finite; a relative load below the reciprocal puts less than
+#: 1e-250 of the full-contact pressure on the map).
+_LOAD_RANGE = 1e250
+
+
+def _scaled_targets(targets: np.ndarray, e: int, load_dim: str) -> np.ndarray:
+    """Return the loads ``p0/E*`` or approaches in units of the heights' scale ``2**e``."""
+    scaled = np.ldexp(np.asarray(targets, dtype=float), -e)
+    if np.all((scaled > 1 / _LOAD_RANGE) & (scaled < _LOAD_RANGE)):
+        return scaled
+    k = int(np.flatnonzero(~((scaled > 1 / _LOAD_RANGE) & (scaled < _LOAD_RANGE)))[0])
+    name = "p0 / E_star" if load_dim == "p0" else "displacement"
+    raise ValueError(
+        f"{name} = {targets[k]:g} is {scaled[k]:g} times the largest height |h| = "
+        f"2**{e} (lateral unit): outside {1 / _LOAD_RANGE:g} to {_LOAD_RANGE:g}, the loads "
+        "float64 arithmetic solves on these heights (bring the load or the heights to a "
+        "common scale)")
 
 
 def solve_contact(
@@ -172,7 +193,9 @@ def solve_contact(
         Non-positive or non-finite ``E_star`` or ``p0``, both or neither of ``p0`` and
         ``displacement``, NaN or infinite heights, a non-uniform grid, or a periodic
         ``displacement`` at or beyond full contact, an unknown ``precision`` or
-        ``precondition``, or a negative ``coarse_to_fine``.
+        ``precondition``, a negative ``coarse_to_fine``, or a load ``p0 / E*`` (or a
+        ``displacement``) outside 1e-250 to 1e250 times the largest height (in the
+        lateral unit), beyond float64 on these heights.
 
     Warns
     -----
@@ -205,6 +228,11 @@ def solve_contact(
     ``max(sum|p - p_old| / sum p, rms(g on I_c and g < 0 elsewhere) / rms(h))`` and the
     iteration stops below ``tol``. A load beyond full contact simply converges to full
     contact (``contact_area = 1``).
+
+    The problem is linear in ``(h, p0/E*, delta)``: it is solved on the heights divided
+    by the power of two nearest their largest ``|h|`` (exact in floating point, so heights
+    of any size give the same solution, scaled, without overflowing squares or float32
+    transforms), and the fields are scaled back.
 
     Full contact of a periodic map needs no iteration: where ``p0 + (E*/2)|q| h~`` is
     positive everywhere it is the solution, computed with one pair of transforms and
@@ -275,7 +303,11 @@ def solve_contact(
     scalar = np.ndim(values) == 0
     workers = workers if workers is not None else (os.cpu_count() or 1)
     op = _ElasticOperator(h.shape, grid.spacing, periodic=grid.periodic, workers=workers)
-    h_lat = h * to_lat if to_lat != 1 else h
+    # the problem is linear in (h, p0/E*, delta): solve it with heights scaled by the power
+    # of two 2**e nearest max|h| (exact in floating point), so that no height, square or
+    # float32 transform overflows, and scale the fields back
+    h_lat, e = scaled_heights(h * to_lat if to_lat != 1 else h)
+    targets = _scaled_targets(targets, e, load_dim)
 
     bar = _progress_bar(progress, "contact")
     callback = None if bar is None else (lambda it, res: (
@@ -325,7 +357,7 @@ def solve_contact(
             f"{len(bad)} of {len(results)} load(s) (worst residual {worst:.2g}); the "
             "result is flagged converged=0: raise max_iter or loosen tol"))
 
-    from_lat = 1.0 / to_lat
+    from_lat = np.ldexp(1.0 / to_lat, e)
     n_hist = max(len(r["history"]) for r in results)
     hist = np.full((len(results), n_hist), np.nan)
     for i, r in enumerate(results):
@@ -333,8 +365,8 @@ def solve_contact(
     L = (load_dim,)
     yx = ("y", "x")
     area = np.array([np.mean(r["pressure"] > 0) for r in results])
-    mean_p = np.array([r["pressure"].mean() for r in results]) * E
-    pressure = _fields(results, "pressure", E)
+    mean_p = np.ldexp(np.array([r["pressure"].mean() for r in results]) * E, e)
+    pressure = _fields(results, "pressure", np.ldexp(E, e))
     ds = xr.Dataset(
         {
             "pressure": (L + yx, pressure, {"units": "Pa", "long_name": "contact pressure"}),

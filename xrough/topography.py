@@ -157,11 +157,18 @@ def require_whole_maps(da: xr.DataArray, grid: Grid, *, purpose: str) -> None:
             )
 
 
-def check_valid_points(values: np.ndarray, *, what: str = "topography", ndim: int = 2) -> None:
-    """Raise if any map in ``values`` (core dims last) has inf or fewer than 2 valid points."""
+def check_finite(values: np.ndarray, *, what: str = "topography") -> np.ndarray:
+    """Return ``values`` as an array; raise if any is infinite (NaN marks missing points)."""
     values = np.asarray(values)
     if np.isinf(values).any():
-        raise ValueError(f"{what} contains infinite heights; mark missing points as NaN")
+        raise ValueError(f"{what} contains {int(np.isinf(values).sum())} infinite "
+                         "height(s); mark missing points as NaN (mask_outliers masks them)")
+    return values
+
+
+def check_valid_points(values: np.ndarray, *, what: str = "topography", ndim: int = 2) -> None:
+    """Raise if any map in ``values`` (core dims last) has inf or fewer than 2 valid points."""
+    values = check_finite(values, what=what)
     valid = np.isfinite(values).reshape(values.shape[: values.ndim - ndim] + (-1,)).sum(-1)
     if np.any(valid < 2):
         raise ValueError(

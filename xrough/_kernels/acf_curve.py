@@ -30,7 +30,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import make_smoothing_spline
 
-__all__ = ["AcfCurve", "DETERMINED", "FLAT_SLOPE", "acf_problem", "require_acf"]
+__all__ = ["AcfCurve", "DETERMINED", "FLAT_SLOPE", "G_RANGE", "RELATIVE_ERROR_RANGE", "acf_problem",
+           "relative_error_problem", "require_acf"]
 
 #: Smoothing length of the derivatives of G, in decades of dr (a spline penalty
 #: ``lam = (samples per unit ln dr) * (0.05 ln 10)^4``): fine enough for the roll-offs
@@ -59,6 +60,17 @@ DECREASE = 1.1
 FLAT_SLOPE = 0.1
 
 
+#: Largest (and reciprocal of the smallest) nonzero |G| in the square of its lag unit that
+#: the functions of G accept: up to about 1e284 every one gives the result of a G scaled
+#: down by the same factor; fits fail near 1e294.
+G_RANGE = 1e280
+
+
+#: Range of the relative standard error of G (of ln G) that the functions of G accept (a
+#: wider one overflows the squared weights; measured values lie between 1e-8 and 10).
+RELATIVE_ERROR_RANGE = 1e100
+
+
 def acf_problem(dr: np.ndarray, lines: np.ndarray, *, min_bins: int = 2,
                 unit: str = "") -> str:
     """Say what is wrong with the values of G (the rules of :mod:`xrough.acf`), or ``""``.
@@ -77,6 +89,13 @@ def acf_problem(dr: np.ndarray, lines: np.ndarray, *, min_bins: int = 2,
     lines = np.atleast_2d(np.asarray(lines, dtype=float))
     if np.any(np.isinf(lines)):
         return "has infinite values (NaN marks an empty bin; inf is never a valid G)"
+    size = np.abs(lines[np.isfinite(lines) & (lines != 0)])
+    if size.size and not (size.max() <= G_RANGE and size.min() >= 1 / G_RANGE):
+        sq = f"{unit}^2" if unit else "(lag unit)^2"
+        return (f"has values from {size.min():g} to {size.max():g} {sq}, beyond "
+                f"{1 / G_RANGE:g} to {G_RANGE:g} {sq}: the fits and spectra of G square "
+                "and exponentiate it and would overflow float64 (check the height scale "
+                "of the data; in physical units no G comes near these bounds)")
     zero_lag = dr == 0
     if np.any(lines[:, zero_lag][np.isfinite(lines[:, zero_lag])] != 0):
         return "must be 0 at dr = 0 (a point differs from itself by nothing)"
@@ -107,6 +126,28 @@ def acf_problem(dr: np.ndarray, lines: np.ndarray, *, min_bins: int = 2,
             return (f"has {int(valid.sum())} valid (non-NaN) bins at dr > 0; at least "
                     f"{min_bins} are needed")
     return ""
+
+
+def relative_error_problem(g: np.ndarray, se: np.ndarray, dr: np.ndarray, *,
+                           unit: str = "") -> str:
+    """Say what is wrong with a ``standard_error`` ``se`` of G ``g`` (one unit), or ``""``.
+
+    Its ratio to G, the standard error of ln G, weights fits and smoothing squared: it must
+    lie within ``1/RELATIVE_ERROR_RANGE`` to ``RELATIVE_ERROR_RANGE`` where both are valid.
+    """
+    g, se = np.broadcast_arrays(np.asarray(g, dtype=float), np.asarray(se, dtype=float))
+    with np.errstate(over="ignore", under="ignore", divide="ignore", invalid="ignore"):
+        ratio = se / g
+    used = np.isfinite(ratio) & (g > 0) & (se > 0)
+    odd = used & ~((ratio > 1 / RELATIVE_ERROR_RANGE) & (ratio < RELATIVE_ERROR_RANGE))
+    if not np.any(odd):
+        return ""
+    k = np.unravel_index(np.flatnonzero(odd)[0], odd.shape)
+    return (f"standard_error is {ratio[k]:.3g} times G at dr = {dr[k[-1]]:g} {unit} "
+            f"(G = {g[k]:g}, standard_error = {se[k]:g}), outside "
+            f"{1 / RELATIVE_ERROR_RANGE:g} to {RELATIVE_ERROR_RANGE:g}: G and its "
+            "standard_error coordinate are not in one unit (scaling G's values leaves its "
+            "coordinates as they were: scale both, or drop the coordinate)")
 
 
 def require_acf(dr: np.ndarray, g: np.ndarray, *, min_bins: int = 2) -> None:

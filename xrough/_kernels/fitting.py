@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import optimize
 
+from .acf_curve import relative_error_problem
 from .hankel import acf_from_spectrum_kernel
 from .shape_factors import ROLLOFFS, rolloff_crossover, self_affine_constant
 from .spectral_models import SpectrumModel, model_gradient2
@@ -136,6 +137,9 @@ def _select(G, se, use, weighted, dr, unit, what):
         k = np.flatnonzero(sel & ~(se > 0))[0]
         raise ValueError(f"standard_error must be positive where G is fitted, got "
                          f"{se[k]:g} at dr = {dr[k]:g} {unit} (or use weights=None)")
+    problem = relative_error_problem(G[sel], se[sel], dr[sel], unit=unit) if weighted else ""
+    if problem:
+        raise ValueError(f"the {problem} (or use weights=None)")
     return sel
 
 
