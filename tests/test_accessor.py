@@ -280,7 +280,7 @@ def test_datatree_plot(tree):
     assert len(ax.collections) == 1  # the standard error band of the stitched G
     assert (ax.get_xscale(), ax.get_yscale()) == ("log", "log")
     assert ax.get_xlabel() == "lag distance (nm)"
-    assert ax.get_ylabel().endswith("(nm2)")
+    assert ax.get_ylabel().endswith("(nm²)")
     # plot.plot dispatches a DataTree to the same figure
     assert [ln.get_label() for ln in plot.plot(tree).get_lines()] == [*names, "stitched"]
     assert len(tree.rough.plot(error=False).collections) == 0
