@@ -71,19 +71,22 @@ def display_unit(units: str) -> str:
         return _MICRO.sub("µ", str(units))
 
 
-def _coord_text(obj, dim: str, value) -> str:
-    """``"p0 = 0.1 MPa"`` for a legend: a coordinate value with its unit, compact prefix.
+def _coord_text(name: str, value, units: str | None) -> str:
+    """``"p0 = 0.1 MPa"`` for a legend: a value with its unit, compact prefix.
 
-    A name (string coordinate, e.g. a measurement) stands alone.
+    A name (a string value, e.g. a measurement) stands alone.
     """
     if isinstance(value, (str, np.str_)):
         return str(value)
-    units = obj[dim].attrs.get("units") if dim in obj.coords else None
     try:
         q = _units.ureg.Quantity(float(value), _units.parse_units(units)).to_compact()
-        return f"{dim} = {q.magnitude:.3g} {display_unit(format(q.units, '~'))}".rstrip()
+        return f"{name} = {q.magnitude:.3g} {display_unit(format(q.units, '~'))}".rstrip()
     except (ValueError, TypeError):
-        return f"{dim} = {value}"
+        return f"{name} = {value}"
+
+
+def _coord_units(obj, dim: str) -> str | None:
+    return obj[dim].attrs.get("units") if dim in obj.coords else None
 
 
 def _label(da: xr.DataArray, default: str) -> str:
@@ -215,7 +218,8 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
         x, (y, *rest) = _with_gaps(x, [y] + ([se] if se is not None else []), breaks)
         label = user_label if k == 0 else None
         if extra:
-            index = ", ".join(_coord_text(da, d, line[d].item()) for d in extra
+            index = ", ".join(_coord_text(d, line[d].item(), _coord_units(da, d))
+                              for d in extra
                               if d in line.coords)
             label = f"{user_label} ({index})" if user_label else index
         (ln,) = ax.plot(x, y, label=label, **kwargs)
@@ -419,7 +423,8 @@ def plot_patch_radius(patch: xr.Dataset, *, ax=None, **kwargs):
     b = (upper.stack(_row=extra) if extra else upper.expand_dims("_row")).values
     if extra:
         stacked = a_c.stack(_row=extra)
-        rows = [", ".join(_coord_text(a_c, d, stacked[d].values[i]) for d in extra)
+        rows = [", ".join(_coord_text(d, stacked[d].values[i], _coord_units(a_c, d))
+                          for d in extra)
                 for i in range(stacked.sizes["_row"])]
     else:
         rows = [str(a_c.attrs.get("long_name", "a_c")).split(",")[0]]
@@ -450,10 +455,8 @@ def plot_patch_radius(patch: xr.Dataset, *, ax=None, **kwargs):
     _set_labels(ax, _label(a_c, "a_c").replace(", upper estimate", ""), "")
     gamma, E = patch.attrs.get("gamma"), patch.attrs.get("E_star")
     if gamma is not None and E is not None:
-        g_text = _coord_text(xr.Dataset(coords={"γ": ((), gamma, {
-            "units": patch.attrs.get("gamma_units", "")})}), "γ", gamma)
-        e_text = _coord_text(xr.Dataset(coords={"E*": ((), E, {
-            "units": patch.attrs.get("E_star_units", "")})}), "E*", E)
+        g_text = _coord_text("γ", gamma, patch.attrs.get("gamma_units"))
+        e_text = _coord_text("E*", E, patch.attrs.get("E_star_units"))
         ax.set_title(f"{g_text}, {e_text}", fontsize="medium")
     ax.legend(loc="lower right", fontsize="small")
     return ax
