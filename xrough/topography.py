@@ -17,6 +17,7 @@ import pint
 import xarray as xr
 
 from . import units as u
+from ._kernels.pairs import require_no_inf
 
 __all__ = ["topography", "Grid", "grid_of", "SPACING_RTOL"]
 
@@ -159,11 +160,7 @@ def require_whole_maps(da: xr.DataArray, grid: Grid, *, purpose: str) -> None:
 
 def check_finite(values: np.ndarray, *, what: str = "topography") -> np.ndarray:
     """Return ``values`` as an array; raise if any is infinite (NaN marks missing points)."""
-    values = np.asarray(values)
-    if np.isinf(values).any():
-        raise ValueError(f"{what} contains {int(np.isinf(values).sum())} infinite "
-                         "height(s); mark missing points as NaN (mask_outliers masks them)")
-    return values
+    return require_no_inf(values, what=f"the heights of {what}")
 
 
 def check_valid_points(values: np.ndarray, *, what: str = "topography", ndim: int = 2) -> None:

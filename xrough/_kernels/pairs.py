@@ -204,9 +204,21 @@ def folded_pair_sums(h: np.ndarray, ks: tuple[int, ...], *, periodic: bool,
     valid = np.isfinite(h)
     if valid.all():
         return _unmasked(h, ks, fshape, axes, periodic, workers), None
-    if np.isinf(h).any():
-        raise ValueError("heights contain infinite values; mark missing points as NaN")
+    require_no_inf(h)
     return _masked(h, valid, ks, fshape, axes, workers)
+
+
+def require_no_inf(h: np.ndarray, what: str = "heights") -> np.ndarray:
+    """Return ``h`` as an array; raise if any value is infinite (NaN marks a missing point).
+
+    The one check of infinite heights, for every estimator and preprocessing step.
+    """
+    h = np.asarray(h)
+    n = int(np.isinf(h).sum()) if h.dtype.kind == "f" else 0
+    if n:
+        raise ValueError(f"{what} contain {n} infinite value(s); mark missing points as NaN "
+                         "(mask_outliers masks them)")
+    return h
 
 
 def _unmasked(h, ks, fshape, axes, periodic, workers):

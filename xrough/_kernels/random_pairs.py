@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .pairs import require_no_inf
+
 __all__ = ["random_pair_sums", "scaled_points", "valid_points"]
 
 _ENUMERATE_MAX = 200_000  # lattice vectors; above this a bin is sampled continuously
@@ -172,8 +174,7 @@ def scaled_points(h: np.ndarray, index: tuple, scale: float) -> np.ndarray:
     with np.errstate(invalid="ignore"):
         big = np.abs(v) > _LARGEST_SCALED
     if big.any():
-        if np.isinf(v).any():
-            raise ValueError("heights contain infinite values; mark missing points as NaN")
+        require_no_inf(v)
         raise ValueError(
             f"heights up to {np.nanmax(np.abs(v)) * scale:.3g} span more than 1e60 times the "
             f"largest of a regular sample of the map ({scale:.3g}): the random-pair "

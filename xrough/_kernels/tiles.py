@@ -35,7 +35,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import fft as sfft
 
-from .pairs import fold
+from .pairs import fold, require_no_inf
 
 __all__ = ["power_of_two_exponent", "scaled_heights", "point_stats", "coarsen_stats",
            "coarsen_piece", "cut_piece", "merge_stats", "tile_piece_sums", "add_scaled",
@@ -48,11 +48,6 @@ def power_of_two_exponent(peak) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         exponent = np.where(np.isfinite(peak) & (peak > 0), np.round(np.log2(peak)), 0.0)
     return exponent.astype(int)
-
-
-def _check_finite(h: np.ndarray) -> None:
-    if np.isinf(h).any():
-        raise ValueError("heights contain infinite values; mark missing points as NaN")
 
 
 def scaled_heights(h: np.ndarray) -> tuple[np.ndarray, int | None]:
@@ -71,7 +66,7 @@ def scaled_heights(h: np.ndarray) -> tuple[np.ndarray, int | None]:
         return h, None
     peak = max(float(top), -float(bottom))
     if np.isinf(peak):
-        _check_finite(h)
+        require_no_inf(h)
     e = int(power_of_two_exponent(peak))
     return np.ldexp(h, -e), e
 
@@ -86,7 +81,7 @@ def point_stats(h: np.ndarray) -> np.ndarray:
     """
     h = np.asarray(h, dtype=np.float64)
     valid = np.isfinite(h)
-    _check_finite(h)
+    require_no_inf(h)
     out = np.zeros((3,) + h.shape)
     out[0] = valid
     np.copyto(out[1], h, where=valid)
