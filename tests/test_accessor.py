@@ -38,7 +38,7 @@ METHODS = {
         "reliable": preprocess.reliable,
         "reliability_window": preprocess.reliability_window,
         "solve_contact": solver.solve_contact,
-        "validate": validation.compare_with_simulation,
+        "compare_with_simulation": validation.compare_with_simulation,
         "spectrum": spectra.spectrum,
         "fit": fitting.fit_acf,
         "energy": contact.elastic_energy,
@@ -169,7 +169,7 @@ TOPOGRAPHY_CALLS = [
     ("mask_outliers", (), {"threshold": 3.0}),
     ("reliable", (), {"short_cutoff": "20 nm", "long_cutoff": "200 nm"}),
     ("solve_contact", (), {"E_star": E_STAR, "p0": P0}),
-    ("validate", (), {"E_star": E_STAR, "p0": P0, "theory": "persson"}),
+    ("compare_with_simulation", (), {"E_star": E_STAR, "p0": P0, "theory": "persson"}),
 ]
 G_CALLS = [
     ("spectrum", (), {}),

@@ -112,7 +112,7 @@ class RoughDataArrayAccessor:
     reliable = _forward(preprocess.reliable)
     reliability_window = _forward(preprocess.reliability_window)
     solve_contact = _forward(solver.solve_contact)
-    validate = _forward(validation.compare_with_simulation)
+    compare_with_simulation = _forward(validation.compare_with_simulation)
     spectrum = _forward(spectra.spectrum)
     fit = _forward(fitting.fit_acf)
     energy = _forward(contact.elastic_energy)
