@@ -25,6 +25,7 @@ from xrough.accessor import (
     RoughDatasetAccessor,
     RoughDataTreeAccessor,
 )
+from xrough.topography import convert_units
 
 requires_datatree = pytest.mark.skipif(not hasattr(xr, "DataTree"),
                                        reason="xarray without DataTree")
@@ -32,6 +33,7 @@ requires_datatree = pytest.mark.skipif(not hasattr(xr, "DataTree"),
 METHODS = {
     RoughDataArrayAccessor: {
         "acf": correlation.height_difference_acf,
+        "convert_units": convert_units,
         "detrend": preprocess.detrend,
         "fit_trend": preprocess.fit_trend,
         "mask_outliers": preprocess.mask_outliers,

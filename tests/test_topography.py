@@ -190,3 +190,78 @@ def test_plot_labels_and_profile_stacks():
     profiles = xr.concat([topo.isel(y=0), topo.isel(y=1)], dim="scan")
     ax = profiles.rough.plot()
     assert len(ax.get_lines()) == 2
+
+
+# --------------------------------------------------------------------------------------
+# convert_units: the same surface in other units
+# --------------------------------------------------------------------------------------
+def _surface_in(unit):
+    return xrough.self_affine_surface(hurst=0.8, lambda_r="1 um", lambda_s="200 nm",
+                                      size="4 um", n=64, rms_gradient=0.5, seed=3,
+                                      unit=unit)
+
+
+def test_convert_units_is_the_same_surface_as_generated_in_those_units():
+    """Metres converted to nm heights and um coordinates equal the surface generated with
+    those units (rtol 1e-12: the same random amplitudes, scaled once in each route), and
+    G, a function of the physical surface, follows (rtol 1e-10)."""
+    in_m = _surface_in("m")
+    out = xrough.convert_units(in_m, "nm", lateral="um")
+    in_nm = _surface_in("nm")
+    assert out.attrs["units"] == "nm" and out.x.attrs["units"] == out.y.attrs["units"] == "um"
+    np.testing.assert_allclose(out.values, in_nm.values, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(out.x.values, in_nm.x.values * 1e-3, rtol=1e-12, atol=1e-15)
+    # model attrs: q in 1/um, C_r in nm^2 um^2, rms height in nm, the slope unchanged
+    assert out.attrs["q_r"] == pytest.approx(in_nm.attrs["q_r"] * 1e3, rel=1e-12)
+    assert out.attrs["C_r"] == pytest.approx(in_nm.attrs["C_r"] * 1e-6, rel=1e-12)
+    assert out.attrs["rms_height"] == pytest.approx(in_nm.attrs["rms_height"], rel=1e-12)
+    assert out.attrs["rms_gradient"] == pytest.approx(0.5, rel=1e-12)
+    G_m, G_conv = in_m.rough.acf(), out.rough.acf()
+    assert G_conv.attrs["units"] == "nm2" and G_conv.dr.attrs["units"] == "um"
+    np.testing.assert_allclose(G_conv.values, G_m.values * 1e18, rtol=1e-10)
+    np.testing.assert_allclose(G_conv.dr.values, G_m.dr.values * 1e6, rtol=1e-12)
+
+
+@pytest.mark.parametrize("height, lateral", [("um", None), (None, "mm"),
+                                             (u.ureg.nm, u.ureg.Unit("km"))])
+def test_convert_units_round_trip_and_forms(height, lateral):
+    """String and pint.Unit forms; converting back restores values to round-off (1e-14)
+    and keeps every attribute."""
+    topo = _surface_in("nm").rough.reliable(min_pixels=2)
+    out = xrough.convert_units(topo, height, lateral=lateral)
+    back = xrough.convert_units(out, "nm", lateral="nm")
+    np.testing.assert_allclose(back.values, topo.values, rtol=1e-14)
+    np.testing.assert_allclose(back.x.values, topo.x.values, rtol=1e-14)
+    assert back.attrs.keys() == topo.attrs.keys()
+    # the reliability window is the same physical window in the new unit
+    factor = u.conversion_factor("nm", out.x.attrs["units"])
+    lo, hi = xrough.reliability_window(topo)
+    assert xrough.reliability_window(out) == pytest.approx((lo * factor, hi * factor))
+
+
+def test_convert_units_keeps_dtype_and_dask_laziness():
+    topo = _surface_in("m").astype(np.float32)
+    topo.attrs = _surface_in("m").attrs
+    out = xrough.convert_units(topo, "nm")
+    assert out.dtype == np.float32
+    np.testing.assert_allclose(out.values, topo.values.astype(np.float64) * 1e9, rtol=1e-6)
+    lazy = xrough.convert_units(topo.chunk({"y": 16}), "nm", lateral="um")
+    assert lazy.chunks is not None and lazy.chunksizes["y"] == (16,) * 4
+    np.testing.assert_array_equal(lazy.values, out.values)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"height": "MPa"}, "height must be a length"),
+    ({"lateral": "s"}, "lateral must be a length"),
+    ({"lateral": "um2"}, "lateral must be a length"),
+    ({"height": "nmm"}, "nmm"),
+])
+def test_convert_units_refuses_what_is_not_a_length(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        xrough.convert_units(_surface_in("nm"), **kwargs)
+
+
+def test_convert_units_needs_a_topography():
+    G = _surface_in("nm").rough.acf()
+    with pytest.raises(ValueError, match="dim"):
+        xrough.convert_units(G, "um")

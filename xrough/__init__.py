@@ -60,7 +60,7 @@ from .stitching import (
     stitch_mismatch,
 )
 from .synthetic import self_affine_surface
-from .topography import topography
+from .topography import convert_units, topography
 from .validation import compare_with_simulation
 
 __all__ = [
@@ -80,6 +80,7 @@ __all__ = [
     "model_spectrum",
     "open_analysis",
     "open_topography",
+    "convert_units",
     "patch_radius",
     "persson",
     "quality",

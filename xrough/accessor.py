@@ -32,6 +32,7 @@ from . import (
     units,
     validation,
 )
+from .topography import convert_units
 
 __all__ = ["RoughDataArrayAccessor", "RoughDatasetAccessor", "RoughDataTreeAccessor"]
 
@@ -106,6 +107,7 @@ class RoughDataArrayAccessor:
         self._obj = obj
 
     acf = _forward(correlation.height_difference_acf)
+    convert_units = _forward(convert_units)
     detrend = _forward(preprocess.detrend)
     fit_trend = _forward(preprocess.fit_trend)
     mask_outliers = _forward(preprocess.mask_outliers)

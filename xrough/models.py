@@ -15,7 +15,13 @@ import numpy as np
 from . import units as u
 from ._kernels.spectral_models import SpectrumModel
 
-__all__ = ["self_affine_model", "model_attrs", "model_from_attrs"]
+__all__ = ["self_affine_model", "model_attrs", "model_from_attrs", "MODEL_ATTR_POWERS"]
+
+#: Powers ``(lateral, height)`` of the length units in each dimensional attribute of
+#: :func:`model_attrs`: what a change of units rescales (``C_r`` is a height^2 times an
+#: area; the rms gradient is a slope, the same in every unit).
+MODEL_ATTR_POWERS = {"q_r": (-1, 0), "q_s": (-1, 0), "q_0": (-1, 0), "C_r": (2, 2),
+                     "rms_height": (0, 1)}
 
 
 def self_affine_model(

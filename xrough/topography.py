@@ -18,8 +18,9 @@ import xarray as xr
 
 from . import units as u
 from ._kernels.pairs import require_no_inf
+from .models import MODEL_ATTR_POWERS
 
-__all__ = ["topography", "Grid", "grid_of", "SPACING_RTOL"]
+__all__ = ["topography", "convert_units", "Grid", "grid_of", "SPACING_RTOL"]
 
 #: Largest relative deviation of coordinate steps from their mean accepted as "uniform".
 SPACING_RTOL = 1e-6
@@ -303,6 +304,80 @@ def topography(
     if not _is_dask(da):
         check_valid_points(da.transpose(..., *dims).values, ndim=len(dims))
     return da
+
+
+def convert_units(topography: xr.DataArray, height: Any = None, *,
+                  lateral: Any = None) -> xr.DataArray:
+    """Convert a topography's heights and/or lateral coordinates to other units.
+
+    Values are multiplied by the conversion factor and the ``units`` attributes rewritten;
+    nothing else changes (no resampling, the dtype is kept, dask stays lazy). Use it to
+    work in the data's natural units after reading a file that stores metres (X3P, SDF):
+    every later result (``G`` in nm², ``dr`` in µm, ...) follows. The attributes xrough
+    writes follow too: the model parameters of a synthetic surface are rescaled
+    (:data:`xrough.models.MODEL_ATTR_POWERS`), the reliability window keeps its own
+    ``reliable_dr_units``. A file's own header attributes are left as the file wrote them.
+
+    Unlike ``open_topography(unit=...)``, which relabels a file whose unit is missing or
+    wrong, this converts: the physical surface stays the same.
+
+    Parameters
+    ----------
+    topography : xarray.DataArray
+        A topography (dims ``y, x`` or ``x``, see :func:`topography`).
+    height : str or pint.Unit, optional
+        Unit of length for the heights (default: unchanged).
+    lateral : str or pint.Unit, optional
+        Unit of length for the lateral coordinates ``x`` (and ``y``) (default: unchanged).
+
+    Returns
+    -------
+    xarray.DataArray
+
+    Raises
+    ------
+    ValueError
+        A unit that is not a length, or an input that is not a topography.
+
+    Examples
+    --------
+    >>> import numpy as np, xrough
+    >>> topo = xrough.topography(np.array([0.0, 2e-9, 1e-9]), spacing="0.5 um", unit="m")
+    >>> out = xrough.convert_units(topo, "nm", lateral="um")
+    >>> out.values.round(6).tolist(), out.attrs["units"]
+    ([0.0, 2.0, 1.0], 'nm')
+    >>> out.x.values.round(6).tolist(), out.x.attrs["units"]
+    ([0.0, 0.5, 1.0], 'um')
+    >>> xrough.convert_units(topo, "MPa")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: height must be a length, but its units are 'MPa' (dimensions ...)
+    """
+    grid = grid_of(topography)
+    h_unit = grid.height_unit if height is None else u.format_units(
+        u.as_length_unit(height, what="height"))
+    l_unit = grid.lateral_unit if lateral is None else u.format_units(
+        u.as_length_unit(lateral, what="lateral"))
+    h_factor = u.conversion_factor(grid.height_unit, h_unit)
+    l_factor = u.conversion_factor(grid.lateral_unit, l_unit)
+    out = topography.copy(deep=False, data=topography.data * _as_dtype(h_factor, topography))
+    for dim in grid.dims:
+        coord = topography.coords[dim]
+        factor = u.conversion_factor(coord.attrs["units"], l_unit)
+        out = out.assign_coords({dim: (dim, coord.values * factor,
+                                       {**coord.attrs, "units": l_unit})})
+    out.attrs = {**topography.attrs, "units": h_unit}
+    if topography.attrs.get("model") == "self-affine":
+        for name, (lateral_power, height_power) in MODEL_ATTR_POWERS.items():
+            if name in out.attrs:
+                out.attrs[name] = float(out.attrs[name] * l_factor**lateral_power
+                                        * h_factor**height_power)
+    return out
+
+
+def _as_dtype(factor: float, da: xr.DataArray):
+    """``factor`` as a scalar of the heights' floating dtype (float32 stays float32)."""
+    return np.asarray(factor, dtype=da.dtype if da.dtype.kind == "f" else np.float64)
 
 
 def _is_dask(da: xr.DataArray) -> bool:
