@@ -330,3 +330,61 @@ def test_fit_plot_through_the_accessor_draws_the_data_given():
     with pytest.raises(ValueError, match="not one"):
         G.rough.persson(E_star="25 MPa", p0="0.1 MPa").rough.plot(G=G)
     plt.close("all")
+
+
+def _tick_labels_overlap(ax, axis):
+    """Pairs of drawn tick labels (major and minor) of ``axis`` whose boxes intersect."""
+    ax.figure.canvas.draw()
+    renderer = ax.figure.canvas.get_renderer()
+    ticks = [*axis.get_major_ticks(), *axis.get_minor_ticks()]
+    boxes = [t.label1.get_window_extent(renderer) for t in ticks
+             if t.label1.get_visible() and t.label1.get_text()
+             and t.get_loc() is not None
+             and axis.get_view_interval().min() <= t.get_loc()
+             <= axis.get_view_interval().max()]
+    return [(a, b) for i, a in enumerate(boxes) for b in boxes[i + 1:] if a.overlaps(b)]
+
+
+@pytest.mark.parametrize("span", [("10 nm", "20 um"), ("100 nm", "2 um"), ("150 nm", "700 nm"),
+                                  ("180 nm", "400 nm")])
+def test_log_tick_labels_never_overlap(span):
+    """Regression: on a log axis spanning about a decade, matplotlib labels every minor
+    tick (2, 3, 4, 6 x 10^k) and they overlapped on a small axes. Labels are drawn on a
+    3 x 2.5 inch figure and their boxes must not intersect; where fewer than two powers
+    of ten are in view, at least one label (2 or 5 x 10^k, or a power) still gives the
+    scale."""
+    G = _model_G().sel(dr=slice(*(xrough.units.length_in(s, "nm", what="dr") for s in span)))
+    fig, ax = plt.subplots(figsize=(3, 2.5), layout="constrained")
+    G.rough.plot(ax=ax)
+    assert _tick_labels_overlap(ax, ax.xaxis) == []
+    labels = [t.get_text() for t in ax.get_xticklabels(which="both") if t.get_text()]
+    assert labels, "no scale on the x axis"
+    plt.close(fig)
+
+
+def test_patch_radius_ticks_do_not_overlap():
+    """The patch-radius axis spans about a decade around a_c: its labels stay apart."""
+    ax = _model_G().rough.patch_radius(E_star="25 MPa", gamma="50 mJ/m2").rough.plot()[0]
+    ax.figure.set_size_inches(4, 3)
+    assert _tick_labels_overlap(ax, ax.xaxis) == []
+    plt.close("all")
+
+
+def test_dataset_plots_take_ax_like_dataarrays():
+    """``ds.rough.plot(ax=ax)`` draws a one-panel Dataset into the caller's Axes, as a
+    DataArray's does; too few axes for the panels, or ax and axes together, are refused
+    (before, extra panels were dropped silently)."""
+    G = _model_G()
+    fig, ax = plt.subplots()
+    (drawn,) = G.rough.patch_radius(E_star="25 MPa", gamma="50 mJ/m2").rough.plot(ax=ax)
+    assert drawn is ax and ax.get_xscale() == "log"
+    (drawn,) = G.rough.fit().rough.plot(ax=ax, G=G)
+    assert drawn is ax
+    persson = G.rough.persson(E_star="25 MPa", p0="0.1 MPa")
+    (drawn,) = persson.rough.plot(ax=ax, variables=["a_r"])
+    assert drawn is ax and ax.get_title() == "a_r"
+    with pytest.raises(ValueError, match="1 Axes given for 10 panels"):
+        persson.rough.plot(ax=ax)
+    with pytest.raises(ValueError, match="not both"):
+        persson.rough.plot(ax=ax, axes=[ax])
+    plt.close("all")

@@ -20,6 +20,9 @@ Conventions of every figure:
   (:data:`BAND_FLOOR`) instead of vanishing.
 - Long axis labels are wrapped to the size of their axes, so that they stay inside the
   figure.
+- A log axis labels its powers of ten; only when fewer than two of them are in view are the
+  minor ticks at 2 and 5 labelled too, so that labels never crowd each other
+  (:func:`log_axis`).
 """
 
 from __future__ import annotations
@@ -34,7 +37,7 @@ from . import fitting, stitching
 from . import units as _units
 
 __all__ = ["plot", "plot_topography", "plot_loglog", "plot_dataset", "plot_stitched",
-           "plot_fit", "plot_patch_radius", "display_unit", "BAND_FLOOR"]
+           "plot_fit", "plot_patch_radius", "display_unit", "log_axis", "BAND_FLOOR"]
 
 #: Lower edge of an error band on a log axis, as a fraction of the curve (G / 10).
 BAND_FLOOR = 0.1
@@ -144,6 +147,33 @@ def pyplot(backend: str | None = None):
     return plt
 
 
+def log_axis(axis) -> None:
+    """Put ``axis`` (``ax.xaxis`` or ``ax.yaxis``) on a log scale with uncrowded labels.
+
+    The powers of ten are labelled; the minor ticks at 2 and 5 times a power of ten only
+    when fewer than two powers of ten are in view (decided when the figure is drawn, so it
+    holds after later lines change the limits). Matplotlib's default labels every minor
+    tick of an axis spanning about a decade, and they overlap on a narrow axes.
+    """
+    from matplotlib import ticker
+
+    class _SparseMinor(ticker.LogFormatterSciNotation):
+        def __init__(self) -> None:
+            super().__init__(labelOnlyBase=False, minor_thresholds=(np.inf, np.inf))
+
+        def __call__(self, x, pos=None):
+            lo, hi = sorted(self.axis.get_view_interval())
+            if not (x > 0 and lo > 0):
+                return ""
+            powers = np.floor(np.log10(hi)) - np.ceil(np.log10(lo)) + 1
+            mantissa = x / 10 ** np.floor(np.log10(x) + 1e-9)
+            wanted = np.isclose(mantissa, 2.0) or np.isclose(mantissa, 5.0)
+            return super().__call__(x, pos) if powers < 2 and wanted else ""
+
+    getattr(axis.axes, f"set_{axis.axis_name}scale")("log")
+    axis.set_minor_formatter(_SparseMinor())
+
+
 def _axes(ax):
     if ax is None:  # a new figure makes room for its labels when drawn
         _, ax = pyplot().subplots(layout="constrained")
@@ -227,15 +257,18 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
             se = rest[0]
             lo = np.maximum(y - se, BAND_FLOOR * y) if log_y else y - se
             ax.fill_between(x, lo, y + se, color=ln.get_color(), alpha=0.25, linewidth=0)
-    ax.set_xscale("log")
-    ax.set_yscale("log" if log_y else "linear")
+    log_axis(ax.xaxis)
+    if log_y:
+        log_axis(ax.yaxis)
+    else:
+        ax.set_yscale("linear")
     _set_labels(ax, _label(da[dim], dim), _label(da, da.name or ""))
     if extra or user_label:
         ax.legend()
     return ax
 
 
-def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None,
+def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None, ax=None,
                  G: xr.DataArray | None = None):
     """One panel per variable of a result Dataset (Persson theory, energy, ...).
 
@@ -252,6 +285,9 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None,
         The variables to draw (default: every one on ``dr``, ``q`` or ``a_c``).
     axes : array of matplotlib.axes.Axes, optional
         Axes to draw into, one per variable (default: a new figure, three panels a row).
+    ax : matplotlib.axes.Axes, optional
+        The Axes of a one-panel plot (a fit, a patch radius, one variable), as for a
+        DataArray's ``.rough.plot(ax=ax)``; the same as ``axes=[ax]``.
     G : xarray.DataArray, optional
         For a fit: the G it was fitted to, drawn with its error band under the model
         (``fit.rough.plot(G=G)``).
@@ -264,7 +300,8 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None,
     Raises
     ------
     ValueError
-        Nothing in ``ds`` can be drawn, or ``G`` given for a Dataset that is not a fit.
+        Nothing in ``ds`` can be drawn, fewer ``axes`` than panels, both ``ax`` and
+        ``axes``, or ``G`` given for a Dataset that is not a fit.
 
     Examples
     --------
@@ -281,6 +318,10 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None,
     >>> len(ax.lines) >= 2  # the data and the model
     True
     """
+    if ax is not None:
+        if axes is not None:
+            raise ValueError("give ax (one panel) or axes (one per variable), not both")
+        axes = [ax]
     if variables is None and _is_fit(ds):
         return np.array([plot_fit(ds, ax=None if axes is None else np.ravel(axes)[0], G=G)])
     if G is not None:
@@ -300,6 +341,9 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None,
         _, axes = pyplot().subplots(nrow, ncol, figsize=(4.5 * ncol, 3.6 * nrow),
                                squeeze=False, layout="constrained")
     flat = np.ravel(axes)
+    if flat.size < len(names):
+        raise ValueError(f"{flat.size} Axes given for {len(names)} panels ({', '.join(names)}): "
+                         "pass one per variable, or choose them with variables=[...]")
     for name, ax in zip(names, flat):
         plot_loglog(ds[name], ax=ax)
         ax.set_title(name)
@@ -445,7 +489,7 @@ def plot_patch_radius(patch: xr.Dataset, *, ax=None, **kwargs):
             ax.plot([edge], [y[i]], ">", markersize=9, color="k")
             ax.annotate("inf: sticks everywhere", (edge, y[i]), xytext=(-6, 8),
                         textcoords="offset points", ha="right", fontsize="small")
-    ax.set_xscale("log")
+    log_axis(ax.xaxis)
     ax.set_xlim(lo, hi * 1.5)
     if not finite.size:  # every radius infinite: no scale to show
         ax.xaxis.set_major_formatter("")
