@@ -624,6 +624,10 @@ def test_stress_acf_is_nan_outside_the_recorded_reliable_window():
         S = xrough.stress_acf(windowed, E_star=E_STAR)
     outside = (G.dr.values < 5.0) | (G.dr.values > 2000.0)
     assert np.all(np.isnan(S.values[outside])) and S.attrs["quality"] == "questionable"
+    # both runs named, not one range over the lags in between that have values
+    below, above = G.dr.values[G.dr.values < 5.0], G.dr.values[G.dr.values > 2000.0]
+    assert (f"at dr = {below[0]:.3g} to {below[-1]:.3g} and {above[0]:.3g} to "
+            f"{above[-1]:.3g} nm") in S.attrs["quality_notes"]
     np.testing.assert_array_equal(S.values[~outside], plain.values[~outside])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", xrough.QualityWarning)

@@ -117,6 +117,18 @@ def _laplacian(G: xr.DataArray, G_si: xr.DataArray, error: xr.DataArray | None,
     return lap, why
 
 
+def _lag_runs(dr: np.ndarray, hit: np.ndarray, unit: str) -> str:
+    """`` at dr = a to b and c to d nm``: the runs of consecutive lags where ``hit``.
+
+    >>> _lag_runs(np.array([1.0, 2.0, 3.0, 4.0, 5.0]), np.array([1, 1, 0, 0, 1], bool), "nm")
+    ' at dr = 1 to 2 and 5 nm'
+    """
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], hit.astype(np.int8), [0]])))
+    runs = [f"{dr[a]:.3g}" if b - a == 1 else f"{dr[a]:.3g} to {dr[b - 1]:.3g}"
+            for a, b in zip(edges[::2], edges[1::2], strict=True)]
+    return f" at dr = {' and '.join(runs)} {unit}" if runs else ""
+
+
 def _derivative_checks(why: xr.DataArray, spec: AcfSpec) -> list:
     """Return the :func:`_rate` checks of the lags without a Laplacian (range named, eager)."""
     unit = spec.unit_str
@@ -138,9 +150,8 @@ def _derivative_checks(why: xr.DataArray, spec: AcfSpec) -> list:
         hit = why == code
         span = ""
         if why.chunks is None:
-            at = spec.dr[np.asarray(hit.any([d for d in hit.dims if d != "dr"]))]
-            if at.size:
-                span = f" at dr = {at.min():.3g} to {at.max():.3g} {unit}"
+            span = _lag_runs(spec.dr, np.asarray(hit.any([d for d in hit.dims if d != "dr"])),
+                             unit)
         checks.append((hit.any("dr"), "questionable", text.format(span=span)))
     return checks
 
