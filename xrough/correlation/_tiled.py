@@ -126,16 +126,16 @@ def height_difference_acf_tiled(
     """
     grid = _checked_grid(topography, tile=tile, halo=halo, factor=factor,
                          min_lag_cells=min_lag_cells, bins=bins, bin_width=bin_width)
-    bins_ = open_map_bins(grid, bins=bins, points_per_decade=points_per_decade,
+    lag_bins = open_map_bins(grid, bins=bins, points_per_decade=points_per_decade,
                           bin_width=bin_width, dr_min=dr_min, dr_max=dr_max)
-    cells, ks_levels, assign = _levels(grid, bins_, halo=halo, factor=factor,
+    cells, ks_levels, assign = _levels(grid, lag_bins, halo=halo, factor=factor,
                                        min_lag_cells=min_lag_cells)
-    res = _computed(topography, grid, bins_, cells=cells, ks_levels=ks_levels,
+    res = _computed(topography, grid, lag_bins, cells=cells, ks_levels=ks_levels,
                     assign=assign, tile=tile, factor=factor, progress=progress)
-    block = np.asarray(cells)[assign[bins_.keep]]
+    block = np.asarray(cells)[assign[lag_bins.keep]]
     part = [xr.DataArray(res[k], dims=("dr",)) for k in range(3)]
     return g_result(
-        topography, grid, part[0], dr=bins_.dr, pair_count=part[1], standard_error=part[2],
+        topography, grid, part[0], dr=lag_bins.dr, pair_count=part[1], standard_error=part[2],
         coords={"block": ("dr", block, {"units": "1",
                                         "long_name": "points per block side (1: exact)"})},
         estimator="tiled (exact within the halo, block levels beyond)", direction="radial",
@@ -159,13 +159,13 @@ def _checked_grid(topography: xr.DataArray, *, tile, halo, factor, min_lag_cells
     return grid
 
 
-def _levels(grid: Grid, bins_: OpenMapBins, *, halo, factor, min_lag_cells):
+def _levels(grid: Grid, lag_bins: OpenMapBins, *, halo, factor, min_lag_cells):
     """Block side and lags per level, and the level of each bin (refusing a small halo)."""
-    cells, ks_levels = tiles.block_levels(grid.shape, halo, factor, bins_.ks)
-    edges = bins_.edges
-    assign = tiles.bin_levels(edges, grid.spacing, grid.shape, cells, ks_levels, bins_.ks)
+    cells, ks_levels = tiles.block_levels(grid.shape, halo, factor, lag_bins.ks)
+    edges = lag_bins.edges
+    assign = tiles.bin_levels(edges, grid.spacing, grid.shape, cells, ks_levels, lag_bins.ks)
     shortest = min_lag_cells * np.asarray(cells)[assign] * min(grid.spacing) * (1 - 1e-12)
-    coarse = (assign > 0) & bins_.keep & (edges[:-1] < shortest)
+    coarse = (assign > 0) & lag_bins.keep & (edges[:-1] < shortest)
     if coarse.any():
         b = int(np.argmax(coarse))
         raise ValueError(
@@ -177,20 +177,20 @@ def _levels(grid: Grid, bins_: OpenMapBins, *, halo, factor, min_lag_cells):
     return cells[:used], ks_levels[:used], assign
 
 
-def _computed(topography: xr.DataArray, grid: Grid, bins_: OpenMapBins, *, cells,
+def _computed(topography: xr.DataArray, grid: Grid, lag_bins: OpenMapBins, *, cells,
               ks_levels, assign, tile, factor, progress):
     """``(G, pair count, standard error)`` of the kept bins: lazy for dask input."""
     data = topography.data
     lazy = isinstance(data, dsa.Array)
     arr = data if lazy else dsa.from_array(np.asarray(data), chunks=(tile, tile))
-    edges = bins_.edges
+    edges = lag_bins.edges
     idxs = [binning.folded_bin_index(ks, tuple(d * cell for d in grid.spacing), edges)
             for ks, cell in zip(ks_levels, cells)]
-    finish = functools.partial(tiles.assemble, idxs=idxs, assign=assign, keep=bins_.keep,
-                               nb=len(edges) - 1, dr=bins_.dr, pixel_area=grid.pixel_area,
+    finish = functools.partial(tiles.assemble, idxs=idxs, assign=assign, keep=lag_bins.keep,
+                               nb=len(edges) - 1, dr=lag_bins.dr, pixel_area=grid.pixel_area,
                                height_unit=grid.height_unit, g_unit=g_unit(grid))
     res = _tiled_graph(arr, tile=tile, factor=factor, ks_levels=ks_levels, finish=finish,
-                       n_out=int(bins_.keep.sum()))
+                       n_out=int(lag_bins.keep.sum()))
     if lazy:
         return res
     if progress if progress is not None else sys.stderr.isatty():
