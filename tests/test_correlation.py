@@ -1,6 +1,7 @@
 """G(dr) estimators against brute force, closed forms and each other."""
 
 import itertools
+import re
 
 import numpy as np
 import pytest
@@ -377,3 +378,72 @@ def test_error_hints_name_the_users_dims_and_coords():
     prof = xr.concat([topo, topo], dim="scan").chunk({"x": 2})
     with pytest.raises(ValueError, match=r"chunk\(\{'x': -1\}\)"):
         prof.rough.acf()
+
+
+# --------------------------------------------------------------------------------------
+# points_per_decade: one rule for every log grid (finite, > 0, <= 1000)
+# --------------------------------------------------------------------------------------
+def _ppd_entry_points():
+    """Every public function that takes points_per_decade, called with valid data."""
+    h = np.random.default_rng(3).normal(size=(16, 16))
+    topo = xrough.topography(h, spacing=1.0, unit="nm")
+    G = xrough.height_difference_acf(topo)
+    C = xrough.model_spectrum(hurst=0.8, lambda_r="1 um", lambda_s="10 nm",
+                              rms_height="2 nm", unit="nm")
+    from xrough.correlation import height_difference_acf_tiled
+    return {
+        "height_difference_acf": lambda p: xrough.height_difference_acf(
+            topo, points_per_decade=p),
+        "height_difference_acf (random)": lambda p: xrough.height_difference_acf(
+            topo, estimator="random", n_pairs=100, points_per_decade=p),
+        # the rule holds whatever the bins, not only for bins="log"
+        "height_difference_acf (linear bins)": lambda p: xrough.height_difference_acf(
+            topo, bins="linear", points_per_decade=p),
+        "height_difference_acf (target_error)": lambda p: xrough.height_difference_acf(
+            topo, target_error=0.5, points_per_decade=p),
+        "height_difference_acf_tiled": lambda p: height_difference_acf_tiled(
+            topo, tile=8, halo=8, factor=2, min_lag_cells=4, points_per_decade=p),
+        "DataArray.rough.acf": lambda p: topo.rough.acf(points_per_decade=p),
+        "stitch_curves": lambda p: xrough.stitch_curves({"a": topo}, points_per_decade=p),
+        "stitch": lambda p: xrough.stitch({"a": topo}, points_per_decade=p),
+        "model_spectrum": lambda p: xrough.model_spectrum(
+            hurst=0.8, lambda_r="1 um", lambda_s="10 nm", rms_height="2 nm", unit="nm",
+            points_per_decade=p),
+        "acf_from_spectrum": lambda p: xrough.acf_from_spectrum(C, points_per_decade=p),
+        "gradient_from_spectrum": lambda p: xrough.gradient_from_spectrum(
+            C, points_per_decade=p),
+        "spectrum": lambda p: xrough.spectrum(G, points_per_decade=p),
+        "rms_gradient_exact": lambda p: xrough.rms_gradient_exact(G, points_per_decade=p),
+    }
+
+
+PPD_ENTRY_POINTS = list(_ppd_entry_points())
+
+
+@pytest.mark.parametrize("name", PPD_ENTRY_POINTS)
+@pytest.mark.parametrize("ppd", [0, -1, np.nan, np.inf, 5000, True, "10"])
+def test_points_per_decade_has_one_rule_everywhere(name, ppd):
+    call = _ppd_entry_points()[name]
+    message = f"points_per_decade must be a positive number up to 1000, got {ppd!r}"
+    with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+        call(ppd)
+
+
+def test_points_per_decade_rule_bounds():
+    from xrough._kernels.binning import MAX_POINTS_PER_DECADE, check_points_per_decade
+
+    assert MAX_POINTS_PER_DECADE == 1000
+    assert check_points_per_decade(1000) == 1000.0  # the bound itself is allowed
+    assert check_points_per_decade(np.int64(7)) == 7.0
+    assert check_points_per_decade(0.5) == 0.5
+    with pytest.raises(ValueError, match="got 1000.0000001"):
+        check_points_per_decade(1000.0000001)
+
+
+def test_the_densest_log_bins_work():
+    # 1000 per decade on a 16-point profile: each lattice lag in a bin of its own
+    topo = xrough.topography(np.random.default_rng(4).normal(size=16), spacing=1.0,
+                             unit="nm")
+    G = xrough.height_difference_acf(topo, points_per_decade=1000)
+    np.testing.assert_allclose(G.dr.values, np.arange(1, 16))  # mean lags, exact
+    assert G.attrs["points_per_decade"] == 1000.0

@@ -171,7 +171,7 @@ def test_netcdf_round_trip(tmp_path, name):
         (dict(rolloff="soft"), "rolloff must be one of"),
         (dict(unit="Pa"), "unit must be a length"),
         (dict(q=[0.1, -1.0]), "q must be a 1-D array of finite wavenumbers >= 0"),
-        (dict(points_per_decade=0), "points_per_decade must be positive"),
+        (dict(points_per_decade=0), "points_per_decade must be a positive number up to 1000"),
     ],
 )
 def test_model_spectrum_bad_input(kwargs, match):

@@ -80,7 +80,7 @@ def test_map_beyond_memory_weighs_random_pairs_against_tiles(monkeypatch, target
     candidate is the tiled estimator, 3.3e-7 s per map point (0.35 s at 1024²): random
     pairs win at 5 % (3,200 pairs per bin) and lose at 0.5 % (320,000 per bin). The error
     floor of a flat G on these bins (0.16 %) is below both targets."""
-    monkeypatch.setattr("xrough.correlation._available_memory", lambda: 64e6)
+    monkeypatch.setattr("xrough.correlation._choice._available_memory", lambda: 64e6)
     topo = _noise((1024, 1024))
     options = dict(target_error=target, dr_max=400, points_per_decade=5)
     if expected == "tiled":

@@ -22,7 +22,7 @@ import xarray as xr
 
 from . import quality
 from . import units as _units
-from ._kernels.binning import decade_aligned_grid, log_range
+from ._kernels.binning import check_points_per_decade, decade_aligned_grid, log_range
 from ._kernels.hankel import (
     PowerLawInterpolant,
     acf_from_spectrum_kernel,
@@ -177,9 +177,8 @@ def model_spectrum(
                               rms_gradient=rms_gradient, rolloff=rolloff, unit=unit_str)
     q_0, q_r, q_s = model.q_0, model.q_r, model.q_s
 
+    check_points_per_decade(points_per_decade)
     if q is None:
-        if not (np.isfinite(points_per_decade) and points_per_decade > 0):
-            raise ValueError(f"points_per_decade must be positive, got {points_per_decade!r}")
         q_min = min(q_0, q_r / 10.0) if q_0 > 0 else q_r / 100.0
         q_arr = _log_grid([q_min, q_0 if q_0 > 0 else q_min, q_r, q_s], points_per_decade)
     else:
@@ -266,6 +265,7 @@ def spectrum_input(spectrum: Any) -> _SpectrumInput:
 def spectrum_lags(spec: _SpectrumInput, dr: Any, points_per_decade: float, dr_min: Any,
                    dr_max: Any) -> np.ndarray:
     """``dr`` in the spectrum's length unit; by default logarithmic over its wavelengths."""
+    check_points_per_decade(points_per_decade)
     if dr is not None:
         return _units.array_in(dr, spec.length_unit, what="dr", noun="distances")
     q_pos = spec.q[np.isfinite(spec.q) & (spec.q > 0)]
@@ -277,8 +277,6 @@ def spectrum_lags(spec: _SpectrumInput, dr: Any, points_per_decade: float, dr_mi
           else 100.0 * 2 * np.pi / q_pos.min())
     if not hi > lo:
         raise ValueError(f"dr_max must exceed dr_min (got {hi:g} and {lo:g} {spec.unit_str})")
-    if not (np.isfinite(points_per_decade) and points_per_decade > 0):
-        raise ValueError(f"points_per_decade must be positive, got {points_per_decade!r}")
     return log_range(lo, hi, points_per_decade)
 
 
@@ -499,8 +497,7 @@ def check_spectrum_options(smooth, support_rtol, interpolation, points_per_decad
     if interpolation not in ("hermite", "power law"):
         raise ValueError(f"interpolation must be 'hermite' or 'power law', got "
                          f"{interpolation!r}")
-    if not (np.isfinite(points_per_decade) and points_per_decade > 0):
-        raise ValueError(f"points_per_decade must be positive, got {points_per_decade!r}")
+    check_points_per_decade(points_per_decade)
 
 
 def _support(acf: _AcfInput, *, smooth, support_rtol, interpolation,

@@ -47,7 +47,7 @@ import xarray as xr
 
 from . import quality
 from . import units as u
-from ._kernels.binning import log_bin_numbers
+from ._kernels.binning import check_points_per_decade, log_bin_edges, log_bins
 from .acf import result_attrs
 from .correlation import height_difference_acf
 from .preprocess import reliability_window
@@ -183,12 +183,6 @@ def _window_of(name: str, da: xr.DataArray, override, lunit: str, min_pixels: fl
         raise ValueError(f"measurement {name!r}: empty window dr_min={lo:g} >= dr_max={hi:g} "
                          f"{lunit} ({rule_lo}; {rule_hi})")
     return float(lo), float(hi), f"dr_min: {rule_lo}; dr_max: {rule_hi}"
-
-
-def _common_edges(lo: float, hi: float, ppd: float) -> tuple[np.ndarray, np.ndarray]:
-    """Log bin centres ``10**(k/ppd)`` covering [lo, hi] and their (unclipped) edges."""
-    k = log_bin_numbers(lo, hi, ppd)
-    return 10.0 ** (k / ppd), 10.0 ** ((np.append(k, k[-1] + 1) - 0.5) / ppd)
 
 
 # ------------------------------------------------------------------------------ re-bin
@@ -353,9 +347,7 @@ def stitch_curves(
     hunit = height_unit or _height_unit(first)
     u.as_length_unit(lunit, what="unit")
     u.as_length_unit(hunit, what="height_unit")
-    ppd = float(points_per_decade)
-    if not ppd > 0:
-        raise ValueError(f"points_per_decade must be positive, got {points_per_decade!r}")
+    ppd = check_points_per_decade(points_per_decade)
 
     info = {}
     for name, da in items.items():
@@ -364,8 +356,8 @@ def stitch_curves(
         f = u.conversion_factor(own, lunit)
         info[name] = dict(own=own, f=f, lo=lo * f, hi=hi * f, rule=rule,
                           g_factor=u.conversion_factor(_height_unit(da), hunit) ** 2)
-    centres, edges = _common_edges(min(v["lo"] for v in info.values()),
-                                   max(v["hi"] for v in info.values()), ppd)
+    centres, edges = log_bins(min(v["lo"] for v in info.values()),
+                              max(v["hi"] for v in info.values()), ppd)
 
     names = list(items)
     # one graph for all measurements: lazy where any input is, else computed at once
@@ -377,8 +369,7 @@ def stitch_curves(
     rows, sources, checksums, pixel, scan, kinds = [], [], [], [], [], []
     for name in names:
         da, i = items[name], info[name]
-        inner = edges[(edges > i["lo"]) & (edges < i["hi"])] / i["f"]
-        own_edges = np.concatenate([[i["lo"] / i["f"]], inner, [i["hi"] / i["f"]]])
+        own_edges = log_bin_edges(i["lo"], i["hi"], ppd) / i["f"]
         dr, gm, sem, nm, attrs = _curve(name, da, own_edges, chunk=in_graph,
                                         acf_kwargs=acf_kwargs)
         rebin = dict(dr=dr * i["f"], centres=centres, edges=edges, lo=i["lo"], hi=i["hi"],

@@ -10,10 +10,49 @@ returns.
 
 from __future__ import annotations
 
+import functools
+import numbers
+
 import numpy as np
 
-__all__ = ["log_range", "decade_aligned_grid", "log_bin_edges", "linear_bin_edges",
-           "lag_multiplicity", "lag_radius2", "bin_index", "binned_sum", "max_lags"]
+__all__ = ["MAX_POINTS_PER_DECADE", "check_points_per_decade", "log_range",
+           "decade_aligned_grid", "log_bins", "log_bin_edges", "linear_bin_edges",
+           "lag_multiplicity", "lag_radius2", "bin_index", "folded_bin_index", "binned_sum",
+           "max_lags", "lattice_bin_counts"]
+
+#: Densest logarithmic grid accepted: 1000 points per decade are bins 0.23 % wide,
+#: narrower than the step between the lags of a profile up to 434 pixels
+#: (``10**(1/1000) = 1 + 1/434``) and than anything G or C varies over; a larger number is
+#: a typing error (and 1e9 would allocate gigabytes).
+MAX_POINTS_PER_DECADE = 1000
+
+
+def check_points_per_decade(value) -> float:
+    """Return ``points_per_decade`` as a float, the one rule of every log grid in xrough.
+
+    A real number, finite, above 0 and at most :data:`MAX_POINTS_PER_DECADE`.
+
+    Raises
+    ------
+    ValueError
+        Anything else, naming the argument.
+
+    Examples
+    --------
+    >>> from xrough._kernels.binning import check_points_per_decade
+    >>> check_points_per_decade(10)
+    10.0
+    >>> check_points_per_decade(0)
+    Traceback (most recent call last):
+    ...
+    ValueError: points_per_decade must be a positive number up to 1000, got 0
+    """
+    ok = (isinstance(value, numbers.Real) and not isinstance(value, bool)
+          and np.isfinite(value) and 0 < value <= MAX_POINTS_PER_DECADE)
+    if not ok:
+        raise ValueError(f"points_per_decade must be a positive number up to "
+                         f"{MAX_POINTS_PER_DECADE}, got {value!r}")
+    return float(value)
 
 
 def log_range(lo: float, hi: float, points_per_decade: float) -> np.ndarray:
@@ -65,6 +104,17 @@ def log_bin_numbers(dr_min: float, dr_max: float, points_per_decade: float) -> n
     return np.arange(k0, k1 + 1)
 
 
+def log_bins(dr_min: float, dr_max: float, points_per_decade: float
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """Centres ``10**(k / ppd)`` of the log bins covering ``[dr_min, dr_max]``, and edges.
+
+    The edges ``10**((k +- 1/2) / ppd)`` are not clipped (one more than the centres).
+    """
+    ppd = check_points_per_decade(points_per_decade)
+    k = log_bin_numbers(dr_min, dr_max, ppd)
+    return 10.0 ** (k / ppd), 10.0 ** ((np.append(k, k[-1] + 1) - 0.5) / ppd)
+
+
 def log_bin_edges(dr_min: float, dr_max: float, points_per_decade: float) -> np.ndarray:
     """Logarithmic bin edges centred on ``10**(k / points_per_decade)``.
 
@@ -74,10 +124,7 @@ def log_bin_edges(dr_min: float, dr_max: float, points_per_decade: float) -> np.
     """
     if not (np.isfinite(dr_min) and np.isfinite(dr_max) and 0 < dr_min < dr_max):
         raise ValueError(f"need 0 < dr_min < dr_max, got dr_min={dr_min:g}, dr_max={dr_max:g}")
-    if not points_per_decade > 0:
-        raise ValueError(f"points_per_decade must be positive, got {points_per_decade}")
-    k = log_bin_numbers(dr_min, dr_max, points_per_decade)
-    edges = 10.0 ** ((np.append(k, k[-1] + 1) - 0.5) / float(points_per_decade))
+    edges = log_bins(dr_min, dr_max, points_per_decade)[1]
     edges = edges[(edges > dr_min) & (edges < dr_max)]
     return np.concatenate([[dr_min], edges, [dr_max]])
 
@@ -135,6 +182,14 @@ def bin_index(r2: np.ndarray, edges: np.ndarray) -> np.ndarray:
     return idx.astype(np.int32 if nb < 2**31 - 1 else np.int64)
 
 
+def folded_bin_index(ks: tuple[int, ...], spacing: tuple[float, ...],
+                     edges: np.ndarray) -> np.ndarray:
+    """:func:`bin_index` of the folded lattice ``0..k``; lag 0 (a point and itself) discarded."""
+    idx = bin_index(lag_radius2(ks, spacing), edges)
+    idx[(0,) * len(ks)] = len(edges) - 1  # a point paired with itself is no pair
+    return idx
+
+
 def binned_sum(values: np.ndarray, idx: np.ndarray, nbins: int) -> np.ndarray:
     """Sum ``values[..., *core]`` per bin of ``idx`` (core shape), batch dims kept.
 
@@ -151,3 +206,36 @@ def binned_sum(values: np.ndarray, idx: np.ndarray, nbins: int) -> np.ndarray:
         out = np.bincount((idx.ravel()[None, :] + offs).ravel(), weights=flat.ravel(),
                           minlength=nb1 * flat.shape[0]).reshape(flat.shape[0], nb1)
     return out[:, :nbins].reshape(batch + (nbins,))
+
+
+@functools.lru_cache(maxsize=4)
+def lattice_bin_counts(shape: tuple[int, int], spacing: tuple[float, float],
+                       ks: tuple[int, int], edges_key: tuple[float, ...],
+                       rows_per_block: int = 256) -> tuple[np.ndarray, np.ndarray]:
+    """Ordered pairs of an open map per radial bin, and their lag sums, a block of rows at a time.
+
+    The geometric counts of :func:`~xrough._kernels.pairs.binned_geometry` without a
+    ``(ky+1, kx+1)`` array, for maps too large for it (``edges_key`` is the tuple of the
+    bin edges). Cached per grid and bins; read-only arrays ``(counts, lag sums)`` per bin.
+    """
+    edges = np.asarray(edges_key)
+    nb = len(edges) - 1
+    counts = np.zeros(nb + 1)
+    rsum = np.zeros(nb + 1)
+    (ny, nx), (dy, dx), (ky, kx) = shape, spacing, ks
+    j = np.arange(kx + 1)
+    wx = lag_multiplicity(nx, kx, False) * (nx - j).astype(float)
+    for i0 in range(0, ky + 1, rows_per_block):
+        i = np.arange(i0, min(ky + 1, i0 + rows_per_block))
+        wy = lag_multiplicity(ny, ky, False)[i] * (ny - i).astype(float)
+        r2 = (i[:, None] * dy) ** 2 + (j[None, :] * dx) ** 2
+        idx = bin_index(r2, edges)
+        if i0 == 0:
+            idx[0, 0] = nb
+        w = wy[:, None] * wx[None, :]
+        counts += np.bincount(idx.ravel(), weights=w.ravel(), minlength=nb + 1)
+        rsum += np.bincount(idx.ravel(), weights=(w * np.sqrt(r2)).ravel(), minlength=nb + 1)
+    counts, rsum = counts[:nb], rsum[:nb]
+    counts.setflags(write=False)
+    rsum.setflags(write=False)
+    return counts, rsum

@@ -16,16 +16,26 @@ in. Only the folded sums are needed, so each inverse transform runs as a type-I 
 quarter spectrum (see :func:`_inverse_folded`). Without missing points cheaper exact forms
 are used: periodic maps need one forward transform and one quarter-size DCT; non-periodic
 ones get the ``h**2`` terms from a summed-area table.
+
+The sums of each map travel as one *packed* array (:func:`packed`): per kept bin the sums
+of G, the pair counts and the sums of G^2, then the valid points and the exponent of the
+power of two that scaled the map's heights. :func:`pool` adds maps on their largest
+exponent; :func:`g_from_packed` turns the sums into G and its errors.
 """
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from scipy import fft as sfft
 
-from .binning import lag_multiplicity
+from .binning import binned_sum, folded_bin_index, lag_multiplicity, lag_radius2
+from .uncertainty import g_variance
 
-__all__ = ["folded_pair_sums", "folded_geometric_counts", "padded_shape"]
+__all__ = ["folded_pair_sums", "folded_geometric_counts", "padded_shape", "binned_geometry",
+           "require_no_inf", "few_points_message", "packed", "pool", "g_from_packed",
+           "area_variance", "times_power_of_two"]
 
 
 def padded_shape(shape: tuple[int, ...], ks: tuple[int, ...], periodic: bool) -> tuple[int, ...]:
@@ -285,3 +295,125 @@ def _masked(h, valid, ks, fshape, axes, workers):
     del w
     sums[counts == 0] = 0.0  # no pairs: only round-off was there
     return sums, counts
+
+
+# ---------------------------------------------------------------------------------------
+# binned geometry and packed sums, shared by the FFT and random-pair estimators
+# ---------------------------------------------------------------------------------------
+@functools.lru_cache(maxsize=4)
+def binned_geometry(shape: tuple[int, ...], spacing: tuple[float, ...], periodic: bool,
+                    ks: tuple[int, ...], edges_key: tuple[float, ...]):
+    """Bin of each folded lag, ordered pairs and their lag sums per bin, of a complete map.
+
+    Cached per grid and bins (``edges_key`` is the tuple of the bin edges); returns
+    ``(index, counts, lag sums)``, the index read-only.
+    """
+    edges = np.asarray(edges_key)
+    idx = folded_bin_index(ks, spacing, edges)
+    nb = len(edges) - 1
+    geo = folded_geometric_counts(shape, ks, periodic)
+    counts = binned_sum(geo, idx, nb)
+    rsum = binned_sum(geo * np.sqrt(lag_radius2(ks, spacing)), idx, nb)
+    idx.setflags(write=False)
+    return idx, counts, rsum
+
+
+def few_points_message(index: int, batch: tuple[int, ...]) -> str:
+    """Message for a map with fewer than 2 valid points, naming it within a stack."""
+    where = (f" (map {tuple(int(i) for i in np.unravel_index(index, batch))} of the stack)"
+             if batch else "")
+    return f"topography has fewer than 2 valid (non-NaN) points{where}"
+
+
+def packed(batch, gsum, counts, gsq, nvalid, exponents) -> np.ndarray:
+    """Pack per map its sums of G, pair counts, sums of G^2, valid points and exponent.
+
+    The sums and counts have one value per kept bin, the exponent is that of the map's
+    scale; shape ``batch + (3 nb + 2,)``. One array per map is one task output per map for
+    dask, and pools with one reduction (:func:`pool`).
+    """
+    n = gsum.shape[0]
+    out = np.concatenate([gsum, counts, gsq, np.reshape(nvalid, (n, 1)),
+                          np.reshape(exponents, (n, 1))], axis=-1)
+    return out.reshape(batch + out.shape[-1:])
+
+
+def pool(sums: np.ndarray, axis, keepdims: bool = False) -> np.ndarray:
+    """Pool packed sums (:func:`packed`) over ``axis``: each brought to the largest exponent.
+
+    Sums of G scale with the square of the heights' scale, sums of G^2 with its fourth
+    power, counts not at all; a map whose scale is far below the largest contributes
+    (under)flowing nothing. Usable as the chunk, combine and aggregate step of a dask
+    reduction.
+    """
+    nb = (sums.shape[-1] - 2) // 3
+    exponent = sums[..., -1:]
+    top = np.max(exponent, axis=axis, keepdims=True)
+    shift = exponent - top
+    factor = np.concatenate([np.broadcast_to(np.exp2(2 * shift), shift.shape[:-1] + (nb,)),
+                             np.ones(shift.shape[:-1] + (nb,)),
+                             np.broadcast_to(np.exp2(4 * shift), shift.shape[:-1] + (nb,)),
+                             np.ones(shift.shape[:-1] + (1,))], axis=-1)
+    out = np.sum(sums[..., :-1] * factor, axis=axis, keepdims=keepdims)
+    return np.concatenate([out, top if keepdims else np.squeeze(top, axis)], axis=-1)
+
+
+def g_from_packed(sums, *, dr, pixel_area, geometry, height_unit, g_unit,
+                  random) -> np.ndarray:
+    """G, pair count, standard error and sampling error ``(..., 4, nb)`` from packed sums.
+
+    G is the mean of the pair values per bin; its standard error combines the finite-area
+    variance (:func:`area_variance`) with the Monte-Carlo variance of random pairs (0 for
+    all pairs, ``random=False``); all back from the scaled heights (``2**exponent``).
+    """
+    nb = (sums.shape[-1] - 2) // 3
+    gsum, counts, gsq = sums[..., :nb], sums[..., nb:2 * nb], sums[..., 2 * nb:3 * nb]
+    valid, exponent = sums[..., -2], sums[..., -1:]
+    has = counts > 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        G = np.where(has, gsum / np.where(has, counts, 1.0), np.nan)
+        var = np.clip(gsq / np.where(has, counts, 1.0) - G**2, 0.0, None)
+        sampling = (np.where(counts > 1, np.sqrt(var / np.where(counts > 1, counts - 1, 1.0)),
+                             np.nan) if random else np.zeros_like(G))
+    area_var = area_variance(G, counts, valid, dr=dr, pixel_area=pixel_area,
+                             geometry=geometry)
+    total = np.where(has, np.sqrt(area_var + np.nan_to_num(sampling) ** 2), np.nan)
+    G, total, sampling = (times_power_of_two(x, exponent, power=2, height_unit=height_unit,
+                                             g_unit=g_unit)
+                          for x in (G, total, np.where(has, sampling, np.nan)))
+    return np.stack([G, counts, total, sampling], axis=-2)
+
+
+def area_variance(g, pairs, valid, *, dr, pixel_area, geometry):
+    """Finite-area variance of G per bin (:func:`.uncertainty.g_variance`), curve by curve."""
+    g, pairs, valid = np.broadcast_arrays(g, pairs, valid[..., None])
+    out = np.empty(g.shape)
+    for k in np.ndindex(g.shape[:-1]):
+        area = float(valid[k][0]) * pixel_area
+        out[k] = g_variance(dr, g[k], pairs[k], area=area, pixel_area=pixel_area,
+                            geometry=geometry)
+    return out
+
+
+def times_power_of_two(values, exponent, *, power: int, height_unit: str, g_unit: str):
+    """Return ``values * 2^(exponent power)``, or a clear error outside float64's range.
+
+    Heights (in ``height_unit``) were scaled by ``2^exponent`` (a number, or one per curve
+    broadcasting against ``values``); ``values`` is a ``power`` of them, G in ``g_unit``.
+    """
+    values = np.asarray(values, dtype=float)
+    exponent = np.broadcast_to(np.asarray(exponent, dtype=int) * power, values.shape)
+    with np.errstate(over="ignore", under="ignore"):
+        out = np.ldexp(values, exponent)
+    lost = np.isfinite(values) & (values != 0) & ~(np.isfinite(out) & (out != 0))
+    if np.any(lost):
+        worst = np.argmax(np.where(lost, np.abs(values), -np.inf))
+        e = int(exponent.reshape(-1)[worst])
+        decade = np.log10(np.abs(values.reshape(-1)[worst])) + e * np.log10(2.0)
+        raise ValueError(
+            f"heights of about 1e{e / power * np.log10(2.0):.0f} {height_unit} make "
+            f"G reach about 1e{decade:.0f} {g_unit}, outside the "
+            "range of float64 numbers (1e-308 to 1.8e308): check the height scale of the "
+            "data (a wrong unit or scale factor), or express the heights in a unit that "
+            "brings them nearer to 1")
+    return out

@@ -20,11 +20,14 @@ from __future__ import annotations
 import numpy as np
 
 from .pairs import require_no_inf
+from .tiles import power_of_two_exponent
 
-__all__ = ["random_pair_sums", "scaled_points", "valid_points"]
+__all__ = ["random_pair_sums", "scaled_points", "valid_points", "sampled_exponent"]
 
 _ENUMERATE_MAX = 200_000  # lattice vectors; above this a bin is sampled continuously
 _MAX_DRAWS = 1000  # draws per wanted pair before a bin of mostly missing pairs gives up
+#: Points per map whose largest |h| scales the heights (:func:`sampled_exponent`).
+SCALE_SAMPLE = 2**16
 
 
 def _signed_range(n: int, periodic: bool) -> tuple[int, int]:
@@ -229,3 +232,21 @@ def valid_points(h: np.ndarray) -> float:
         if not finite.all() and np.isinf(rows[i:i + step]).any():
             raise ValueError("heights contain infinite values; mark missing points as NaN")
     return float(count)
+
+
+def sampled_exponent(h: np.ndarray, points: int | None = None) -> int:
+    """Exponent of the power of two nearest the largest ``|h|`` of a regular sample of a map.
+
+    About ``points`` (default :data:`SCALE_SAMPLE`) points: every ``n / points^(1/ndim)``-th
+    along each axis, instead of a pass over the whole map; enough for an estimator that
+    reads few points and checks each against the scale (random pairs). A sample without a
+    valid point falls back to the whole map.
+    """
+    points = SCALE_SAMPLE if points is None else points
+    per_dim = max(1, int(round(points ** (1 / h.ndim))))
+    sample = h[tuple(slice(None, None, max(1, n // per_dim)) for n in h.shape)]
+    valid = np.isfinite(sample)
+    if not valid.any():
+        sample = h[np.isfinite(h)]
+        valid = np.ones(sample.shape, dtype=bool)
+    return int(power_of_two_exponent(np.max(np.abs(sample[valid]), initial=0.0)))

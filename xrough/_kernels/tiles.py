@@ -35,11 +35,13 @@ from __future__ import annotations
 import numpy as np
 from scipy import fft as sfft
 
-from .pairs import fold, require_no_inf
+from .binning import binned_sum
+from .pairs import area_variance, fold, require_no_inf, times_power_of_two
 
 __all__ = ["power_of_two_exponent", "scaled_heights", "point_stats", "coarsen_stats",
            "coarsen_piece", "cut_piece", "merge_stats", "tile_piece_sums", "add_scaled",
-           "tile_pair_sums"]
+           "tile_pair_sums", "block_levels", "bin_levels", "chunk_bounds", "overlaps",
+           "scaled_chunk", "assemble"]
 
 
 def power_of_two_exponent(peak) -> np.ndarray:
@@ -267,3 +269,103 @@ def tile_pair_sums(ext: np.ndarray, inner: tuple[slice, slice], ks: tuple[int, i
     counts = np.rint(fold(sfft.irfft2(wn, s=fshape, workers=workers), ks))
     sums[counts == 0] = 0.0
     return sums, counts
+
+
+# ---------------------------------------------------------------------------------------
+# levels, chunks and the final assembly of the tiled estimator
+# ---------------------------------------------------------------------------------------
+def block_levels(shape: tuple[int, int], halo: int, factor: int, ks_full: tuple[int, int]
+                 ) -> tuple[list[int], list[tuple[int, int]]]:
+    """Block side (points) and largest lag index (blocks) per level, up to ``ks_full``.
+
+    Level ``l`` has blocks of ``factor**l`` points and covers lags up to ``halo`` blocks
+    per axis (fewer on a map of fewer blocks); levels are added until one reaches the
+    largest lag wanted, ``ks_full`` points per axis.
+    """
+    cells, ks_levels = [], []
+    while True:
+        f = factor ** len(cells)
+        n_l = tuple(-(-n // f) for n in shape)
+        ks_l = tuple(min(halo, m - 1) for m in n_l)
+        cells.append(f)
+        ks_levels.append(ks_l)
+        if all(k == m - 1 or (k + 1) * f >= kf for k, m, kf in zip(ks_l, n_l, ks_full)):
+            return cells, ks_levels
+
+
+def bin_levels(edges: np.ndarray, spacing: tuple[float, float], shape: tuple[int, int],
+               cells: list[int], ks_levels: list[tuple[int, int]],
+               ks_full: tuple[int, int]) -> np.ndarray:
+    """Level of each bin: the finest whose lattice holds all the bin's lags (0 if none)."""
+    assign = np.zeros(len(edges) - 1, dtype=int)
+    for b, e1 in enumerate(edges[1:]):
+        # largest lag index (points) with a lag shorter than e1, within the map
+        need = [min(kf, int(np.ceil(e1 / d)) - 1) for d, kf in zip(spacing, ks_full)]
+        for lev, (f, ks_l) in enumerate(zip(cells, ks_levels)):
+            n_l = tuple(-(-n // f) for n in shape)
+            if all(k == m - 1 or nd <= (k if lev == 0 else (k + 1) * f - 1)
+                   for k, m, nd in zip(ks_l, n_l, need)):
+                assign[b] = lev
+                break
+    return assign
+
+
+def chunk_bounds(chunks: tuple[int, ...]) -> np.ndarray:
+    """Start of each chunk along an axis, and the end of the last."""
+    return np.concatenate([[0], np.cumsum(chunks)]).astype(int)
+
+
+def overlaps(lo: np.ndarray, hi: np.ndarray, region: tuple[int, int]) -> list:
+    """List the pieces ``[lo, hi)`` (per axis) that overlap ``region``.
+
+    Each as (index, cut within the piece, start of the cut, whether the whole piece lies
+    in the region).
+    """
+    first = int(np.searchsorted(hi, region[0], side="right"))
+    last = int(np.searchsorted(lo, region[1], side="left"))
+    out = []
+    for i in range(first, last):
+        a, b = max(int(lo[i]), region[0]), min(int(hi[i]), region[1])
+        if a < b:
+            out.append((i, (a - int(lo[i]), b - int(lo[i])), a,
+                        a == lo[i] and b == hi[i]))
+    return out
+
+
+def scaled_chunk(block, after=()):
+    """Return :func:`scaled_heights` of a chunk.
+
+    ``after`` are results of tasks that must run before this chunk is read (unused: they
+    only order the graph).
+    """
+    return scaled_heights(block)
+
+
+def assemble(level_sums, *, idxs, assign, keep, nb, dr, pixel_area, height_unit, g_unit):
+    """Bin each level's folded sums and keep, per bin, the level assigned to it.
+
+    ``level_sums`` are pieces ``((S, N), e)``; returns ``(G, pair count, standard error)``
+    of the kept bins, G and its standard error scaled back from the largest exponent.
+    """
+    exponents = [e for _, e in level_sums if e is not None]
+    top = max(exponents) if exponents else 0
+    sums = np.zeros(nb)
+    counts = np.zeros(nb)
+    for lev, ((plane, e), idx) in enumerate(zip(level_sums, idxs)):
+        s = plane[0] if e is None or e == top else np.ldexp(plane[0], 2 * (e - top))
+        s = 0.5 * binned_sum(s, idx, nb)
+        n = 0.5 * binned_sum(plane[1], idx, nb)
+        sel = assign == lev
+        sums[sel], counts[sel] = s[sel], n[sel]
+    sums, counts = sums[keep], counts[keep]
+    valid = level_sums[0][0][1][0, 0]
+    has = counts > 0
+    g = np.full(counts.shape, np.nan)
+    g[has] = 0.5 * sums[has] / counts[has]
+    se = area_variance(g[None], counts[None], np.array([valid]), dr=dr,
+                       pixel_area=pixel_area, geometry="radial")[0]
+    se = np.sqrt(se)
+    se[~has] = np.nan
+    g, se = (times_power_of_two(x, top, power=2, height_unit=height_unit, g_unit=g_unit)
+             for x in (g, se))
+    return np.stack([g, counts, se])

@@ -1,0 +1,302 @@
+"""``height_difference_acf``: options, plan, estimator, computation, result."""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import dask.array as dsa
+import numpy as np
+import xarray as xr
+
+from .._kernels.pairs import g_from_packed, pool
+from ..topography import Grid, grid_of, require_whole_maps
+from ._choice import choose_estimator, choose_for_target, report_choice, target_value
+from ._fft import fft_kernel
+from ._plan import Plan, check_bin_width, plan
+from ._random import check_n_pairs, map_seeds, random_kernel
+from ._result import g_result, g_unit
+from ._tiled import height_difference_acf_tiled
+
+ESTIMATORS = ("auto", "fft", "random", "tiled")
+DEFAULT_PAIRS = 1_000_000
+
+
+def height_difference_acf(
+    topography: xr.DataArray,
+    *,
+    direction: str = "radial",
+    estimator: str = "auto",
+    bins: Any = "log",
+    points_per_decade: float = 10,
+    bin_width: Any = None,
+    dr_min: Any = None,
+    dr_max: Any = None,
+    pool: str | tuple[str, ...] | None = None,
+    n_pairs: int = 1_000_000,  # keep equal to DEFAULT_PAIRS
+    seed: int | None = None,
+    workers: int | None = None,
+    progress: bool | None = None,
+    target_error: Any = None,
+) -> xr.DataArray:
+    r"""Height-difference autocorrelation function ``G(dr)`` of a topography (eq. 1).
+
+    .. math:: G(\Delta r) = \tfrac12 \langle [h(\mathbf r) - h(\mathbf r + \Delta\mathbf r)]^2
+              \rangle
+
+    averaged over all pairs of valid points whose lag length falls in a bin.
+
+    Parameters
+    ----------
+    topography : xarray.DataArray with dims (..., "y", "x") or (..., "x")
+        Heights with length units on data and coordinates (see :func:`xrough.topography`);
+        NaN marks missing points; ``attrs["periodic"]`` selects circular lags. Extra dims
+        (e.g. ``scan``) are kept, or pooled with ``pool``.
+    direction : {'radial', 'x', 'y'}
+        Average over all orientations of the lag (the full lag plane, all four quadrants),
+        or only lags along one axis.
+    estimator : {'auto', 'fft', 'random', 'tiled'}
+        All pairs by FFT (exact); the random-pair estimator of section 3.1; or tile by tile
+        for maps larger than memory (exact up to a halo, block levels beyond; see
+        :func:`height_difference_acf_tiled`). ``'auto'`` (default) takes
+        ``'fft'`` unless one open map is split into dask chunks in y/x or its padded FFT
+        would not fit in a quarter of the available memory (then ``'tiled'``).
+    bins : {'log', 'linear'} or array_like
+        Log-spaced bins centred on ``10**(k/points_per_decade)`` (in the lateral unit),
+        linear bins of ``bin_width`` (default: one pixel), or explicit edges in the lateral
+        unit. A point is never paired with itself, whatever the edges.
+    points_per_decade : float
+        Bins per decade for ``bins='log'``: a finite number above 0 and at most 1000,
+        checked whatever ``bins`` (the rule of every log grid in xrough).
+    bin_width : float, str or Quantity, optional
+        Width of linear bins (numbers in the lateral unit; default one pixel).
+    dr_min, dr_max : float, str or Quantity, optional
+        Lag range to compute (numbers in the lateral unit). Defaults: one pixel, and half the period
+        (periodic) or the scan length (open). Only the lags needed are computed: an open
+        map is padded by ``dr_max``, not by its full size.
+    pool : str or tuple of str, optional
+        Extra dims whose pair sums are combined into one G (exact pooling of scans).
+    n_pairs : int
+        Random-pair budget: valid pairs, split evenly over the bins (pairs touching a NaN
+        are replaced by new draws, up to 1000 draws per pair).
+    seed : int, optional
+        Seed of the random-pair estimator (each map along extra dims gets its own stream,
+        so numpy and dask give the same numbers).
+    workers : int, optional
+        FFT threads (default: all cores).
+    progress : bool, optional
+        Progress bar over maps (FFT) or bins (random); default: only in a terminal.
+    target_error : float or str, optional
+        Relative standard error of G wanted in every bin (dimensionless: ``0.02`` or
+        ``"2 %"``), the same in any unit of the map. The estimator and its budget are then
+        chosen for it at the least modelled cost, from the shapes of the map and bins
+        alone (so a dask map stays lazy): random pairs with ``n_pairs`` such that their
+        sampling error ``sqrt(2 / pairs per bin)`` is at most half the target, when the
+        cost model says that is cheaper than the exact estimator (``'fft'``, or
+        ``'tiled'`` where ``'auto'`` would take it); the exact one otherwise, and when
+        the target lies below what a map of this size can give at all (then the result
+        is marked questionable, with a :class:`~xrough.QualityWarning`). Cannot be
+        combined with ``estimator`` (other than ``'auto'``) or ``n_pairs``; ``seed`` is
+        used if random pairs are chosen. See Notes and ``docs/performance.md``.
+
+    Returns
+    -------
+    xarray.DataArray
+        ``G`` on dim ``dr`` (the mean lag of each bin over the pairs of a complete map;
+        bins without any lattice lag are dropped), units of height squared, with coords
+        ``pair_count`` (pairs averaged), ``standard_error`` (statistical error of G as an
+        estimate of the surface's G: finite-area model plus, for random pairs, the
+        sampling error) and
+        ``sampling_error`` (Monte-Carlo error against the all-pairs value; 0 for ``fft``).
+        A bin whose pairs all touch missing points is NaN with ``pair_count`` 0.
+        Attrs name the measurement: ``direction``, ``lag_geometry`` (``'profile'``,
+        ``'axis'`` or ``'radial'``: how the bins average, which sets how their errors
+        correlate, :func:`xrough.spectrum`), ``pixel_size``, ``scan_size`` (in the unit
+        of ``dr``), ``periodic``, ``bins``. With ``target_error``: coordinate
+        ``achieved_error`` (largest ``standard_error / G`` over the bins, per curve;
+        lazy for dask), ``quality_flag`` (questionable where it exceeds the target) and
+        attrs ``target_error``, ``estimator_choice`` (what was
+        chosen and why), ``n_pairs`` (random), ``sampling_error_budget``,
+        ``error_floor`` and ``error_floor_dr`` (the smallest relative error a map of
+        this size can give, and where), ``modelled_seconds_<estimator>``.
+
+    Raises
+    ------
+    ValueError
+        Invalid topography (dims, units, spacing, fewer than 2 valid points), unknown
+        options, an empty lag range, chunked core dims; heights so large or small that G
+        leaves the float64 range (G is computed from heights scaled by a power of two,
+        so anything short of that is exact; raised at compute time for dask input);
+        a ``target_error`` that is not a number in (0, 1) or is given with ``estimator``
+        or ``n_pairs``.
+
+    See Also
+    --------
+    xrough.acf_from_spectrum : G of a model spectrum (eq. 9).
+
+    Notes
+    -----
+    With a validity mask ``m`` and heights zeroed where missing, the pair sums are
+    ``S(d) = corr(h^2, m) + corr(m, h^2) - 2 corr(h, h)`` and ``N(d) = corr(m, m)``, each
+    correlation a product of real FFTs; ``G = S / (2N)`` per bin. Without missing points a
+    periodic map needs one forward and one inverse FFT.
+
+    ``target_error`` ``t`` (section 3.1: run time against error). Errors, relative to G
+    per bin: the finite-area error ``a`` of eq. 1 on this map (in ``standard_error``)
+    and, for random pairs, the sampling error ``s = sqrt(2 / n)`` of ``n`` pairs per bin
+    (``g / G`` of Gaussian increments is chi-squared with one degree of freedom; the
+    reported ``sampling_error`` follows it), adding to ``sqrt(a^2 + s^2)``. ``a`` needs
+    the data, so the choice uses its least value, ``a_min``: the model of
+    ``standard_error`` for a G flat over the bins asked for, on a map of this size
+    (uncorrelated heights, if the bins start at a pixel; a G that rises over the bins
+    gets more). If ``t <= a_min`` the exact estimator is used and the result marked;
+    otherwise random pairs get ``s = min(t / 2, sqrt(t^2 - a_min^2))`` per bin, which
+    keeps ``sqrt(a^2 + s^2) <= t`` wherever ``a <= 0.87 t``. Cost model (seconds,
+    measured by ``benchmarks/bench_acf_random.py --cost-model``, :data:`COST`): FFT
+    ``1.5e-9 M log2 M`` (``M`` points transformed: the map, padded by the largest lag
+    when open), tiled ``3.3e-7`` per map point, random ``8e-4`` per radial bin (``2e-4``
+    along one axis) ``+ 1.6e-7`` per pair ``+ 3e-10`` per map point, each times the
+    number of maps. Whether the target was met is data: ``achieved_error``.
+
+    Examples
+    --------
+    >>> import numpy as np, xrough
+    >>> x = np.arange(256) * 1.0
+    >>> topo = xrough.topography(np.sin(2 * np.pi * x / 32), spacing=1.0, unit="um",
+    ...                          periodic=True)
+    >>> G = topo.rough.acf(bins="linear")
+    >>> float(G.sel(dr=16.0))  # half a period apart: h differs by 2 sin, G = 1
+    1.0
+    >>> G.attrs["units"], G.dr.attrs["units"]
+    ('um2', 'um')
+
+    Run time against error: a 1024² open map, where 5 % per bin costs less with random
+    pairs than with the padded FFT:
+
+    >>> h = np.random.default_rng(0).normal(size=(1024, 1024))
+    >>> rough = xrough.topography(h, spacing=1.0, unit="nm")
+    >>> Gt = rough.rough.acf(target_error=0.05, dr_max=100, seed=0)
+    >>> Gt.attrs["estimator"], Gt.attrs["n_pairs"], bool(Gt.achieved_error < 0.05)
+    ('random pairs', 60800, True)
+    """
+    if estimator not in ESTIMATORS:
+        raise ValueError(f"estimator must be one of {ESTIMATORS}, got {estimator!r}")
+    options = dict(bins=bins, points_per_decade=points_per_decade, bin_width=bin_width,
+                   dr_min=dr_min, dr_max=dr_max)
+    run = dict(direction=direction, pool=pool, workers=workers, progress=progress)
+    if target_error is not None:
+        return _for_target(topography, target_error, estimator=estimator, n_pairs=n_pairs,
+                           seed=seed, options=options, **run)
+    if estimator != "random" and (seed is not None or n_pairs != DEFAULT_PAIRS):
+        raise ValueError("n_pairs and seed apply to estimator='random' only")
+    check_bin_width(bins, bin_width)
+    grid = grid_of(topography)
+    if estimator == "auto":
+        estimator = choose_estimator(topography, grid, direction, pool)
+    if estimator == "tiled":
+        if direction != "radial" or pool or len(grid.dims) != 2 or topography.ndim != 2:
+            raise ValueError("estimator='tiled' computes the radial G of one map (no "
+                             "extra dims, direction='radial')")
+        return height_difference_acf_tiled(topography, progress=progress, **options)
+    return _in_memory(topography, grid, estimator, n_pairs=n_pairs, seed=seed,
+                      options=options, **run)
+
+
+def _for_target(topography, target_error, *, estimator, n_pairs, seed, options, direction,
+                pool, workers, progress) -> xr.DataArray:
+    """G by the estimator and budget that :func:`choose_for_target` picks, reported."""
+    target = target_value(target_error)
+    if estimator != "auto":
+        raise ValueError(f"target_error chooses the estimator: give estimator="
+                         f"{estimator!r} or target_error={target_error!r}, not both")
+    if n_pairs != DEFAULT_PAIRS:
+        raise ValueError("target_error chooses n_pairs: give n_pairs or target_error, "
+                         "not both")
+    check_bin_width(options["bins"], options["bin_width"])
+    choice = choose_for_target(topography, grid_of(topography), target,
+                               direction=direction, pool=pool, binning_options=options)
+    random = choice.estimator == "random"
+    G = height_difference_acf(
+        topography, direction=direction, estimator=choice.estimator, pool=pool,
+        n_pairs=choice.n_pairs if random else DEFAULT_PAIRS,
+        seed=seed if random else None, workers=workers, progress=progress, **options)
+    return report_choice(G, choice, target)
+
+
+def _pool_dims(da: xr.DataArray, grid: Grid, pool) -> tuple[str, ...]:
+    """Return the extra dims to pool over, checked."""
+    pool_dims = (pool,) if isinstance(pool, str) else tuple(pool or ())
+    for d in pool_dims:
+        if d not in da.dims or d in grid.dims:
+            raise ValueError(f"pool: {d!r} is not an extra dim of the topography "
+                             f"(extra dims: {[x for x in da.dims if x not in grid.dims]})")
+    return pool_dims
+
+
+def _in_memory(da: xr.DataArray, grid: Grid, estimator: str, *, n_pairs, seed, options,
+               direction, pool, workers, progress) -> xr.DataArray:
+    """G by all pairs (``'fft'``) or random pairs, one map at a time, pooled on request."""
+    p = plan(grid, direction=direction, **options)
+    require_whole_maps(da, grid, purpose="G")
+    pool_dims = _pool_dims(da, grid, pool)
+    random = estimator == "random"
+    if random:
+        n_pairs = check_n_pairs(n_pairs)
+        sums = _random_sums(da, grid, p, n_pairs=n_pairs, seed=seed, progress=progress)
+    else:
+        workers = workers if workers is not None else (os.cpu_count() or 1)
+        sums = _apply(fft_kernel, da, p, kwargs={"plan": p, "workers": workers,
+                                                 "progress": progress})
+    if pool_dims:  # one tree reduction over the maps
+        sums = sums.reduce(_pool_over, dim=list(pool_dims))
+    G, counts, total, sampling = _g_parts(sums, grid, p, random=random)
+    extra = {"n_pairs": n_pairs, "seed": -1 if seed is None else int(seed)} if random else {}
+    if pool_dims:
+        extra["pooled_over"] = " ".join(pool_dims)
+    return g_result(
+        da, grid, G, dr=p.dr, pair_count=counts.astype(np.int64), standard_error=total,
+        coords={"sampling_error": sampling.assign_attrs(
+            units=g_unit(grid),
+            long_name="Monte-Carlo error of G against the all-pairs average")},
+        estimator="random pairs" if random else "fft (all pairs)", direction=direction,
+        geometry=p.geometry, bins=options["bins"],
+        points_per_decade=options["points_per_decade"], **extra)
+
+
+def _apply(kernel, da: xr.DataArray, p: Plan, *args, kwargs: dict) -> xr.DataArray:
+    """Packed sums (dim ``packed``) of each map of ``da`` by ``kernel``, lazy for dask."""
+    nb = int(p.keep.sum())
+    return xr.apply_ufunc(
+        kernel, da, *args, input_core_dims=[list(p.core_dims)] + [[] for _ in args],
+        output_core_dims=[["packed"]], dask="parallelized",
+        dask_gufunc_kwargs={"output_sizes": {"packed": 3 * nb + 2}},
+        output_dtypes=[float], keep_attrs=False, kwargs=kwargs)
+
+
+def _random_sums(da: xr.DataArray, grid: Grid, p: Plan, *, n_pairs: int, seed,
+                 progress) -> xr.DataArray:
+    """Packed random-pair sums, one seed per map, ``n_pairs`` split over the bins."""
+    seeds = map_seeds(da, [d for d in da.dims if d not in grid.dims], seed)
+    n_per_bin = max(1, n_pairs // int(p.keep.sum()))
+    return _apply(random_kernel, da, p, seeds,
+                  kwargs={"plan": p, "n_per_bin": n_per_bin, "progress": progress})
+
+
+def _pool_over(data, axis):
+    """:func:`~xrough._kernels.pairs.pool` of numpy data, or one tree reduction of dask data."""
+    if isinstance(data, dsa.Array):
+        return dsa.reduction(data, chunk=pool, combine=pool, aggregate=pool, axis=axis,
+                             dtype=float, concatenate=True, name="pool-pair-sums")
+    return pool(data, axis)
+
+
+def _g_parts(sums: xr.DataArray, grid: Grid, p: Plan, *, random: bool):
+    """G, pair count, standard error and sampling error (dim ``dr``) from packed sums."""
+    nb = int(p.keep.sum())
+    out = xr.apply_ufunc(
+        g_from_packed, sums, input_core_dims=[["packed"]], output_core_dims=[["part", "dr"]],
+        dask="parallelized", output_dtypes=[float], keep_attrs=False,
+        dask_gufunc_kwargs={"output_sizes": {"part": 4, "dr": nb}},
+        kwargs={"dr": p.dr, "pixel_area": grid.pixel_area, "geometry": p.geometry,
+                "height_unit": grid.height_unit, "g_unit": g_unit(grid), "random": random})
+    return tuple(out.isel(part=k, drop=True) for k in range(4))

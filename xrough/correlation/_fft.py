@@ -1,0 +1,69 @@
+"""All pairs by FFT: the kernel that sums G per bin for each map of a stack."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._kernels import binning, tiles
+from .._kernels.pairs import few_points_message, folded_pair_sums, packed
+from ._plan import Plan, progress_bar
+
+
+def fft_kernel(h: np.ndarray, *, plan: Plan, workers: int, progress) -> np.ndarray:
+    """Map (..., *core) heights to their sums of G per kept bin, packed.
+
+    Each map is scaled by its own power of two (nearest its largest ``|h|``, see
+    :func:`scaled_map`), so that no square of a height overflows; the sums are those of
+    the scaled heights, and the exponent of each map is packed with them
+    (:func:`xrough._kernels.pairs.packed`).
+    """
+    batch, flat = plan.maps(h)
+    sums = np.empty((flat.shape[0], int(plan.keep.sum())))
+    counts = np.empty_like(sums)
+    nvalid = np.empty(flat.shape[0])
+    exponents = np.zeros(flat.shape[0])
+    bar = progress_bar(flat.shape[0], progress, "G(dr) by FFT")
+    try:
+        for b in range(flat.shape[0]):
+            scaled, exponents[b] = scaled_map(flat[b], b, batch)
+            sums[b], counts[b], nvalid[b] = _map_sums(scaled, plan, workers)
+            if nvalid[b] < 2:
+                raise ValueError(few_points_message(b, batch))
+            if bar is not None:
+                bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+    return packed(batch, 0.5 * sums, counts, np.zeros_like(sums), nvalid, exponents)
+
+
+def _map_sums(scaled: np.ndarray, plan: Plan, workers: int):
+    """Return a map's sums of squares and pairs per kept bin, and its valid points."""
+    idx = plan.bin_index()
+    nb = len(plan.edges) - 1
+    s, n = folded_pair_sums(scaled, plan.ks, periodic=plan.periodic, workers=workers)
+    # the ordered pairs at lag 0 are the valid points themselves
+    nvalid = np.prod(plan.shape) if n is None else n[(...,) + (0,) * len(plan.ks)].sum()
+    if plan.lag_axes < len(plan.shape):  # pool the rows of a one-direction G
+        s = s.sum(axis=0)
+        n = None if n is None else n.sum(axis=0)
+    # the folded sums run over ordered pairs (r, r+d) and (r, r-d): halve them to count
+    # each unordered pair once
+    sums = 0.5 * binning.binned_sum(s, idx, nb)[plan.keep]
+    counts = (plan.geometric_counts if n is None else
+              0.5 * binning.binned_sum(n, idx, nb)[plan.keep])
+    return sums, counts, nvalid
+
+
+def scaled_map(h: np.ndarray, index: int, batch: tuple[int, ...]) -> tuple[np.ndarray, int]:
+    """One map as ``(h / 2**e, e)``, ``2**e`` the power of two nearest its largest ``|h|``.
+
+    Raises
+    ------
+    ValueError
+        Infinite heights, or fewer than 2 valid points (naming the map of a stack).
+    """
+    scaled, exponent = tiles.scaled_heights(h)
+    if exponent is None:
+        raise ValueError(few_points_message(index, batch))
+    return scaled, exponent

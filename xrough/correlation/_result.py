@@ -1,0 +1,74 @@
+"""The one definition of G's DataArray: coords, units and attrs, for every estimator."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from .. import units as u
+from ..acf import result_attrs
+from ..topography import Grid
+
+
+def g_unit(grid: Grid) -> str:
+    """Return the unit of G (and of its errors): the height unit squared."""
+    return u.power_units(grid.height_unit, 2)
+
+
+def g_result(topography: xr.DataArray, grid: Grid, G: xr.DataArray, *, dr: np.ndarray,
+             pair_count: xr.DataArray, standard_error: xr.DataArray,
+             coords: dict[str, Any] | None = None, estimator: str, direction: str,
+             geometry: str, bins, points_per_decade, **attrs) -> xr.DataArray:
+    """Label the values of G (dim ``dr``) of ``topography`` with its coords and attrs.
+
+    Parameters
+    ----------
+    topography, grid
+        The input and its grid (units, spacing, periodicity, provenance).
+    G, pair_count, standard_error : xarray.DataArray
+        Values of the kept bins on dim ``dr`` (any further dims kept).
+    dr : numpy.ndarray
+        Mean lag of each kept bin, in the lateral unit.
+    coords : dict, optional
+        Further coords on ``dr`` (estimator specific), with their attrs.
+    estimator : str
+        How G was computed (attr ``estimator``).
+    direction, geometry, bins, points_per_decade
+        The options, recorded as attrs (``points_per_decade`` for log bins only).
+    **attrs
+        Further attrs of the estimator (its parameters).
+
+    Returns
+    -------
+    xarray.DataArray
+        ``G``, units of height squared, with the topography's provenance.
+    """
+    gu = g_unit(grid)
+    G = G.assign_coords(
+        dr=("dr", dr, {"units": grid.lateral_unit, "long_name": "lag distance"}),
+        pair_count=pair_count.assign_attrs(long_name="number of point pairs averaged",
+                                           units="1"),
+        standard_error=standard_error.assign_attrs(units=gu,
+                                                   long_name="standard error of G"),
+        **(coords or {}))
+    G.name = "G"
+    log = isinstance(bins, str) and bins == "log"
+    G.attrs = result_attrs(  # with the topography's provenance
+        topography,
+        units=gu,
+        long_name="height-difference autocorrelation function",
+        symbol="G",
+        equation="eq. 1: G(dr) = 1/2 <(h(r) - h(r + dr))^2>",
+        estimator=estimator,
+        direction=direction if len(grid.dims) == 2 else "x",
+        lag_geometry=geometry,
+        periodic=int(grid.periodic),
+        bins=bins if isinstance(bins, str) else "explicit",
+        pixel_size=float(min(grid.spacing)),
+        scan_size=float(max(grid.size)),
+        source=str(topography.attrs.get("source", topography.name or "")),
+        **({"points_per_decade": float(points_per_decade)} if log else {}),
+        **attrs)
+    return G
