@@ -18,7 +18,7 @@ import pytest
 import xarray as xr
 
 import xrough
-import xrough.cli
+import xrough.cli._common
 from xrough.io import archive, netcdf
 from xrough.io._checksum import CHECKSUM
 
@@ -281,7 +281,7 @@ def test_command_line_writes_remove_their_killed_temporaries(tmp_path):
     dead = _ended_pid()
     left = tmp_path / f".out.nc.{dead}-0123456789ab.tmp"
     left.write_bytes(b"half")
-    xrough.cli._write_atomic(tmp_path / "out.nc", lambda p: p.write_bytes(b"done"))
+    xrough.cli._common.write_atomic(tmp_path / "out.nc", lambda p: p.write_bytes(b"done"))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.nc"]
 
 

@@ -395,13 +395,15 @@ def test_failed_acf_leaves_no_file_and_keeps_the_previous(files, monkeypatch, ca
 
 
 def test_a_failure_while_writing_leaves_the_previous_archive(files, monkeypatch, capsys):
-    """A failed write destroyed the archive at the path and left a broken one."""
-    def failing_save(path, analysis, history=None):
+    """A failed write destroyed the archive at the path and left a broken one. The disk
+    fills up half way through NetCDF's write of the archive (one atomic write: the
+    library's)."""
+    def disk_full(tree, path, **kwargs):
         Path(path).write_bytes(b"half an archive")
         raise OSError("no space left on device")
 
     (files / "previous.nc").write_bytes(b"previous results")
-    monkeypatch.setattr(xrough.cli, "save_analysis", failing_save)
+    monkeypatch.setattr(xr.DataTree, "to_netcdf", disk_full)
     status, _, err = run("acf", "long_header.nc", "-o", "previous.nc", cwd=files,
                          monkeypatch=monkeypatch, capsys=capsys)
     assert status == 1 and "no space left" in err
@@ -493,3 +495,86 @@ def test_report_prints_quality_notes_not_flagged_numbers(files, monkeypatch, cap
                          monkeypatch=monkeypatch, capsys=capsys)
     quality = json.loads(out)["measurements"][0]["quality"]
     assert quality["fit"]["level"] == "failed" and quality["fit"]["notes"]
+
+
+@pytest.fixture(scope="module")
+def unlabelled(tmp_path_factory):
+    """Files that lack what only the command's options can give: a height unit, a
+    lateral unit, a size, a size and units, or a uniform sampling."""
+    folder = tmp_path_factory.mktemp("unlabelled")
+    rng = np.random.default_rng(0)
+    h = rng.normal(size=(16, 16))
+    c = np.arange(16.0)
+    with_units = {"y": ("y", c, {"units": "um"}), "x": ("x", c, {"units": "um"})}
+    xr.DataArray(h, dims=("y", "x"), coords=with_units, name="height").to_netcdf(
+        folder / "no_height_unit.nc")
+    xr.DataArray(h, dims=("y", "x"), coords={"y": c, "x": c}, name="height",
+                 attrs={"units": "nm"}).to_netcdf(folder / "no_lateral_unit.nc")
+    xr.DataArray(h, dims=("y", "x"), name="height", attrs={"units": "nm"}).to_netcdf(
+        folder / "no_size.nc")
+    np.save(folder / "heights.npy", h)
+    np.savetxt(folder / "matrix.txt", h)
+    x = np.sort(rng.uniform(0, 10, 200))
+    np.savetxt(folder / "nonuniform.txt", np.c_[x, np.sin(x)])
+    return folder
+
+
+#: Each case the library's advice names a Python argument (``unit=``, ``size=``,
+#: ``resample=True``, ``points_per_decade``, ``direction='x'``, ``channel=``...): the
+#: command line names its option instead, and the Python word is not in the message.
+HINT_CASES = [
+    (("info", "no_height_unit.nc"), "--height-unit", "height_unit="),
+    (("info", "no_lateral_unit.nc"), "give --unit", "unit="),
+    (("info", "no_size.nc"), "give --size", "size="),
+    (("info", "heights.npy"), "give --size and --unit", "size="),
+    (("info", "matrix.txt"), "give --size and --unit", "unit="),
+    (("info", "nonuniform.txt"), "give --unit", "unit="),
+    (("acf", "nonuniform.txt", "--unit", "um"), "give --resample", "resample="),
+    (("acf", "nonuniform.txt", "--unit", "um", "--size", "10 um"), "give --resample",
+     "resample="),
+    (("acf", "nonuniform.txt", "--unit", "um", "--resample", "--direction", "y"),
+     "--direction 'x'", "direction="),
+    (("acf", "matrix.txt", "--size", "5 um", "--unit", "um", "--points-per-decade", "0"),
+     "--points-per-decade 0", "points_per_decade"),
+    (("acf", "matrix.txt", "--size", "5 um", "--unit", "um", "--points-per-decade", "1001"),
+     "--points-per-decade 1001", "points_per_decade"),
+    (("info", "no_size.nc", "--channel", "0"), "--channel does not apply", "channel="),
+    (("info", "matrix.txt", "--unit", "s"), "--unit must be a length", "unit="),
+    (("info", "matrix.txt", "--height-unit", "kg"), "--height-unit must be a length",
+     "height_unit"),
+    (("info", "matrix.txt", "--unit", "um", "--size", "1 s"), "--size 1 s", "size="),
+    (("info", "matrix.txt", "--unit", "um", "--size", "1,2,3"), "--size 1,2,3", "size="),
+    (("info", "matrix.txt", "--unit", "um", "--size", "5"), "--size 5: the size has no unit",
+     "size="),
+]
+
+
+@pytest.mark.parametrize("args, option, python_word", HINT_CASES)
+def test_errors_name_the_option_to_give(unlabelled, monkeypatch, capsys, args, option,
+                                        python_word):
+    status, _, err = run(*args, "-o" if args[0] == "acf" else "--json",
+                         *(["g.nc"] if args[0] == "acf" else []), cwd=unlabelled,
+                         monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 1 and len(err.strip().splitlines()) == 1, err
+    assert option in err and python_word not in err, err
+
+
+def test_the_option_named_makes_the_file_read(unlabelled, monkeypatch, capsys):
+    """What the error says to give is enough: the same files then read."""
+    for args in (("no_height_unit.nc", "--height-unit", "nm"),
+                 ("no_lateral_unit.nc", "--unit", "um"), ("no_size.nc", "--size", "8 um"),
+                 ("heights.npy", "--size", "8 um", "--unit", "nm"),
+                 ("matrix.txt", "--size", "8 um", "--unit", "nm")):
+        status, out, err = run("info", *args, "--json", cwd=unlabelled,
+                               monkeypatch=monkeypatch, capsys=capsys)
+        assert status == 0, err
+        assert json.loads(out)["files"][0]["shape"] == {"y": 16, "x": 16}
+
+
+def test_points_per_decade_limit_is_the_estimators(files):
+    """The command line refuses above the limit the estimators have, and only there."""
+    limit = xrough.cli._files.MOST_POINTS_PER_DECADE
+    topo = xrough.open_topography(files / "profile.nc")
+    assert topo.rough.acf(points_per_decade=limit).sizes["dr"] > 0
+    with pytest.raises(ValueError, match="points_per_decade"):
+        topo.rough.acf(points_per_decade=limit * 1.001)

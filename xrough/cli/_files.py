@@ -1,0 +1,276 @@
+"""The file options of ``info``, ``acf`` and ``report``: checked, files read and measured.
+
+The options are checked here, in the words of the command line, before the library is
+called; a file that does not read for lack of a unit, a size or ``--resample`` is read
+again with a stand-in for each, and the first that reads it names the option to give.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import inspect
+import re
+import warnings
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+from tqdm.auto import tqdm
+
+from .. import units as u
+from ..io import BRIDGE, FORMATS, detect_format, open_topography
+from ..io.archive import safe_name
+from ..preprocess import DETREND_MODES, detrend
+from ._common import CLIError, fail, first_line, warn_lines
+
+#: The largest ``--points-per-decade``: the limit of the estimators
+#: (:func:`xrough.correlation.height_difference_acf`; a test keeps the two equal).
+MOST_POINTS_PER_DECADE = 1000
+
+NONUNIFORM = ("the profile is sampled non-uniformly: give --resample (linear interpolation "
+              "onto a uniform grid with the same number of points)")
+
+#: What a file that does not read may lack, tried in order when it fails: the stand-in
+#: read with it (on top of the given options), the options whose presence makes it moot,
+#: and what the user is told if the file then reads.
+_STAND_INS = (
+    ({"height_unit": "m"}, ("unit", "height_unit"),
+     "the file states no height unit: give --height-unit (e.g. --height-unit nm), or "
+     "--unit for the lateral and the height unit"),
+    ({"unit": "m"}, ("unit",),
+     "the file states no unit: give --unit (e.g. --unit nm; and --height-unit if the "
+     "heights are in another unit)"),
+    ({"size": "1 m"}, ("size",),
+     "the file states no physical size: give --size (e.g. --size '10 um', or "
+     "--size '10 um,20 um' for y, x)"),
+    ({"size": "1 m", "unit": "m"}, ("size", "unit"),
+     "the file states no physical size and no unit: give --size and --unit (e.g. "
+     "--size '10 um' --unit nm)"),
+    ({"resample": True}, ("resample",), NONUNIFORM),
+)
+
+
+def add_file_options(p: argparse.ArgumentParser, *, detrend: bool = True) -> None:
+    """Add the files and the options that say how to read them."""
+    p.add_argument("files", nargs="+", help="topography files (any supported format)")
+    p.add_argument("--format", choices=[*FORMATS, BRIDGE],
+                   help="file format (default: detected from the content)")
+    p.add_argument("--size", help="physical size replacing the file's, e.g. '100 nm' or "
+                   "'10 um,20 um' (y, x)")
+    p.add_argument("--unit", help="lateral unit replacing the file's, and the height "
+                   "unit too unless --height-unit is given (relabels, does not convert)")
+    p.add_argument("--height-unit", dest="height_unit",
+                   help="height unit replacing the file's (relabels)")
+    p.add_argument("--height-scale", type=float, help="factor applied to the heights")
+    p.add_argument("--periodic", action="store_true", help="the maps are periodic")
+    p.add_argument("--channel", help="channel of multi-channel files (Nanoscope, "
+                   "Gwyddion, Igor, ...): a name or an index (0, 1, ...)")
+    p.add_argument("--resample", action="store_true",
+                   help="resample non-uniformly sampled profiles onto a uniform grid")
+    p.add_argument("--json", action="store_true",
+                   help="print JSON (numbers in the results' units, with units fields)")
+    if detrend:
+        p.add_argument("--detrend", default="auto", choices=["auto", "none", *DETREND_MODES],
+                       help="trend removed before G: auto (default) is a plane for maps "
+                       "and a line for profiles; none keeps the heights")
+
+
+def add_acf_options(p: argparse.ArgumentParser, name: str) -> None:
+    """Add the output and the lag options of the commands that compute G."""
+    p.add_argument("-o", "--output", default=f"xrough-{name}.nc",
+                   help="NetCDF output, or a Zarr store if it ends in .zarr (its folder "
+                   "is created if missing)")
+    p.add_argument("--direction", default="radial", choices=["radial", "x", "y"],
+                   help="lags in all directions (default) or along x or y only")
+    p.add_argument("--points-per-decade", type=float, default=10,
+                   help="log-spaced bins of G per decade of lag (default 10)")
+
+
+# -------------------------------------------------------------- options, checked
+
+
+def _length_unit(given: str | None, option: str) -> str | None:
+    return None if given is None else u.format_units(u.as_length_unit(given, what=option))
+
+
+def _size(given: str | None) -> str | tuple[str, str] | None:
+    """``--size``: one length (a profile, or a square map) or two (y, x)."""
+    if not given:
+        return None
+    parts = [p.strip() for p in given.split(",")]
+    if len(parts) > 2:
+        raise CLIError(f"--size {given}: give one size or two (y, x), e.g. '10 um,20 um'")
+    for part in parts:
+        q = u.quantity(part, what=f"--size {given}")
+        if q.dimensionless:
+            raise CLIError(f"--size {given}: the size has no unit; write it with one, e.g. "
+                           "--size '10 um'")
+        if not (q.check("[length]") and np.isfinite(q.magnitude) and q.magnitude > 0):
+            raise CLIError(f"--size {given}: {part!r} is not a positive length")
+    return parts[0] if len(parts) == 1 else (parts[0], parts[1])
+
+
+def _channel(given: str) -> int | str:
+    """``--channel`` as an index (``0``, ``-1``) or a name."""
+    return int(given) if re.fullmatch(r"[+-]?\d+", given.strip()) else given
+
+
+def _checked(args: argparse.Namespace) -> dict:
+    """Return the keywords of :func:`~xrough.open_topography` for the command's options."""
+    scale = args.height_scale
+    if scale is not None and not (np.isfinite(scale) and scale != 0):
+        raise CLIError(f"--height-scale {scale}: must be a finite, non-zero number")
+    try:
+        options = {"size": _size(args.size), "unit": _length_unit(args.unit, "--unit"),
+                   "height_unit": _length_unit(args.height_unit, "--height-unit")}
+    except CLIError:
+        raise
+    except ValueError as err:  # a unit's own message, naming the option
+        raise CLIError(first_line(err)) from None
+    options.update(height_scale=scale, periodic=True if args.periodic else None)
+    if args.channel is not None:
+        options["channel"] = _channel(args.channel)
+    if args.resample:
+        options["resample"] = True
+    return options
+
+
+def check_points_per_decade(args: argparse.Namespace) -> None:
+    ppd = args.points_per_decade
+    if not (np.isfinite(ppd) and 0 < ppd <= MOST_POINTS_PER_DECADE):
+        raise CLIError(f"--points-per-decade {ppd:g}: must be a positive number up to "
+                       f"{MOST_POINTS_PER_DECADE}")
+
+
+# -------------------------------------------------------------------- reading
+
+
+def _reader_keywords(name: str) -> set[str] | None:
+    """Keyword options the format's reader takes (``None``: any)."""
+    try:
+        module = importlib.import_module(FORMATS[name].module if name in FORMATS
+                                         else "xrough.io.bridge")
+        params = inspect.signature(module.read).parameters.values()
+    except (ImportError, TypeError, ValueError):
+        return None
+    if any(p.kind == p.VAR_KEYWORD for p in params):
+        return None
+    return {p.name for p in params if p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)}
+
+
+def _refuse_foreign_options(path: str, name: str, options: dict) -> None:
+    """``--channel`` or ``--resample`` for a format whose reader has no such option."""
+    accepted = _reader_keywords(name)
+    for key in ("channel", "resample"):
+        if key in options and accepted is not None and key not in accepted:
+            raise CLIError(f"{path}: --{key} does not apply to the {name} format"
+                           + (" (it has one channel)" if key == "channel" else ""))
+
+
+def _missing_option(path: str, name: str, options: dict) -> str | None:
+    """Tell what the file that failed to read lacks, if a stand-in option makes it read."""
+    accepted = _reader_keywords(name)
+    for stand_in, moot, message in _STAND_INS:
+        if any(options.get(k) is not None for k in moot):
+            continue
+        if accepted is not None and not set(stand_in) <= accepted:
+            continue
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                open_topography(path, format=name, **{**options, **stand_in})
+        except Exception:  # noqa: BLE001, S112 - not this stand-in; try the next
+            continue
+        return message
+    return None
+
+
+def open_file(path: str, args: argparse.Namespace) -> xr.DataArray:
+    """Read a topography with the command's options.
+
+    Errors name the option to give where an option makes the file read.
+    """
+    options = _checked(args)
+    name = args.format or detect_format(path)
+    _refuse_foreign_options(path, name, options)
+    try:
+        return open_topography(path, format=name, **options)
+    except ValueError as err:
+        missing = _missing_option(path, name, options)
+        if missing is None:
+            raise
+        raise CLIError(f"{path}: {missing}") from err
+
+
+# ------------------------------------------------------------------ measuring
+
+
+def _detrend(topo: xr.DataArray, mode: str) -> tuple[xr.DataArray, str]:
+    """Detrend by ``mode`` (``auto``: a plane, which is a line for a profile).
+
+    Returns the topography and what was removed: ``none``, ``mean``, ``plane``, ``line``
+    (a plane of a profile), ``curvature`` or ``parabola`` (a curvature of a profile).
+    """
+    if mode == "none":
+        return topo, "none"
+    mode = "plane" if mode == "auto" else mode
+    profile = "y" not in topo.dims
+    label = {"plane": "line", "curvature": "parabola"}.get(mode, mode) if profile else mode
+    return detrend(topo, mode=mode), label
+
+
+def _check_lags(path: str, topo: xr.DataArray, direction: str) -> None:
+    """Refuse what the estimators cannot do, in the options' words."""
+    if topo.attrs.get("sampling") == "non-uniform":
+        raise CLIError(f"{path}: {NONUNIFORM}")
+    if direction == "y" and "y" not in topo.dims:
+        raise CLIError(f"{path}: --direction y: a profile has no 'y' direction; use "
+                       "--direction 'x'")
+
+
+def _measure(path: str, name: str, args: argparse.Namespace,
+             analyse: Callable[[xr.DataArray], dict] | None = None) -> dict:
+    """Open, detrend and compute G (and ``analyse(G)``) for one file; errors name it."""
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            topo = open_file(path, args)
+            _check_lags(path, topo, args.direction)
+            topo, how = _detrend(topo, args.detrend)
+            G = topo.rough.acf(direction=args.direction,
+                               points_per_decade=args.points_per_decade)
+            G.attrs.update(measurement=name, source_path=str(path))
+            result = {"G": G, **(analyse(G) if analyse is not None else {})}
+    except CLIError:
+        raise
+    except Exception as err:  # noqa: BLE001 - one line naming the file
+        raise fail(path, err) from err
+    return {"file": str(path), "name": name, "detrend": how, "topography": topo,
+            "results": result, "warnings": warn_lines(path, caught)}
+
+
+def group_names(paths: list[str]) -> list[str]:
+    """Return unique, NetCDF-safe group names for the measurements in ``paths``.
+
+    The file stem; files with the same stem get their parent folder's name in front
+    (``a_scan``, ``b_scan``); :func:`xrough.io.archive.safe_name` makes each name legal
+    and distinct (and never the reserved ``_provenance``).
+    """
+    stems = [Path(p).stem for p in paths]
+    names: list[str] = []
+    for p, stem in zip(paths, stems):
+        parent = Path(p).resolve().parent.name
+        wanted = f"{parent}_{stem}" if stems.count(stem) > 1 and parent else stem
+        names.append(safe_name(wanted, names))
+    return names
+
+
+def measure_all(args: argparse.Namespace, analyse=None) -> list[dict]:
+    """:func:`_measure` each file of the command, with a progress bar on a terminal."""
+    check_points_per_decade(args)
+    names = group_names(args.files)
+    return [_measure(path, name, args, analyse)
+            for path, name in tqdm(list(zip(args.files, names)), desc="G(dr)",
+                                   disable=None, leave=False)]

@@ -1,0 +1,261 @@
+"""``xrough report``: the contact mechanics of topography files, as a table.
+
+Each file's G is fitted and run through the elastic energy, Persson theory (reported at
+the smallest lag where it is determined) and, with ``--gamma``, the adhesive patch
+radius; the results are archived and drawn.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+
+import numpy as np
+import xarray as xr
+
+from .. import units as u
+from .._version import __version__
+from ..io.archive import save_analysis
+from ..plot import display_unit, pyplot
+from ..quality import notes_of, warn, worst
+from ._common import EXIT_OK, emit_json, finest, finite, number, output, show, write_atomic
+from ._files import add_acf_options, add_file_options, measure_all
+
+#: The physical options: dimension and an example with its unit.
+QUANTITIES = {"--E-star": ("[pressure]", "25MPa"), "--p0": ("[pressure]", "0.1MPa"),
+              "--gamma": ("[mass] / [time] ** 2", "50mJ/m2")}
+#: An rms gradient above this (a slope of 84 degrees) means heights in the wrong unit.
+_STEEPEST = 10.0
+_COLUMNS = ("measurement", "sigma_h (fit)", "H", "lambda_r", "rms grad", "v_el", "a_r",
+            "sigma_c", "at dr", "patch radius")
+#: The results of a row whose quality is shown, by their key in the results.
+_RATED = {"fit": "fit", "gradient": "rms gradient", "persson": "Persson theory",
+          "energy": "elastic energy", "patch": "patch radius"}
+
+
+def add_parser(sub, **common) -> None:
+    """Add ``report`` to the commands ``sub``."""
+    p = sub.add_parser("report", help="contact mechanics report of files", **common)
+    add_file_options(p)
+    add_acf_options(p, "report")
+    p.add_argument("--E-star", required=True, dest="E_star",
+                   help="contact modulus with its unit, e.g. 25MPa")
+    p.add_argument("--p0", required=True, help="mean pressure with its unit, e.g. 0.1MPa")
+    p.add_argument("--gamma", help="work of adhesion with its unit, e.g. 50mJ/m2; adds "
+                   "the adhesive patch radius")
+    p.set_defaults(func=run)
+
+
+def negative_values_attached(argv: list[str]) -> list[str]:
+    """``--E-star -25MPa`` as ``--E-star=-25MPa``: argparse takes ``-25MPa`` for an option."""
+    out: list[str] = []
+    k = 0
+    while k < len(argv):
+        if argv[k] in QUANTITIES and k + 1 < len(argv) and re.match(r"-[\d.]", argv[k + 1]):
+            out.append(f"{argv[k]}={argv[k + 1]}")
+            k += 2
+        else:
+            out.append(argv[k])
+            k += 1
+    return out
+
+
+def _quantity(args: argparse.Namespace, option: str) -> float | None:
+    """Read a physical ``option`` in SI: positive, with its unit.
+
+    A plain number is refused: on a command line a bare ``25`` would be 25 Pa, silently.
+    """
+    given = getattr(args, option.lstrip("-").replace("-", "_"))
+    if given is None:
+        return None
+    dimension, example = QUANTITIES[option]
+    try:
+        float(given)
+    except ValueError:
+        return u.positive_si(given, dimension, what=option)
+    raise ValueError(f"{option} {given}: the value has no unit; write it with one, e.g. "
+                     f"{option} {example}")
+
+
+def _analysis(E_star: float, p0: float, gamma: float | None):
+    """Return what the report computes from each G, as a function of G."""
+    def analyse(G: xr.DataArray) -> dict:
+        fit = G.rough.fit()
+        gbar = G.rough.gradient()
+        found = {"fit": fit, "gradient": gbar,
+                 "persson": G.rough.persson(E_star=E_star, p0=p0, gradient=gbar, fit=fit),
+                 "energy": G.rough.energy(E_star=E_star)}
+        if gamma is not None:
+            found["patch"] = G.rough.patch_radius(E_star=E_star, gamma=gamma)
+        steepest = float(gbar.max())
+        if steepest > _STEEPEST:
+            warn(f"rms gradient {steepest:.3g}: steeper than any measured surface "
+                 "(a slope of 84 degrees is 10); are the heights in the unit the file "
+                 "states? (--height-unit, --height-scale)", UserWarning)
+        return found
+    return analyse
+
+
+# ------------------------------------------------------------------------ a row
+
+
+def _quality(results: dict) -> dict:
+    """``{key: (level, notes)}`` of the rated results (see :mod:`xrough.quality`)."""
+    return {key: (worst(results[key]), notes_of(results[key]))
+            for key in _RATED if key in results}
+
+
+def _rated(cell: str, level: str) -> str:
+    """Format a cell: the number if good, marked ``?`` if questionable, else ``failed``."""
+    return {"good": cell, "questionable": f"{cell} ?"}.get(level, "failed")
+
+
+def _cells(m: dict, at: xr.Dataset, gbar_there: xr.DataArray) -> tuple[str, ...]:
+    """Return a row of the table: each number in its unit, rated by its quality."""
+    r = m["results"]
+    fit, energy = r["fit"], r["energy"]
+    levels = {key: level for key, (level, _) in _quality(r).items()}
+    lf, lp = levels["fit"], levels["persson"]
+    patch = ("-" if "patch" not in r else
+             _rated(show(r["patch"].a_c, none="none: sticks everywhere"), levels["patch"]))
+    return (m["name"], _rated(show(fit.sigma_h, none="no plateau"), lf),
+            _rated(f"{float(fit.hurst):.3f}+-{float(fit.hurst_std):.3f}", lf),
+            _rated(show(fit.lambda_r, none="no roll-off"), lf),
+            _rated(show(gbar_there, digits=3), levels["gradient"]),
+            _rated(show(energy.v_el, digits=3), levels["energy"]),
+            _rated(show(at.a_r, digits=3), lp), _rated(show(at.sigma_c, digits=3), lp),
+            show(at.dr), patch)
+
+
+def _record(m: dict, at: xr.Dataset, gbar_there: xr.DataArray) -> dict:
+    """Return the same row for JSON, numbers with their units."""
+    r = m["results"]
+    fit = r["fit"]
+    return {
+        "name": m["name"], "file": m["file"], "detrend": m["detrend"],
+        "warnings": m["warnings"],
+        "quality": {key: {"level": level, "notes": notes}
+                    for key, (level, notes) in _quality(r).items()},
+        "sigma_h": {**number(fit.sigma_h), "std": finite(fit.sigma_h_std)},
+        "hurst": {**number(fit.hurst), "std": finite(fit.hurst_std)},
+        "lambda_r": {**number(fit.lambda_r), "std": finite(fit.lambda_r_std)},
+        "rms_gradient": number(gbar_there),
+        "v_el": number(r["energy"].v_el),
+        "a_r": number(at.a_r),
+        "sigma_c": number(at.sigma_c),
+        "at_dr": number(at.dr),
+        "patch_radius": number(r["patch"].a_c) if "patch" in r else None,
+    }
+
+
+def _row(m: dict) -> tuple[tuple[str, ...], dict]:
+    """Return a row of the report table and its JSON record, at the finest determined lag."""
+    at = finest(m["results"]["persson"])
+    gbar_there = m["results"]["gradient"].sel(dr=float(at.dr), method="nearest")
+    return _cells(m, at, gbar_there), _record(m, at, gbar_there)
+
+
+# ---------------------------------------------------------------------- figure
+
+
+def _in_units(G: xr.DataArray, dr_unit: str, g_unit: str) -> xr.DataArray:
+    """G with its lags in ``dr_unit`` and its values (and errors) in ``g_unit``."""
+    fd = u.conversion_factor(G.dr.attrs["units"], dr_unit)
+    fg = u.conversion_factor(G.attrs["units"], g_unit)
+    out = G.copy(data=np.asarray(G.values) * fg)
+    out.attrs["units"] = g_unit
+    for name, coord in G.coords.items():
+        unit = coord.attrs.get("units")
+        if not unit or name == "dr":
+            continue
+        if u.parse_units(unit).dimensionality == u.parse_units(g_unit).dimensionality:
+            out = out.assign_coords({name: (coord.dims, np.asarray(coord.values) * fg,
+                                            {**coord.attrs, "units": g_unit})})
+    return out.assign_coords(dr=("dr", G.dr.values * fd, {**G.dr.attrs, "units": dr_unit}))
+
+
+def _common_units(curves: list[xr.DataArray]) -> tuple[str, str]:
+    """One lateral and one G unit for several G: readable for their typical size."""
+    lags = [float(G.dr.max()) * u.conversion_factor(G.dr.attrs["units"], "m") for G in curves]
+    heights = [np.sqrt(float(G.max()) * u.conversion_factor(G.attrs["units"], "m2"))
+               for G in curves]
+
+    def typical(values):
+        values = [v for v in values if np.isfinite(v) and v > 0]
+        middle = float(np.exp(np.mean(np.log(values)))) if values else 1.0
+        return u.ureg.Quantity(middle, "m").to_compact().units
+
+    return u.format_units(typical(lags)), u.format_units(typical(heights) ** 2)
+
+
+def _figure(measured: list[dict], p0_text: str):
+    """G of every file and the contact area, each axis in one unit for all files."""
+    curves = [m["results"]["G"] for m in measured]
+    dr_unit, g_unit = _common_units(curves)
+    plt = pyplot("Agg")  # figures go to files
+    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(12, 4.5))
+    for m, G in zip(measured, curves):
+        G.name = G.name or "G"
+        _in_units(G, dr_unit, g_unit).rough.plot(ax=ax0, label=m["name"])
+        contact = m["results"]["persson"]
+        factor = u.conversion_factor(contact.dr.attrs["units"], dr_unit)
+        ax1.semilogx(contact.dr.values * factor, contact.a_r.values, label=m["name"])
+    ax1.set_xlabel(f"resolution dr ({display_unit(dr_unit)})")
+    ax1.set_ylabel(f"relative contact area at p0 = {p0_text}")
+    ax1.legend()
+    fig.tight_layout()
+    return fig
+
+
+# ---------------------------------------------------------------------- output
+
+
+def _print_table(measured: list[dict], rows: list[tuple[str, ...]], parameters: str) -> None:
+    """Print the table, the quality notes under it and what the numbers are."""
+    widths = [max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(_COLUMNS)]
+    print("  ".join(h.ljust(w) for h, w in zip(_COLUMNS, widths)).rstrip())
+    for row in rows:
+        print("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())
+    modes = sorted({m["detrend"] for m in measured})
+    if len(modes) > 1:  # say which file got which
+        modes = [f"{m['name']} {m['detrend']}" for m in measured]
+    notes = [f"  {m['name']}: {_RATED[key]} {level}: {'; '.join(texts)}"
+             for m in measured for key, (level, texts) in _quality(m["results"]).items()
+             if level != "good"]
+    if notes:
+        print("quality (a number marked ? is questionable; failed: it means nothing):")
+        print("\n".join(notes))
+    print(f"detrend before G: {', '.join(modes)} (--detrend to change); sigma_h from the "
+          "fit of G (info gives the rms height of the heights); rms grad, a_r and sigma_c "
+          "at the finest resolution where Persson theory is determined (column 'at dr'); "
+          f"{parameters}")
+
+
+def _emit(out, png, E_star: float, p0: float, gamma: float | None, records) -> None:
+    emit_json({"xrough_version": __version__, "output": str(out), "figure": str(png),
+               "parameters": {"E_star": number(E_star, "Pa"), "p0": number(p0, "Pa"),
+                              "gamma": None if gamma is None else number(gamma, "J m-2")},
+               "measurements": list(records)})
+
+
+def run(args: argparse.Namespace) -> int:
+    """Compute, archive, draw and print the contact mechanics of each file."""
+    E_star, p0, gamma = (_quantity(args, option) for option in QUANTITIES)
+    out = output(args.output)
+    png = out.with_suffix(".png")
+    measured = measure_all(args, _analysis(E_star, p0, gamma))
+    rows, records = zip(*(_row(m) for m in measured))
+    parameters = f"E_star={args.E_star}, p0={args.p0}, gamma={args.gamma}"
+    save_analysis(out, {m["name"]: m["results"] for m in measured},
+                  history=f"xrough report {' '.join(args.files)} ({parameters})")
+    fig = _figure(measured, args.p0)
+    try:
+        write_atomic(png, lambda p: fig.savefig(p, dpi=120, format="png"))
+    finally:
+        pyplot().close(fig)
+    if args.json:
+        _emit(out, png, E_star, p0, gamma, records)
+        return EXIT_OK
+    _print_table(measured, list(rows), parameters)
+    print(f"wrote {out} and {png}")
+    return EXIT_OK
