@@ -578,3 +578,24 @@ def test_points_per_decade_limit_is_the_estimators(files):
     assert topo.rough.acf(points_per_decade=limit).sizes["dr"] > 0
     with pytest.raises(ValueError, match="points_per_decade"):
         topo.rough.acf(points_per_decade=limit * 1.001)
+
+
+def test_a_corrupted_file_is_read_once_more_not_once_per_stand_in(unlabelled, monkeypatch,
+                                                                  capsys):
+    """The stand-ins are tried all together first: a file that does not read even so
+    keeps the reader's own message after one more read (a text file: five stand-ins)."""
+    reads = []
+    real = xrough.cli._files.open_topography
+    monkeypatch.setattr(xrough.cli._files, "open_topography",
+                        lambda path, **kw: reads.append(kw) or real(path, **kw))
+    lines = (unlabelled / "matrix.txt").read_text().splitlines()
+    (unlabelled / "cut.txt").write_text("\n".join(lines[:8] + ["1.0 abc"] + lines[8:]))
+    status, _, err = run("info", "cut.txt", cwd=unlabelled, monkeypatch=monkeypatch,
+                         capsys=capsys)
+    assert status == 1 and "cut.txt" in err and "give --" not in err
+    assert len(reads) == 2  # the read, and one with every stand-in
+    reads.clear()
+    status, _, err = run("info", "matrix.txt", cwd=unlabelled, monkeypatch=monkeypatch,
+                         capsys=capsys)
+    assert status == 1 and "give --size and --unit" in err
+    assert {"size", "unit"} <= set(reads[1]) and set(reads[-1]) >= {"size", "unit"}

@@ -169,22 +169,32 @@ def _refuse_foreign_options(path: str, name: str, options: dict) -> None:
                            + (" (it has one channel)" if key == "channel" else ""))
 
 
+def _reads(path: str, name: str, options: dict) -> bool:
+    """Whether the file reads with ``options`` (its warnings not shown)."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            open_topography(path, format=name, **options)
+    except Exception:  # noqa: BLE001 - any failure: it does not read
+        return False
+    return True
+
+
 def _missing_option(path: str, name: str, options: dict) -> str | None:
-    """Tell what the file that failed to read lacks, if a stand-in option makes it read."""
+    """Tell what the file that failed to read lacks, if a stand-in option makes it read.
+
+    All stand-ins together are tried first: a file that does not read even so (a
+    corrupted one) is read once more, not once for each.
+    """
     accepted = _reader_keywords(name)
-    for stand_in, moot, message in _STAND_INS:
-        if any(options.get(k) is not None for k in moot):
-            continue
-        if accepted is not None and not set(stand_in) <= accepted:
-            continue
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                open_topography(path, format=name, **{**options, **stand_in})
-        except Exception:  # noqa: BLE001, S112 - not this stand-in; try the next
-            continue
-        return message
-    return None
+    trials = [(stand_in, message) for stand_in, moot, message in _STAND_INS
+              if not any(options.get(k) is not None for k in moot)
+              and (accepted is None or set(stand_in) <= accepted)]
+    together = {k: v for stand_in, _ in trials for k, v in stand_in.items()}
+    if not trials or not _reads(path, name, {**options, **together}):
+        return None
+    return next((message for stand_in, message in trials
+                 if _reads(path, name, {**options, **stand_in})), None)
 
 
 def open_file(path: str, args: argparse.Namespace) -> xr.DataArray:
