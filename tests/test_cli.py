@@ -571,15 +571,6 @@ def test_the_option_named_makes_the_file_read(unlabelled, monkeypatch, capsys):
         assert json.loads(out)["files"][0]["shape"] == {"y": 16, "x": 16}
 
 
-def test_points_per_decade_limit_is_the_estimators(files):
-    """The command line refuses above the limit the estimators have, and only there."""
-    limit = xrough.cli._files.MOST_POINTS_PER_DECADE
-    topo = xrough.open_topography(files / "profile.nc")
-    assert topo.rough.acf(points_per_decade=limit).sizes["dr"] > 0
-    with pytest.raises(ValueError, match="points_per_decade"):
-        topo.rough.acf(points_per_decade=limit * 1.001)
-
-
 def test_a_corrupted_file_is_read_once_more_not_once_per_stand_in(unlabelled, monkeypatch,
                                                                   capsys):
     """The stand-ins are tried all together first: a file that does not read even so

@@ -20,14 +20,11 @@ import xarray as xr
 from tqdm.auto import tqdm
 
 from .. import units as u
+from .._kernels.binning import MAX_POINTS_PER_DECADE, check_points_per_decade
 from ..io import BRIDGE, FORMATS, detect_format, open_topography
 from ..io.archive import safe_name
 from ..preprocess import DETREND_MODES, detrend
 from ._common import CLIError, fail, first_line, warn_lines
-
-#: The largest ``--points-per-decade``: the limit of the estimators
-#: (:func:`xrough.correlation.height_difference_acf`; a test keeps the two equal).
-MOST_POINTS_PER_DECADE = 1000
 
 NONUNIFORM = ("the profile is sampled non-uniformly: give --resample (linear interpolation "
               "onto a uniform grid with the same number of points)")
@@ -137,11 +134,13 @@ def _checked(args: argparse.Namespace) -> dict:
     return options
 
 
-def check_points_per_decade(args: argparse.Namespace) -> None:
-    ppd = args.points_per_decade
-    if not (np.isfinite(ppd) and 0 < ppd <= MOST_POINTS_PER_DECADE):
-        raise CLIError(f"--points-per-decade {ppd:g}: must be a positive number up to "
-                       f"{MOST_POINTS_PER_DECADE}")
+def _check_points_per_decade(args: argparse.Namespace) -> None:
+    """``--points-per-decade`` by the rule of every log grid, named as the option."""
+    try:
+        check_points_per_decade(args.points_per_decade)
+    except ValueError:
+        raise CLIError(f"--points-per-decade {args.points_per_decade:g}: must be a positive "
+                       f"number up to {MAX_POINTS_PER_DECADE}") from None
 
 
 # -------------------------------------------------------------------- reading
@@ -279,7 +278,7 @@ def group_names(paths: list[str]) -> list[str]:
 
 def measure_all(args: argparse.Namespace, analyse=None) -> list[dict]:
     """:func:`_measure` each file of the command, with a progress bar on a terminal."""
-    check_points_per_decade(args)
+    _check_points_per_decade(args)
     names = group_names(args.files)
     return [_measure(path, name, args, analyse)
             for path, name in tqdm(list(zip(args.files, names)), desc="G(dr)",
