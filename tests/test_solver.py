@@ -8,7 +8,7 @@ from scipy import integrate
 
 import xrough
 from xrough._kernels import solver as solver_kernels
-from xrough._kernels.solver import _pixel_influence
+from xrough._kernels.solver import pixel_influence
 from xrough.solver import ConvergenceWarning, solve_contact
 
 E_STAR = 1e6  # Pa
@@ -37,9 +37,9 @@ def test_pixel_influence_is_love_solution():
     for x, y in [(1.0, 0.0), (0.0, 0.7), (3.0, -2.1), (-5.0, 4.2)]:
         ref = integrate.dblquad(lambda yy, xx, x=x, y=y: 1 / np.hypot(x - xx, y - yy) / np.pi,
                                 -dx / 2, dx / 2, -dy / 2, dy / 2, epsabs=1e-12)[0]
-        got = _pixel_influence(np.array(x), np.array(y), dx, dy)
+        got = pixel_influence(np.array(x), np.array(y), dx, dy)
         np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-12)
-    np.testing.assert_allclose(_pixel_influence(np.array(0.0), np.array(0.0), 2.0, 2.0),
+    np.testing.assert_allclose(pixel_influence(np.array(0.0), np.array(0.0), 2.0, 2.0),
                                8 / np.pi * np.arcsinh(1), rtol=1e-14)
 
 
@@ -101,22 +101,22 @@ def test_full_contact_shortcut_equals_iteration():
                                       size="2 um", n=128, rms_gradient=0.1, seed=5,
                                       unit="um")
     h = np.ascontiguousarray(topo.transpose("y", "x").values)
-    op = solver_kernels._ElasticOperator(h.shape, (2 / 128, 2 / 128), periodic=True)
-    stress = solver_kernels._full_contact_stress(h, op)
+    op = solver_kernels.ElasticOperator(h.shape, (2 / 128, 2 / 128), periodic=True)
+    stress = solver_kernels.full_contact_stress(h, op)
     threshold = -float(stress.min()) * E_STAR
     res = solve_contact(topo, E_star=E_STAR, p0=[0.9 * threshold, 1.1 * threshold],
                         tol=1e-10, progress=False)
     assert res.contact_area.values[0] < 1 and res.iterations.values[0] > 1
     assert res.contact_area.values[1] == 1 and res.iterations.values[1] == 1
     assert res.transforms.values[1] == 4 and res.residual.values[1, 0] < 1e-12
-    it = solver_kernels._solve_load(h, op, 1.1 * threshold / E_STAR, tol=1e-10,
+    it = solver_kernels.solve_load(h, op, 1.1 * threshold / E_STAR, tol=1e-10,
                                     max_iter=10_000, precondition=False)
     assert it["iterations"] > 10
     np.testing.assert_allclose(res.pressure.values[1], it["pressure"] * E_STAR, rtol=0,
                                atol=1e-7 * 1.1 * threshold)
     # preconditioned, the first step from the uniform start is the closed form itself
     # (K^-1 of the gap on the whole map): converged at the second iteration's check
-    pc = solver_kernels._solve_load(h, op, 1.1 * threshold / E_STAR, tol=1e-10,
+    pc = solver_kernels.solve_load(h, op, 1.1 * threshold / E_STAR, tol=1e-10,
                                     max_iter=10_000, precondition=True)
     assert pc["iterations"] <= 2
     np.testing.assert_allclose(pc["pressure"], it["pressure"], rtol=0,
