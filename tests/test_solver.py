@@ -168,6 +168,29 @@ def test_mixed_precision_reaches_tol():
     assert float(mixed.mean_pressure) == pytest.approx(p0, rel=1e-12)
 
 
+def test_float64_phase_restarts_reach_the_same_solution(monkeypatch):
+    # The float32 phase ended at a residual of 0.1 (far from the solution), with at most
+    # two pixels corrected one by one and a restart after two float64 iterations without
+    # progress: the float64 phase then corrects u by float32 pairs of transforms and
+    # starts again from u transformed afresh. Its solution is the float64 one to the
+    # tolerance: the same contact set, pressures within 1e-5 p0 (as the mixed solve above).
+    topo = xrough.self_affine_surface(hurst=0.8, lambda_r=64, lambda_s=4, size=256, n=256,
+                                      rms_gradient=0.1, seed=2, unit="um", rolloff="smooth")
+    h = np.ascontiguousarray(topo.transpose("y", "x").values)
+    h = h + 0.3 * float(h.std()) * np.random.default_rng(256).standard_normal(h.shape)
+    op = solver_kernels.ElasticOperator(h.shape, (1.0, 1.0), periodic=True)
+    p0, tol = 2e-3 * float(np.abs(h).max()), 1e-9
+    ref = solver_kernels.solve_load(h, op, p0, tol=tol, max_iter=3000, precision="float64")
+    monkeypatch.setattr(solver_kernels, "FLOAT32_TOL", 0.1)
+    monkeypatch.setattr(solver_kernels, "STALL", 1)
+    monkeypatch.setattr(solver_kernels, "POINT_LOADS_MAX", {np.float32: 2, np.float64: 2})
+    mixed = solver_kernels.solve_load(h, op, p0, tol=tol, max_iter=3000, precision="mixed")
+    assert mixed["converged"] and ref["converged"]
+    assert 0 < mixed["float32_iterations"] < 10 and mixed["refreshes"] > 0
+    np.testing.assert_array_equal(mixed["pressure"] > 0, ref["pressure"] > 0)
+    np.testing.assert_allclose(mixed["pressure"], ref["pressure"], rtol=0, atol=1e-5 * p0)
+
+
 def test_coarse_to_fine_same_solution_as_cold_start():
     topo = self_affine_512()
     p0 = 0.01 * 0.1 * E_STAR
