@@ -441,6 +441,20 @@ def _enforce_load(q_s: np.ndarray, q_off: np.ndarray, total: float) -> float:
     return s
 
 
+def _correction(st: _State, q_s: np.ndarray, q_off: np.ndarray, zero: np.ndarray,
+                off: np.ndarray, tau: float, s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Return the pixels and values of ``c = p_new - s (p - tau t)``.
+
+    ``c`` is nonzero only where a point left or (re-)entered the contact set; read
+    before the contact set changes.
+    """
+    ent_off = np.flatnonzero(q_off)
+    c_idx = np.concatenate([st.idx[zero], off[ent_off]])
+    c_val = np.concatenate([q_s[zero] - s * (st.p_s[zero] - tau * st.t_s[zero]),
+                            q_off[ent_off]])
+    return c_idx, c_val
+
+
 def _update_contact_set(st: _State, q_s: np.ndarray, q_off: np.ndarray, off: np.ndarray,
                         delta: float) -> None:
     """Take the new pressure: points at zero leave, entering ones join (merged, sorted)."""
@@ -525,16 +539,12 @@ def _cg_step(prob: _Problem, st: _State) -> _Step:
     eps_p = (float(np.abs(q_s - st.p_s).sum()) + float(np.abs(q_off).sum())) / prob.total
     c_idx = c_val = None
     if zero.any() or off.size:
-        # c = p_new - s (p - tau t): nonzero where a point left or (re-)entered
-        ent_off = np.flatnonzero(q_off)
-        c_idx = np.concatenate([st.idx[zero], off[ent_off]])
-        c_val = np.concatenate([q_s[zero] - s * (st.p_s[zero] - tau * st.t_s[zero]),
-                                q_off[ent_off]])
+        c_idx, c_val = _correction(st, q_s, q_off, zero, off, tau, s)
         _update_contact_set(st, q_s, q_off, off, st.delta)
     else:
         st.p_s = q_s
-    if c_idx is not None and c_idx.size > POINT_LOADS_MAX[st.u.dtype.type] \
-            and r.dtype == st.u.dtype:
+    if (c_idx is not None and c_idx.size > POINT_LOADS_MAX[st.u.dtype.type]
+            and r.dtype == st.u.dtype):
         r = None  # released before the new transform pair
         _refresh_displacement(prob, st)
     else:
