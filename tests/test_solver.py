@@ -8,7 +8,7 @@ from scipy import integrate
 
 import xrough
 from xrough._kernels import solver as solver_kernels
-from xrough._kernels.solver import _pixel_influence
+from xrough._kernels.solver import pixel_influence
 from xrough.solver import ConvergenceWarning, solve_contact
 
 E_STAR = 1e6  # Pa
@@ -37,9 +37,9 @@ def test_pixel_influence_is_love_solution():
     for x, y in [(1.0, 0.0), (0.0, 0.7), (3.0, -2.1), (-5.0, 4.2)]:
         ref = integrate.dblquad(lambda yy, xx, x=x, y=y: 1 / np.hypot(x - xx, y - yy) / np.pi,
                                 -dx / 2, dx / 2, -dy / 2, dy / 2, epsabs=1e-12)[0]
-        got = _pixel_influence(np.array(x), np.array(y), dx, dy)
+        got = pixel_influence(np.array(x), np.array(y), dx, dy)
         np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-12)
-    np.testing.assert_allclose(_pixel_influence(np.array(0.0), np.array(0.0), 2.0, 2.0),
+    np.testing.assert_allclose(pixel_influence(np.array(0.0), np.array(0.0), 2.0, 2.0),
                                8 / np.pi * np.arcsinh(1), rtol=1e-14)
 
 
@@ -101,22 +101,22 @@ def test_full_contact_shortcut_equals_iteration():
                                       size="2 um", n=128, rms_gradient=0.1, seed=5,
                                       unit="um")
     h = np.ascontiguousarray(topo.transpose("y", "x").values)
-    op = solver_kernels._ElasticOperator(h.shape, (2 / 128, 2 / 128), periodic=True)
-    stress = solver_kernels._full_contact_stress(h, op)
+    op = solver_kernels.ElasticOperator(h.shape, (2 / 128, 2 / 128), periodic=True)
+    stress = solver_kernels.full_contact_stress(h, op)
     threshold = -float(stress.min()) * E_STAR
     res = solve_contact(topo, E_star=E_STAR, p0=[0.9 * threshold, 1.1 * threshold],
                         tol=1e-10, progress=False)
     assert res.contact_area.values[0] < 1 and res.iterations.values[0] > 1
     assert res.contact_area.values[1] == 1 and res.iterations.values[1] == 1
     assert res.transforms.values[1] == 4 and res.residual.values[1, 0] < 1e-12
-    it = solver_kernels._solve_load(h, op, 1.1 * threshold / E_STAR, tol=1e-10,
+    it = solver_kernels.solve_load(h, op, 1.1 * threshold / E_STAR, tol=1e-10,
                                     max_iter=10_000, precondition=False)
     assert it["iterations"] > 10
     np.testing.assert_allclose(res.pressure.values[1], it["pressure"] * E_STAR, rtol=0,
                                atol=1e-7 * 1.1 * threshold)
     # preconditioned, the first step from the uniform start is the closed form itself
     # (K^-1 of the gap on the whole map): converged at the second iteration's check
-    pc = solver_kernels._solve_load(h, op, 1.1 * threshold / E_STAR, tol=1e-10,
+    pc = solver_kernels.solve_load(h, op, 1.1 * threshold / E_STAR, tol=1e-10,
                                     max_iter=10_000, precondition=True)
     assert pc["iterations"] <= 2
     np.testing.assert_allclose(pc["pressure"], it["pressure"], rtol=0,
@@ -166,6 +166,29 @@ def test_mixed_precision_reaches_tol():
     gap_err = np.where(mixed.contact == 1, mixed.gap, np.minimum(mixed.gap, 0))
     assert np.sqrt(np.mean(gap_err**2)) < 10 * tol * rms_h
     assert float(mixed.mean_pressure) == pytest.approx(p0, rel=1e-12)
+
+
+def test_float64_phase_restarts_reach_the_same_solution(monkeypatch):
+    # The float32 phase ended at a residual of 0.1 (far from the solution), with at most
+    # two pixels corrected one by one and a restart after two float64 iterations without
+    # progress: the float64 phase then corrects u by float32 pairs of transforms and
+    # starts again from u transformed afresh. Its solution is the float64 one to the
+    # tolerance: the same contact set, pressures within 1e-5 p0 (as the mixed solve above).
+    topo = xrough.self_affine_surface(hurst=0.8, lambda_r=64, lambda_s=4, size=256, n=256,
+                                      rms_gradient=0.1, seed=2, unit="um", rolloff="smooth")
+    h = np.ascontiguousarray(topo.transpose("y", "x").values)
+    h = h + 0.3 * float(h.std()) * np.random.default_rng(256).standard_normal(h.shape)
+    op = solver_kernels.ElasticOperator(h.shape, (1.0, 1.0), periodic=True)
+    p0, tol = 2e-3 * float(np.abs(h).max()), 1e-9
+    ref = solver_kernels.solve_load(h, op, p0, tol=tol, max_iter=3000, precision="float64")
+    monkeypatch.setattr(solver_kernels, "FLOAT32_TOL", 0.1)
+    monkeypatch.setattr(solver_kernels, "STALL", 1)
+    monkeypatch.setattr(solver_kernels, "POINT_LOADS_MAX", {np.float32: 2, np.float64: 2})
+    mixed = solver_kernels.solve_load(h, op, p0, tol=tol, max_iter=3000, precision="mixed")
+    assert mixed["converged"] and ref["converged"]
+    assert 0 < mixed["float32_iterations"] < 10 and mixed["refreshes"] > 0
+    np.testing.assert_array_equal(mixed["pressure"] > 0, ref["pressure"] > 0)
+    np.testing.assert_allclose(mixed["pressure"], ref["pressure"], rtol=0, atol=1e-5 * p0)
 
 
 def test_coarse_to_fine_same_solution_as_cold_start():

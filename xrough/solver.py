@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import time
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -19,12 +20,12 @@ from tqdm.auto import tqdm
 from . import quality
 from . import units as u
 from ._kernels.solver import (
-    _coarse_start,
-    _ElasticOperator,
-    _full_contact_solution,
-    _full_contact_stress,
-    _solve_approach,
-    _solve_load,
+    ElasticOperator,
+    coarse_start,
+    full_contact_solution,
+    full_contact_stress,
+    solve_approach,
+    solve_load,
 )
 from ._kernels.tiles import scaled_heights
 from .topography import check_valid_points, grid_of
@@ -272,6 +273,41 @@ def solve_contact(
     E = u.positive_si(E_star, "[pressure]", what="E_star")
     if (p0 is None) == (displacement is None):
         raise ValueError("give exactly one of p0 (mean pressure) or displacement")
+    opts = _options(tol, max_iter, precision, precondition, coarse_to_fine)
+    to_lat = u.conversion_factor(grid.height_unit, grid.lateral_unit)
+    loads = _loads(p0, displacement, E, grid.height_unit, to_lat)
+    workers = workers if workers is not None else (os.cpu_count() or 1)
+    op = ElasticOperator(h.shape, grid.spacing, periodic=grid.periodic, workers=workers)
+    # the problem is linear in (h, p0/E*, delta): solve it with heights scaled by the power
+    # of two 2**e nearest max|h| (exact in floating point), so that no height, square or
+    # float32 transform overflows, and scale the fields back
+    h_lat, e = scaled_heights(h * to_lat if to_lat != 1 else h)
+    targets = _scaled_targets(loads.targets, e, loads.dim)
+    results = _solve_loads(h_lat, op, targets, loads.dim, opts, progress)
+    _warn_unconverged(results, opts)
+    scale = _Scale(E=E, e=e, from_lat=np.ldexp(1.0 / to_lat, e), h_max=float(h_lat.max()))
+    ds = _dataset(results, topography, grid, loads, scale, opts)
+    if timing:
+        _add_timing(ds, results, loads.dim)
+    if loads.scalar:
+        ds = ds.isel({loads.dim: 0})
+        ds.attrs["relative_contact_area"] = float(ds["contact_area"])
+    return ds
+
+
+@dataclass(frozen=True)
+class _Options:
+    """The solver's checked parameters."""
+
+    tol: float
+    max_iter: int
+    precision: str
+    precondition: bool
+    coarse_to_fine: int
+
+
+def _options(tol, max_iter, precision, precondition, coarse_to_fine) -> _Options:
+    """Check the solver's parameters (ValueError naming the bad one)."""
     if not (np.isfinite(tol) and 0 < tol < 1):
         raise ValueError(f"tol must be between 0 and 1, got {tol!r}")
     if int(max_iter) < 1:
@@ -283,153 +319,221 @@ def solve_contact(
     if int(coarse_to_fine) < 0:
         raise ValueError(f"coarse_to_fine must be a non-negative integer, got "
                          f"{coarse_to_fine!r}")
-    hunit, lunit = grid.height_unit, grid.lateral_unit
-    to_lat = u.conversion_factor(hunit, lunit)
-    if p0 is not None:
-        load_dim, values = "p0", u.positive_si(p0, "[pressure]", what="p0", many=True)
-        targets = np.atleast_1d(values) / E
-        load_attrs = {"units": "Pa", "long_name": "prescribed mean pressure"}
-    else:
-        load_dim = "delta"  # "displacement" names the elastic field
-        mags = u.magnitude_in(displacement, hunit, what="displacement")
-        many = np.ndim(mags) > 0
-        values = np.atleast_1d(mags).astype(float)
-        if values.ndim != 1 or not np.all(np.isfinite(values) & (values > 0)):
-            raise ValueError(f"displacement must be a positive, finite length, got "
-                             f"{displacement!r}")
-        targets = values * to_lat
-        values = values if many else float(values[0])
-        load_attrs = {"units": hunit, "long_name": "prescribed approach from first contact"}
-    scalar = np.ndim(values) == 0
-    workers = workers if workers is not None else (os.cpu_count() or 1)
-    op = _ElasticOperator(h.shape, grid.spacing, periodic=grid.periodic, workers=workers)
-    # the problem is linear in (h, p0/E*, delta): solve it with heights scaled by the power
-    # of two 2**e nearest max|h| (exact in floating point), so that no height, square or
-    # float32 transform overflows, and scale the fields back
-    h_lat, e = scaled_heights(h * to_lat if to_lat != 1 else h)
-    targets = _scaled_targets(targets, e, load_dim)
+    return _Options(float(tol), int(max_iter), precision, bool(precondition),
+                    int(coarse_to_fine))
 
+
+@dataclass(frozen=True)
+class _Loads:
+    """The prescribed loads: dim name, coordinate values and the solver's targets.
+
+    ``targets`` are ``p0 / E*`` or approaches in the lateral unit; ``scalar`` when one
+    load was given as a scalar (no load dim in the result).
+    """
+
+    dim: str
+    values: Any
+    targets: np.ndarray
+    attrs: dict
+    scalar: bool
+
+
+def _loads(p0, displacement, E: float, hunit: str, to_lat: float) -> _Loads:
+    """Read ``p0`` (Pa) or ``displacement`` (height unit) into :class:`_Loads`."""
+    if p0 is not None:
+        values = u.positive_si(p0, "[pressure]", what="p0", many=True)
+        return _Loads("p0", values, np.atleast_1d(values) / E,
+                      {"units": "Pa", "long_name": "prescribed mean pressure"},
+                      np.ndim(values) == 0)
+    mags = u.magnitude_in(displacement, hunit, what="displacement")
+    many = np.ndim(mags) > 0
+    values = np.atleast_1d(mags).astype(float)
+    if values.ndim != 1 or not np.all(np.isfinite(values) & (values > 0)):
+        raise ValueError(f"displacement must be a positive, finite length, got "
+                         f"{displacement!r}")
+    # "delta": "displacement" names the elastic field
+    return _Loads("delta", values if many else float(values[0]), values * to_lat,
+                  {"units": hunit, "long_name": "prescribed approach from first contact"},
+                  not many)
+
+
+def _solve_loads(h_lat: np.ndarray, op: ElasticOperator, targets: np.ndarray,
+                 load_dim: str, opts: _Options, progress: bool | None) -> list[dict]:
+    """Solve every load in turn, each started from the previous solution.
+
+    The first load of ``p0`` starts from the coarse grids (``coarse_to_fine``); a load of
+    full contact of a periodic map takes the closed-form solution where it meets ``tol``.
+    """
     bar = _progress_bar(progress, "contact")
     callback = None if bar is None else (lambda it, res: (
         bar.update(1), bar.set_postfix(residual=f"{res:.1e}", refresh=False)))
-    results, p_prev = [], None
-    # the smallest load of full contact (periodic maps; open ones never reach it exactly)
-    full = _full_contact_stress(h_lat, op) if load_dim == "p0" else None
+    # the smallest load of full contact (periodic maps; open ones never reach it exactly);
+    # the map is not kept during the solves: recomputed if a load reaches it
+    full = full_contact_stress(h_lat, op) if load_dim == "p0" else None
     full_min = float(full.min()) if full is not None else -np.inf
-    full = None  # a map less during the solves: recomputed if a load reaches it
+    del full
+    results, p_prev = [], None
     try:
         for target in targets:
-            t_start = time.perf_counter()
-            if target + full_min > 0:
-                out = _full_contact_solution(h_lat, op, float(target))
-                if out["history"][-1] < tol:  # else (round-off): iterate as usual
-                    out["seconds"] = time.perf_counter() - t_start
-                    out["coarse_iterations"] = 0
-                    results.append(out)
-                    p_prev = out["pressure"]
-                    if callback is not None:
-                        callback(1, float(out["history"][-1]))
-                    continue
-            coarse_its = 0
-            if p_prev is None and load_dim == "p0" and coarse_to_fine:
-                p_prev, coarse_its = _coarse_start(
-                    h_lat, op, float(target), levels=int(coarse_to_fine), tol=float(tol),
-                    max_iter=int(max_iter), precision=precision, precondition=precondition)
-            kw = {"tol": float(tol), "max_iter": int(max_iter), "p_init": p_prev,
-                  "callback": callback, "precision": precision,
-                  "precondition": bool(precondition)}
-            out = (_solve_load(h_lat, op, float(target), **kw) if load_dim == "p0" else
-                   _solve_approach(h_lat, op, float(target), **kw))
-            out["seconds"] = time.perf_counter() - t_start
-            out["coarse_iterations"] = coarse_its
-            out["iterations"] += coarse_its
+            out = _solve_one(h_lat, op, float(target), load_dim, opts, p_prev, callback,
+                             full=target + full_min > 0)
             results.append(out)
             p_prev = out["pressure"]
     finally:
         if bar is not None:
             bar.close()
+    return results
 
+
+def _solve_one(h_lat: np.ndarray, op: ElasticOperator, target: float, load_dim: str,
+               opts: _Options, p_prev: np.ndarray | None, callback, *, full: bool) -> dict:
+    """Solve one load (``full``: try the closed form of full contact first)."""
+    t_start = time.perf_counter()
+    if full:
+        out = full_contact_solution(h_lat, op, target)
+        if out["history"][-1] < opts.tol:  # else (round-off): iterate as usual
+            out["seconds"] = time.perf_counter() - t_start
+            out["coarse_iterations"] = 0
+            if callback is not None:
+                callback(1, float(out["history"][-1]))
+            return out
+    coarse_its = 0
+    if p_prev is None and load_dim == "p0" and opts.coarse_to_fine:
+        p_prev, coarse_its = coarse_start(
+            h_lat, op, target, levels=opts.coarse_to_fine, tol=opts.tol,
+            max_iter=opts.max_iter, precision=opts.precision,
+            precondition=opts.precondition)
+    kw = {"tol": opts.tol, "max_iter": opts.max_iter, "p_init": p_prev,
+          "callback": callback, "precision": opts.precision,
+          "precondition": opts.precondition}
+    solve = solve_load if load_dim == "p0" else solve_approach
+    out = solve(h_lat, op, target, **kw)
+    out["seconds"] = time.perf_counter() - t_start
+    out["coarse_iterations"] = coarse_its
+    out["iterations"] += coarse_its
+    return out
+
+
+def _warn_unconverged(results: list[dict], opts: _Options) -> None:
+    """Warn (:class:`ConvergenceWarning`) when a load stopped above ``tol``."""
     bad = [i for i, r in enumerate(results) if not r["converged"]]
     if bad:
         worst = max(float(results[i]["history"][-1]) for i in bad)
         quality.warn(ConvergenceWarning(
-            f"contact solver did not reach tol={tol:g} within max_iter={max_iter} for "
-            f"{len(bad)} of {len(results)} load(s) (worst residual {worst:.2g}); the "
-            "result is flagged converged=0: raise max_iter or loosen tol"))
+            f"contact solver did not reach tol={opts.tol:g} within "
+            f"max_iter={opts.max_iter} for {len(bad)} of {len(results)} load(s) (worst "
+            f"residual {worst:.2g}); the result is flagged converged=0: raise max_iter or "
+            "loosen tol"))
 
-    from_lat = np.ldexp(1.0 / to_lat, e)
+
+@dataclass(frozen=True)
+class _Scale:
+    """From the scaled problem back to units: ``E*`` (Pa), the heights' ``2**e``, ...
+
+    ``from_lat`` takes scaled lengths to the height unit; ``h_max`` is the largest scaled
+    height.
+    """
+
+    E: float
+    e: int
+    from_lat: float
+    h_max: float
+
+
+def _history(results: list[dict]) -> np.ndarray:
+    """Residual per load and iteration, NaN-padded to the longest history."""
     n_hist = max(len(r["history"]) for r in results)
     hist = np.full((len(results), n_hist), np.nan)
     for i, r in enumerate(results):
         hist[i, : len(r["history"])] = r["history"]
-    L = (load_dim,)
-    yx = ("y", "x")
-    area = np.array([np.mean(r["pressure"] > 0) for r in results])
-    mean_p = np.ldexp(np.array([r["pressure"].mean() for r in results]) * E, e)
-    pressure = _fields(results, "pressure", np.ldexp(E, e))
-    ds = xr.Dataset(
-        {
-            "pressure": (L + yx, pressure, {"units": "Pa", "long_name": "contact pressure"}),
-            "displacement": (L + yx, _fields(results, "displacement", from_lat), {
-                "units": hunit, "long_name": "elastic surface displacement"}),
-            "gap": (L + yx, _fields(results, "gap", from_lat), {
-                "units": hunit, "long_name": "gap between the surfaces"}),
-            "contact": (L + yx, (pressure > 0).view(np.int8), {
-                "units": "1", "long_name": "contact mask"}),
-            "contact_area": (L, area, {"units": "1",
-                                       "long_name": "relative contact area"}),
-            "mean_pressure": (L, mean_p, {"units": "Pa", "long_name": "mean pressure"}),
-            "approach": (L, (h_lat.max() + np.array([r["offset"] for r in results]))
-                         * from_lat, {"units": hunit, "long_name":
-                                      "approach from first contact, max(h) + offset"}),
-            "iterations": (L, np.array([r["iterations"] for r in results], dtype=np.int64),
-                           {"long_name": "conjugate-gradient iterations"}),
-            "converged": (L, np.array([r["converged"] for r in results], dtype=np.int8),
-                          {"long_name": "1 if the residual reached tol"}),
-            "float32_iterations": (L, np.array([r["float32_iterations"] for r in results],
-                                               dtype=np.int64),
-                                   {"long_name": "iterations of the float32 phase"}),
-            "coarse_iterations": (L, np.array([r["coarse_iterations"] for r in results],
-                                              dtype=np.int64),
-                                  {"long_name": "iterations on the coarse grids"}),
-            "transforms": (L, np.array([r["transforms"] for r in results], dtype=np.int64),
-                           {"long_name": "forward plus inverse FFTs of the map"}),
-            "deferred_entries": (L, np.array([r["deferred_entries"] for r in results],
-                                             dtype=np.int64),
-                                 {"long_name": "iterations in which overlapping points "
-                                  "waited to enter the contact set (proportioning)"}),
+    return hist
 
-            "residual": (L + ("iteration",), hist, {
-                "units": "1", "long_name": "relative residual per iteration "
-                "(max of pressure change and gap error)"}),
-        },
-        coords={
-            "y": topography["y"], "x": topography["x"],
-            load_dim: (L, np.atleast_1d(values), load_attrs),
-            "iteration": ("iteration", np.arange(1, n_hist + 1),
-                          {"long_name": "iteration"}),
-        },
-        attrs={
-            "E_star": E, "E_star_units": "Pa", "tol": float(tol), "max_iter": int(max_iter),
-            "method": "polonsky-keer constrained conjugate gradient" + (
-                "" if load_dim == "p0" else ", brent root of the approach in p0"),
-            "green_function": ("periodic, u~ = 2 p~ / (E* |q|)" if grid.periodic else
-                               "free space, Love pixel kernel, zero-padded to 2n"),
-            "periodic": int(grid.periodic),
-            "iterations": int(sum(r["iterations"] for r in results)),
-            "precision": precision,
-            "coarse_to_fine": int(coarse_to_fine),
-            "precondition": int(bool(precondition)),
-        },
-    )
-    if timing:
-        ds["solve_time"] = (L, np.array([r["seconds"] for r in results]), {
-            "units": "s", "long_name": "wall-clock time of the solve"})
-        ds["time_per_iteration"] = (L, np.array([r["seconds"] / max(r["iterations"], 1)
-                                                 for r in results]), {
-            "units": "s", "long_name": "wall-clock time per iteration"})
-        ds.attrs["solve_time"] = float(sum(r["seconds"] for r in results))
-    if scalar:
-        ds = ds.isel({load_dim: 0})
-        ds.attrs["relative_contact_area"] = float(area[0])
-    return ds
+
+def _field_vars(results: list[dict], scale: _Scale, hunit: str, L: tuple) -> dict:
+    """Return the maps: pressure (Pa), displacement and gap (height unit), contact."""
+    yx = ("y", "x")
+    pressure = _fields(results, "pressure", np.ldexp(scale.E, scale.e))
+    return {
+        "pressure": (L + yx, pressure, {"units": "Pa", "long_name": "contact pressure"}),
+        "displacement": (L + yx, _fields(results, "displacement", scale.from_lat), {
+            "units": hunit, "long_name": "elastic surface displacement"}),
+        "gap": (L + yx, _fields(results, "gap", scale.from_lat), {
+            "units": hunit, "long_name": "gap between the surfaces"}),
+        "contact": (L + yx, (pressure > 0).view(np.int8), {
+            "units": "1", "long_name": "contact mask"}),
+    }
+
+
+#: Per-load outcomes of the solve: result key, dtype and long name.
+_COUNTERS = {
+    "iterations": (np.int64, "conjugate-gradient iterations"),
+    "converged": (np.int8, "1 if the residual reached tol"),
+    "float32_iterations": (np.int64, "iterations of the float32 phase"),
+    "coarse_iterations": (np.int64, "iterations on the coarse grids"),
+    "transforms": (np.int64, "forward plus inverse FFTs of the map"),
+    "deferred_entries": (np.int64, "iterations in which overlapping points waited to "
+                                   "enter the contact set (proportioning)"),
+}
+
+
+def _load_vars(results: list[dict], scale: _Scale, hunit: str, L: tuple) -> dict:
+    """Per-load scalars: area, mean pressure, approach, convergence and counters.
+
+    Read before the maps are stacked (:func:`_fields` releases them).
+    """
+    area = np.array([np.mean(r["pressure"] > 0) for r in results])
+    mean_p = np.ldexp(np.array([r["pressure"].mean() for r in results]) * scale.E, scale.e)
+    approach = (scale.h_max + np.array([r["offset"] for r in results])) * scale.from_lat
+    out = {
+        "contact_area": (L, area, {"units": "1", "long_name": "relative contact area"}),
+        "mean_pressure": (L, mean_p, {"units": "Pa", "long_name": "mean pressure"}),
+        "approach": (L, approach, {"units": hunit, "long_name":
+                                   "approach from first contact, max(h) + offset"}),
+    }
+    for key, (dtype, name) in _COUNTERS.items():
+        out[key] = (L, np.array([r[key] for r in results], dtype=dtype),
+                    {"long_name": name})
+    return out
+
+
+def _dataset(results: list[dict], topography: xr.DataArray, grid, loads: _Loads,
+             scale: _Scale, opts: _Options) -> xr.Dataset:
+    """Label the solutions: maps on (load, y, x), per-load values, the history."""
+    L = (loads.dim,)
+    hunit = grid.height_unit
+    per_load = _load_vars(results, scale, hunit, L)
+    hist = _history(results)
+    data = {**_field_vars(results, scale, hunit, L), **per_load}
+    data["residual"] = (L + ("iteration",), hist, {
+        "units": "1", "long_name": "relative residual per iteration "
+        "(max of pressure change and gap error)"})
+    coords = {
+        "y": topography["y"], "x": topography["x"],
+        loads.dim: (L, np.atleast_1d(loads.values), loads.attrs),
+        "iteration": ("iteration", np.arange(1, hist.shape[1] + 1),
+                      {"long_name": "iteration"}),
+    }
+    attrs = {
+        "E_star": scale.E, "E_star_units": "Pa", "tol": opts.tol, "max_iter": opts.max_iter,
+        "method": "polonsky-keer constrained conjugate gradient" + (
+            "" if loads.dim == "p0" else ", brent root of the approach in p0"),
+        "green_function": ("periodic, u~ = 2 p~ / (E* |q|)" if grid.periodic else
+                           "free space, Love pixel kernel, zero-padded to 2n"),
+        "periodic": int(grid.periodic),
+        "iterations": int(sum(r["iterations"] for r in results)),
+        "precision": opts.precision,
+        "coarse_to_fine": opts.coarse_to_fine,
+        "precondition": int(opts.precondition),
+    }
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def _add_timing(ds: xr.Dataset, results: list[dict], load_dim: str) -> None:
+    """Add the wall-clock ``solve_time`` and ``time_per_iteration`` (s) per load, in place."""
+    L = (load_dim,)
+    ds["solve_time"] = (L, np.array([r["seconds"] for r in results]), {
+        "units": "s", "long_name": "wall-clock time of the solve"})
+    ds["time_per_iteration"] = (L, np.array([r["seconds"] / max(r["iterations"], 1)
+                                             for r in results]), {
+        "units": "s", "long_name": "wall-clock time per iteration"})
+    ds.attrs["solve_time"] = float(sum(r["seconds"] for r in results))

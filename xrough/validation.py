@@ -10,6 +10,7 @@ height-difference ACF ``G`` alone: eq. 24 in full contact and real-space Persson
 from __future__ import annotations
 
 import warnings
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -19,7 +20,7 @@ from scipy import special
 from . import quality
 from . import units as u
 from ._kernels.contact import KAPPA_PERSSON, contact_area, improved_area
-from ._kernels.solver import _ElasticOperator, _full_contact_stress
+from ._kernels.solver import ElasticOperator, full_contact_stress
 from .contact import THEORIES, persson, stress_acf
 from .correlation import height_difference_acf
 from .fitting import fit_acf
@@ -85,7 +86,7 @@ def _full_contact_load(h_lat: np.ndarray, spacing, periodic: bool, E: float, gba
     """Mean pressure just beyond full contact (Pa)."""
     if not periodic:  # no exact threshold in free space: a generous multiple
         return 4.0 * E * gbar0
-    stress = _full_contact_stress(h_lat, _ElasticOperator(h_lat.shape, spacing,
+    stress = full_contact_stress(h_lat, ElasticOperator(h_lat.shape, spacing,
                                                           periodic=True)) * E
     return FULL_CONTACT_MARGIN * float(max(-stress.min(), 1e-3 * E * gbar0))
 
@@ -271,43 +272,106 @@ def compare_with_simulation(
     if kappa is not None and not (np.isfinite(kappa) and kappa > 0):
         raise ValueError(f"kappa must be positive, got {kappa!r}")
     grid, h = check_topography(topography)
-    lunit, hunit = grid.lateral_unit, grid.height_unit
     acf_kwargs = {"points_per_decade": 10, **(acf_kwargs or {})}
+    rough = _roughness(topography, h, grid, gradient_method, acf_kwargs)
+    p_star = p0s / (E * rough.gbar0)
+    sim = _simulate(topography, h, grid, E, rough, p0s, full_contact, acf_kwargs,
+                    {"tol": tol, "max_iter": max_iter, "workers": workers})
+    kappa_used, fitted = _kappa(kappa, names, sim.area[0], p_star[0])
+    lo, hi, sel = _error_lags(rough.G["dr"].values, grid, error_range)
+    pred = _predictions(rough, E, p0s, names, kappa_used, smooth_full)
+    coords = {"theory": ("theory", np.array(names, dtype=object),
+                         {"long_name": "theory of partial contact (see attrs)"}),
+              "p0": ("p0", p0s, {"units": "Pa", "long_name": "mean pressure"}),
+              "dr": ("dr", rough.G["dr"].values, {"units": grid.lateral_unit,
+                                                  "long_name": "lag distance"})}
+    err_attrs = {"units": "1", "error_dr_min": float(lo), "error_dr_max": float(hi)}
+    areas = _area_vars(p_star, kappa_used, fitted, sim, names)
+    stress, coverage = _stress_vars(pred, sim, coords, sel, err_attrs)
+    out = {**areas, **stress}
+    if full_contact:
+        out.update(_full_contact_vars(rough.G, E, sim, sel, err_attrs))
+    if keep_pressure:
+        out["pressure"] = (("p0", "y", "x"), sim.pressure[:sim.n], {
+            "units": "Pa", "long_name": "simulated contact pressure"})
+        coords.update(y=topography["y"], x=topography["x"])
+    ds = xr.Dataset(out, coords=coords)
+    ds.attrs = _attrs(E, kappa, kappa_used, fitted, rough, gradient_method, (lo, hi),
+                      grid, names)
+    return _mark_coverage(ds, coverage, names)
 
-    # --- G, gbar and the reduced pressure ---------------------------------------------
+
+@dataclass(frozen=True)
+class _Roughness:
+    """The map's ``G``, its fit, the rms gradient ``gbar(dr)`` and ``gbar(0)``."""
+
+    G: xr.DataArray
+    fit: Any
+    gbar: xr.DataArray
+    gbar0: float
+
+
+def _roughness(topography: xr.DataArray, h: np.ndarray, grid, gradient_method: str,
+               acf_kwargs: dict) -> _Roughness:
+    """Return ``G`` of the map, its fit (for the gradient and eq. 51), ``gbar`` and ``gbar(0)``."""
     G = height_difference_acf(topography, progress=False, **acf_kwargs)
-    fit = fit_acf(G)  # one fit for the gradient and eq. 51
+    fit = fit_acf(G)
     gbar = rms_gradient(G, method=gradient_method,
                         fit=fit if gradient_method in ("auto", "fit") else None)
-    gbar0 = _gbar0(h * u.conversion_factor(hunit, lunit), grid.spacing, grid.periodic,
-                   gbar)
-    p_star = p0s / (E * gbar0)
+    to_lat = u.conversion_factor(grid.height_unit, grid.lateral_unit)
+    return _Roughness(G, fit, gbar, _gbar0(h * to_lat, grid.spacing, grid.periodic, gbar))
 
-    # --- simulation -----------------------------------------------------------------
-    to_lat = u.conversion_factor(hunit, lunit)
+
+@dataclass(frozen=True)
+class _Simulation:
+    """The solver's fields at the ``n`` loads (and the full-contact one after them).
+
+    ``stress_acf`` is the simulated stress ACF on the lags of ``G`` (load index, dr).
+    """
+
+    n: int
+    pressure: np.ndarray
+    area: np.ndarray
+    iterations: np.ndarray
+    converged: np.ndarray
+    stress_acf: xr.DataArray
+    p_full: float | None
+
+
+def _simulate(topography: xr.DataArray, h: np.ndarray, grid, E: float, rough: _Roughness,
+              p0s: np.ndarray, full_contact: bool, acf_kwargs: dict,
+              solver_kwargs: dict) -> _Simulation:
+    """Solve at every load (and just beyond full contact) and measure the stress ACF."""
     loads = list(p0s)
     p_full = None
     if full_contact:
-        p_full = _full_contact_load(h * to_lat, grid.spacing, grid.periodic, E, gbar0)
+        to_lat = u.conversion_factor(grid.height_unit, grid.lateral_unit)
+        p_full = _full_contact_load(h * to_lat, grid.spacing, grid.periodic, E,
+                                    rough.gbar0)
         loads.append(max(p_full, 1.01 * p0s[-1]))
         p_full = loads[-1]
-    sim = solve_contact(topography.transpose("y", "x"), E_star=E, p0=loads, tol=tol,
-                        max_iter=max_iter, workers=workers, progress=False)
+    sim = solve_contact(topography.transpose("y", "x"), E_star=E, p0=loads,
+                        progress=False, **solver_kwargs)
     pressure = sim["pressure"].assign_coords(p0=np.arange(len(loads)))
-    S_sim = _simulated_stress_acf(pressure, lunit, grid.periodic, acf_kwargs)
-    S_sim = _on_lags(S_sim, G["dr"].values).assign_coords(dr=G["dr"])
-    area_sim = sim["contact_area"].values
+    S_sim = _simulated_stress_acf(pressure, grid.lateral_unit, grid.periodic, acf_kwargs)
+    S_sim = _on_lags(S_sim, rough.G["dr"].values).assign_coords(dr=rough.G["dr"])
+    return _Simulation(len(p0s), sim["pressure"].values, sim["contact_area"].values,
+                       sim["iterations"].values, sim["converged"].values, S_sim, p_full)
 
-    n = len(p0s)
-    if kappa is None and ("persson_kappa" in names or 0 < area_sim[0] < 1):
-        kappa_used, fitted = fit_kappa(float(area_sim[0]), float(p_star[0])), 1
-    elif kappa is None:  # not asked for, and not measurable at this load
-        kappa_used, fitted = np.nan, 0
-    else:
-        kappa_used, fitted = float(kappa), 0
 
-    # --- error range ----------------------------------------------------------------
-    dr = G["dr"].values
+def _kappa(kappa: float | None, names: tuple[str, ...], area: float,
+           p_star: float) -> tuple[float, int]:
+    """Return ``kappa`` of ``"persson_kappa"`` and 1 if fitted at the smallest load, else 0."""
+    if kappa is None and ("persson_kappa" in names or 0 < area < 1):
+        return fit_kappa(float(area), float(p_star)), 1
+    if kappa is None:  # not asked for, and not measurable at this load
+        return np.nan, 0
+    return float(kappa), 0
+
+
+def _error_lags(dr: np.ndarray, grid, error_range) -> tuple[float, float, np.ndarray]:
+    """Return the error range ``lo, hi`` (lateral unit) and the mask of the lags in it."""
+    lunit = grid.lateral_unit
     if error_range is None:
         lo, hi = 2 * max(grid.spacing), min(grid.size) / 8
     else:
@@ -315,57 +379,65 @@ def compare_with_simulation(
     sel = (dr >= lo * (1 - 1e-9)) & (dr <= hi * (1 + 1e-9))
     if not sel.any():
         raise ValueError(f"no lag of G lies in error_range [{lo:g}, {hi:g}] {lunit}")
+    return lo, hi, sel
 
-    # --- theory ---------------------------------------------------------------------
-    p0_coord = ("p0", p0s, {"units": "Pa", "long_name": "mean pressure"})
-    dr_coord = ("dr", dr, {"units": lunit, "long_name": "lag distance"})
-    S_part = S_sim.isel(p0=slice(0, n)).assign_coords(p0=p0_coord)
-    a_r = contact_area(p_star, KAPPA_PERSSON)
-    a_r_kappa = contact_area(p_star, kappa_used)
-    a_ri = improved_area(p_star, a_r)
-    areas = {"persson": a_r, "modified": a_ri, "modified_ar2": a_ri,
-             "persson_kappa": a_r_kappa}
-    wanted = ("G_sigma", "Gamma_sigma", "Gamma_sigma_sa")
-    predicted = {v: [] for v in wanted}
-    printed = None  # eq. 51 as printed: the same for every theory
+
+#: Predicted variables of :func:`xrough.persson` compared per theory.
+_PREDICTED = ("G_sigma", "Gamma_sigma", "Gamma_sigma_sa")
+
+
+def _predictions(rough: _Roughness, E: float, p0s: np.ndarray, names: tuple[str, ...],
+                 kappa_used: float, smooth_full: bool) -> dict:
+    """Return the predictions on (theory, p0, dr) and eq. 51 as printed on (p0, dr).
+
+    Keys: the names of ``_PREDICTED`` and ``"Gamma_sigma_51"`` (the same for every
+    theory). Each warning of :func:`xrough.persson` is issued once, not once per theory.
+    """
+    G, dr = rough.G, rough.G["dr"].values
+    predicted = {v: [] for v in _PREDICTED}
+    printed = None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         for name in names:
             ds = persson(G, E_star=E, p0=p0s, theory=name.removesuffix("_kappa"),
                          kappa=kappa_used if name == "persson_kappa" else KAPPA_PERSSON,
-                         gradient=gbar, fit=fit, smooth_full=smooth_full,
-                         variables=wanted + (() if printed is not None else
-                                             ("Gamma_sigma_51",)))
+                         gradient=rough.gbar, fit=rough.fit, smooth_full=smooth_full,
+                         variables=_PREDICTED + (() if printed is not None else
+                                                 ("Gamma_sigma_51",)))
             if ds.sizes.get("p0") is None:
                 ds = ds.expand_dims("p0")
-            ds = ds.reindex(dr=G["dr"].values, method="nearest", tolerance=1e-9 * dr[-1])
-            for v in wanted:  # NaN off gbar's lags
+            ds = ds.reindex(dr=dr, method="nearest", tolerance=1e-9 * dr[-1])
+            for v in _PREDICTED:  # NaN off gbar's lags
                 predicted[v].append(ds[v].transpose("p0", "dr").values)
             if printed is None:
                 printed = ds["Gamma_sigma_51"].transpose("p0", "dr").values
     for message in dict.fromkeys((w.category, str(w.message)) for w in caught):
-        quality.warn(message[1], message[0])  # once, not once per theory
-    g_th, gam_th, gam_sa = (np.stack(predicted[v]) for v in wanted)
+        quality.warn(message[1], message[0])
+    return {**{v: np.stack(predicted[v]) for v in _PREDICTED}, "Gamma_sigma_51": printed}
+
+
+#: Source attribute of the simulated variables.
+_SIM_SOURCE = "from the boundary-element solution (xrough.solve_contact)"
+
+
+def _area_vars(p_star: np.ndarray, kappa_used: float, fitted: int, sim: _Simulation,
+               names: tuple[str, ...]) -> dict:
+    """Return the reduced pressure, the simulated and predicted areas and their errors."""
+    n = sim.n
+    a_r = contact_area(p_star, KAPPA_PERSSON)
+    a_r_kappa = contact_area(p_star, kappa_used)
+    a_ri = improved_area(p_star, a_r)
+    areas = {"persson": a_r, "modified": a_ri, "modified_ar2": a_ri,
+             "persson_kappa": a_r_kappa}
     area_th = np.stack([areas[name] for name in names])
-    coords = {"theory": ("theory", np.array(names, dtype=object),
-                         {"long_name": "theory of partial contact (see attrs)"}),
-              "p0": p0_coord, "dr": dr_coord}
-    G_sigma = xr.DataArray(g_th, dims=("theory", "p0", "dr"), coords=coords)
-    mean_sq = (sim["pressure"].values[:n] ** 2).mean(axis=(1, 2))  # G_sigma_sim(0)
-    err_max, err_rms = _errors(G_sigma - S_part.values, mean_sq[None, :, None], sel)
-    coverage = np.isfinite(g_th[..., sel]).mean(axis=-1)
-
     with np.errstate(divide="ignore", invalid="ignore"):
-        area_err = area_th / area_sim[None, :n] - 1
-
-    sim_attrs = "from the boundary-element solution (xrough.solve_contact)"
-    err_attrs = {"units": "1", "error_dr_min": float(lo), "error_dr_max": float(hi)}
-    out = {
+        area_err = area_th / sim.area[None, :n] - 1
+    return {
         "p_star": (("p0",), p_star, {"units": "1", "long_name":
                                      "reduced pressure p0 / (E* gbar(0))"}),
-        "contact_area": (("p0",), area_sim[:n], {
+        "contact_area": (("p0",), sim.area[:n], {
             "units": "1", "long_name": "simulated relative contact area",
-            "source": sim_attrs}),
+            "source": _SIM_SOURCE}),
         "a_r": (("p0",), a_r, {"units": "1", "long_name": "Persson's relative contact area",
                                "equation": "eq. 29: erf(sqrt(2) p*), kappa = sqrt(8/pi)",
                                "kappa": KAPPA_PERSSON}),
@@ -380,24 +452,38 @@ def compare_with_simulation(
             "units": "1", "long_name": "relative error of the predicted contact area",
             "definition": "a_theory / a_sim - 1, a_theory = a_r (persson), a_ri "
             "(modified, modified_ar2) or a_r_kappa (persson_kappa)"}),
-        "G_sigma_sim": (("p0", "dr"), S_part.values, {
+    }
+
+
+def _stress_vars(pred: dict, sim: _Simulation, coords: dict, sel: np.ndarray,
+                 err_attrs: dict) -> tuple[dict, np.ndarray]:
+    """Return the simulated and predicted stress ACFs, their errors, and the coverage."""
+    n = sim.n
+    S_part = sim.stress_acf.isel(p0=slice(0, n)).values
+    g_th = pred["G_sigma"]
+    G_sigma = xr.DataArray(g_th, dims=("theory", "p0", "dr"), coords=coords)
+    mean_sq = (sim.pressure[:n] ** 2).mean(axis=(1, 2))  # G_sigma_sim(0)
+    err_max, err_rms = _errors(G_sigma - S_part, mean_sq[None, :, None], sel)
+    coverage = np.isfinite(g_th[..., sel]).mean(axis=-1)
+    return {
+        "G_sigma_sim": (("p0", "dr"), S_part, {
             "units": "Pa2", "long_name": "simulated stress autocorrelation function",
             "definition": "<p^2> - G_p(dr), G_p the height-difference ACF of the pressure",
-            "source": sim_attrs}),
+            "source": _SIM_SOURCE}),
         "G_sigma": (("theory", "p0", "dr"), g_th, {
             "units": "Pa2", "long_name": "predicted stress autocorrelation function",
             "equation": "eq. 30/48 with W of eq. 49"}),
-        "Gamma_sigma_sim": (("p0", "dr"), S_part.values / area_sim[:n, None], {
+        "Gamma_sigma_sim": (("p0", "dr"), S_part / sim.area[:n, None], {
             "units": "Pa2", "long_name": "simulated reduced stress ACF",
             "definition": "G_sigma_sim / contact_area"}),
-        "Gamma_sigma": (("theory", "p0", "dr"), gam_th, {
+        "Gamma_sigma": (("theory", "p0", "dr"), pred["Gamma_sigma"], {
             "units": "Pa2", "long_name": "predicted reduced stress ACF",
             "equation": "eq. 47 (divided by a_r(0); both modified: a_ri(0))"}),
-        "Gamma_sigma_sa": (("theory", "p0", "dr"), gam_sa, {
+        "Gamma_sigma_sa": (("theory", "p0", "dr"), pred["Gamma_sigma_sa"], {
             "units": "Pa2", "long_name": "small-pressure asymptote of the reduced stress "
             "ACF", "equation": "small-p* limit of eq. 47-50 per theory (self-affine "
             "range)"}),
-        "Gamma_sigma_51": (("p0", "dr"), printed, {
+        "Gamma_sigma_51": (("p0", "dr"), pred["Gamma_sigma_51"], {
             "units": "Pa2", "long_name": "eq. 51 as printed", "equation":
             "eq. 51: pi gbar(0) H^2 E*^2 sqrt(G / c_sa(H)) / (2 dr), c_sa(H) = gbar^2 "
             "dr^2 / G (the print's c_sa read as its reciprocal)"}),
@@ -410,65 +496,75 @@ def compare_with_simulation(
         "stress_error_coverage": (("theory", "p0"), coverage, {
             **err_attrs, "long_name": "share of the lags in the error range where the "
             "theory predicts G_sigma"}),
-        "iterations": (("p0",), sim["iterations"].values[:n], {
+        "iterations": (("p0",), sim.iterations[:n], {
             "long_name": "conjugate-gradient iterations"}),
-        "converged": (("p0",), sim["converged"].values[:n], {
+        "converged": (("p0",), sim.converged[:n], {
             "long_name": "1 if the solver reached tol"}),
+    }, coverage
+
+
+def _full_contact_vars(G: xr.DataArray, E: float, sim: _Simulation, sel: np.ndarray,
+                       err_attrs: dict) -> dict:
+    """Return the full-contact stress ACF, simulated and of eq. 24, and its error."""
+    n, p_full = sim.n, float(sim.p_full)
+    S_full_sim = sim.stress_acf.isel(p0=n).values - p_full**2
+    S_full = stress_acf(G, E_star=E).values
+    var = float(sim.pressure[n].var())  # G_sigma_full_sim(0)
+    f_max, f_rms = _errors(xr.DataArray(S_full - S_full_sim, dims="dr"), var, sel)
+    area_full = float(sim.area[n])
+    if area_full < 1:
+        quality.warn(f"the full-contact load {p_full:.3g} Pa left "
+                     f"{1 - area_full:.2%} of the map out of contact; the full-contact "
+                     "comparison is approximate", RuntimeWarning)
+    return {
+        "G_sigma_full_sim": (("dr",), S_full_sim, {
+            "units": "Pa2", "long_name": "simulated full-contact stress ACF",
+            "definition": "<p^2> - p0_full^2 - G_p(dr)", "source": _SIM_SOURCE}),
+        "G_sigma_full": (("dr",), S_full, {
+            "units": "Pa2", "long_name": "full-contact stress ACF from G",
+            "equation": "eq. 24 (p0^2 offset left out)"}),
+        "full_contact_error": ((), float(f_max), {
+            **err_attrs, "long_name": "largest error of eq. 24 relative to the "
+            "simulated stress variance"}),
+        "full_contact_error_rms": ((), float(f_rms), {
+            **err_attrs, "long_name": "rms error of eq. 24 relative to the simulated "
+            "stress variance"}),
+        "full_contact_area": ((), area_full, {
+            "units": "1", "long_name": "simulated relative contact area at p0_full"}),
+        "p0_full": ((), p_full, {"units": "Pa", "long_name":
+                                 "mean pressure of the full-contact solve"}),
     }
-    if full_contact:
-        S_full_sim = S_sim.isel(p0=n).values - float(p_full) ** 2
-        S_full = stress_acf(G, E_star=E).values
-        var = float(sim["pressure"].values[n].var())  # G_sigma_full_sim(0)
-        diff = xr.DataArray(S_full - S_full_sim, dims="dr")
-        f_max, f_rms = _errors(diff, var, sel)
-        area_full = float(area_sim[n])
-        if area_full < 1:
-            quality.warn(f"the full-contact load {p_full:.3g} Pa left "
-                         f"{1 - area_full:.2%} of the map out of contact; the full-contact "
-                         "comparison is approximate", RuntimeWarning)
-        out.update({
-            "G_sigma_full_sim": (("dr",), S_full_sim, {
-                "units": "Pa2", "long_name": "simulated full-contact stress ACF",
-                "definition": "<p^2> - p0_full^2 - G_p(dr)", "source": sim_attrs}),
-            "G_sigma_full": (("dr",), S_full, {
-                "units": "Pa2", "long_name": "full-contact stress ACF from G",
-                "equation": "eq. 24 (p0^2 offset left out)"}),
-            "full_contact_error": ((), float(f_max), {
-                **err_attrs, "long_name": "largest error of eq. 24 relative to the "
-                "simulated stress variance"}),
-            "full_contact_error_rms": ((), float(f_rms), {
-                **err_attrs, "long_name": "rms error of eq. 24 relative to the simulated "
-                "stress variance"}),
-            "full_contact_area": ((), area_full, {
-                "units": "1", "long_name": "simulated relative contact area at p0_full"}),
-            "p0_full": ((), float(p_full), {"units": "Pa", "long_name":
-                                             "mean pressure of the full-contact solve"}),
-        })
-    if keep_pressure:
-        out["pressure"] = (("p0", "y", "x"), sim["pressure"].values[:n], {
-            "units": "Pa", "long_name": "simulated contact pressure"})
-    ds = xr.Dataset(out, coords={
-        **coords, **({"y": topography["y"], "x": topography["x"]} if keep_pressure else {})})
-    ds.attrs = {
+
+
+def _attrs(E: float, kappa: float | None, kappa_used: float, fitted: int,
+           rough: _Roughness, gradient_method: str, error_range: tuple[float, float],
+           grid, names: tuple[str, ...]) -> dict:
+    """Return the comparison's attrs (``quality`` good until marked)."""
+    lo, hi = error_range
+    return {
         "E_star": E, "E_star_units": "Pa", "kappa": kappa_used, "kappa_fitted": fitted,
-        "kappa_persson": KAPPA_PERSSON, "gbar0": gbar0, "gbar0_units": "1",
-        "gradient_method": str(gbar.attrs.get("method", gradient_method)),
-        "error_dr_min": float(lo), "error_dr_max": float(hi), "error_dr_units": lunit,
+        "kappa_persson": KAPPA_PERSSON, "gbar0": rough.gbar0, "gbar0_units": "1",
+        "gradient_method": str(rough.gbar.attrs.get("method", gradient_method)),
+        "error_dr_min": float(lo), "error_dr_max": float(hi),
+        "error_dr_units": grid.lateral_unit,
         "theories": ", ".join(names), "periodic": int(grid.periodic),
         "kappa_definition": "fitted: 2 erfinv(a_sim) / (sqrt(pi) p*) at the smallest "
         "load (about a_sim / p*)" if fitted else "given" if kappa is not None else
         "not fitted (contact area 0 or 1 at the smallest load)",
         "kappa_used_by": "persson_kappa and a_r_kappa only; the persson and modified "
         "theories use kappa = sqrt(8/pi) as the paper defines them",
+        "quality": "good", "quality_notes": "",
     }
-    ds.attrs.setdefault("quality", "good")
-    ds.attrs.setdefault("quality_notes", "")
-    short = coverage < 1
-    if short.any():
-        worst_theory = names[int(np.argmin(coverage.min(axis=1)))]
-        ds = quality.mark(
-            ds, f"the theories predict G_sigma on only {coverage.min():.0%} of the lags in "
-            f"the error range ({worst_theory}: the rms gradient is not determined on the "
-            "others); stress_error covers those lags only (stress_error_coverage)",
-            what="compare_with_simulation")
-    return ds
+
+
+def _mark_coverage(ds: xr.Dataset, coverage: np.ndarray,
+                   names: tuple[str, ...]) -> xr.Dataset:
+    """Mark the comparison when a theory predicts ``G_sigma`` on only part of the lags."""
+    if not (coverage < 1).any():
+        return ds
+    worst_theory = names[int(np.argmin(coverage.min(axis=1)))]
+    return quality.mark(
+        ds, f"the theories predict G_sigma on only {coverage.min():.0%} of the lags in "
+        f"the error range ({worst_theory}: the rms gradient is not determined on the "
+        "others); stress_error covers those lags only (stress_error_coverage)",
+        what="compare_with_simulation")

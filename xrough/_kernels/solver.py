@@ -16,19 +16,20 @@ gap is ``g = u - h - offset`` with ``offset = -d``; the approach from first cont
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import fft as sfft
 from scipy import optimize
 
 __all__ = [
-    "_ElasticOperator",
-    "_pixel_influence",
-    "_solve_load",
-    "_solve_approach",
-    "_coarse_start",
-    "_full_contact_stress",
-    "_full_contact_solution",
+    "ElasticOperator",
+    "pixel_influence",
+    "solve_load",
+    "solve_approach",
+    "coarse_start",
+    "full_contact_stress",
+    "full_contact_solution",
 ]
 
 
@@ -46,7 +47,7 @@ def _pixel_integral(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return fx + fy
 
 
-def _pixel_influence(x: np.ndarray, y: np.ndarray, dx: float, dy: float) -> np.ndarray:
+def pixel_influence(x: np.ndarray, y: np.ndarray, dx: float, dy: float) -> np.ndarray:
     r"""Displacement ``u E* / p`` at ``(x, y)`` from a uniform pressure on one pixel.
 
     Love's (1929) solution: the Boussinesq point-load displacement ``P / (pi E* r)``
@@ -62,7 +63,7 @@ def _pixel_influence(x: np.ndarray, y: np.ndarray, dx: float, dy: float) -> np.n
             - _pixel_integral(x + a, y - b) + _pixel_integral(x - a, y - b)) / np.pi
 
 
-class _ElasticOperator:
+class ElasticOperator:
     r"""Surface displacement ``u / 1`` of the half-space under pressure ``p / E*``.
 
     Periodic grids use the periodic Green's function in Fourier space,
@@ -71,7 +72,7 @@ class _ElasticOperator:
     Pressures are point samples, so full contact gives ``p~ = (E*/2)|q| h~`` exactly.
 
     Non-periodic grids are piecewise-constant pressure pixels in free space: the pixel
-    influence of :func:`_pixel_influence` is sampled at all pixel-centre offsets on a grid
+    influence of :func:`pixel_influence` is sampled at all pixel-centre offsets on a grid
     doubled along both axes (offsets ``-n..n-1``), Fourier-transformed once, and applied
     by zero-padded circular convolution, which equals the linear convolution on the
     original grid (no periodic images).
@@ -99,7 +100,7 @@ class _ElasticOperator:
             ix = np.arange(2 * nx)
             oy = np.where(iy < ny, iy, iy - 2 * ny) * dy
             ox = np.where(ix < nx, ix, ix - 2 * nx) * dx
-            k = _pixel_influence(ox[None, :], oy[:, None], dx, dy)
+            k = pixel_influence(ox[None, :], oy[:, None], dx, dy)
             self.kernel = sfft.rfft2(k, workers=workers)
         self._kernels: dict = {}
 
@@ -154,7 +155,7 @@ class _ElasticOperator:
         On a periodic grid this is the exact inverse on zero-mean fields, the pressure
         ``|q| g~ / 2`` that the displacement ``g`` needs (the full-contact stress); on an
         open grid it inverts the zero-padded circular convolution, an approximate inverse
-        of the open-grid operator (the preconditioner of :func:`_solve_load`). Same
+        of the open-grid operator (the preconditioner of :func:`solve_load`). Same
         precision rule as :meth:`__call__`.
         """
         return self._convolve(g, inverse=True)
@@ -187,7 +188,7 @@ class _ElasticOperator:
         return u
 
 
-def _gap_scale(h: np.ndarray, p0: float, op: _ElasticOperator) -> float:
+def _gap_scale(h: np.ndarray, p0: float, op: ElasticOperator) -> float:
     """Length that normalises the gap error: rms height, else the elastic scale."""
     rms = float(np.std(h))
     return rms if rms > 0 else float(np.max(np.abs(op(np.full(h.shape, p0))))) or 1.0
@@ -252,9 +253,392 @@ COARSE_TOL = 1e-3
 PROPORTION = 0.5
 
 
-def _solve_load(
+@dataclass
+class _Problem:
+    """What a load-controlled solve keeps fixed: the map, the operator and the load."""
+
+    h: np.ndarray
+    op: ElasticOperator
+    total: float  #: ``n p0``, the sum of the pressure over the map
+    scale: float  #: length that normalises the gap error (:func:`_gap_scale`)
+    tol: float
+    precondition: bool
+
+
+@dataclass
+class _Stall:
+    """Lowest residual so far and the iterations since it was reached."""
+
+    best: float = np.inf
+    count: int = 0
+
+    def update(self, res: float) -> int:
+        """Record the residual ``res``; return the iterations without a new lowest one."""
+        self.count = 0 if res < self.best else self.count + 1
+        self.best = min(self.best, res)
+        return self.count
+
+
+@dataclass
+class _State:
+    """Iterate of :func:`solve_load`: pressure and direction on the contact set, work maps.
+
+    ``p_s`` and ``t_s`` (float64) are the pressure and the search direction on the
+    contact set ``idx`` (sorted flat indices; ``inc`` is its mask). The work maps are in
+    the precision ``dtype`` of the phase (``tf`` and ``zf`` in that of the direction):
+    ``hh`` the heights, ``pf`` the pressure as of the last contact-set change, ``tf`` the
+    direction and ``zf`` the gap for the preconditioner (on ``idx``, zero elsewhere),
+    ``u`` the displacement ``K p``, ``d`` and ``below`` scratch maps for :func:`_gap`.
+    ``exact``: ``u = K p`` to the precision of ``u`` (false after float32 updates);
+    ``fresh``: ``u`` was transformed from ``pf = p`` and not updated since.
+    """
+
+    idx: np.ndarray
+    p_s: np.ndarray
+    t_s: np.ndarray
+    inc: np.ndarray
+    dtype: type
+    hh: np.ndarray | None = None
+    pf: np.ndarray | None = None
+    tf: np.ndarray | None = None
+    zf: np.ndarray | None = None
+    u: np.ndarray | None = None
+    d: np.ndarray | None = None
+    below: np.ndarray | None = None
+    exact: bool = True
+    fresh: bool = True
+    delta: float = 0.0  #: 1 to conjugate the next direction, 0 to restart it
+    g_old: float = 1.0  #: ``G`` (``g.z`` preconditioned) of the previous iteration
+    iteration: int = 0
+    history: list = field(default_factory=list)
+    transforms: int = 0
+    float32_iterations: int = 0
+    deferred_entries: int = 0
+    refreshes: int = 0
+    stall32: _Stall = field(default_factory=_Stall)
+    stall64: _Stall = field(default_factory=_Stall)
+
+
+@dataclass
+class _Step:
+    """Outcome of one iteration: residual, pressure change and what stopping needs."""
+
+    res: float
+    eps_p: float
+    denom: float  #: ``r.t``; not positive when the direction gives no step
+    G: float  #: gap error on the contact set
+    n_off: int  #: overlapping points out of contact that were let in
+
+
+def _initial_state(prob: _Problem, p0: float, p_init: np.ndarray | None,
+                   dtype: type) -> _State:
+    """Start from ``p_init`` rescaled to the mean ``p0`` (uniform ``p0`` when absent or 0)."""
+    shape = prob.h.shape
+    if p_init is None or not np.any(p_init > 0):
+        p = np.full(shape, p0, dtype=float)
+    else:
+        p = np.clip(np.asarray(p_init, dtype=float), 0.0, None)
+        p *= p0 / p.mean()
+    idx = np.flatnonzero(p)
+    p_s = p.ravel()[idx]
+    inc = np.zeros(shape, dtype=bool)
+    inc.ravel()[idx] = True
+    st = _State(idx=idx, p_s=p_s, t_s=np.zeros_like(p_s), inc=inc, dtype=dtype)
+    _set_precision(prob, st, dtype, dtype)
+    return st
+
+
+def _set_precision(prob: _Problem, st: _State, dtype: type, t_dtype: type) -> None:
+    """Make the work maps in ``dtype`` (``t_dtype`` for the direction) and ``u = K p``.
+
+    The maps of the previous phase are released first, so that both are never alive.
+    """
+    st.hh = st.pf = st.tf = st.zf = st.u = st.d = st.below = None
+    shape = prob.h.shape
+    st.dtype = dtype
+    st.hh = np.ascontiguousarray(prob.h, dtype=dtype)
+    st.pf = np.zeros(shape, dtype=dtype)
+    st.tf = np.zeros(shape, dtype=t_dtype)
+    st.pf.ravel()[st.idx] = st.p_s
+    st.u = prob.op(st.pf)
+    st.transforms += 2
+    st.d = np.empty(shape, dtype=dtype)
+    st.below = np.empty(shape, dtype=bool)
+    st.exact = st.fresh = True
+
+
+def _refresh_displacement(prob: _Problem, st: _State) -> None:
+    """Transform ``u = K p`` afresh in ``pf``'s precision (the old ``u`` released first).
+
+    ``pf`` holds ``p`` only as of the last contact-set change: brought up to date first.
+    """
+    st.u = None
+    st.pf.ravel()[st.idx] = st.p_s
+    st.u = prob.op(st.pf)
+    st.transforms += 2
+    st.exact = st.fresh = True
+
+
+def _rescale(u: np.ndarray, r: np.ndarray, tau: float, s: float) -> None:
+    """Update the displacement ``u <- s (u - tau K t)`` in place (``r = K t``, overwritten)."""
+    r *= -tau
+    u += r
+    u *= s
+
+
+def _direction(prob: _Problem, st: _State, g_s: np.ndarray, G: float) -> float:
+    """Conjugate the direction ``t <- z + delta (Gc / Gc_old) t``; return ``Gc``.
+
+    ``z = g`` and ``Gc = G``, or preconditioned ``z = R K^-1 R^T g``: the gap on the
+    contact set, zero elsewhere, mapped through the inverse kernel (one pair of
+    transforms, in the direction's precision), restricted to the contact set and
+    mean-shifted, with ``Gc = g.z``.
+    """
+    if prob.precondition:
+        if st.zf is None:
+            st.zf = np.zeros(prob.h.shape, dtype=st.tf.dtype)
+        st.zf.ravel()[st.idx] = g_s
+        z_s = prob.op.inverse(st.zf).ravel()[st.idx].astype(float)
+        st.transforms += 2
+        z_s -= z_s.mean()
+        Gc = _dot(g_s, z_s)
+    else:
+        z_s, Gc = g_s, G
+    st.t_s *= st.delta * (Gc / st.g_old)
+    st.t_s += z_s
+    st.g_old = Gc if Gc > 0 else 1.0
+    return Gc
+
+
+def _project(st: _State, g_s: np.ndarray, off: np.ndarray, g_off: np.ndarray, tau: float,
+             tau_g: float) -> tuple:
+    """Step ``q = p - tau t`` projected on ``q >= 0``, with the points that (re-)enter.
+
+    Clipped points with a negative gap re-enter, and the overlapping points ``off`` out of
+    contact enter, at ``-tau_g g``; either restarts the conjugation.
+
+    Returns
+    -------
+    tuple
+        ``q_s`` (on the contact set), ``q_off`` (on ``off``), the mask ``zero`` of the
+        clipped points of the contact set, and the next ``delta``.
+    """
+    q_s = st.p_s - tau * st.t_s
+    np.maximum(q_s, 0.0, out=q_s)
+    zero = q_s == 0.0
+    enter_s = zero & (g_s < 0)
+    q_s[enter_s] = -tau_g * g_s[enter_s]
+    if off.size:
+        return q_s, np.maximum(-tau_g * g_off, 0.0), zero, 0.0
+    return q_s, g_off, zero, 1.0 if not enter_s.any() else 0.0
+
+
+def _enforce_load(q_s: np.ndarray, q_off: np.ndarray, total: float) -> float:
+    """Scale the new pressure in place to the sum ``total``; return the factor ``s``."""
+    s = total / (float(q_s.sum()) + float(q_off.sum()))
+    q_s *= s
+    q_off *= s
+    return s
+
+
+def _correction(st: _State, q_s: np.ndarray, q_off: np.ndarray, zero: np.ndarray,
+                off: np.ndarray, tau: float, s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Return the pixels and values of ``c = p_new - s (p - tau t)``.
+
+    ``c`` is nonzero only where a point left or (re-)entered the contact set; read
+    before the contact set changes.
+    """
+    ent_off = np.flatnonzero(q_off)
+    c_idx = np.concatenate([st.idx[zero], off[ent_off]])
+    c_val = np.concatenate([q_s[zero] - s * (st.p_s[zero] - tau * st.t_s[zero]),
+                            q_off[ent_off]])
+    return c_idx, c_val
+
+
+def _update_contact_set(st: _State, q_s: np.ndarray, q_off: np.ndarray, off: np.ndarray,
+                        delta: float) -> None:
+    """Take the new pressure: points at zero leave, entering ones join (merged, sorted)."""
+    keep = q_s > 0  # the re-entered points of the clipped ones stay
+    left = st.idx[~keep]
+    st.pf.ravel()[left] = 0.0
+    st.tf.ravel()[left] = 0.0
+    if st.zf is not None:
+        st.zf.ravel()[left] = 0.0
+    st.inc.ravel()[left] = False
+    if delta == 0.0:
+        new = q_off > 0
+        idx_new, p_new = off[new], q_off[new]
+        idx, p_s = st.idx[keep], q_s[keep]
+        at = np.searchsorted(idx, idx_new)  # both sorted: merge, not sort
+        st.idx, st.p_s = np.insert(idx, at, idx_new), np.insert(p_s, at, p_new)
+        st.inc.ravel()[idx_new] = True
+        st.t_s = np.zeros_like(st.p_s)  # reset by delta = 0
+    else:
+        st.idx, st.p_s, st.t_s = st.idx[keep], q_s[keep], st.t_s[keep]
+    st.pf.ravel()[st.idx] = st.p_s
+
+
+def _advance_displacement(prob: _Problem, st: _State, r: np.ndarray, tau: float, s: float,
+                          c_idx: np.ndarray | None, c_val: np.ndarray | None) -> None:
+    """Update ``u <- s (u - tau K t) + K c`` without transforming ``p``.
+
+    ``c`` (``c_idx``, ``c_val``; None when the contact set kept its points) is the
+    pressure of the points that left or (re-)entered. A few are added pixel by pixel;
+    more (a float64 ``u`` with a float32 direction) by a float32 pair of transforms, whose
+    rounding is a few 1e-7 of the correction, like that of ``K t``.
+    """
+    _rescale(st.u, r, tau, s)
+    if c_idx is None or c_idx.size <= POINT_LOADS_MAX[st.u.dtype.type]:
+        if c_idx is not None:
+            prob.op.add_point_loads(st.u, c_idx, c_val)
+        st.exact = st.exact and r.dtype == st.u.dtype
+    else:
+        r.fill(0.0)
+        r.ravel()[c_idx] = c_val
+        st.u += prob.op(r)
+        st.transforms += 2
+        st.exact = False
+    st.fresh = False
+
+
+def _cg_step(prob: _Problem, st: _State) -> _Step:
+    """One iteration of :func:`solve_load`.
+
+    The iterates ``p`` and ``t`` live on the contact set only (gathered by index), so the
+    full-map work per iteration is the transform of ``t``, one pass for the gap and one
+    comparison for the points out of contact with a negative gap. The displacement
+    ``u = K p`` is updated linearly, ``u <- s (u - tau K t)``, in iterations where no
+    point leaves or re-enters the contact set; where some do, the correction ``K c``
+    (``c = p_new - s (p - tau t)``, nonzero at those points) is added pixel by pixel for
+    a few (``POINT_LOADS_MAX``), by a float32 pair of transforms in the float64 phase,
+    and ``u`` is transformed afresh in the float32 phase: most late iterations cost one
+    forward and one inverse transform.
+    """
+    g_s, _, off, g_off, G, G_off = _gap(st.u, st.hh, st.inc, st.idx, st.d, st.below)
+    eps_g = np.sqrt((G + G_off) / st.inc.size) / prob.scale
+    if off.size and G_off <= PROPORTION**2 * G:
+        # proportioning: while the gradient on the contact set dominates, keep the
+        # conjugate iteration on it and let the overlapping points enter later
+        off, g_off = off[:0], g_off[:0]
+        st.deferred_entries += 1
+    Gc = _direction(prob, st, g_s, G)
+    st.tf.ravel()[st.idx] = st.t_s
+    r = prob.op(st.tf)
+    st.transforms += 2
+    r_s = r.ravel()[st.idx].astype(float)
+    r_s -= float(r_s.mean()) if st.idx.size else np.nan
+    denom = _dot(r_s, st.t_s)
+    if not denom > 0:
+        return _Step(max(0.0, eps_g), 0.0, denom, G, off.size)
+    tau = _dot(g_s, st.t_s) / denom
+    # re-entering points get the step along the gap, -tau g; preconditioned, tau is per
+    # unit of K^-1 g, so the gap is scaled by g.z / g.g (units 1/length) to stay a pressure
+    tau_g = tau * (Gc / G) if prob.precondition and G > 0 else tau
+    q_s, q_off, zero, st.delta = _project(st, g_s, off, g_off, tau, tau_g)
+    s = _enforce_load(q_s, q_off, prob.total)
+    eps_p = (float(np.abs(q_s - st.p_s).sum()) + float(np.abs(q_off).sum())) / prob.total
+    c_idx = c_val = None
+    if zero.any() or off.size:
+        c_idx, c_val = _correction(st, q_s, q_off, zero, off, tau, s)
+        _update_contact_set(st, q_s, q_off, off, st.delta)
+    else:
+        st.p_s = q_s
+    if (c_idx is not None and c_idx.size > POINT_LOADS_MAX[st.u.dtype.type]
+            and r.dtype == st.u.dtype):
+        r = None  # released before the new transform pair
+        _refresh_displacement(prob, st)
+    else:
+        _advance_displacement(prob, st, r, tau, s, c_idx, c_val)
+    return _Step(max(eps_p, eps_g), eps_p, denom, G, off.size)
+
+
+def _float32_phase_ends(st: _State, step: _Step, tol: float) -> bool:
+    """Count a float32 iteration; True once its residual is low, stalls or stops."""
+    st.float32_iterations += 1
+    stall = st.stall32.update(step.res)
+    stalled = stall >= (STALL if st.stall32.best < STALL_BELOW else 4 * STALL)
+    return step.res < max(tol, FLOAT32_TOL) or stalled or step.denom <= 0
+
+
+def _float64_stalled(st: _State, step: _Step, tol: float) -> bool:
+    """Tell whether ``2 STALL`` float64 iterations above ``tol`` made no progress.
+
+    The float32 rounding of the steps' ``K t`` that ``u`` accumulates (largest when the
+    float32 phase ended early, far from the solution) then holds the residual up.
+    """
+    return st.stall64.update(step.res) >= 2 * STALL and step.res >= tol
+
+
+def _exact_residual(prob: _Problem, st: _State, eps_p: float) -> float:
+    """Residual on ``u`` transformed afresh in float64, replacing the last in the history.
+
+    ``u`` carries the float32 rounding of the steps' ``K t`` (a few 1e-7 of the steps).
+    """
+    _refresh_displacement(prob, st)
+    _, _, _, _, G, G_off = _gap(st.u, st.hh, st.inc, st.idx, st.d, st.below)
+    res = max(eps_p, np.sqrt((G + G_off) / st.inc.size) / prob.scale)
+    st.history[-1] = res
+    return res
+
+
+def _restarts(prob: _Problem, st: _State, step: _Step) -> bool:
+    """Start a new phase where one is due; True when the iteration restarts.
+
+    The float32 phase ends (:func:`_float32_phase_ends`) in a restart of the conjugation
+    on the float64 displacement; a float64 phase that stalls on a displacement carrying
+    float32 rounding (:func:`_float64_stalled`) starts again from ``u`` transformed afresh.
+    """
+    if st.dtype == np.float32:
+        if not _float32_phase_ends(st, step, prob.tol):
+            return False
+        _set_precision(prob, st, np.float64, np.float32)
+    elif not st.exact and _float64_stalled(st, step, prob.tol):
+        _refresh_displacement(prob, st)
+        st.stall64 = _Stall()
+        st.refreshes += 1
+    else:
+        return False
+    st.delta = 0.0
+    return True
+
+
+def _converged(prob: _Problem, st: _State, step: _Step) -> bool | None:
+    """Whether the solve stopped converged; None while it goes on.
+
+    Below ``tol`` on a displacement updated in float32 the residual is checked on ``u``
+    transformed afresh (:func:`_exact_residual`).
+    """
+    res = step.res
+    if res < prob.tol and not st.exact:
+        res = _exact_residual(prob, st, step.eps_p)
+    if res < prob.tol or step.denom <= 0:
+        return res < prob.tol or (step.G == 0 and step.n_off == 0)
+    return None
+
+
+def _result(prob: _Problem, st: _State, converged: bool) -> dict:
+    """Full maps of the solution; ``u`` is reused when transformed afresh in float64."""
+    u = st.u if st.fresh and st.u.dtype == np.float64 else None
+    st.hh = st.pf = st.tf = st.zf = st.u = st.d = st.below = None  # before the result
+    pressure = np.zeros(prob.h.size)
+    pressure[st.idx] = st.p_s
+    pressure = pressure.reshape(prob.h.shape)
+    if u is None:
+        u = prob.op(pressure)
+    u = np.ascontiguousarray(u)  # open maps: not a view of the padded grid
+    gap = np.subtract(u, prob.h)
+    offset = float(np.mean(gap.ravel()[st.idx]))
+    gap -= offset
+    return {"pressure": pressure, "displacement": u, "gap": gap, "offset": offset,
+            "history": np.asarray(st.history), "iterations": st.iteration,
+            "converged": converged, "float32_iterations": st.float32_iterations,
+            "transforms": st.transforms, "deferred_entries": st.deferred_entries,
+            "refreshes": st.refreshes}
+
+
+def solve_load(
     h: np.ndarray,
-    op: _ElasticOperator,
+    op: ElasticOperator,
     p0: float,
     *,
     tol: float,
@@ -284,21 +668,15 @@ def _solve_load(
     ``eps_p = sum|p - p_old| / sum p`` and the relative gap error
     ``eps_g = rms(g on I_c, and g < 0 elsewhere) / rms(h)``.
 
-    Implementation: the iterates ``p`` and ``t`` live on the contact set only (gathered by
-    index), so the full-map work per iteration is the transform of ``t``, one pass for the
-    gap and one comparison for the points out of contact with a negative gap. The
-    displacement ``u = K p`` is updated linearly, ``u <- s (u - tau K t)``, in iterations
-    where no point leaves or re-enters the contact set; where some do, the correction
-    ``K c`` (``c = p_new - s (p - tau t)``, nonzero at those points) is added pixel by
-    pixel for a few (``POINT_LOADS_MAX``), by a float32 pair of transforms in the float64
-    phase, and ``u`` is transformed afresh in the float32 phase: most late iterations
-    cost one forward and one inverse transform.
+    The iteration's steps: :func:`_cg_step` (gap, proportioning, direction, step,
+    projection, load), :func:`_restarts` (the float32 phase's end, float64 refreshes)
+    and :func:`_converged`.
 
     Parameters
     ----------
     h : numpy.ndarray
         Heights (lengths), 2-D.
-    op : _ElasticOperator
+    op : ElasticOperator
         Green's function operator of the grid.
     p0 : float
         Mean pressure over ``E*``.
@@ -322,7 +700,7 @@ def _solve_load(
         ``"float64"`` uses float64 throughout.
     precondition : bool
         Build the direction from ``z = K^-1 g`` (the gap on the contact set, zero
-        elsewhere, through :meth:`_ElasticOperator.inverse`, restricted to the contact
+        elsewhere, through :meth:`ElasticOperator.inverse`, restricted to the contact
         set and mean-shifted) instead of ``g``, with ``G = g.z`` in the conjugation
         (Vollebregt 2014): one more pair of transforms per iteration, in the direction's
         precision. Proportioning keeps comparing the plain gap errors.
@@ -339,246 +717,27 @@ def _solve_load(
     """
     if precision not in ("mixed", "float64"):
         raise ValueError(f"precision must be 'mixed' or 'float64', got {precision!r}")
-    if precision == "mixed" and h.size < MIXED_MIN_SIZE:
-        precision = "float64"
-    n = h.size
-    shape = h.shape
-    if p_init is None or not np.any(p_init > 0):
-        p = np.full(shape, p0, dtype=float)
-    else:
-        p = np.clip(np.asarray(p_init, dtype=float), 0.0, None)
-        p *= p0 / p.mean()
-    scale = _gap_scale(h, p0, op)
-    total = n * p0
-    idx = np.flatnonzero(p)  # the contact set, as flat indices
-    p_s = p.ravel()[idx]
-    t_s = np.zeros_like(p_s)
-    del p
-
-    inc = np.zeros(shape, dtype=bool)  # the contact mask, True on idx
-    inc.ravel()[idx] = True
-
-    def precision_state(dtype, t_dtype):
-        """Work arrays in ``dtype`` (``t_dtype`` for the direction) and ``u = K p``.
-
-        ``pf`` holds ``p`` on ``idx`` (updated when the contact set changes) and ``tf``
-        the direction on ``idx``; both are zero elsewhere.
-        """
-        hh = np.ascontiguousarray(h, dtype=dtype)
-        pf = np.zeros(shape, dtype=dtype)
-        tf = np.zeros(shape, dtype=t_dtype)
-        pf.ravel()[idx] = p_s
-        return hh, pf, tf, op(pf), np.empty(shape, dtype=dtype), np.empty(shape, dtype=bool)
-
-    def exact_displacement():
-        """``u = K p`` transformed afresh in ``pf``'s precision.
-
-        ``pf`` holds ``p`` only as of the last contact-set change: brought up to date
-        first. The caller releases the old ``u`` before, so that it is not alive
-        during the transform.
-        """
-        pf.ravel()[idx] = p_s
-        return op(pf)
-
-    dtype = np.float32 if precision == "mixed" else np.float64
-    hh, pf, tf, u, d, below = precision_state(dtype, dtype)
-    zf = None  # the gap on idx, zero elsewhere, for the preconditioner
-    exact = True  # whether u = K p to the precision of u (false after float32 updates)
-    fresh = True  # whether u was transformed from pf = p (no update since)
-    transforms = 2
-    f32_its = 0
-    best32 = best64 = np.inf
-    stall = stall64 = 0
-    refreshes = 0
-    deferred = 0
-    delta = 0.0
-    g_old = 1.0
-    history: list[float] = []
+    mixed = precision == "mixed" and h.size >= MIXED_MIN_SIZE
+    prob = _Problem(h=h, op=op, total=h.size * p0, scale=_gap_scale(h, p0, op), tol=tol,
+                    precondition=precondition)
+    st = _initial_state(prob, p0, p_init, np.float32 if mixed else np.float64)
     converged = False
-    it = 0
-    for it in range(1, max_iter + 1):  # noqa: B007 - the count is reported
-        g_s, m, off, g_off, G, G_off = _gap(u, hh, inc, idx, d, below)
-        eps_g = np.sqrt((G + G_off) / n) / scale
-        if off.size and G_off <= PROPORTION**2 * G:
-            # proportioning: while the gradient on the contact set dominates, keep the
-            # conjugate iteration on it and let the overlapping points enter later
-            off, g_off = off[:0], g_off[:0]
-            deferred += 1
-        if precondition:
-            # z = R K^-1 R^T g: the gap on the contact set, zero elsewhere, mapped
-            # through the inverse kernel (one pair of transforms, in the direction's
-            # precision), restricted to the contact set and mean-shifted
-            if zf is None:
-                zf = np.zeros(shape, dtype=tf.dtype)
-            zf.ravel()[idx] = g_s
-            z = op.inverse(zf)
-            transforms += 2
-            z_s = z.ravel()[idx].astype(float)
-            z = None
-            z_s -= z_s.mean()
-            Gc = _dot(g_s, z_s)
-        else:
-            z_s, Gc = g_s, G
-        t_s *= delta * (Gc / g_old)
-        t_s += z_s
-        g_old = Gc if Gc > 0 else 1.0
-        tflat = tf.ravel()
-        tflat[idx] = t_s
-        r = op(tf)
-        transforms += 2
-        r_s = r.ravel()[idx].astype(float)
-        r_mean = float(r_s.mean()) if idx.size else np.nan
-        r_s -= r_mean
-        denom = _dot(r_s, t_s)
-        if denom > 0:
-            tau = _dot(g_s, t_s) / denom
-            q_s = p_s - tau * t_s
-            np.maximum(q_s, 0.0, out=q_s)
-            zero = q_s == 0.0
-            enter_s = zero & (g_s < 0)  # clipped points with a negative gap re-enter
-            # re-entering points get the step along the gap, -tau g; preconditioned,
-            # tau is per unit of K^-1 g, so the gap is scaled by g.z / g.g, the mean
-            # ratio of K^-1 g to g (units 1/length), to stay a pressure
-            tau_g = tau * (Gc / G) if precondition and G > 0 else tau
-            q_s[enter_s] = -tau_g * g_s[enter_s]
-            changed = bool(zero.any()) or off.size > 0
-            if off.size:
-                delta = 0.0
-                q_off = np.maximum(-tau_g * g_off, 0.0)
-            else:
-                q_off = g_off
-                delta = 1.0 if not enter_s.any() else 0.0
-            s = total / (float(q_s.sum()) + float(q_off.sum()))
-            q_s *= s
-            q_off *= s
-            eps_p = (float(np.abs(q_s - p_s).sum()) + float(np.abs(q_off).sum())) / total
-            if changed:
-                # c = p_new - s (p - tau t): nonzero where a point left or (re-)entered
-                ent_off = np.flatnonzero(q_off)
-                c_idx = np.concatenate([idx[zero], off[ent_off]])
-                c_val = np.concatenate([q_s[zero] - s * (p_s[zero] - tau * t_s[zero]),
-                                        q_off[ent_off]])
-                n_changed = c_idx.size
-            if changed:
-                keep = q_s > 0
-                left = idx[~keep]
-                pf.ravel()[left] = 0.0
-                tflat[left] = 0.0
-                if zf is not None:
-                    zf.ravel()[left] = 0.0
-                inc.ravel()[left] = False
-                if delta == 0.0:
-                    new = q_off > 0
-                    idx_new, p_new = off[new], q_off[new]
-                    idx, p_s = idx[keep], q_s[keep]
-                    at = np.searchsorted(idx, idx_new)  # both sorted: merge, not sort
-                    idx, p_s = np.insert(idx, at, idx_new), np.insert(p_s, at, p_new)
-                    inc.ravel()[idx_new] = True
-                    t_s = np.zeros_like(p_s)  # reset below by delta = 0
-                else:
-                    idx, p_s, t_s = idx[keep], q_s[keep], t_s[keep]
-                pf.ravel()[idx] = p_s
-                if n_changed <= POINT_LOADS_MAX[u.dtype.type]:
-                    # u <- s (u - tau K t) + K c, c on a few pixels
-                    r *= -tau
-                    u += r
-                    u *= s
-                    op.add_point_loads(u, c_idx, c_val)
-                    exact = exact and r.dtype == u.dtype
-                    fresh = False
-                elif r.dtype != u.dtype:
-                    # float64 u, float32 direction: K c in float32 too (its rounding is
-                    # a few 1e-7 of the correction, like that of K t of the step), a
-                    # cheaper pair than u = K p afresh in float64
-                    r *= -tau
-                    u += r
-                    u *= s
-                    r.fill(0.0)
-                    r.ravel()[c_idx] = c_val
-                    u += op(r)
-                    transforms += 2
-                    exact = fresh = False
-                else:
-                    r = u = None  # released before the new transform pair
-                    u = op(pf)
-                    transforms += 2
-                    exact = fresh = True
-            else:
-                p_s = q_s
-                r *= -tau
-                u += r
-                u *= s
-                exact = exact and r.dtype == u.dtype
-                fresh = False
-        else:
-            eps_p = 0.0
-        r = None  # K t is spent: one map fewer at the next transform
-        res = max(eps_p, eps_g)
-        history.append(res)
+    for it in range(1, max_iter + 1):
+        st.iteration = it
+        step = _cg_step(prob, st)
+        st.history.append(step.res)
         if callback is not None:
-            callback(it, res)
-        if dtype == np.float32:
-            f32_its += 1
-            stall = 0 if res < best32 else stall + 1
-            best32 = min(best32, res)
-            stalled = stall >= (STALL if best32 < STALL_BELOW else 4 * STALL)
-            if res < max(tol, FLOAT32_TOL) or stalled or denom <= 0:
-                dtype = np.float64
-                delta = 0.0  # restart the conjugation on the exact displacement
-                hh = pf = tf = u = d = below = r = zf = None  # free float32 first
-                hh, pf, tf, u, d, below = precision_state(dtype, np.float32)
-                transforms += 2
-                exact = fresh = True
-                continue
-        elif not exact:
-            stall64 = 0 if res < best64 else stall64 + 1
-            best64 = min(best64, res)
-            if stall64 >= 2 * STALL and res >= tol:
-                # the float32 rounding of the steps' K t that u accumulates (largest
-                # when the float32 phase ended early, far from the solution) holds the
-                # residual up: start again from u transformed afresh in float64
-                u = None
-                u = exact_displacement()
-                transforms += 2
-                exact = fresh = True
-                delta = 0.0
-                stall64, best64 = 0, np.inf
-                refreshes += 1
-                continue
-        if res < tol and not exact:
-            # u carries the float32 rounding of the steps' K t (a few 1e-7 of the
-            # steps, far below tol): check the residual on the exact displacement
-            u = None
-            u = exact_displacement()
-            transforms += 2
-            exact = fresh = True
-            _, _, _, _, G_v, G_off_v = _gap(u, hh, inc, idx, d, below)
-            res = max(eps_p, np.sqrt((G_v + G_off_v) / n) / scale)
-            history[-1] = res
-        if res < tol or denom <= 0:
-            converged = res < tol or (G == 0 and off.size == 0)
+            callback(it, step.res)
+        if _restarts(prob, st, step):
+            continue
+        stop = _converged(prob, st, step)
+        if stop is not None:
+            converged = stop
             break
-    # u = K p transformed afresh in float64 with pf = p (the check above): reused
-    reuse = fresh and u.dtype == np.float64
-    hh = pf = tf = d = below = r = zf = None  # the work arrays go before the result
-    if not reuse:
-        u = None
-    pfull = np.zeros(n)
-    pfull[idx] = p_s
-    pfull = pfull.reshape(shape)
-    if not reuse:
-        u = op(pfull)
-    u = np.ascontiguousarray(u)  # open maps: not a view of the padded grid
-    gap = np.subtract(u, h)
-    offset = float(np.mean(gap.ravel()[idx]))
-    gap -= offset
-    return {"pressure": pfull, "displacement": u, "gap": gap, "offset": offset,
-            "history": np.asarray(history), "iterations": it, "converged": converged,
-            "float32_iterations": f32_its, "transforms": transforms,
-            "deferred_entries": deferred, "refreshes": refreshes}
+    return _result(prob, st, converged)
 
 
-def _full_contact_stress(h: np.ndarray, op: _ElasticOperator) -> np.ndarray | None:
+def full_contact_stress(h: np.ndarray, op: ElasticOperator) -> np.ndarray | None:
     r"""Pressure (over ``E*``) that full contact adds to the mean: ``K^-1 (h - mean h)``.
 
     On a periodic grid ``K^-1`` is diagonal in Fourier space, ``p~(q) = |q| h~(q) / 2``
@@ -592,15 +751,15 @@ def _full_contact_stress(h: np.ndarray, op: _ElasticOperator) -> np.ndarray | No
     return op.inverse(np.asarray(h, dtype=float))
 
 
-def _full_contact_solution(h: np.ndarray, op: _ElasticOperator, p0: float) -> dict:
+def full_contact_solution(h: np.ndarray, op: ElasticOperator, p0: float) -> dict:
     """Return the solve's result for a periodic map in full contact.
 
-    For ``p0`` above ``-min`` of :func:`_full_contact_stress` (recomputed here: the
+    For ``p0`` above ``-min`` of :func:`full_contact_stress` (recomputed here: the
     caller keeps only its minimum, not a map). The displacement is ``K p`` transformed
     like every solve's final field; the residual (the gap error, as in
-    :func:`_solve_load`) is measured on it, so the result is checked, not assumed.
+    :func:`solve_load`) is measured on it, so the result is checked, not assumed.
     """
-    p = _full_contact_stress(h, op)
+    p = full_contact_stress(h, op)
     p += p0
     u = op(p)
     gap = np.subtract(u, h)
@@ -612,7 +771,7 @@ def _full_contact_solution(h: np.ndarray, op: _ElasticOperator, p0: float) -> di
             "float32_iterations": 0, "transforms": 4, "deferred_entries": 0}
 
 
-def _coarse_start(h: np.ndarray, op: _ElasticOperator, p0: float, *, levels: int,
+def coarse_start(h: np.ndarray, op: ElasticOperator, p0: float, *, levels: int,
                   tol: float, max_iter: int, precision: str,
                   precondition: bool = True) -> tuple[np.ndarray, int]:
     """Start from the solution on grids restricted ``levels`` times by 2.
@@ -634,18 +793,18 @@ def _coarse_start(h: np.ndarray, op: _ElasticOperator, p0: float, *, levels: int
         return None, 0
     hc = h.reshape(ny // 2, 2, nx // 2, 2).mean(axis=(1, 3))
     spacing = (2 * op.spacing[0], 2 * op.spacing[1])
-    opc = _ElasticOperator(hc.shape, spacing, periodic=op.periodic, workers=op.workers)
-    p_c, its = _coarse_start(hc, opc, p0, levels=levels - 1, tol=tol, max_iter=max_iter,
+    opc = ElasticOperator(hc.shape, spacing, periodic=op.periodic, workers=op.workers)
+    p_c, its = coarse_start(hc, opc, p0, levels=levels - 1, tol=tol, max_iter=max_iter,
                              precision=precision, precondition=precondition)
-    out = _solve_load(hc, opc, p0, tol=max(tol, COARSE_TOL), max_iter=max_iter, p_init=p_c,
+    out = solve_load(hc, opc, p0, tol=max(tol, COARSE_TOL), max_iter=max_iter, p_init=p_c,
                       precision=precision, precondition=precondition)
     p = np.repeat(np.repeat(out["pressure"], 2, axis=0), 2, axis=1)
     return p, its + out["iterations"]
 
 
-def _solve_approach(
+def solve_approach(
     h: np.ndarray,
-    op: _ElasticOperator,
+    op: ElasticOperator,
     approach: float,
     *,
     tol: float,
@@ -658,7 +817,7 @@ def _solve_approach(
     r"""Contact at a prescribed approach ``delta = max(h) + offset`` (lengths).
 
     The approach is monotonic in the mean pressure, so Brent's method finds the ``p0``
-    whose load-controlled solution (:func:`_solve_load`, each warm-started from the
+    whose load-controlled solution (:func:`solve_load`, each warm-started from the
     nearest previous solution) has the requested approach, to a relative ``tol``.
     On a periodic grid the approach saturates at full contact, ``max(h) - mean(h)``; larger
     values leave the mean pressure undetermined and raise.
@@ -673,7 +832,7 @@ def _solve_approach(
     hmax = float(h.max())
 
     def mismatch(p0: float) -> float:
-        out = _solve_load(h, op, p0, tol=tol, max_iter=max_iter, p_init=state["p"],
+        out = solve_load(h, op, p0, tol=tol, max_iter=max_iter, p_init=state["p"],
                           callback=callback, precision=precision,
                           precondition=precondition)
         state.update(p=out["pressure"], last=out, p0=p0)
