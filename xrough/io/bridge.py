@@ -31,7 +31,7 @@ import xarray as xr
 
 from .. import units as u
 from ..topography import topography
-from .text import _nonuniform as build
+from ._common import nonuniform_profile
 
 __all__ = ["available", "sniff", "read", "read_with_surfacetopography", "channels",
            "default_channel", "info_attrs"]
@@ -384,7 +384,7 @@ def read_with_surfacetopography(path, *, channel: int | str | None = None, size=
 def _nonuniform(name, x, h, lunit, hunit, attrs, resample, size):
     if x.size > 1 and x[0] > x[-1]:
         x, h = x[::-1], h[::-1]
-    return build(name, x, h, lunit, hunit, attrs, resample, size, None)
+    return nonuniform_profile(name, x, h, lunit, hunit, attrs, resample, size)
 
 
 #: Module protocol of :mod:`xrough.io`: ``read(path, **options)``.
