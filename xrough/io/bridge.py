@@ -31,7 +31,7 @@ import xarray as xr
 
 from .. import units as u
 from ..topography import topography
-from ._common import nonuniform_profile
+from ._common import micro_as_u, nonuniform_profile
 
 __all__ = ["available", "sniff", "read", "read_with_surfacetopography", "channels",
            "default_channel", "info_attrs"]
@@ -197,7 +197,8 @@ def _st_unit(unit) -> str | None:
         unit = unit[0] if unit else None
     if unit is None or unit == "":
         return None
-    return u.format_units(u.as_length_unit(str(unit), what="SurfaceTopography unit"))
+    return u.format_units(u.as_length_unit(micro_as_u(str(unit)),
+                                           what="SurfaceTopography unit"))
 
 
 def channels(path) -> list[dict]:
