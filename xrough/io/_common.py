@@ -18,7 +18,7 @@ from ..topography import topography
 
 __all__ = ["fail", "reader_errors", "check_file", "check_points", "MAX_POINTS",
            "micro_as_u", "describe_channel", "channel_listing", "select_channel",
-           "default_channel_index", "nonuniform_profile"]
+           "default_channel_reader", "nonuniform_profile"]
 
 #: Largest number of points a reader of this package's native formats (X3P, SUR, SDF)
 #: accepts unless the caller passes ``max_points=``: a larger header is taken as corrupted.
@@ -266,19 +266,44 @@ def _channel_at(path: Path, channels: list[dict], channel: int, listing: str,
     return channels[channel]
 
 
-def default_channel_index(path: Path, channels: list[dict], default: DefaultChannel) -> int:
-    """Return the index of the channel ``default`` picks, without warning.
+def default_channel_reader(channels_of: Callable[[Path], list[dict]],
+                           default: DefaultChannel, module: str) -> Callable:
+    """Make a reader's public ``default_channel(path)`` from its channels and its choice.
 
-    A reader's ``default_channel``.
+    Parameters
+    ----------
+    channels_of : callable
+        ``channels_of(path)``: the file's channels (as :func:`select_channel` takes them).
+    default : callable
+        The reader's default choice (:data:`DefaultChannel`); it is asked not to warn.
+    module : str
+        The reader's module (``__name__``), where the function is documented.
 
     Examples
     --------
-    >>> first = lambda path, chans, listing, warn: chans[-1]
-    >>> default_channel_index(Path("a.ibw"), [{"index": 0, "name": "A"},
-    ...                                       {"index": 4, "name": "B"}], first)
+    >>> last = lambda path, chans, listing, warn: chans[-1]
+    >>> chans = [{"index": 0, "name": "A"}, {"index": 4, "name": "B"}]
+    >>> pick = default_channel_reader(lambda path: chans, last, "m")
+    >>> pick("a.ibw")
     4
     """
-    return int(default(path, channels, channel_listing(channels), warn=False)["index"])
+    def default_channel(path: str | Path) -> int:
+        """Index of the channel :func:`read` reads without ``channel=``.
+
+        Parameters
+        ----------
+        path : str or Path
+
+        Returns
+        -------
+        int
+        """
+        path = Path(path)
+        channels = channels_of(path)
+        return int(default(path, channels, channel_listing(channels), warn=False)["index"])
+
+    default_channel.__module__ = module
+    return default_channel
 
 
 def nonuniform_profile(name: str, x: np.ndarray, h: np.ndarray, lunit: str, hunit: str,

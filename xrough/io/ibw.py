@@ -42,7 +42,7 @@ from .. import units as u
 from ..topography import topography
 from ._common import (
     channel_listing,
-    default_channel_index,
+    default_channel_reader,
     describe_channel,
     fail,
     micro_as_u,
@@ -336,19 +336,11 @@ def _default(path: Path, chans: list[dict], listing: str, *, warn: bool) -> dict
                         if any(not c["unit"] for c in chans) else ""))
 
 
-def default_channel(path: str | Path) -> int:
-    """Index of the channel :func:`read` reads without ``channel=``.
+def _channel_list(path: Path) -> list[dict]:
+    return _layout(path, *_load(path))["channels"]
 
-    Parameters
-    ----------
-    path : str or Path
 
-    Returns
-    -------
-    int
-    """
-    path = Path(path)
-    return default_channel_index(path, _layout(path, *_load(path))["channels"], _default)
+default_channel = default_channel_reader(_channel_list, _default, __name__)
 
 
 def _date(note: dict[str, str]) -> str | None:

@@ -72,7 +72,7 @@ from .. import units as u
 from ..topography import topography
 from ._common import (
     channel_listing,
-    default_channel_index,
+    default_channel_reader,
     fail,
     micro_as_u,
     reader_errors,
@@ -499,20 +499,11 @@ def _image_sections(path: Path, infos: list[dict]) -> list[dict]:
     return infos
 
 
-def default_channel(path: str | Path) -> int:
-    """Index of the channel :func:`read` reads without ``channel=``.
+def _channel_list(path: Path) -> list[dict]:
+    return _image_sections(path, _channels(path)[-1])
 
-    Parameters
-    ----------
-    path : str or Path
 
-    Returns
-    -------
-    int
-    """
-    path = Path(path)
-    *_, infos = _channels(path)
-    return default_channel_index(path, _image_sections(path, infos), _default)
+default_channel = default_channel_reader(_channel_list, _default, __name__)
 
 
 def _date(text: str | None) -> str | None:
