@@ -16,7 +16,7 @@ from test_io_afm import make_ibw
 
 import xrough
 from conftest import data_path
-from xrough.io import gwy, ibw, nanoscope, netcdf, sur, text
+from xrough.io import bridge, gwy, ibw, nanoscope, netcdf, sur, text
 from xrough.io._common import channel_listing, describe_channel, micro_as_u, select_channel
 from xrough.topography import grid_of
 
@@ -146,6 +146,8 @@ def gwy_two_channels(tmp_path):
 def listed(module, path):
     """The listing every reader's channel errors hold, from its public ``channels``."""
     chans = module.channels(path)
+    if module is bridge:  # SurfaceTopography's channels: the unit of the values
+        chans = [dict(c, unit=c["data_unit"]) for c in chans]
     for c in chans:  # Nanoscope lists the scan line and direction of each image
         c["scan"] = " ".join(c.pop(k, "") for k in ("scan_line", "line_direction")).strip()
     return channel_listing(chans)
@@ -156,21 +158,26 @@ def readers_with_channels(tmp_path):
     ibw_path.write_bytes(make_ibw(np.ones((4, 3)), (0.5, 0.25), data_unit=b"nm",
                                   dim_units=(b"um", b"um")))
     return {"gwy": (gwy, gwy_two_channels(tmp_path)), "ibw": (ibw, ibw_path),
-            "nanoscope": (nanoscope, data_path("instruments", "di-1.di"))}
+            "nanoscope": (nanoscope, data_path("instruments", "di-1.di")),
+            "bridge": (bridge, data_path("instruments", "nid-1.nid"))}
 
 
-@pytest.mark.parametrize("reader", ["gwy", "ibw", "nanoscope"])
+@pytest.mark.parametrize("reader", ["gwy", "ibw", "nanoscope", "bridge"])
 def test_unknown_channel_name_lists_the_channels_the_same_way(tmp_path, reader):
     module, path = readers_with_channels(tmp_path)[reader]
+    if module is bridge:
+        pytest.importorskip("SurfaceTopography")
     with pytest.raises(ValueError) as err:
         module.read(path, channel="No such channel")
     assert str(err.value) == (f"{path.name}: no channel named 'No such channel'; "
                               f"channels: {listed(module, path)}")
 
 
-@pytest.mark.parametrize("reader", ["ibw", "nanoscope"])
+@pytest.mark.parametrize("reader", ["ibw", "nanoscope", "bridge"])
 def test_channel_index_out_of_range_lists_the_channels(tmp_path, reader):
     module, path = readers_with_channels(tmp_path)[reader]
+    if module is bridge:
+        pytest.importorskip("SurfaceTopography")
     with pytest.raises(ValueError) as err:
         module.read(path, channel=99)
     assert str(err.value) == (f"{path.name}: channel index 99 out of range; "
