@@ -455,6 +455,24 @@ def _data_block(name: str, lines: list[str]):
 
 
 def _parse(path: Path, encoding: str | None):
+    """Return the numbers, their printed tokens, the column names and the header."""
+    name = path.name
+    lines = _lines(path, encoding)
+    rows = _data_block(name, lines)
+    delimiter, decimal_comma = _delimiter([lines[i] for i in rows[:50]])
+    tokens = [_tokens(lines[i], delimiter, decimal_comma) for i in rows]
+    header = _Header()
+    rows, tokens = _point_count_line(name, lines, rows, tokens, header)
+    values = _numbers(name, rows, tokens)
+    names = _column_titles(lines, rows[0], values.shape[1], delimiter, header)
+    _read_header(lines, rows[0], header)
+    values, tokens, names = _drop_index_column(values, tokens, names, header)
+    values, tokens, names = _apply_valid_column(name, values, tokens, names, header)
+    return values, tokens, names, header
+
+
+def _lines(path: Path, encoding: str | None) -> list[str]:
+    """Return the lines of the file, refusing an empty, binary or undecodable one."""
     name = path.name
     if path.is_dir():
         raise IsADirectoryError(f"{name}: is a directory, not a file")
@@ -468,56 +486,65 @@ def _parse(path: Path, encoding: str | None):
     except (UnicodeError, LookupError) as err:
         raise ValueError(f"{name}: cannot decode the file as {encoding!r} text "
                          f"({err})") from None
-    lines = text.splitlines()
-    rows = _data_block(name, lines)
-    sample = [lines[i] for i in rows[:50]]
-    decimal_comma = False
+    return text.splitlines()
+
+
+def _delimiter(sample: list[str]) -> tuple[str | None, bool]:
+    """Return the data lines' delimiter (None: whitespace) and whether ``,`` is decimal.
+
+    A comma is the decimal mark in lines separated by semicolons.
+    """
     if any(";" in s for s in sample):
-        delimiter = ";"
-        decimal_comma = any("," in s for s in sample)
-    elif any("," in s for s in sample):
-        delimiter = ","
-    else:
-        delimiter = None
-    tokens = [_tokens(lines[i], delimiter, decimal_comma) for i in rows]
-    header = _Header()
-    rows, tokens = _point_count_line(name, lines, rows, tokens, header)
+        return ";", any("," in s for s in sample)
+    if any("," in s for s in sample):
+        return ",", False
+    return None, False
+
+
+def _numbers(name: str, rows: list[int], tokens: list[list[str]]) -> np.ndarray:
+    """Return the data lines' numbers as a matrix; refuse lines of another width."""
     ncols = len(tokens[0])
     for i, tok in zip(rows, tokens):
         if len(tok) != ncols:
             raise ValueError(f"{name}: line {i + 1} has {len(tok)} values where the lines "
                              f"before have {ncols}")
     try:
-        values = np.array(tokens, dtype=float)
+        return np.array(tokens, dtype=float)
     except ValueError as err:
         raise ValueError(f"{name}: cannot read the numbers ({err})") from None
-    first = rows[0]
-    names = None
+
+
+def _column_titles(lines: list[str], first: int, ncols: int, delimiter: str | None,
+                   header: _Header) -> list[str] | None:
+    """Return the column names on the last header line (with a line of units: both)."""
     before = [i for i in range(first) if lines[i].strip() and i not in header.lines]
-    if before:
-        names = _column_names(lines[before[-1]], ncols, delimiter)
-        if names is not None:
-            header.lines.add(before[-1])
-            if len(before) > 1 and all(_is_unit_label(n) for n in names):
-                # a line of units under a line of titles: ``X;Y;valid`` then ``[mm];[mm];[1/0]``
-                titles = _column_names(lines[before[-2]], ncols, delimiter)
-                if titles is not None:
-                    header.lines.add(before[-2])
-                    names = [f"{t} {n}" for t, n in zip(titles, names)]
-    for i in before:
-        if i in header.lines:
-            continue
-        kv = _split_key_value(lines[i])
-        if kv:
-            header.add(*kv)
+    if not before:
+        return None
+    names = _column_names(lines[before[-1]], ncols, delimiter)
+    if names is None:
+        return None
+    header.lines.add(before[-1])
+    if len(before) > 1 and all(_is_unit_label(n) for n in names):
+        # a line of units under a line of titles: ``X;Y;valid`` then ``[mm];[mm];[1/0]``
+        titles = _column_names(lines[before[-2]], ncols, delimiter)
+        if titles is not None:
+            header.lines.add(before[-2])
+            names = [f"{t} {n}" for t, n in zip(titles, names)]
+    return names
+
+
+def _read_header(lines: list[str], first: int, header: _Header) -> None:
+    """Add the ``key: value`` lines before the data and the comments after it to ``header``."""
+    for i in range(first):
+        if lines[i].strip() and i not in header.lines:
+            kv = _split_key_value(lines[i])
+            if kv:
+                header.add(*kv)
     for i in range(first, len(lines)):  # comments between and after the data lines
         if _is_comment(lines[i]):
             kv = _split_key_value(lines[i])
             if kv:
                 header.add(*kv)
-    values, tokens, names = _drop_index_column(values, tokens, names, header)
-    values, tokens, names = _apply_valid_column(name, values, tokens, names, header)
-    return values, tokens, names, header
 
 
 def _is_unit_label(name: str) -> bool:
