@@ -146,8 +146,9 @@ def gwy_two_channels(tmp_path):
 def listed(module, path):
     """The listing every reader's channel errors hold, from its public ``channels``."""
     chans = module.channels(path)
-    if module is bridge:  # SurfaceTopography's channels: the unit of the values
-        chans = [dict(c, unit=c["data_unit"]) for c in chans]
+    if module is bridge:  # the unit of the values, the first of a tuple (one per axis)
+        chans = [dict(c, unit=c["data_unit"][0] if isinstance(c["data_unit"], tuple)
+                      else c["data_unit"]) for c in chans]
     for c in chans:  # Nanoscope lists the scan line and direction of each image
         c["scan"] = " ".join(c.pop(k, "") for k in ("scan_line", "line_direction")).strip()
     return channel_listing(chans)
@@ -159,10 +160,11 @@ def readers_with_channels(tmp_path):
                                   dim_units=(b"um", b"um")))
     return {"gwy": (gwy, gwy_two_channels(tmp_path)), "ibw": (ibw, ibw_path),
             "nanoscope": (nanoscope, data_path("instruments", "di-1.di")),
-            "bridge": (bridge, data_path("instruments", "nid-1.nid"))}
+            "bridge": (bridge, data_path("instruments", "nid-1.nid")),
+            "bridge-nanoscope": (bridge, data_path("instruments", "di-1.di"))}
 
 
-@pytest.mark.parametrize("reader", ["gwy", "ibw", "nanoscope", "bridge"])
+@pytest.mark.parametrize("reader", ["gwy", "ibw", "nanoscope", "bridge", "bridge-nanoscope"])
 def test_unknown_channel_name_lists_the_channels_the_same_way(tmp_path, reader):
     module, path = readers_with_channels(tmp_path)[reader]
     if module is bridge:

@@ -194,9 +194,8 @@ def info_attrs(info: dict) -> dict:
 
 
 def _st_unit(unit) -> str | None:
-    if isinstance(unit, (tuple, list)):
-        unit = unit[0] if unit else None
-    if unit is None or unit == "":
+    unit = _unit_text(unit)
+    if not unit:
         return None
     return u.format_units(u.as_length_unit(micro_as_u(str(unit)),
                                            what="SurfaceTopography unit"))
@@ -259,6 +258,13 @@ def _close(reader) -> None:
             pass
 
 
+def _unit_text(unit) -> str:
+    """Return a unit as text (SurfaceTopography gives some as a tuple, one per axis)."""
+    if isinstance(unit, (tuple, list)):
+        unit = unit[0] if unit else None
+    return "" if unit is None else str(unit)
+
+
 def _select(reader, channel, path: Path):
     """Find the channel ``channel``: a name, SurfaceTopography's channel id or an index."""
     chans = list(reader.channels)
@@ -266,8 +272,8 @@ def _select(reader, channel, path: Path):
         for c in chans:
             if getattr(c, "channel_id", None) == channel:
                 return c
-    listed = [{"index": c.index, "name": str(c.name), "unit": c.data_unit, "channel": c}
-              for c in chans]
+    listed = [{"index": c.index, "name": str(c.name), "unit": _unit_text(c.data_unit),
+               "channel": c} for c in chans]
 
     def default(path, channels, listing, *, warn):
         return {"channel": reader.default_channel}
