@@ -33,6 +33,7 @@ __all__ = [
     "array_in",
     "as_length_unit",
     "is_length",
+    "length_unit_word",
     "length_in",
     "conversion_factor",
     "multiply_units",
@@ -467,6 +468,41 @@ def is_length(units: str | pint.Unit) -> bool:
     except (ValueError, TypeError):
         return False
     return True
+
+
+#: Length units as files spell them in headers and column titles, to CF strings: symbols
+#: (case-sensitive; ``"um"`` once readers have spelled the micro sign ``u``) ...
+_LENGTH_SYMBOLS = {"m": "m", "cm": "cm", "mm": "mm", "um": "um", "nm": "nm", "pm": "pm",
+                   "Å": "angstrom"}
+#: ... and names (lower case; singular and plural, -meter and -metre).
+_LENGTH_NAMES = {
+    **{f"{prefix}{base}{plural}": cf
+       for prefix, cf in (("", "m"), ("centi", "cm"), ("milli", "mm"), ("micro", "um"),
+                          ("nano", "nm"), ("pico", "pm"))
+       for base in ("meter", "metre") for plural in ("", "s")},
+    "micron": "um", "microns": "um",
+    "angstrom": "angstrom", "angstroms": "angstrom", "ångström": "angstrom",
+}
+
+
+def length_unit_word(word: str) -> str | None:
+    """CF string of a length unit written as one word in a file, or None if it is none.
+
+    A symbol (``nm``; upper case too, ``NM``, but for ``M``) or a name (``Micrometre``,
+    ``microns``, ``Ångström``). The micro sign must already be spelled ``u``
+    (:func:`xrough.io._common.micro_as_u`).
+
+    Examples
+    --------
+    >>> [length_unit_word(w) for w in ("um", "NM", "Micrometers", "microns", "M", "V")]
+    ['um', 'nm', 'um', 'um', None, None]
+    """
+    word = word.strip().strip(".:,;")
+    if word in _LENGTH_SYMBOLS:
+        return _LENGTH_SYMBOLS[word]
+    if word.isupper() and word.lower() in _LENGTH_SYMBOLS and word.lower() != "m":
+        return _LENGTH_SYMBOLS[word.lower()]
+    return _LENGTH_NAMES.get(word.lower())
 
 
 def conversion_factor(from_units: str | pint.Unit, to_units: str | pint.Unit) -> float:

@@ -15,6 +15,7 @@ unit, height scale, periodicity) and records provenance (file name, SHA-256).
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib
 import importlib.util
@@ -282,21 +283,45 @@ def open_topography(
     if name not in FORMATS and name != BRIDGE:
         raise ValueError(f"unknown format {name!r}; known: {', '.join(FORMATS)}, {BRIDGE}")
     description = FORMATS[name].description if name in FORMATS else _BRIDGE_DESCRIPTION
-    try:
+    with _reader_errors_in_words(path, description):
         read = _module(name).read
-        # readers of files that may lack sizes or units (text, npy...) take them directly
-        accepted = _keyword_parameters(read)
-        unknown = sorted(set(options) - accepted)
-        if unknown and not _takes_any_keyword(read):
-            raise ValueError(
-                f"{path.name}: the {name} reader has no option "
-                f"{', '.join(k + '=' for k in unknown)}"
-                + (" (the format has no channels)" if "channel" in unknown else "")
-                + f"; its options: {', '.join(sorted(accepted - {'path'})) or 'none'}")
-        for key, value in (("size", size), ("unit", unit), ("height_unit", height_unit)):
-            if value is not None and key in accepted:
-                options.setdefault(key, value)
-        da = read(path, **options)
+        stated = {"size": size, "unit": unit, "height_unit": height_unit}
+        da = read(path, **_reader_options(path, name, read, options, stated))
+    da, applied = _overrides(da, size=size, unit=unit, height_unit=height_unit,
+                             height_scale=height_scale, periodic=periodic)
+    da.attrs.update(source_file=path.name, source_sha256=file_sha256(path), format=name,
+                    overrides="; ".join(applied) if applied else "none")
+    da.attrs.setdefault("source", path.name)
+    if da.attrs.get("sampling") == "non-uniform":  # kept as measured, on request only
+        return da
+    return topography(da)
+
+
+def _reader_options(path: Path, name: str, read, options: dict, stated: dict) -> dict:
+    """Check ``options`` against the reader's keywords; pass it what the user states.
+
+    Readers of files that may lack sizes or units (text, npy...) take ``size``, ``unit``
+    and ``height_unit`` directly.
+    """
+    accepted = _keyword_parameters(read)
+    unknown = sorted(set(options) - accepted)
+    if unknown and not _takes_any_keyword(read):
+        raise ValueError(
+            f"{path.name}: the {name} reader has no option "
+            f"{', '.join(k + '=' for k in unknown)}"
+            + (" (the format has no channels)" if "channel" in unknown else "")
+            + f"; its options: {', '.join(sorted(accepted - {'path'})) or 'none'}")
+    for key, value in stated.items():
+        if value is not None and key in accepted:
+            options.setdefault(key, value)
+    return options
+
+
+@contextlib.contextmanager
+def _reader_errors_in_words(path: Path, description: str):
+    """Re-raise what a reader raises as an error naming the file and saying what it means."""
+    try:
+        yield
     except UnicodeError as err:
         raise ValueError(f"{path.name}: the text cannot be decoded ({err.reason} at byte "
                          f"{getattr(err, 'start', '?')}); pass encoding= if the file is "
@@ -324,9 +349,13 @@ def open_topography(
         if path.name in str(err):
             raise
         raise OSError(f"{path.name}: cannot read the file ({err})") from err
-    except Exception as err:  # anything else a third-party parser raises
+    except Exception as err:  # noqa: BLE001 - anything else a third-party parser raises
         raise ValueError(f"{path.name}: cannot read as {description} "
                          f"({type(err).__name__}: {str(err)[:300]})") from err
+
+
+def _overrides(da, *, size, unit, height_unit, height_scale, periodic):
+    """Apply what the user states over the file: ``(topography, list of what changed)``."""
     applied = []
     if unit is not None or height_unit is not None:
         lat = unit or da["x"].attrs["units"]
@@ -351,12 +380,7 @@ def open_topography(
     if periodic is not None:
         da = da.assign_attrs(periodic=int(bool(periodic)))
         applied.append(f"periodic={bool(periodic)}")
-    da.attrs.update(source_file=path.name, source_sha256=file_sha256(path), format=name,
-                    overrides="; ".join(applied) if applied else "none")
-    da.attrs.setdefault("source", path.name)
-    if da.attrs.get("sampling") == "non-uniform":  # kept as measured, on request only
-        return da
-    return topography(da)
+    return da, applied
 
 
 def _takes_any_keyword(func) -> bool:

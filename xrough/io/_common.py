@@ -11,9 +11,14 @@ from pathlib import Path
 from xml.etree import ElementTree
 
 import numpy as np
+import xarray as xr
+
+from .. import units as u
+from ..topography import topography
 
 __all__ = ["fail", "reader_errors", "check_file", "check_points", "MAX_POINTS",
-           "select_channel"]
+           "micro_as_u", "describe_channel", "channel_listing", "select_channel",
+           "default_channel_reader", "nonuniform_profile"]
 
 #: Largest number of points a reader of this package's native formats (X3P, SUR, SDF)
 #: accepts unless the caller passes ``max_points=``: a larger header is taken as corrupted.
@@ -139,45 +144,107 @@ def reader_errors(path: Path, description: str):
                          f"({type(err).__name__}: {err})") from err
 
 
-def select_channel(path: Path, channels: list[dict], channel, *,
-                   default: Callable[[str], dict], describe: Callable[[dict], str]) -> dict:
-    """Pick a channel by name (case-insensitive) or position in ``channels``.
+#: How the micro sign reaches a reader, longest first: UTF-8 bytes of the micro sign
+#: (U+00B5) or of the Greek mu (U+03BC) decoded as Latin-1 (``Âµ``, ``Î¼``), then the two
+#: characters themselves.
+_MICRO_SPELLINGS = ("\xc2\xb5", "\xce\xbc", "\xb5", "\u03bc")
+
+
+def micro_as_u(text: str) -> str:
+    r"""Spell the micro prefix of a unit ``u``, as CF/UDUNITS does.
+
+    The micro sign (U+00B5), the Greek mu (U+03BC) and their UTF-8 bytes read as Latin-1
+    (``Âµ``, ``Î¼``) all become ``u``; format-specific spellings (Nanoscope's ``~``, a
+    DOS code page's ``æ``) are left to their readers.
+
+    Examples
+    --------
+    >>> [micro_as_u(s) for s in ("\xb5m", "\u03bcm", "\xc2\xb5m", "\xce\xbcm", "um", "nm")]
+    ['um', 'um', 'um', 'um', 'um', 'nm']
+    """
+    for spelling in _MICRO_SPELLINGS:
+        text = text.replace(spelling, "u")
+    return text
+
+
+def describe_channel(channel: dict) -> str:
+    """One channel as text for listings: ``index: 'name' (scan, unit)``.
+
+    ``scan`` (such as ``Main Retrace``) is optional; a channel without a ``unit`` says
+    ``no unit``.
+
+    Examples
+    --------
+    >>> describe_channel({"index": 3, "name": "Topo", "unit": "m"})
+    "3: 'Topo' (m)"
+    >>> describe_channel({"index": 0, "name": "Phase", "unit": "", "scan": "Main Trace"})
+    "0: 'Phase' (Main Trace, no unit)"
+    """
+    details = [d for d in (channel.get("scan"), channel.get("unit") or "no unit") if d]
+    return f"{channel['index']}: {channel['name']!r} ({', '.join(details)})"
+
+
+def channel_listing(channels: list[dict]) -> str:
+    """List the channels for an error message: :func:`describe_channel` of each, ``"; "``.
+
+    Examples
+    --------
+    >>> channel_listing([{"index": 0, "name": "Height", "unit": "nm"},
+    ...                  {"index": 1, "name": "Phase", "unit": "deg"}])
+    "0: 'Height' (nm); 1: 'Phase' (deg)"
+    >>> channel_listing([])
+    'none'
+    """
+    return "; ".join(describe_channel(c) for c in channels) or "none"
+
+
+#: A reader's choice of the channel read without ``channel=``:
+#: ``default(path, channels, listing, warn=...)`` returns one of ``channels`` or raises
+#: (naming the file and the ``listing``); ``warn`` says whether an ambiguous choice warns.
+DefaultChannel = Callable[..., dict]
+
+
+def select_channel(path: Path, channels: list[dict], channel, *, default: DefaultChannel,
+                   by_id: bool = False) -> dict:
+    """Pick a channel by name (case-insensitive), position or id in ``channels``.
 
     Parameters
     ----------
     path : Path
         The file, named in error messages.
     channels : list of dict
-        The file's channels, each with a ``name``.
+        The file's channels, each with a ``name``, an ``index`` and a ``unit``.
     channel : str, int or None
-        The user's choice; ``None`` returns ``default(listing)``.
+        The user's choice; ``None`` returns ``default(path, channels, listing, warn=True)``.
     default : callable
-        Called with the listing of the channels (``describe`` of each, ``"; "``-joined)
-        when ``channel`` is ``None``; returns a channel or raises.
-    describe : callable
-        One channel as text for the listing in error messages.
+        The reader's default choice (:data:`DefaultChannel`).
+    by_id : bool
+        Whether an int is a channel's ``index`` (an id the file gives it, such as
+        Gwyddion's ``N`` of ``/N/data``) rather than its position in ``channels``.
 
     Raises
     ------
     ValueError
-        An index out of range, an unknown name (the message lists the channels), or
-        ``channel`` neither a name nor an index.
+        An index out of range, an unknown id or name, or ``channel`` neither a name nor an
+        index; the message lists the channels (:func:`channel_listing`).
 
     Examples
     --------
-    >>> chans = [{"name": "Height"}, {"name": "Phase"}]
-    >>> select_channel(Path("a.spm"), chans, "phase", default=None, describe=str)
-    {'name': 'Phase'}
-    >>> select_channel(Path("a.spm"), chans, -2, default=None, describe=str)
-    {'name': 'Height'}
+    >>> chans = [{"index": 0, "name": "Height"}, {"index": 1, "name": "Phase"}]
+    >>> select_channel(Path("a.spm"), chans, "phase", default=None)["name"]
+    'Phase'
+    >>> select_channel(Path("a.spm"), chans, -2, default=None)["name"]
+    'Height'
+    >>> select_channel(Path("a.spm"), chans, "Deflection", default=None)
+    Traceback (most recent call last):
+    ...
+    ValueError: a.spm: no channel named 'Deflection'; channels: 0: 'Height' (no unit); ...
     """
-    listing = "; ".join(describe(c) for c in channels) or "none"
+    listing = channel_listing(channels)
     if channel is None:
-        return default(listing)
+        return default(path, channels, listing, warn=True)
     if isinstance(channel, (int, np.integer)) and not isinstance(channel, bool):
-        if not -len(channels) <= channel < len(channels):
-            raise fail(path, f"channel index {channel} out of range; channels: {listing}")
-        return channels[channel]
+        return _channel_at(path, channels, int(channel), listing, by_id)
     if isinstance(channel, str):
         for c in channels:
             if c["name"].lower() == channel.strip().lower():
@@ -185,3 +252,121 @@ def select_channel(path: Path, channels: list[dict], channel, *,
         raise fail(path, f"no channel named {channel!r}; channels: {listing}")
     raise fail(path, f"channel must be a name (str) or an index (int), got {channel!r}; "
                      f"channels: {listing}")
+
+
+def _channel_at(path: Path, channels: list[dict], channel: int, listing: str,
+                by_id: bool) -> dict:
+    if by_id:
+        found = next((c for c in channels if c["index"] == channel), None)
+        if found is None:
+            raise fail(path, f"no channel with id {channel}; channels: {listing}")
+        return found
+    if not -len(channels) <= channel < len(channels):
+        raise fail(path, f"channel index {channel} out of range; channels: {listing}")
+    return channels[channel]
+
+
+def default_channel_reader(channels_of: Callable[[Path], list[dict]],
+                           default: DefaultChannel, module: str) -> Callable:
+    """Make a reader's public ``default_channel(path)`` from its channels and its choice.
+
+    Parameters
+    ----------
+    channels_of : callable
+        ``channels_of(path)``: the file's channels (as :func:`select_channel` takes them).
+    default : callable
+        The reader's default choice (:data:`DefaultChannel`); it is asked not to warn.
+    module : str
+        The reader's module (``__name__``), where the function is documented.
+
+    Examples
+    --------
+    >>> last = lambda path, chans, listing, warn: chans[-1]
+    >>> chans = [{"index": 0, "name": "A"}, {"index": 4, "name": "B"}]
+    >>> pick = default_channel_reader(lambda path: chans, last, "m")
+    >>> pick("a.ibw")
+    4
+    """
+    def default_channel(path: str | Path) -> int:
+        """Index of the channel :func:`read` reads without ``channel=``.
+
+        Parameters
+        ----------
+        path : str or Path
+
+        Returns
+        -------
+        int
+        """
+        path = Path(path)
+        channels = channels_of(path)
+        return int(default(path, channels, channel_listing(channels), warn=False)["index"])
+
+    default_channel.__module__ = module
+    return default_channel
+
+
+def nonuniform_profile(name: str, x: np.ndarray, h: np.ndarray, lunit: str, hunit: str,
+                       attrs: dict, resample: bool, size=None, spacing=None) -> xr.DataArray:
+    """Build a profile measured at increasing positions ``x`` that are not uniform.
+
+    Returned on its measured ``x`` with ``attrs["sampling"] = "non-uniform"``, or with
+    ``resample=True`` interpolated linearly onto as many uniform points over the same range
+    (``attrs["sampling"] = "resampled"``, ``attrs["resampling"]`` says how). ``size`` or
+    ``spacing`` relabel a resampled profile's lateral scale; they cannot replace measured
+    positions.
+
+    Parameters
+    ----------
+    name : str
+        The file's name, for error messages.
+    x, h : numpy.ndarray
+        Positions (in ``lunit``, increasing) and heights (in ``hunit``).
+    lunit, hunit : str
+        Lateral and height units.
+    attrs : dict
+        Attributes of the result (the file's metadata).
+    resample : bool
+        Interpolate onto a uniform grid.
+    size, spacing : optional
+        As for :func:`xrough.topography`, with ``resample=True`` only.
+
+    Examples
+    --------
+    >>> p = nonuniform_profile("p.txt", np.array([0.0, 1.0, 3.0]), np.zeros(3), "um", "nm",
+    ...                        {}, resample=False)
+    >>> p.attrs["sampling"], p.x.values.tolist(), p.x.attrs["units"]
+    ('non-uniform', [0.0, 1.0, 3.0], 'um')
+    >>> nonuniform_profile("p.txt", np.array([0.0, 1.0, 3.0]), np.zeros(3), "um", "nm",
+    ...                    {}, resample=True).x.values.tolist()
+    [0.0, 1.5, 3.0]
+    """
+    if resample:
+        return _resampled(x, h, lunit, hunit, attrs, size, spacing)
+    if size is not None or spacing is not None:
+        raise ValueError(f"{name}: the profile is sampled non-uniformly; size=/spacing= cannot "
+                         "replace its measured positions (pass resample=True to "
+                         "interpolate it onto a uniform grid first)")
+    return xr.DataArray(
+        h, dims=("x",), name="height",
+        coords={"x": ("x", x, {"units": u.format_units(lunit), "long_name": "x position"})},
+        attrs={"units": u.format_units(hunit), "long_name": "height", "periodic": 0,
+               **attrs, "sampling": "non-uniform"},
+    )
+
+
+def _resampled(x, h, lunit, hunit, attrs, size, spacing) -> xr.DataArray:
+    """Linear interpolation of a non-uniform profile onto as many uniform points."""
+    xu = np.linspace(x[0], x[-1], x.size)
+    dx = (x[-1] - x[0]) / (x.size - 1)
+    attrs = dict(attrs, sampling="resampled",
+                 resampling=(f"linear interpolation of {x.size} non-uniformly sampled "
+                             f"points onto {x.size} uniform points over "
+                             f"[{x[0]:.10g}, {x[-1]:.10g}] {lunit}"),
+                 x_offset=float(x[0]))
+    topo = topography(np.interp(xu, x, h), spacing=dx, unit=lunit, height_unit=hunit,
+                      attrs=attrs)
+    if size is not None or spacing is not None:
+        topo = topography(topo.drop_vars("x"), size=size, spacing=spacing, unit=lunit,
+                          height_unit=hunit)
+    return topo

@@ -21,6 +21,7 @@ recognises a file and SurfaceTopography is installed.
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 import re
 import warnings
@@ -31,7 +32,7 @@ import xarray as xr
 
 from .. import units as u
 from ..topography import topography
-from .text import _nonuniform as build
+from ._common import micro_as_u, nonuniform_profile, select_channel
 
 __all__ = ["available", "sniff", "read", "read_with_surfacetopography", "channels",
            "default_channel", "info_attrs"]
@@ -193,11 +194,11 @@ def info_attrs(info: dict) -> dict:
 
 
 def _st_unit(unit) -> str | None:
-    if isinstance(unit, (tuple, list)):
-        unit = unit[0] if unit else None
-    if unit is None or unit == "":
+    unit = _unit_text(unit)
+    if not unit:
         return None
-    return u.format_units(u.as_length_unit(str(unit), what="SurfaceTopography unit"))
+    return u.format_units(u.as_length_unit(micro_as_u(str(unit)),
+                                           what="SurfaceTopography unit"))
 
 
 def channels(path) -> list[dict]:
@@ -213,16 +214,10 @@ def channels(path) -> list[dict]:
     list of dict
         ``index``, ``name``, ``unit`` (lateral), ``data_unit`` and ``is_height``.
     """
-    st = _import()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        reader = st.open_topography(str(path))
-    try:
+    with _opened(path) as reader:
         return [{"index": c.index, "name": c.name, "unit": c.unit, "data_unit": c.data_unit,
                  "is_height": bool(getattr(c, "is_height_channel", True))}
                 for c in reader.channels]
-    finally:
-        _close(reader)
 
 
 def default_channel(path) -> int:
@@ -237,12 +232,19 @@ def default_channel(path) -> int:
     -------
     int
     """
+    with _opened(path) as reader:
+        return int(reader.default_channel.index)
+
+
+@contextlib.contextmanager
+def _opened(path):
+    """SurfaceTopography's reader of ``path`` (its warnings silenced), closed after use."""
     st = _import()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         reader = st.open_topography(str(path))
     try:
-        return int(reader.default_channel.index)
+        yield reader
     finally:
         _close(reader)
 
@@ -256,20 +258,27 @@ def _close(reader) -> None:
             pass
 
 
-def _select(reader, channel, name: str):
+def _unit_text(unit) -> str:
+    """Return a unit as text (SurfaceTopography gives some as a tuple, one per axis)."""
+    if isinstance(unit, (tuple, list)):
+        unit = unit[0] if unit else None
+    return "" if unit is None else str(unit)
+
+
+def _select(reader, channel, path: Path):
+    """Find the channel ``channel``: a name, SurfaceTopography's channel id or an index."""
     chans = list(reader.channels)
-    if channel is None:
-        return reader.default_channel
     if isinstance(channel, str):
         for c in chans:
-            if c.name == channel or getattr(c, "channel_id", None) == channel:
+            if getattr(c, "channel_id", None) == channel:
                 return c
-        raise ValueError(f"{name}: no channel {channel!r} (channels: "
-                         f"{', '.join(repr(c.name) for c in chans)})")
-    index = int(channel)
-    if not 0 <= index < len(chans):
-        raise ValueError(f"{name}: channel index {index} out of range (0..{len(chans) - 1})")
-    return chans[index]
+    listed = [{"index": c.index, "name": str(c.name), "unit": _unit_text(c.data_unit),
+               "channel": c} for c in chans]
+
+    def default(path, channels, listing, *, warn):
+        return {"channel": reader.default_channel}
+
+    return select_channel(path, listed, channel, default=default)["channel"]
 
 
 def read_with_surfacetopography(path, *, channel: int | str | None = None, size=None,
@@ -312,7 +321,6 @@ def read_with_surfacetopography(path, *, channel: int | str | None = None, size=
     """
     st = _import()
     path = Path(path)
-    name = path.name
     if not path.is_file():
         raise FileNotFoundError(f"no such file: {path}")
     with warnings.catch_warnings(record=True) as caught:
@@ -320,53 +328,72 @@ def read_with_surfacetopography(path, *, channel: int | str | None = None, size=
         try:
             reader = st.open_topography(str(path))
         except Exception as err:  # noqa: BLE001 - ST raises its own exception types
-            raise ValueError(f"{name}: SurfaceTopography cannot read the file "
+            raise ValueError(f"{path.name}: SurfaceTopography cannot read the file "
                              f"({type(err).__name__}: {str(err).strip()[:300]})") from None
         try:
-            chan = _select(reader, channel, name)
-            if not getattr(chan, "is_height_channel", True):
-                raise ValueError(f"{name}: channel {chan.name!r} holds {chan.data_unit} data, "
-                                 "not heights")
-            kwargs = {"channel_index": chan.index}
-            nb = tuple(chan.nb_grid_pts)
-            if chan.physical_sizes is None:  # the file has none: a placeholder, then size=
-                if size is None:
-                    raise ValueError(f"{name}: the file states no physical size: pass size=")
-                kwargs["physical_sizes"] = tuple(float(n) for n in nb)
-            if _st_unit(chan.unit) is None:
-                if unit is None:
-                    raise ValueError(f"{name}: the file states no unit: pass unit= "
-                                     "(e.g. unit='um')")
-                kwargs["unit"] = "m"  # placeholder label; relabelled below
-            topo = reader.topography(**kwargs)
-            heights = np.ma.filled(np.ma.asarray(topo.heights(), dtype=float), np.nan)
-            positions = topo.positions() if topo.dim == 1 and not topo.is_uniform else None
-            st_unit = topo.unit
-            sizes = tuple(float(s) for s in topo.physical_sizes)
-            periodic = bool(topo.is_periodic)
-            attrs = info_attrs(topo.info)
-        except ValueError as err:
-            if str(err).startswith(name):
-                raise
-            raise ValueError(f"{name}: SurfaceTopography failed to read the data: the file "
-                             f"is corrupted or holds values it cannot parse "
-                             f"({type(err).__name__}: {str(err).strip()[:300]!r})") from None
-        except Exception as err:  # noqa: BLE001
-            raise ValueError(f"{name}: SurfaceTopography failed to read the data "
-                             f"({type(err).__name__}: {str(err).strip()[:300]})") from None
+            with _data_errors(path.name):
+                data = _channel_data(reader, channel, path, size, unit)
         finally:
             _close(reader)
     notes = sorted({str(w.message).strip() for w in caught
                     if not issubclass(w.category, ImportWarning)})
     if notes:
-        attrs["reader_warnings"] = " | ".join(notes)[:_MAX_TEXT]
-    lunit = unit or _st_unit(st_unit)
-    hunit = height_unit or unit or _st_unit(st_unit)
-    attrs.update(reader=type(reader).__name__, channel=str(chan.name),
-                 channel_index=int(chan.index))
-    if positions is not None:  # non-uniform line scan
-        return _nonuniform(name, np.asarray(positions, dtype=float), heights, lunit, hunit,
-                           attrs, resample, size)
+        data["attrs"]["reader_warnings"] = " | ".join(notes)[:_MAX_TEXT]
+    data["attrs"].update(reader=type(reader).__name__, channel=str(data["channel"].name),
+                         channel_index=int(data["channel"].index))
+    return _as_topography(data, path.name, size, unit, height_unit, resample)
+
+
+@contextlib.contextmanager
+def _data_errors(name: str):
+    """Errors of SurfaceTopography reading the data as ``ValueError`` naming the file."""
+    try:
+        yield
+    except ValueError as err:
+        if str(err).startswith(name):
+            raise
+        raise ValueError(f"{name}: SurfaceTopography failed to read the data: the file "
+                         f"is corrupted or holds values it cannot parse "
+                         f"({type(err).__name__}: {str(err).strip()[:300]!r})") from None
+    except Exception as err:  # noqa: BLE001
+        raise ValueError(f"{name}: SurfaceTopography failed to read the data "
+                         f"({type(err).__name__}: {str(err).strip()[:300]})") from None
+
+
+def _channel_data(reader, channel, path: Path, size, unit) -> dict:
+    """Read the chosen channel: heights, positions of a non-uniform profile, sizes, info."""
+    name = path.name
+    chan = _select(reader, channel, path)
+    if not getattr(chan, "is_height_channel", True):
+        raise ValueError(f"{name}: channel {chan.name!r} holds {chan.data_unit} data, "
+                         "not heights")
+    kwargs = {"channel_index": chan.index}
+    nb = tuple(chan.nb_grid_pts)
+    if chan.physical_sizes is None:  # the file has none: a placeholder, then size=
+        if size is None:
+            raise ValueError(f"{name}: the file states no physical size: pass size=")
+        kwargs["physical_sizes"] = tuple(float(n) for n in nb)
+    if _st_unit(chan.unit) is None:
+        if unit is None:
+            raise ValueError(f"{name}: the file states no unit: pass unit= "
+                             "(e.g. unit='um')")
+        kwargs["unit"] = "m"  # placeholder label; relabelled below
+    topo = reader.topography(**kwargs)
+    return {"channel": chan, "attrs": info_attrs(topo.info),
+            "heights": np.ma.filled(np.ma.asarray(topo.heights(), dtype=float), np.nan),
+            "positions": topo.positions() if topo.dim == 1 and not topo.is_uniform else None,
+            "unit": topo.unit, "nb": nb, "periodic": bool(topo.is_periodic),
+            "sizes": tuple(float(s) for s in topo.physical_sizes)}
+
+
+def _as_topography(data: dict, name: str, size, unit, height_unit, resample):
+    """Build a topography (or a non-uniform profile) from SurfaceTopography's data."""
+    lunit = unit or _st_unit(data["unit"])
+    hunit = height_unit or unit or _st_unit(data["unit"])
+    heights, sizes, nb, attrs = data["heights"], data["sizes"], data["nb"], data["attrs"]
+    if data["positions"] is not None:  # non-uniform line scan
+        return _nonuniform(name, np.asarray(data["positions"], dtype=float), heights, lunit,
+                           hunit, attrs, resample, size)
     if heights.ndim == 2:  # SurfaceTopography indexes [x, y], row y = 0 at the top
         values = heights.T[::-1]
         spacing = (sizes[1] / nb[1], sizes[0] / nb[0])
@@ -374,7 +401,7 @@ def read_with_surfacetopography(path, *, channel: int | str | None = None, size=
         values = heights
         spacing = sizes[0] / nb[0]
     topo = topography(values, spacing=spacing, unit=lunit, height_unit=hunit,
-                      periodic=periodic, attrs=attrs)
+                      periodic=data["periodic"], attrs=attrs)
     if size is not None:
         topo = topography(topo.drop_vars([d for d in ("y", "x") if d in topo.dims]),
                           size=size, unit=lunit, height_unit=hunit)
@@ -384,7 +411,7 @@ def read_with_surfacetopography(path, *, channel: int | str | None = None, size=
 def _nonuniform(name, x, h, lunit, hunit, attrs, resample, size):
     if x.size > 1 and x[0] > x[-1]:
         x, h = x[::-1], h[::-1]
-    return build(name, x, h, lunit, hunit, attrs, resample, size, None)
+    return nonuniform_profile(name, x, h, lunit, hunit, attrs, resample, size)
 
 
 #: Module protocol of :mod:`xrough.io`: ``read(path, **options)``.

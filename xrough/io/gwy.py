@@ -37,7 +37,7 @@ import numpy as np
 
 from .. import units as u
 from ..topography import grid_of, topography
-from ._common import check_file, fail, reader_errors
+from ._common import check_file, describe_channel, fail, micro_as_u, reader_errors, select_channel
 
 __all__ = ["sniff", "read", "write", "channels"]
 
@@ -198,7 +198,7 @@ def _unit_of(field, key: str) -> str:
     if unit is None:
         return ""
     try:
-        return str(unit["unitstr"] or "")
+        return micro_as_u(str(unit["unitstr"] or ""))
     except (KeyError, TypeError):
         return ""
 
@@ -234,8 +234,13 @@ def channels(path: str | Path) -> list[dict]:
                 for c in _fields(_load(path))]
 
 
-def _describe(c: dict) -> str:
-    return f"{c['index']}: {c['name']!r} ({c['unit'] or 'no unit'})"
+def _default(path: Path, fields: list[dict], listing: str, *, warn: bool) -> dict:
+    """Pick the first data field with lengths for values and sizes (``warn`` is unused)."""
+    chosen = next((c for c in fields if c["is_height"]), None)
+    if chosen is None:
+        raise fail(path, f"no data field has length units for values and sizes; "
+                         f"channels: {listing}")
+    return chosen
 
 
 def _parse_meta(value):
@@ -299,28 +304,12 @@ def read(path: str | Path, *, channel: str | int | None = None, mask: bool = Tru
 def _read(path: Path, channel, mask: bool):
     container = _load(path)
     fields = _fields(container)
-    listing = "; ".join(_describe(c) for c in fields) or "none"
     if not fields:
         raise fail(path, "the file holds no data fields (/N/data)")
-    if channel is None:
-        chosen = next((c for c in fields if c["is_height"]), None)
-        if chosen is None:
-            raise fail(path, f"no data field has length units for values and sizes; "
-                             f"channels: {listing}")
-    elif isinstance(channel, (int, np.integer)) and not isinstance(channel, bool):
-        chosen = next((c for c in fields if c["index"] == int(channel)), None)
-        if chosen is None:
-            raise fail(path, f"no channel with id {channel}; channels: {listing}")
-    elif isinstance(channel, str):
-        chosen = next((c for c in fields if c["name"].lower() == channel.strip().lower()),
-                      None)
-        if chosen is None:
-            raise fail(path, f"no channel named {channel!r}; channels: {listing}")
-    else:
-        raise TypeError(f"channel must be a title (str) or an id (int), got {channel!r}")
+    chosen = select_channel(path, fields, channel, default=_default, by_id=True)
     name = chosen["name"]
     if not chosen["is_height"]:
-        raise fail(path, f"channel {_describe(chosen)} has values in "
+        raise fail(path, f"channel {describe_channel(chosen)} has values in "
                          f"{chosen['unit'] or 'no unit'!r} and sizes in "
                          f"{chosen['lateral_unit'] or 'no unit'!r}; a topography needs "
                          f"lengths for both")

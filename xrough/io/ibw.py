@@ -40,7 +40,15 @@ from igor2 import binarywave
 from .. import quality
 from .. import units as u
 from ..topography import topography
-from ._common import fail, reader_errors, select_channel
+from ._common import (
+    channel_listing,
+    default_channel_reader,
+    describe_channel,
+    fail,
+    micro_as_u,
+    reader_errors,
+    select_channel,
+)
 
 __all__ = ["sniff", "read", "channels", "default_channel"]
 
@@ -201,7 +209,7 @@ def _extended_units(blob: bytes, header: dict) -> tuple[str, list[str]]:
 
 def _unit(text: str) -> str:
     """Igor unit spelling to a pint-readable one (SI symbols: ``A`` is the ampere)."""
-    return text.strip().replace("\xb5", "u").replace("\u03bc", "u")
+    return micro_as_u(text.strip())
 
 
 def _parse_note(note: str) -> dict[str, str]:
@@ -302,10 +310,6 @@ def channels(path: str | Path) -> list[dict]:
     return [dict(c) for c in layout["channels"]]
 
 
-def _describe(c: dict) -> str:
-    return f"{c['index']}: {c['name']!r} ({c['unit'] or 'unknown unit'})"
-
-
 def _default(path: Path, chans: list[dict], listing: str, *, warn: bool) -> dict:
     """Pick the channel read without ``channel=``; warn when the choice is ambiguous.
 
@@ -332,28 +336,11 @@ def _default(path: Path, chans: list[dict], listing: str, *, warn: bool) -> dict
                         if any(not c["unit"] for c in chans) else ""))
 
 
-def _choose(path: Path, chans: list[dict], channel) -> dict:
-    def default(listing: str) -> dict:
-        return _default(path, chans, listing, warn=True)
-
-    return select_channel(path, chans, channel, default=default, describe=_describe)
+def _channel_list(path: Path) -> list[dict]:
+    return _layout(path, *_load(path))["channels"]
 
 
-def default_channel(path: str | Path) -> int:
-    """Index of the channel :func:`read` reads without ``channel=``.
-
-    Parameters
-    ----------
-    path : str or Path
-
-    Returns
-    -------
-    int
-    """
-    path = Path(path)
-    chans = _layout(path, *_load(path))["channels"]
-    listing = "; ".join(_describe(c) for c in chans)
-    return int(_default(path, chans, listing, warn=False)["index"])
+default_channel = default_channel_reader(_channel_list, _default, __name__)
 
 
 def _date(note: dict[str, str]) -> str | None:
@@ -429,11 +416,11 @@ def _read(path: Path, channel, unit, height_unit):
     if unit is not None:
         lateral_given = u.format_units(u.as_length_unit(unit, what="unit"))
         dim_units = [d or lateral_given for d in dim_units]
-    chosen = _choose(path, layout["channels"], channel)
+    chosen = select_channel(path, layout["channels"], channel, default=_default)
     if not chosen["is_height"]:
-        heights = "; ".join(_describe(c) for c in layout["channels"] if c["is_height"])
-        raise fail(path, f"channel {_describe(chosen)} is not a height (a topography needs "
-                         f"a length unit); height channels: {heights or 'none'}")
+        heights = channel_listing([c for c in layout["channels"] if c["is_height"]])
+        raise fail(path, f"channel {describe_channel(chosen)} is not a height (a topography "
+                         f"needs a length unit); height channels: {heights}")
     data = layout["data"]
     if len(shape) == 3:
         data = data[:, :, chosen["index"]]

@@ -70,7 +70,14 @@ import numpy as np
 from .. import quality
 from .. import units as u
 from ..topography import topography
-from ._common import fail, reader_errors, select_channel
+from ._common import (
+    channel_listing,
+    default_channel_reader,
+    fail,
+    micro_as_u,
+    reader_errors,
+    select_channel,
+)
 
 __all__ = ["sniff", "read", "channels", "default_channel", "parse_value"]
 
@@ -207,7 +214,7 @@ def _number_unit(text: str, what: str) -> tuple[float, str]:
 
 def _unit(text: str) -> str:
     """Nanoscope unit spelling to a pint-readable one (``~m`` and ``µm`` are micrometres)."""
-    text = text.strip().replace("~", "u").replace("\xb5", "u").replace("\u03bc", "u")
+    text = micro_as_u(text.strip().replace("~", "u"))
     return {"\xba": "deg", "\xb0": "deg"}.get(text, text)
 
 
@@ -333,7 +340,7 @@ def _channels(path: Path):
             continue
         index = len(out)
         name = _image_name(entries, index)
-        info = {"index": index, "name": name, "entries": entries}
+        info = {"index": index, "name": name, "entries": entries, "scan": _scan(entries)}
         try:
             per_lsb, unit, formula, raw_scale = _z_scale(path, sections, entries, name)
             info.update(per_lsb=per_lsb, unit=unit, formula=formula, z_scale=raw_scale)
@@ -425,11 +432,10 @@ def _check_layout(path: Path, text: str, sections, infos: list[dict]) -> None:
                          "Data length): bytes inserted into the file shift the data")
 
 
-def _describe(info) -> str:
-    where = " ".join(v for v in (_section_value(info["entries"], "Scan Line"),
-                                 _section_value(info["entries"], "Line Direction")) if v)
-    unit = info["unit"] or "no unit"
-    return f"{info['index']}: {info['name']!r} ({', '.join(s for s in (where, unit) if s)})"
+def _scan(entries: dict[str, str]) -> str:
+    """Return the scan line and direction of an image section (``Main Retrace``), for listings."""
+    return " ".join(v for v in (_section_value(entries, "Scan Line"),
+                                _section_value(entries, "Line Direction")) if v)
 
 
 def channels(path: str | Path) -> list[dict]:
@@ -486,33 +492,18 @@ def _is_interleave(info: dict) -> bool:
     return (_section_value(info["entries"], "Scan Line") or "").lower() == "interleave"
 
 
-def _choose(path: Path, infos: list[dict], channel) -> dict:
+def _image_sections(path: Path, infos: list[dict]) -> list[dict]:
+    """Return the file's image sections (channels); refuse a file without any."""
     if not infos:
         raise fail(path, "the file holds no image sections ('\\*Ciao image list')")
-
-    def default(listing: str) -> dict:
-        return _default(path, infos, listing, warn=True)
-
-    return select_channel(path, infos, channel, default=default, describe=_describe)
+    return infos
 
 
-def default_channel(path: str | Path) -> int:
-    """Index of the channel :func:`read` reads without ``channel=``.
+def _channel_list(path: Path) -> list[dict]:
+    return _image_sections(path, _channels(path)[-1])
 
-    Parameters
-    ----------
-    path : str or Path
 
-    Returns
-    -------
-    int
-    """
-    path = Path(path)
-    *_, infos = _channels(path)
-    if not infos:
-        raise fail(path, "the file holds no image sections ('\\*Ciao image list')")
-    listing = "; ".join(_describe(c) for c in infos)
-    return int(_default(path, infos, listing, warn=False)["index"])
+default_channel = default_channel_reader(_channel_list, _default, __name__)
 
 
 def _date(text: str | None) -> str | None:
@@ -567,15 +558,15 @@ def _read(path: Path, channel):
     if is_text:
         raise fail(path, "Nanoscope files with the data stored as text ('?*File list') are "
                          "not supported; export a binary file")
-    info = _choose(path, infos, channel)
-    listing = "; ".join(_describe(c) for c in infos if c["unit"] and u.is_length(c["unit"]))
+    info = select_channel(path, _image_sections(path, infos), channel, default=_default)
+    listing = channel_listing([c for c in infos if c["unit"] and u.is_length(c["unit"])])
     if info["unit"] is None:
         raise ValueError(info.get("error") or f"{path.name}: channel {info['name']!r} has "
                                               "no height scale")
     if not u.is_length(info["unit"]):
         raise fail(path, f"channel {info['index']} {info['name']!r} holds "
                          f"{info['unit']!r}, not heights (a topography needs a length unit); "
-                         f"height channels: {listing or 'none'}")
+                         f"height channels: {listing}")
     nx, ny, elsize = info["nx"], info["ny"], info["elsize"]
     count = nx * ny
     file_size = path.stat().st_size

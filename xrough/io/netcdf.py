@@ -33,7 +33,7 @@ import xarray as xr
 from .. import units as u
 from ..topography import topography
 from . import _checksum
-from ._common import check_file, reader_errors
+from ._common import check_file, micro_as_u, reader_errors
 
 __all__ = ["sniff", "read", "write"]
 
@@ -303,7 +303,7 @@ def _plain(value):
 
 def _units(attrs: dict) -> str | None:
     units = attrs.get("units", attrs.get("unit"))
-    return str(_plain(units)) if units is not None else None
+    return micro_as_u(str(_plain(units))) if units is not None else None
 
 
 def _choose(ds: xr.Dataset, name: str, variable: str | None) -> str:

@@ -43,7 +43,7 @@ import numpy as np
 
 from .. import units as u
 from ..topography import topography
-from ._common import check_file, check_points, reader_errors
+from ._common import check_file, check_points, micro_as_u, reader_errors
 
 __all__ = ["sniff", "read", "OBJECT_TYPES"]
 
@@ -101,8 +101,8 @@ def _string(raw: bytes) -> str:
 
 
 def _unit(text: str, path: Path, what: str) -> str:
-    # the micro sign appears as latin-1 0xB5, Greek mu, or 0xE6 (an MS-DOS code page)
-    clean = text.replace("\xb5", "u").replace("\u03bc", "u").replace("\xe6", "u")
+    # besides its usual spellings, the micro sign appears as 0xE6 (an MS-DOS code page)
+    clean = micro_as_u(text).replace("\xe6", "u")
     if not clean:
         raise ValueError(f"{path.name}: the {what} unit is empty; the file states no unit")
     try:

@@ -53,6 +53,7 @@ linear interpolation onto a uniform grid.
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -60,7 +61,7 @@ import xarray as xr
 
 from .. import units as u
 from ..topography import grid_of, topography
-from ._common import reader_errors
+from ._common import micro_as_u, nonuniform_profile, reader_errors
 
 __all__ = ["sniff", "read", "write", "looks_binary"]
 
@@ -77,20 +78,6 @@ _OTHER_TEXT_FORMATS = (b"aISO-1.0", b"aBCR-1.0", b"bISO-1.0", b"bBCR-1.0", b"\\*
 _ROUNDING_RESOLVES = 0.1
 _RESERVED_ATTRS = {"units", "long_name", "periodic", "sampling", "source", "source_file",
                    "source_sha256", "format", "overrides", "name", "standard_name"}
-
-# Spellings of length units found in headers and column names -> CF strings.
-_UNIT_SYMBOLS = {"m": "m", "cm": "cm", "mm": "mm", "um": "um", "µm": "um", "μm": "um",
-                 "nm": "nm", "pm": "pm", "Å": "angstrom"}
-_UNIT_NAMES = {
-    "meter": "m", "meters": "m", "metre": "m", "metres": "m",
-    "centimeter": "cm", "centimeters": "cm", "centimetre": "cm", "centimetres": "cm",
-    "millimeter": "mm", "millimeters": "mm", "millimetre": "mm", "millimetres": "mm",
-    "micrometer": "um", "micrometers": "um", "micrometre": "um", "micrometres": "um",
-    "micron": "um", "microns": "um",
-    "nanometer": "nm", "nanometers": "nm", "nanometre": "nm", "nanometres": "nm",
-    "picometer": "pm", "picometers": "pm", "picometre": "pm", "picometres": "pm",
-    "angstrom": "angstrom", "angstroms": "angstrom", "ångström": "angstrom",
-}
 
 # Normalised header keys (lower case, without spaces, '-', '_', '.') and what they mean.
 # (``Breite``, ``Höhe``: Gwyddion's ASCII export in German)
@@ -215,15 +202,8 @@ def _attr_value(text: str):
 
 
 def _length_unit(word: str) -> str | None:
-    """CF string of a length unit written as ``word``, or None."""
-    word = word.strip().strip(".:,;")
-    if not word:
-        return None
-    if word in _UNIT_SYMBOLS:
-        return _UNIT_SYMBOLS[word]
-    if word.isupper() and word.lower() in _UNIT_SYMBOLS and word.lower() != "m":
-        return _UNIT_SYMBOLS[word.lower()]
-    return _UNIT_NAMES.get(word.lower())
+    """CF string of a length unit written as ``word`` (``µm``, ``Micrometer``...), or None."""
+    return u.length_unit_word(micro_as_u(word))
 
 
 def _unit_in(text: str) -> str | None:
@@ -475,6 +455,24 @@ def _data_block(name: str, lines: list[str]):
 
 
 def _parse(path: Path, encoding: str | None):
+    """Return the numbers, their printed tokens, the column names and the header."""
+    name = path.name
+    lines = _lines(path, encoding)
+    rows = _data_block(name, lines)
+    delimiter, decimal_comma = _delimiter([lines[i] for i in rows[:50]])
+    tokens = [_tokens(lines[i], delimiter, decimal_comma) for i in rows]
+    header = _Header()
+    rows, tokens = _point_count_line(name, lines, rows, tokens, header)
+    values = _numbers(name, rows, tokens)
+    names = _column_titles(lines, rows[0], values.shape[1], delimiter, header)
+    _read_header(lines, rows[0], header)
+    values, tokens, names = _drop_index_column(values, tokens, names, header)
+    values, tokens, names = _apply_valid_column(name, values, tokens, names, header)
+    return values, tokens, names, header
+
+
+def _lines(path: Path, encoding: str | None) -> list[str]:
+    """Return the lines of the file, refusing an empty, binary or undecodable one."""
     name = path.name
     if path.is_dir():
         raise IsADirectoryError(f"{name}: is a directory, not a file")
@@ -488,56 +486,65 @@ def _parse(path: Path, encoding: str | None):
     except (UnicodeError, LookupError) as err:
         raise ValueError(f"{name}: cannot decode the file as {encoding!r} text "
                          f"({err})") from None
-    lines = text.splitlines()
-    rows = _data_block(name, lines)
-    sample = [lines[i] for i in rows[:50]]
-    decimal_comma = False
+    return text.splitlines()
+
+
+def _delimiter(sample: list[str]) -> tuple[str | None, bool]:
+    """Return the data lines' delimiter (None: whitespace) and whether ``,`` is decimal.
+
+    A comma is the decimal mark in lines separated by semicolons.
+    """
     if any(";" in s for s in sample):
-        delimiter = ";"
-        decimal_comma = any("," in s for s in sample)
-    elif any("," in s for s in sample):
-        delimiter = ","
-    else:
-        delimiter = None
-    tokens = [_tokens(lines[i], delimiter, decimal_comma) for i in rows]
-    header = _Header()
-    rows, tokens = _point_count_line(name, lines, rows, tokens, header)
+        return ";", any("," in s for s in sample)
+    if any("," in s for s in sample):
+        return ",", False
+    return None, False
+
+
+def _numbers(name: str, rows: list[int], tokens: list[list[str]]) -> np.ndarray:
+    """Return the data lines' numbers as a matrix; refuse lines of another width."""
     ncols = len(tokens[0])
     for i, tok in zip(rows, tokens):
         if len(tok) != ncols:
             raise ValueError(f"{name}: line {i + 1} has {len(tok)} values where the lines "
                              f"before have {ncols}")
     try:
-        values = np.array(tokens, dtype=float)
+        return np.array(tokens, dtype=float)
     except ValueError as err:
         raise ValueError(f"{name}: cannot read the numbers ({err})") from None
-    first = rows[0]
-    names = None
+
+
+def _column_titles(lines: list[str], first: int, ncols: int, delimiter: str | None,
+                   header: _Header) -> list[str] | None:
+    """Return the column names on the last header line (with a line of units: both)."""
     before = [i for i in range(first) if lines[i].strip() and i not in header.lines]
-    if before:
-        names = _column_names(lines[before[-1]], ncols, delimiter)
-        if names is not None:
-            header.lines.add(before[-1])
-            if len(before) > 1 and all(_is_unit_label(n) for n in names):
-                # a line of units under a line of titles: ``X;Y;valid`` then ``[mm];[mm];[1/0]``
-                titles = _column_names(lines[before[-2]], ncols, delimiter)
-                if titles is not None:
-                    header.lines.add(before[-2])
-                    names = [f"{t} {n}" for t, n in zip(titles, names)]
-    for i in before:
-        if i in header.lines:
-            continue
-        kv = _split_key_value(lines[i])
-        if kv:
-            header.add(*kv)
+    if not before:
+        return None
+    names = _column_names(lines[before[-1]], ncols, delimiter)
+    if names is None:
+        return None
+    header.lines.add(before[-1])
+    if len(before) > 1 and all(_is_unit_label(n) for n in names):
+        # a line of units under a line of titles: ``X;Y;valid`` then ``[mm];[mm];[1/0]``
+        titles = _column_names(lines[before[-2]], ncols, delimiter)
+        if titles is not None:
+            header.lines.add(before[-2])
+            names = [f"{t} {n}" for t, n in zip(titles, names)]
+    return names
+
+
+def _read_header(lines: list[str], first: int, header: _Header) -> None:
+    """Add the ``key: value`` lines before the data and the comments after it to ``header``."""
+    for i in range(first):
+        if lines[i].strip() and i not in header.lines:
+            kv = _split_key_value(lines[i])
+            if kv:
+                header.add(*kv)
     for i in range(first, len(lines)):  # comments between and after the data lines
         if _is_comment(lines[i]):
             kv = _split_key_value(lines[i])
             if kv:
                 header.add(*kv)
-    values, tokens, names = _drop_index_column(values, tokens, names, header)
-    values, tokens, names = _apply_valid_column(name, values, tokens, names, header)
-    return values, tokens, names, header
 
 
 def _is_unit_label(name: str) -> bool:
@@ -655,41 +662,208 @@ def _need_unit(name: str, what: str, option: str) -> ValueError:
                       "(e.g. unit='nm'); no unit is guessed")
 
 
-def _nonuniform(name, x, h, lunit, hunit, attrs, resample, size, spacing):
-    if resample:
-        xu = np.linspace(x[0], x[-1], x.size)
-        hu = np.interp(xu, x, h)
-        dx = (x[-1] - x[0]) / (x.size - 1)
-        attrs = dict(attrs, sampling="resampled",
-                     resampling=(f"linear interpolation of {x.size} non-uniformly sampled "
-                                 f"points onto {x.size} uniform points over "
-                                 f"[{x[0]:.10g}, {x[-1]:.10g}] {lunit}"),
-                     x_offset=float(x[0]))
-        topo = topography(hu, spacing=dx, unit=lunit, height_unit=hunit, attrs=attrs)
-        if size is not None or spacing is not None:
-            topo = topography(topo.drop_vars("x"), size=size, spacing=spacing, unit=lunit,
-                              height_unit=hunit)
-        return topo
-    if size is not None or spacing is not None:
-        raise ValueError(f"{name}: the profile is sampled non-uniformly; size=/spacing= cannot "
-                         "replace its measured positions (pass resample=True to "
-                         "interpolate it onto a uniform grid first)")
-    da = xr.DataArray(
-        h, dims=("x",), name="height",
-        coords={"x": ("x", x, {"units": u.format_units(lunit), "long_name": "x position"})},
-        attrs={"units": u.format_units(hunit), "long_name": "height", "periodic": 0,
-               **attrs, "sampling": "non-uniform"},
-    )
-    return da
+@dataclass
+class _Table:
+    """The numbers of a file with what the file says about them.
+
+    ``values`` (rows x columns, heights already multiplied by a header conversion factor),
+    their printed ``tokens``, the column ``names`` (or None), the ``header``, the attributes
+    of the result, the unit each column title names and the unit a conversion factor gives
+    the heights.
+    """
+
+    name: str
+    values: np.ndarray
+    tokens: list[list[str]]
+    names: list[str] | None
+    header: _Header
+    attrs: dict
+    column_units: list[str | None]
+    factor_unit: str | None
+
+    @property
+    def ncols(self) -> int:
+        return self.values.shape[1]
 
 
-def _profile(name, x, h, xtok, lunit, hunit, attrs, resample, size, spacing,
-             stated_steps=()):
+@dataclass(frozen=True)
+class _Options:
+    """What the caller of :func:`read` states about the file (None: the file says)."""
+
+    unit: str | None
+    height_unit: str | None
+    spacing: object
+    size: object
+    resample: bool
+    column: int | str | None
+
+    @property
+    def lateral_given(self) -> bool:
+        return self.spacing is not None or self.size is not None
+
+
+def _height_unit(t: _Table, opts: _Options, column_unit: str | None = None) -> str:
+    """Return the heights' unit: the caller's, the factor's, the column's, the header's."""
+    hunit = opts.height_unit or opts.unit or t.factor_unit or column_unit \
+        or t.header.height_unit()
+    if hunit is None:
+        raise _need_unit(t.name, "heights", "unit= or height_unit=")
+    return hunit
+
+
+def _detect_layout(shape: tuple[int, int], header: _Header, column) -> str:
+    """Decide the layout from ``column=``, the header or the number of columns."""
+    nrows, ncols = shape
+    if column is not None:
+        return "profile"
+    if nrows >= 2 and ncols >= 2 and _header_has_map_geometry(header):
+        return "matrix"  # e.g. a Gwyddion export of a narrow map: Width and Height
+    return {1: "column", 2: "profile", 3: "xyz"}.get(ncols, "matrix")
+
+
+#: The columns holding heights, per layout (what a height conversion factor multiplies).
+_HEIGHT_COLUMNS = {"matrix": slice(None), "column": slice(None), "profile": slice(1, None),
+                   "xyz": slice(2, 3)}
+
+
+def _table(name: str, parsed, layout: str) -> _Table:
+    """Gather the parsed file, its attributes and units, and apply its height factor."""
+    values, tokens, names, header = parsed
+    attrs = dict(header.attrs)
+    if header.channel is not None:
+        attrs.setdefault("channel", header.channel)
+    if names:
+        attrs["columns"] = ", ".join(names)
+    attrs["text_layout"] = layout
+    column_units = [_unit_in(n) for n in names] if names else [None] * values.shape[1]
+    factor_unit = None
+    if header.height_factor is not None:
+        factor, factor_unit, stated = header.height_factor
+        if not (np.isfinite(factor) and factor != 0):
+            raise ValueError(f"{name}: the header's height conversion factor ({stated}) is "
+                             "not a finite non-zero number")
+        attrs["height_conversion"] = stated
+        values = values.copy()
+        values[:, _HEIGHT_COLUMNS[layout]] *= factor
+    return _Table(name, values, tokens, names, header, attrs, column_units, factor_unit)
+
+
+# ---------------------------------------------------------------------------------------
+# one reader per layout
+
+
+def _read_matrix(t: _Table, opts: _Options) -> xr.DataArray:
+    """Read a height matrix in image order (its first line is the top row)."""
+    nrows, ncols = t.values.shape
+    if nrows < 2 or ncols < 2:
+        raise ValueError(f"{t.name}: a height matrix needs at least 2 rows and 2 columns, "
+                         f"got {nrows} x {ncols}")
+    for dim, n in (("x", ncols), ("y", nrows)):
+        stated = t.header.count[dim]
+        if stated is not None and stated != n:
+            raise ValueError(f"{t.name}: the header states {stated} points along {dim} but "
+                             f"the matrix has {n} (truncated file?)")
+    hunit = _height_unit(t, opts)
+    spacing, size, lunit = _matrix_lateral(t, opts)
+    return topography(t.values[::-1], spacing=spacing, size=size, unit=lunit,
+                      height_unit=hunit, attrs=t.attrs)
+
+
+def _matrix_lateral(t: _Table, opts: _Options):
+    """``(spacing, size, lateral unit)`` of a matrix: the caller's, else the header's."""
+    header = t.header
+    lunit = opts.unit or header.lateral_unit()
+    if opts.lateral_given:
+        return opts.spacing, opts.size, lunit
+    sx = header.size["x"] or header.size["xy"]
+    sy = header.size["y"] or header.size["xy"]
+    dx = header.spacing["x"]
+    dy = header.spacing["y"] or dx
+    if sx is not None and sy is not None:
+        size, lunit = _lateral_pair(t.name, sx, sy, opts.unit, header.lateral_unit())
+        return None, size, lunit
+    if dx is not None:
+        spacing, lunit = _lateral_pair(t.name, dx, dy, opts.unit, header.lateral_unit())
+        return spacing, None, lunit
+    raise ValueError(f"{t.name}: a height matrix without lateral size: pass size=(Ly, Lx) or "
+                     "spacing=(dy, dx) (numbers in unit=, or strings such as '10 um')")
+
+
+def _read_column(t: _Table, opts: _Options) -> xr.DataArray:
+    """Heights of a profile, one column (or every number of the block, in reading order)."""
+    single = t.ncols == 1
+    hunit = _height_unit(t, opts, t.column_units[0] if single else None)
+    h = t.values[:, 0] if single else t.values.ravel()
+    spacing, size, lunit = _column_lateral(t, opts)
+    return topography(h, spacing=spacing, size=size, unit=lunit, height_unit=hunit,
+                      attrs=t.attrs)
+
+
+def _column_lateral(t: _Table, opts: _Options):
+    """``(spacing, size, lateral unit)`` of a column: the caller's, else the header's."""
+    header, spacing, size = t.header, opts.spacing, opts.size
+    if opts.lateral_given:
+        lunit = opts.unit or header.lateral_unit()
+    elif header.spacing["x"] is not None:
+        spacing = header.spacing["x"][0]
+        lunit = opts.unit or header.spacing["x"][1] or header.lateral_unit()
+    elif (header.size["profile"] or header.size["x"]) is not None:
+        size, stated = (header.size["profile"] or header.size["x"])
+        lunit = opts.unit or stated or header.lateral_unit()
+    else:
+        raise ValueError(f"{t.name}: a column of heights without lateral size: pass "
+                         "size= (the profile length) or spacing=")
+    if lunit is None and not any(isinstance(v, str) for v in (spacing, size)):
+        raise _need_unit(t.name, "lateral size", "unit=")
+    return spacing, size, lunit
+
+
+def _read_profile(t: _Table, opts: _Options) -> xr.DataArray:
+    """Read a profile ``x, h`` (or ``x, h1, h2...``, ``column=`` choosing the heights)."""
+    if t.ncols < 2:
+        raise ValueError(f"{t.name}: a profile needs two columns (x, h), found {t.ncols}")
+    hcol = _height_column(t, opts.column)
+    header = t.header
+    lunit = opts.unit or t.column_units[0] or header.unit["x"] or header.unit["any"] \
+        or header.lateral_unit()
+    if lunit is None:
+        raise _need_unit(t.name, "x positions", "unit=")
+    if not opts.lateral_given:
+        _check_profile_length(t.name, t.values[:, 0], header, lunit)
+    hunit = _height_unit(t, opts, t.column_units[hcol])
+    if opts.column is not None and t.names:
+        t.attrs["height_column"] = t.names[hcol]
+    return _profile(t, opts, hcol, lunit, hunit)
+
+
+def _height_column(t: _Table, column: int | str | None) -> int:
+    """Index of the column of heights of a profile table (1 without ``column=``)."""
+    if column is None:
+        if t.ncols > 2:
+            raise ValueError(f"{t.name}: {t.ncols} columns; pass column= to choose the height "
+                             "column of a profile table, or layout='matrix'/'xyz'")
+        return 1
+    if isinstance(column, str):
+        if not t.names or column not in t.names:
+            raise ValueError(f"{t.name}: no column named {column!r} (columns: "
+                             f"{', '.join(t.names) if t.names else 'no names'})")
+        hcol = t.names.index(column)
+    else:
+        hcol = int(column)
+    if not 0 < hcol < t.ncols:
+        raise ValueError(f"{t.name}: column must name a height column 1..{t.ncols - 1}")
+    return hcol
+
+
+def _profile(t: _Table, opts: _Options, hcol: int, lunit: str, hunit: str) -> xr.DataArray:
+    """Heights at the positions of the first column: on a uniform grid when they are one."""
+    name, attrs = t.name, t.attrs
+    x, h = t.values[:, 0], t.values[:, hcol]
     if x.size < 2:
         raise ValueError(f"{name}: a profile needs at least 2 points")
     if not np.all(np.isfinite(x)):
         raise ValueError(f"{name}: the x column has missing (NaN) or infinite positions")
-    q = _quanta(xtok)
+    q = _quanta([tok[0] for tok in t.tokens])
     if np.all(np.diff(x) < 0):
         x, h, q = x[::-1], h[::-1], q[::-1]
         attrs["x_reversed"] = 1
@@ -698,15 +872,36 @@ def _profile(name, x, h, xtok, lunit, hunit, attrs, resample, size, spacing,
         raise ValueError(f"{name}: the x column is not monotonic (point {bad + 1} at "
                          f"{x[bad]:g}, the next at {x[bad + 1]:g}): a re-entrant or "
                          "unsorted profile cannot be read")
-    uniform, step, origin, dev = _uniform_fit(x, q, stated_steps)
+    uniform, step, origin, dev = _uniform_fit(x, q, _stated_steps(t.header, x.size, lunit))
     if not uniform:
-        return _nonuniform(name, x, h, lunit, hunit, attrs, resample, size, spacing)
-    if spacing is not None or size is not None:
-        attrs.update(sampling="uniform", x_offset=float(origin))
-        return topography(h, spacing=spacing, size=size, unit=lunit, height_unit=hunit,
-                          attrs=attrs)
-    attrs.update(sampling="uniform", x_offset=float(origin), x_max_deviation=dev)
+        return nonuniform_profile(name, x, h, lunit, hunit, attrs, opts.resample, opts.size,
+                                  opts.spacing)
+    attrs.update(sampling="uniform", x_offset=float(origin))
+    if opts.lateral_given:
+        return topography(h, spacing=opts.spacing, size=opts.size, unit=lunit,
+                          height_unit=hunit, attrs=attrs)
+    attrs["x_max_deviation"] = dev
     return topography(h, spacing=step, unit=lunit, height_unit=hunit, attrs=attrs)
+
+
+def _read_xyz(t: _Table, opts: _Options) -> xr.DataArray:
+    """Points ``x, y, z`` on a regular grid, as a map."""
+    if t.ncols != 3:
+        raise ValueError(f"{t.name}: x-y-z points need three columns, found {t.ncols}")
+    cu = t.column_units
+    lunit = opts.unit or cu[0] or cu[1] or t.header.lateral_unit()
+    if lunit is None:
+        raise _need_unit(t.name, "x-y positions", "unit=")
+    hunit = _height_unit(t, opts, cu[2])
+    try:
+        topo = _xyz(t.name, t.values, t.tokens, lunit, hunit, t.attrs)
+    except ValueError as err:
+        raise ValueError(f"{err} (if the three columns are x and two height columns, pass "
+                         "column=; if they are a height matrix, layout='matrix')") from None
+    if opts.lateral_given:
+        topo = topography(topo.drop_vars(["y", "x"]), spacing=opts.spacing, size=opts.size,
+                          unit=lunit, height_unit=hunit)
+    return topo
 
 
 def _grid_axis(name, values, tokens, what):
@@ -812,143 +1007,19 @@ def read(path, *, unit: str | None = None, height_unit: str | None = None, spaci
                      resample=resample, layout=layout, column=column, encoding=encoding)
 
 
-def _read(path: Path, *, unit, height_unit, spacing, size, resample, layout, column,
-          encoding) -> xr.DataArray:
-    name = path.name
-    if layout not in (None, "matrix", "profile", "xyz", "column"):
+#: The reader of each layout.
+_LAYOUTS = {"matrix": _read_matrix, "profile": _read_profile, "xyz": _read_xyz,
+            "column": _read_column}
+
+
+def _read(path: Path, *, layout, encoding, **options) -> xr.DataArray:
+    if layout not in (None, *_LAYOUTS):
         raise ValueError(f"layout must be 'matrix', 'profile', 'xyz' or 'column', got "
                          f"{layout!r}")
-    values, tokens, names, header = _parse(path, encoding)
-    nrows, ncols = values.shape
-    attrs = dict(header.attrs)
-    if header.channel is not None:
-        attrs.setdefault("channel", header.channel)
-    if names:
-        attrs["columns"] = ", ".join(names)
-    if layout is None:
-        if column is not None:
-            layout = "profile"
-        elif nrows >= 2 and ncols >= 2 and _header_has_map_geometry(header):
-            layout = "matrix"  # e.g. a Gwyddion export of a narrow map: Width and Height
-        else:
-            layout = {1: "column", 2: "profile", 3: "xyz"}.get(ncols, "matrix")
-    attrs["text_layout"] = layout
-    col_units = [_unit_in(n) for n in names] if names else [None] * ncols
-    factor_unit = None
-    if header.height_factor is not None:
-        factor, factor_unit, stated = header.height_factor
-        if not (np.isfinite(factor) and factor != 0):
-            raise ValueError(f"{name}: the header's height conversion factor ({stated}) is "
-                             "not a finite non-zero number")
-        attrs["height_conversion"] = stated
-        hcols = slice(None) if layout in ("matrix", "column") else \
-            (slice(2, 3) if layout == "xyz" else slice(1, None))
-        values = values.copy()
-        values[:, hcols] *= factor
-
-    if layout == "matrix":
-        if nrows < 2 or ncols < 2:
-            raise ValueError(f"{name}: a height matrix needs at least 2 rows and 2 columns, "
-                             f"got {nrows} x {ncols}")
-        for dim, n in (("x", ncols), ("y", nrows)):
-            if header.count[dim] is not None and header.count[dim] != n:
-                raise ValueError(f"{name}: the header states {header.count[dim]} points "
-                                 f"along {dim} but the matrix has {n} (truncated file?)")
-        hunit = height_unit or unit or factor_unit or header.height_unit()
-        if hunit is None:
-            raise _need_unit(name, "heights", "unit= or height_unit=")
-        lunit = unit or header.lateral_unit()
-        if spacing is None and size is None:
-            sx = header.size["x"] or header.size["xy"]
-            sy = header.size["y"] or header.size["xy"]
-            dx = header.spacing["x"]
-            dy = header.spacing["y"] or dx
-            if sx is not None and sy is not None:
-                size, lunit = _lateral_pair(name, sx, sy, unit, header.lateral_unit())
-            elif dx is not None:
-                spacing, lunit = _lateral_pair(name, dx, dy, unit, header.lateral_unit())
-            else:
-                raise ValueError(
-                    f"{name}: a height matrix without lateral size: pass size=(Ly, Lx) or "
-                    "spacing=(dy, dx) (numbers in unit=, or strings such as '10 um')")
-        return topography(values[::-1], spacing=spacing, size=size, unit=lunit,
-                          height_unit=hunit, attrs=attrs)
-
-    if layout == "column":
-        hunit = height_unit or unit or factor_unit \
-            or (col_units[0] if ncols == 1 else None) or header.height_unit()
-        if hunit is None:
-            raise _need_unit(name, "heights", "unit= or height_unit=")
-        h = values[:, 0] if ncols == 1 else values.ravel()
-        if spacing is None and size is None:
-            prof = header.size["profile"] or header.size["x"]
-            if header.spacing["x"] is not None:
-                spacing = header.spacing["x"][0]
-                lunit = unit or header.spacing["x"][1] or header.lateral_unit()
-            elif prof is not None:
-                size = prof[0]
-                lunit = unit or prof[1] or header.lateral_unit()
-            else:
-                raise ValueError(f"{name}: a column of heights without lateral size: pass "
-                                 "size= (the profile length) or spacing=")
-        else:
-            lunit = unit or header.lateral_unit()
-        if lunit is None and not any(isinstance(v, str) for v in (spacing, size)):
-            raise _need_unit(name, "lateral size", "unit=")
-        return topography(h, spacing=spacing, size=size, unit=lunit, height_unit=hunit,
-                          attrs=attrs)
-
-    if layout == "profile":
-        if ncols < 2:
-            raise ValueError(f"{name}: a profile needs two columns (x, h), found {ncols}")
-        hcol = 1
-        if column is not None:
-            if isinstance(column, str):
-                if not names or column not in names:
-                    raise ValueError(f"{name}: no column named {column!r} (columns: "
-                                     f"{', '.join(names) if names else 'no names'})")
-                hcol = names.index(column)
-            else:
-                hcol = int(column)
-            if not 0 < hcol < ncols:
-                raise ValueError(f"{name}: column must name a height column 1..{ncols - 1}")
-        elif ncols > 2:
-            raise ValueError(f"{name}: {ncols} columns; pass column= to choose the height "
-                             "column of a profile table, or layout='matrix'/'xyz'")
-        lunit = unit or col_units[0] or header.unit["x"] or header.unit["any"] \
-            or header.lateral_unit()
-        hunit = height_unit or unit or factor_unit or col_units[hcol] \
-            or header.height_unit()
-        if lunit is None:
-            raise _need_unit(name, "x positions", "unit=")
-        if spacing is None and size is None:
-            _check_profile_length(name, values[:, 0], header, lunit)
-        if hunit is None:
-            raise _need_unit(name, "heights", "unit= or height_unit=")
-        if column is not None and names:
-            attrs["height_column"] = names[hcol]
-        return _profile(name, values[:, 0], values[:, hcol], [t[0] for t in tokens],
-                        lunit, hunit, attrs, resample, size, spacing,
-                        _stated_steps(header, nrows, lunit))
-
-    # x-y-z points
-    if ncols != 3:
-        raise ValueError(f"{name}: x-y-z points need three columns, found {ncols}")
-    lunit = unit or col_units[0] or col_units[1] or header.lateral_unit()
-    hunit = height_unit or unit or factor_unit or col_units[2] or header.height_unit()
-    if lunit is None:
-        raise _need_unit(name, "x-y positions", "unit=")
-    if hunit is None:
-        raise _need_unit(name, "heights", "unit= or height_unit=")
-    try:
-        topo = _xyz(name, values, tokens, lunit, hunit, attrs)
-    except ValueError as err:
-        raise ValueError(f"{err} (if the three columns are x and two height columns, pass "
-                         "column=; if they are a height matrix, layout='matrix')") from None
-    if spacing is not None or size is not None:
-        topo = topography(topo.drop_vars(["y", "x"]), spacing=spacing, size=size,
-                          unit=lunit, height_unit=hunit)
-    return topo
+    parsed = _parse(path, encoding)
+    opts = _Options(**options)
+    layout = layout or _detect_layout(parsed[0].shape, parsed[3], opts.column)
+    return _LAYOUTS[layout](_table(path.name, parsed, layout), opts)
 
 
 def write(topo: xr.DataArray, path, *, fmt: str = "%.17g") -> None:

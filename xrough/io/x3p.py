@@ -304,101 +304,133 @@ def _read(path: Path, verify_checksums: bool, max_points: int | None):
         raise ValueError(f"{path.name}: not a valid X3P file, the zip archive cannot be "
                          f"opened ({err})") from None
     with zf:
-        if _MAIN not in zf.namelist():
-            raise ValueError(f"{path.name}: not an X3P file, the zip archive has no "
-                             f"main.xml (members: {', '.join(zf.namelist()[:5])})")
-        xml = _member(zf, _MAIN, path, "document", _MAX_XML)
-        try:
-            root = ElementTree.fromstring(xml)
-        except ElementTree.ParseError as err:
-            raise ValueError(f"{path.name}: main.xml is not well-formed XML ({err})") from None
-        if _local(root.tag) != "ISO5436_2":
-            raise ValueError(f"{path.name}: main.xml is not an ISO 5436-2 document (root "
-                             f"element <{_local(root.tag)}>)")
-        record1, record3 = _child(root, "Record1"), _child(root, "Record3")
-        if record1 is None or record3 is None:
-            raise ValueError(f"{path.name}: main.xml lacks Record1 or Record3")
+        root = _document(zf, path, verify_checksums)
+        grid = _grid(root, path, max_points)
+        values = _point_values(zf, _child(root, "Record3"), grid, path, verify_checksums,
+                               max_points)
+    return _topography(values, grid, _metadata(root), path)
 
-        checksum_name = _text(root, "Record4", "ChecksumFile")
-        if verify_checksums and checksum_name:
-            listed = _member(zf, checksum_name, path, "checksum file",
-                             _MAX_CHECKSUM_FILE).decode("ascii", "replace")
-            match = re.match(r"\s*([0-9a-fA-F]{32})", listed)
-            if match is None:
-                raise ValueError(f"{path.name}: the checksum file {checksum_name!r} holds "
-                                 "no MD5 checksum")
-            _check_md5(xml, match.group(1), path, "main.xml")
 
-        feature = (_text(record1, "FeatureType") or "SUR").upper()
-        if feature == "PCL":
-            raise ValueError(f"{path.name}: point clouds (FeatureType PCL) are not "
-                             "supported, only maps (SUR) and profiles (PRF)")
-        axes = _child(record1, "Axes")
-        if axes is None:
-            raise ValueError(f"{path.name}: main.xml has no Record1/Axes")
-        cx, cy, cz = (_axis(axes, n, path) for n in ("CX", "CY", "CZ"))
-        for name, ax in (("CX", cx), ("CY", cy)):
-            if ax["type"] != "I":
-                raise ValueError(
-                    f"{path.name}: lateral axis {name} has AxisType {ax['type']!r}; only "
-                    "incremental axes ('I') are supported, not coordinates stored per point")
-        if cz["type"] != "A":
-            raise ValueError(f"{path.name}: the Z axis has AxisType {cz['type']!r}, the "
-                             "standard requires 'A' (absolute)")
-        if cz["dtype"] not in _DTYPES:
-            raise ValueError(f"{path.name}: unknown Z data type {cz['dtype']!r} (known: "
-                             f"{', '.join(_DTYPES)})")
-        if _child(record3, "ListDimension") is not None:
-            raise ValueError(f"{path.name}: unordered point lists (ListDimension) are not "
-                             "supported, only matrices")
-        matrix = _child(record3, "MatrixDimension")
-        if matrix is None:
-            raise ValueError(f"{path.name}: main.xml has no Record3/MatrixDimension")
-        nx = _int(_text(matrix, "SizeX"), path, "SizeX")
-        ny = _int(_text(matrix, "SizeY"), path, "SizeY")
-        nz = _int(_text(matrix, "SizeZ") or "1", path, "SizeZ")
-        if nz != 1:
-            raise ValueError(f"{path.name}: SizeZ = {nz}; several layers per point are not "
-                             "supported")
-        n = nx * ny
-        check_points(path, n, max_points, f"main.xml ({nx} x {ny})")
+def _document(zf: zipfile.ZipFile, path: Path, verify_checksums: bool):
+    """Parse ``main.xml`` (checked against the checksum file) and check its records."""
+    if _MAIN not in zf.namelist():
+        raise ValueError(f"{path.name}: not an X3P file, the zip archive has no "
+                         f"main.xml (members: {', '.join(zf.namelist()[:5])})")
+    xml = _member(zf, _MAIN, path, "document", _MAX_XML)
+    try:
+        root = ElementTree.fromstring(xml)
+    except ElementTree.ParseError as err:
+        raise ValueError(f"{path.name}: main.xml is not well-formed XML ({err})") from None
+    if _local(root.tag) != "ISO5436_2":
+        raise ValueError(f"{path.name}: main.xml is not an ISO 5436-2 document (root "
+                         f"element <{_local(root.tag)}>)")
+    if _child(root, "Record1") is None or _child(root, "Record3") is None:
+        raise ValueError(f"{path.name}: main.xml lacks Record1 or Record3")
+    checksum_name = _text(root, "Record4", "ChecksumFile")
+    if verify_checksums and checksum_name:
+        listed = _member(zf, checksum_name, path, "checksum file",
+                         _MAX_CHECKSUM_FILE).decode("ascii", "replace")
+        match = re.match(r"\s*([0-9a-fA-F]{32})", listed)
+        if match is None:
+            raise ValueError(f"{path.name}: the checksum file {checksum_name!r} holds "
+                             "no MD5 checksum")
+        _check_md5(xml, match.group(1), path, "main.xml")
+    return root
 
-        link, datalist = _child(record3, "DataLink"), _child(record3, "DataList")
-        if link is not None:
-            name = _text(link, "PointDataLink") or _DATA_MEMBER
-            dtype = _DTYPES[cz["dtype"]]
-            raw = _member(zf, name, path, "point data", n * dtype.itemsize,
-                          trusted=max_points is not None)
-            if verify_checksums:
-                _check_md5(raw, _text(link, "MD5ChecksumPointData"), path, name)
-            if len(raw) != n * dtype.itemsize:
-                raise ValueError(
-                    f"{path.name}: {name} has {len(raw)} bytes, but {nx} x {ny} points of "
-                    f"type {cz['dtype']} need {n * dtype.itemsize} (truncated or corrupted)")
-            values = np.frombuffer(raw, dtype=dtype).astype(float)
-            valid_name = _text(link, "ValidPointsLink")
-            if valid_name:
-                bits = _member(zf, valid_name, path, "validity mask", (n + 7) // 8)
-                if verify_checksums:
-                    _check_md5(bits, _text(link, "MD5ChecksumValidPoints"), path,
-                               valid_name)
-                if len(bits) < (n + 7) // 8:
-                    raise ValueError(f"{path.name}: the validity mask {valid_name!r} has "
-                                     f"{len(bits)} bytes, {n} points need {(n + 7) // 8}")
-                valid = np.unpackbits(np.frombuffer(bits, np.uint8), count=n,
-                                      bitorder="little").astype(bool)
-                values[~valid] = np.nan
-        elif datalist is not None:
-            values = _read_datalist(datalist, n, path)
-        else:
-            raise ValueError(f"{path.name}: main.xml has neither DataLink nor DataList")
 
+def _grid(root, path: Path, max_points: int | None) -> dict:
+    """Return the feature type, the axes ``cx, cy, cz`` and the matrix size ``nx, ny``."""
+    record1, record3 = _child(root, "Record1"), _child(root, "Record3")
+    feature = (_text(record1, "FeatureType") or "SUR").upper()
+    if feature == "PCL":
+        raise ValueError(f"{path.name}: point clouds (FeatureType PCL) are not "
+                         "supported, only maps (SUR) and profiles (PRF)")
+    axes = _child(record1, "Axes")
+    if axes is None:
+        raise ValueError(f"{path.name}: main.xml has no Record1/Axes")
+    cx, cy, cz = (_axis(axes, n, path) for n in ("CX", "CY", "CZ"))
+    _check_axes(cx, cy, cz, path)
+    if _child(record3, "ListDimension") is not None:
+        raise ValueError(f"{path.name}: unordered point lists (ListDimension) are not "
+                         "supported, only matrices")
+    matrix = _child(record3, "MatrixDimension")
+    if matrix is None:
+        raise ValueError(f"{path.name}: main.xml has no Record3/MatrixDimension")
+    nx = _int(_text(matrix, "SizeX"), path, "SizeX")
+    ny = _int(_text(matrix, "SizeY"), path, "SizeY")
+    nz = _int(_text(matrix, "SizeZ") or "1", path, "SizeZ")
+    if nz != 1:
+        raise ValueError(f"{path.name}: SizeZ = {nz}; several layers per point are not "
+                         "supported")
+    check_points(path, nx * ny, max_points, f"main.xml ({nx} x {ny})")
+    return {"feature": feature, "cx": cx, "cy": cy, "cz": cz, "nx": nx, "ny": ny}
+
+
+def _check_axes(cx: dict, cy: dict, cz: dict, path: Path) -> None:
+    """Refuse lateral axes stored per point and a Z axis the standard does not allow."""
+    for name, ax in (("CX", cx), ("CY", cy)):
+        if ax["type"] != "I":
+            raise ValueError(
+                f"{path.name}: lateral axis {name} has AxisType {ax['type']!r}; only "
+                "incremental axes ('I') are supported, not coordinates stored per point")
+    if cz["type"] != "A":
+        raise ValueError(f"{path.name}: the Z axis has AxisType {cz['type']!r}, the "
+                         "standard requires 'A' (absolute)")
+    if cz["dtype"] not in _DTYPES:
+        raise ValueError(f"{path.name}: unknown Z data type {cz['dtype']!r} (known: "
+                         f"{', '.join(_DTYPES)})")
+
+
+def _point_values(zf: zipfile.ZipFile, record3, grid: dict, path: Path,
+                  verify_checksums: bool, max_points: int | None) -> np.ndarray:
+    """Return the raw heights (NaN where invalid): a binary member or inline XML."""
+    link, datalist = _child(record3, "DataLink"), _child(record3, "DataList")
+    n = grid["nx"] * grid["ny"]
+    if link is not None:
+        return _linked_values(zf, link, grid, path, verify_checksums, max_points)
+    if datalist is not None:
+        return _read_datalist(datalist, n, path)
+    raise ValueError(f"{path.name}: main.xml has neither DataLink nor DataList")
+
+
+def _linked_values(zf: zipfile.ZipFile, link, grid: dict, path: Path,
+                   verify_checksums: bool, max_points: int | None) -> np.ndarray:
+    """Heights from the binary point data member, masked by the validity mask if any."""
+    nx, ny, cz = grid["nx"], grid["ny"], grid["cz"]
+    n = nx * ny
+    name = _text(link, "PointDataLink") or _DATA_MEMBER
+    dtype = _DTYPES[cz["dtype"]]
+    raw = _member(zf, name, path, "point data", n * dtype.itemsize,
+                  trusted=max_points is not None)
+    if verify_checksums:
+        _check_md5(raw, _text(link, "MD5ChecksumPointData"), path, name)
+    if len(raw) != n * dtype.itemsize:
+        raise ValueError(
+            f"{path.name}: {name} has {len(raw)} bytes, but {nx} x {ny} points of "
+            f"type {cz['dtype']} need {n * dtype.itemsize} (truncated or corrupted)")
+    values = np.frombuffer(raw, dtype=dtype).astype(float)
+    valid_name = _text(link, "ValidPointsLink")
+    if valid_name:
+        bits = _member(zf, valid_name, path, "validity mask", (n + 7) // 8)
+        if verify_checksums:
+            _check_md5(bits, _text(link, "MD5ChecksumValidPoints"), path, valid_name)
+        if len(bits) < (n + 7) // 8:
+            raise ValueError(f"{path.name}: the validity mask {valid_name!r} has "
+                             f"{len(bits)} bytes, {n} points need {(n + 7) // 8}")
+        valid = np.unpackbits(np.frombuffer(bits, np.uint8), count=n,
+                              bitorder="little").astype(bool)
+        values[~valid] = np.nan
+    return values
+
+
+def _topography(values: np.ndarray, grid: dict, attrs: dict, path: Path):
+    """Scale the heights by the Z axis and lay them out as a map or profile in metres."""
+    cx, cy, cz, nx, ny = (grid[k] for k in ("cx", "cy", "cz", "nx", "ny"))
     if cz["increment"] is not None:
         values = values * cz["increment"]
     if cz["offset"]:
         values = values + cz["offset"]
-    attrs = _metadata(root)
-    profile = ny == 1 or feature == "PRF"
+    profile = ny == 1 or grid["feature"] == "PRF"
     if profile and ny != 1:
         raise ValueError(f"{path.name}: FeatureType PRF with SizeY = {ny}; a profile has "
                          "one line")
@@ -511,6 +543,33 @@ def write(topography, path: str | Path, *, dtype: str = "D",
     dtype = str(dtype).upper()
     if dtype not in ("D", "F"):
         raise ValueError(f"dtype must be 'D' (float64) or 'F' (float32), got {dtype!r}")
+    heights, increments, offsets = _in_metres(topography)
+    profile = "y" not in increments
+    ny, nx = (1, heights.size) if profile else heights.shape
+    data, valid = _point_bytes(heights, dtype)
+    fields = _record2_fields(topography, metadata)
+
+    ElementTree.register_namespace("p", NAMESPACE)
+    ElementTree.register_namespace("xsi", _XSI)
+    root = ElementTree.Element(f"{{{NAMESPACE}}}ISO5436_2", {
+        f"{{{_XSI}}}schemaLocation": f"{NAMESPACE} {NAMESPACE}/ISO5436_2.xsd"})
+    _record1(root, profile, increments, offsets, dtype)
+    if fields:
+        _record2(root, fields)
+    _records3_4(root, nx, ny, data, valid)
+    ElementTree.indent(root)
+    xml = ElementTree.tostring(root, encoding="UTF-8", xml_declaration=True)
+    checksum = f"{hashlib.md5(xml).hexdigest()} *{_MAIN}\n".encode("ascii")
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+        zf.writestr(_MAIN, xml)
+        zf.writestr(_DATA_MEMBER, data)
+        if valid is not None:
+            zf.writestr(_VALID_MEMBER, valid)
+        zf.writestr(_CHECKSUM_MEMBER, checksum)
+
+
+def _in_metres(topography) -> tuple[np.ndarray, dict, dict]:
+    """Heights in metres (the top row first) and each axis' increment and offset in metres."""
     grid = grid_of(topography)
     extra = [d for d in topography.dims if d not in grid.dims]
     if extra:
@@ -532,46 +591,50 @@ def write(topography, path: str | Path, *, dtype: str = "D",
         increments[dim] = step * fac if fac != 1.0 else step
         offset = float(topography.attrs.get(f"{dim}_offset", 0.0)) + coord[0]
         offsets[dim] = offset * fac if fac != 1.0 else offset
-    profile = grid.dims == ("x",)
-    ny, nx = (1, heights.size) if profile else heights.shape
-    if not profile:  # y = 0 is the picture's bottom row, X3P stores the top row first
+    if grid.dims != ("x",):  # y = 0 is the picture's bottom row, X3P stores the top row first
         heights = heights[::-1]
+    return heights, increments, offsets
 
+
+def _point_bytes(heights: np.ndarray, dtype: str) -> tuple[bytes, bytes | None]:
+    """Return the point data member and the validity mask (None if every point is valid)."""
     data = heights.astype(_DTYPES[dtype]).tobytes()
     invalid = np.isnan(heights).ravel()
-    valid = None
-    if invalid.any():
-        # one bit per point, least significant first, 1 = valid; the unused bits are set
-        bits = np.ones(8 * ((invalid.size + 7) // 8), dtype=bool)
-        bits[: invalid.size] = ~invalid
-        valid = np.packbits(bits, bitorder="little").tobytes()
+    if not invalid.any():
+        return data, None
+    # one bit per point, least significant first, 1 = valid; the unused bits are set
+    bits = np.ones(8 * ((invalid.size + 7) // 8), dtype=bool)
+    bits[: invalid.size] = ~invalid
+    return data, np.packbits(bits, bitorder="little").tobytes()
 
-    ElementTree.register_namespace("p", NAMESPACE)
-    ElementTree.register_namespace("xsi", _XSI)
-    root = ElementTree.Element(f"{{{NAMESPACE}}}ISO5436_2", {
-        f"{{{_XSI}}}schemaLocation": f"{NAMESPACE} {NAMESPACE}/ISO5436_2.xsd"})
 
-    def sub(parent, tag, text=None):
-        el = ElementTree.SubElement(parent, tag)
-        if text is not None:
-            el.text = text
-        return el
+def _sub(parent, tag: str, text: str | None = None):
+    el = ElementTree.SubElement(parent, tag)
+    if text is not None:
+        el.text = text
+    return el
 
-    record1 = sub(root, "Record1")
-    sub(record1, "Revision", _REVISION)
-    sub(record1, "FeatureType", "PRF" if profile else "SUR")
-    axes = sub(record1, "Axes")
+
+def _record1(root, profile: bool, increments: dict, offsets: dict, dtype: str) -> None:
+    """Record1: the feature type and the axes."""
+    record1 = _sub(root, "Record1")
+    _sub(record1, "Revision", _REVISION)
+    _sub(record1, "FeatureType", "PRF" if profile else "SUR")
+    axes = _sub(record1, "Axes")
     for name, dim in (("CX", "x"), ("CY", "y")):
-        ax = sub(axes, name)
-        sub(ax, "AxisType", "I")
-        sub(ax, "DataType", "D")
+        ax = _sub(axes, name)
+        _sub(ax, "AxisType", "I")
+        _sub(ax, "DataType", "D")
         # a profile has one line; its CY increment is a placeholder equal to CX's
-        sub(ax, "Increment", repr(float(increments.get(dim, increments["x"]))))
-        sub(ax, "Offset", repr(float(offsets.get(dim, 0.0))))
-    cz = sub(axes, "CZ")
-    sub(cz, "AxisType", "A")
-    sub(cz, "DataType", dtype)
+        _sub(ax, "Increment", repr(float(increments.get(dim, increments["x"]))))
+        _sub(ax, "Offset", repr(float(offsets.get(dim, 0.0))))
+    cz = _sub(axes, "CZ")
+    _sub(cz, "AxisType", "A")
+    _sub(cz, "DataType", dtype)
 
+
+def _record2_fields(topography, metadata: dict | None) -> dict:
+    """Record2 fields from the topography's attrs, overridden by ``metadata`` (checked)."""
     fields = {k: topography.attrs[k] for k, _ in _RECORD2 if k in topography.attrs}
     if "instrument_model" not in fields and "instrument" in topography.attrs and (
             "instrument_manufacturer" not in fields):
@@ -581,44 +644,41 @@ def write(topography, path: str | Path, *, dtype: str = "D",
     if unknown:
         raise ValueError(f"unknown X3P metadata fields: {sorted(unknown)}; known: "
                          f"{[k for k, _ in _RECORD2]}")
-    if fields:
-        now = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
-        defaults = {"date": now, "calibration_date": fields.get("date", now),
-                    "probing_system_type": "Software"}
-        record2 = sub(root, "Record2")
-        for key, names in _RECORD2:
-            value = fields.get(key)
-            if value is None and key in ("creator", "comment"):
-                if key == "comment":
-                    sub(record2, "Comment")
-                continue
-            value = str(value) if value is not None else defaults.get(key, "unknown")
-            parent = record2
-            for name in names[:-1]:
-                found = _child(parent, name)
-                parent = found if found is not None else sub(parent, name)
-            sub(parent, names[-1], value)
+    return fields
 
-    record3 = sub(root, "Record3")
-    matrix = sub(record3, "MatrixDimension")
-    sub(matrix, "SizeX", str(nx))
-    sub(matrix, "SizeY", str(ny))
-    sub(matrix, "SizeZ", "1")
-    link = sub(record3, "DataLink")
-    sub(link, "PointDataLink", _DATA_MEMBER)
-    sub(link, "MD5ChecksumPointData", hashlib.md5(data).hexdigest().upper())
+
+def _record2(root, fields: dict) -> None:
+    """Record2: the metadata, with the required fields left out written as defaults."""
+    now = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
+    defaults = {"date": now, "calibration_date": fields.get("date", now),
+                "probing_system_type": "Software"}
+    record2 = _sub(root, "Record2")
+    for key, names in _RECORD2:
+        value = fields.get(key)
+        if value is None and key in ("creator", "comment"):
+            if key == "comment":
+                _sub(record2, "Comment")
+            continue
+        value = str(value) if value is not None else defaults.get(key, "unknown")
+        parent = record2
+        for name in names[:-1]:
+            found = _child(parent, name)
+            parent = found if found is not None else _sub(parent, name)
+        _sub(parent, names[-1], value)
+
+
+def _records3_4(root, nx: int, ny: int, data: bytes, valid: bytes | None) -> None:
+    """Record3 (the matrix size and the links to the binary members) and Record4."""
+    record3 = _sub(root, "Record3")
+    matrix = _sub(record3, "MatrixDimension")
+    _sub(matrix, "SizeX", str(nx))
+    _sub(matrix, "SizeY", str(ny))
+    _sub(matrix, "SizeZ", "1")
+    link = _sub(record3, "DataLink")
+    _sub(link, "PointDataLink", _DATA_MEMBER)
+    _sub(link, "MD5ChecksumPointData", hashlib.md5(data).hexdigest().upper())
     if valid is not None:
-        sub(link, "ValidPointsLink", _VALID_MEMBER)
-        sub(link, "MD5ChecksumValidPoints", hashlib.md5(valid).hexdigest().upper())
-    record4 = sub(root, "Record4")
-    sub(record4, "ChecksumFile", _CHECKSUM_MEMBER)
-
-    ElementTree.indent(root)
-    xml = ElementTree.tostring(root, encoding="UTF-8", xml_declaration=True)
-    checksum = f"{hashlib.md5(xml).hexdigest()} *{_MAIN}\n".encode("ascii")
-    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as zf:
-        zf.writestr(_MAIN, xml)
-        zf.writestr(_DATA_MEMBER, data)
-        if valid is not None:
-            zf.writestr(_VALID_MEMBER, valid)
-        zf.writestr(_CHECKSUM_MEMBER, checksum)
+        _sub(link, "ValidPointsLink", _VALID_MEMBER)
+        _sub(link, "MD5ChecksumValidPoints", hashlib.md5(valid).hexdigest().upper())
+    record4 = _sub(root, "Record4")
+    _sub(record4, "ChecksumFile", _CHECKSUM_MEMBER)
