@@ -393,7 +393,8 @@ def test_ibw_without_unit_takes_unit(tmp_path):
     data = np.arange(12.0).reshape(4, 3)
     path = tmp_path / "nounit.ibw"
     path.write_bytes(make_ibw(data, (0.5, 0.25), data_unit=b"", dim_units=(b"", b"")))
-    with pytest.raises(ValueError, match=r"nounit\.ibw: no height channel.*needs unit="):
+    with pytest.raises(ValueError, match=r"nounit\.ibw: no height channel.*needs one: "
+                                         r"pass unit= or height_unit="):
         open_topography(path)
     topo = open_topography(path, unit="um")
     assert topo.attrs["units"] == "um" and topo.x.attrs["units"] == "um"

@@ -1,8 +1,9 @@
 """The file options of ``info``, ``acf`` and ``report``: checked, files read and measured.
 
 The options are checked here, in the words of the command line, before the library is
-called; a file that does not read for lack of a unit, a size or ``--resample`` is read
-again with a stand-in for each, and the first that reads it names the option to give.
+called. A file that does not read for lack of a unit, a size or ``--resample`` raises
+:class:`~xrough.io.MissingOptionError`, which says which keywords supply it: the error
+names the options of the command line that set them.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from tqdm.auto import tqdm
 
 from .. import units as u
 from .._kernels.binning import MAX_POINTS_PER_DECADE, check_points_per_decade
-from ..io import BRIDGE, FORMATS, detect_format, open_topography
+from ..io import BRIDGE, FORMATS, MissingOptionError, detect_format, open_topography
 from ..io.archive import safe_name
 from ..preprocess import DETREND_MODES, detrend
 from ._common import CLIError, fail, first_line, warn_lines
@@ -29,24 +30,9 @@ from ._common import CLIError, fail, first_line, warn_lines
 NONUNIFORM = ("the profile is sampled non-uniformly: give --resample (linear interpolation "
               "onto a uniform grid with the same number of points)")
 
-#: What a file that does not read may lack, tried in order when it fails: the stand-in
-#: read with it (on top of the given options), the options whose presence makes it moot,
-#: and what the user is told if the file then reads.
-_STAND_INS = (
-    ({"height_unit": "m"}, ("unit", "height_unit"),
-     "the file states no height unit: give --height-unit (e.g. --height-unit nm), or "
-     "--unit for the lateral and the height unit"),
-    ({"unit": "m"}, ("unit",),
-     "the file states no unit: give --unit (e.g. --unit nm; and --height-unit if the "
-     "heights are in another unit)"),
-    ({"size": "1 m"}, ("size",),
-     "the file states no physical size: give --size (e.g. --size '10 um', or "
-     "--size '10 um,20 um' for y, x)"),
-    ({"size": "1 m", "unit": "m"}, ("size", "unit"),
-     "the file states no physical size and no unit: give --size and --unit (e.g. "
-     "--size '10 um' --unit nm)"),
-    ({"resample": True}, ("resample",), NONUNIFORM),
-)
+#: The keywords of :func:`~xrough.open_topography` that an option of the commands sets.
+_FILE_OPTIONS = ("size", "unit", "height_unit", "height_scale", "periodic", "channel",
+                 "resample")
 
 
 def add_file_options(p: argparse.ArgumentParser, *, detrend: bool = True) -> None:
@@ -168,49 +154,27 @@ def _refuse_foreign_options(path: str, name: str, options: dict) -> None:
                            + (" (it has one channel)" if key == "channel" else ""))
 
 
-def _reads(path: str, name: str, options: dict) -> bool:
-    """Whether the file reads with ``options`` (its warnings not shown)."""
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            open_topography(path, format=name, **options)
-    except Exception:  # noqa: BLE001 - any failure: it does not read
-        return False
-    return True
-
-
-def _missing_option(path: str, name: str, options: dict) -> str | None:
-    """Tell what the file that failed to read lacks, if a stand-in option makes it read.
-
-    All stand-ins together are tried first: a file that does not read even so (a
-    corrupted one) is read once more, not once for each.
-    """
-    accepted = _reader_keywords(name)
-    trials = [(stand_in, message) for stand_in, moot, message in _STAND_INS
-              if not any(options.get(k) is not None for k in moot)
-              and (accepted is None or set(stand_in) <= accepted)]
-    together = {k: v for stand_in, _ in trials for k, v in stand_in.items()}
-    if not trials or not _reads(path, name, {**options, **together}):
+def _as_options(err: MissingOptionError) -> CLIError | None:
+    """Name the reader's missing keywords as this command's options (None: it has none)."""
+    flags = [f"--{o.replace('_', '-')}" for o in err.options if o in _FILE_OPTIONS]
+    if not flags:
         return None
-    return next((message for stand_in, message in trials
-                 if _reads(path, name, {**options, **stand_in})), None)
+    return CLIError(f"{err.file}: {err.lacks}: give "
+                    + (" or " if err.either else " and ").join(flags))
 
 
 def open_file(path: str, args: argparse.Namespace) -> xr.DataArray:
     """Read a topography with the command's options.
 
-    Errors name the option to give where an option makes the file read.
+    A file that lacks a unit, a size or resampling names the option to give.
     """
     options = _checked(args)
     name = args.format or detect_format(path)
     _refuse_foreign_options(path, name, options)
     try:
         return open_topography(path, format=name, **options)
-    except ValueError as err:
-        missing = _missing_option(path, name, options)
-        if missing is None:
-            raise
-        raise CLIError(f"{path}: {missing}") from err
+    except MissingOptionError as err:
+        raise (_as_options(err) or err) from err
 
 
 # ------------------------------------------------------------------ measuring

@@ -26,9 +26,10 @@ from pathlib import Path
 
 from .. import units as u
 from ..topography import topography
+from ._common import MissingOptionError
 
 __all__ = ["FORMATS", "BRIDGE", "detect_format", "open_topography", "file_sha256",
-           "list_channels"]
+           "list_channels", "MissingOptionError"]
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,8 @@ import xarray as xr
 from .. import units as u
 from ..topography import topography
 
-__all__ = ["fail", "reader_errors", "check_file", "check_points", "MAX_POINTS",
+__all__ = ["fail", "MissingOptionError", "reader_errors", "check_file", "check_points",
+           "MAX_POINTS",
            "micro_as_u", "describe_channel", "channel_listing", "select_channel",
            "default_channel_reader", "nonuniform_profile"]
 
@@ -51,6 +52,46 @@ def fail(path: Path, message: str) -> ValueError:
     ValueError('scan.spm: truncated file')
     """
     return ValueError(f"{path.name}: {message}")
+
+
+class MissingOptionError(ValueError):
+    """A file that reads only with an option of :func:`xrough.open_topography` it lacks.
+
+    The file does not state something a topography needs (a unit, a physical size) or is
+    laid out so that an option must say what to do (a non-uniform profile and
+    ``resample=``). The message names the file, what it lacks and the keywords to pass; the
+    attributes let a front end name its own options instead (the command line says
+    ``--unit``) without reading the message.
+
+    Parameters
+    ----------
+    file : str
+        The file's name.
+    lacks : str
+        What the file lacks, in words ("the file states no unit for the heights").
+    options : tuple of str
+        Keywords of :func:`xrough.open_topography` that supply it.
+    either : bool
+        Whether any one of ``options`` is enough (``unit=`` or ``height_unit=``), else all
+        are needed.
+    advice : str
+        The rest of the message after the keywords (an example, what is not guessed).
+
+    Examples
+    --------
+    >>> err = MissingOptionError("h.npy", "a .npy file stores no units", ("unit",),
+    ...                          advice=" (e.g. unit='nm')")
+    >>> str(err), err.options
+    ("h.npy: a .npy file stores no units: pass unit= (e.g. unit='nm')", ('unit',))
+    >>> isinstance(err, ValueError)
+    True
+    """
+
+    def __init__(self, file: str, lacks: str, options: tuple[str, ...], *,
+                 either: bool = False, advice: str = "") -> None:
+        self.file, self.lacks, self.options, self.either = file, lacks, tuple(options), either
+        keywords = (" or " if either else " and ").join(f"{o}=" for o in self.options)
+        super().__init__(f"{file}: {lacks}: pass {keywords}{advice}")
 
 
 def check_file(path: Path) -> None:
@@ -344,9 +385,10 @@ def nonuniform_profile(name: str, x: np.ndarray, h: np.ndarray, lunit: str, huni
     if resample:
         return _resampled(x, h, lunit, hunit, attrs, size, spacing)
     if size is not None or spacing is not None:
-        raise ValueError(f"{name}: the profile is sampled non-uniformly; size=/spacing= cannot "
-                         "replace its measured positions (pass resample=True to "
-                         "interpolate it onto a uniform grid first)")
+        raise MissingOptionError(
+            name, "the profile is sampled non-uniformly; size=/spacing= cannot replace its "
+            "measured positions", ("resample",),
+            advice="True to interpolate it onto a uniform grid first")
     return xr.DataArray(
         h, dims=("x",), name="height",
         coords={"x": ("x", x, {"units": u.format_units(lunit), "long_name": "x position"})},

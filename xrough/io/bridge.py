@@ -32,7 +32,7 @@ import xarray as xr
 
 from .. import units as u
 from ..topography import topography
-from ._common import micro_as_u, nonuniform_profile, select_channel
+from ._common import MissingOptionError, micro_as_u, nonuniform_profile, select_channel
 
 __all__ = ["available", "sniff", "read", "read_with_surfacetopography", "channels",
            "default_channel", "info_attrs"]
@@ -371,12 +371,12 @@ def _channel_data(reader, channel, path: Path, size, unit) -> dict:
     nb = tuple(chan.nb_grid_pts)
     if chan.physical_sizes is None:  # the file has none: a placeholder, then size=
         if size is None:
-            raise ValueError(f"{name}: the file states no physical size: pass size=")
+            raise MissingOptionError(name, "the file states no physical size", ("size",))
         kwargs["physical_sizes"] = tuple(float(n) for n in nb)
     if _st_unit(chan.unit) is None:
         if unit is None:
-            raise ValueError(f"{name}: the file states no unit: pass unit= "
-                             "(e.g. unit='um')")
+            raise MissingOptionError(name, "the file states no unit", ("unit",),
+                                     advice=" (e.g. unit='um')")
         kwargs["unit"] = "m"  # placeholder label; relabelled below
     topo = reader.topography(**kwargs)
     return {"channel": chan, "attrs": info_attrs(topo.info),

@@ -41,6 +41,7 @@ from .. import quality
 from .. import units as u
 from ..topography import topography
 from ._common import (
+    MissingOptionError,
     channel_listing,
     default_channel_reader,
     describe_channel,
@@ -331,9 +332,11 @@ def _default(path: Path, chans: list[dict], listing: str, *, warn: bool) -> dict
             return named[0]
     if heights:
         return heights[0]
-    raise fail(path, f"no height channel (with a length unit); channels: {listing}"
-                     + ("; a wave without a data unit needs unit= or height_unit="
-                        if any(not c["unit"] for c in chans) else ""))
+    lacks = f"no height channel (with a length unit); channels: {listing}"
+    if any(not c["unit"] for c in chans):
+        raise MissingOptionError(path.name, f"{lacks}; a wave without a data unit needs one",
+                                 ("unit", "height_unit"), either=True)
+    raise fail(path, lacks)
 
 
 def _channel_list(path: Path) -> list[dict]:
@@ -439,15 +442,17 @@ def _read(path: Path, channel, unit, height_unit):
             sfa[d] = -sfa[d]
     lateral = dim_units[0]
     if not lateral:
-        raise fail(path, "the wave states no unit for its x dimension: pass unit= "
-                         "(e.g. unit='um'); no unit is guessed")
+        raise MissingOptionError(path.name, "the wave states no unit for its x dimension",
+                                 ("unit",), advice=" (e.g. unit='um'); no unit is guessed")
     if not u.is_length(lateral):
         raise fail(path, f"the x dimension unit {lateral!r} is not a length")
     spacing = [sfa[0]]
     if ndim == 2:
+        if not dim_units[1]:
+            raise MissingOptionError(path.name, "the wave states no unit for its y dimension",
+                                     ("unit",))
         if not u.is_length(dim_units[1]):
-            raise fail(path, f"the y dimension unit {dim_units[1]!r} is not a length"
-                             + ("" if dim_units[1] else ": pass unit="))
+            raise fail(path, f"the y dimension unit {dim_units[1]!r} is not a length")
         spacing.append(sfa[1] * u.conversion_factor(dim_units[1], lateral))
         values = values.T  # Igor (x, y) -> (y, x)
     note = layout["note"]

@@ -33,7 +33,7 @@ import xarray as xr
 from .. import units as u
 from ..topography import topography
 from . import _checksum
-from ._common import check_file, micro_as_u, reader_errors
+from ._common import MissingOptionError, check_file, micro_as_u, reader_errors
 
 __all__ = ["sniff", "read", "write"]
 
@@ -404,8 +404,8 @@ def _read(path: Path, variable, group, unit, height_unit, size) -> xr.DataArray:
     attrs = {str(k): _plain(v) for k, v in da.attrs.items()}
     hunit = height_unit or unit or _units(attrs)
     if hunit is None:
-        raise ValueError(f"{name}: variable {var!r} has no units attribute; pass unit= or "
-                         "height_unit=")
+        raise MissingOptionError(name, f"variable {var!r} has no units attribute",
+                                 ("unit", "height_unit"), either=True)
     attrs.pop("unit", None)
     attrs["units"] = hunit if own and not (height_unit or unit) else u.format_units(hunit)
     periodic = attrs.get("periodic")
@@ -423,7 +423,8 @@ def _read(path: Path, variable, group, unit, height_unit, size) -> xr.DataArray:
                 values = values[0] + np.arange(da.sizes[d]) * float(length) / da.sizes[d]
         cunit = unit or _units(cattrs)
         if cunit is None:
-            raise ValueError(f"{name}: coordinate {d!r} has no units attribute; pass unit=")
+            raise MissingOptionError(name, f"coordinate {d!r} has no units attribute",
+                                     ("unit",))
         cattrs.pop("unit", None)
         cattrs["units"] = cunit if own and not unit else u.format_units(cunit)
         lunit = lunit or cunit
@@ -440,7 +441,7 @@ def _read(path: Path, variable, group, unit, height_unit, size) -> xr.DataArray:
     missing = [d for d in core if d not in da.coords]
     if missing:
         if size is None:
-            raise ValueError(f"{name}: no coordinate for {', '.join(missing)}: pass size=")
+            raise MissingOptionError(name, f"no coordinate for {', '.join(missing)}", ("size",))
         return topography(da, size=size, unit=lunit, height_unit=da.attrs["units"])
     if size is not None:
         return topography(da.drop_vars(list(core)), size=size, unit=lunit,

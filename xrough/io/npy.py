@@ -15,7 +15,7 @@ import numpy.lib.format as npformat
 import xarray as xr
 
 from ..topography import topography
-from ._common import check_file, reader_errors
+from ._common import MissingOptionError, check_file, reader_errors
 
 __all__ = ["sniff", "read"]
 
@@ -137,10 +137,15 @@ def _read(path: Path, spacing, size, unit, height_unit, periodic) -> xr.DataArra
         raise ValueError(f"{name}: a topography needs a 1D or 2D array of real numbers, "
                          f"found shape {arr.shape} of dtype {arr.dtype}")
     if spacing is None and size is None:
-        raise ValueError(f"{name}: a .npy file stores no lateral size: pass size= (e.g. "
-                         "size=('10 um', '10 um')) or spacing=, and unit=")
+        if unit is None and height_unit is None:
+            raise MissingOptionError(name, "a .npy file stores no lateral size and no units",
+                                     ("size", "unit"),
+                                     advice=" (e.g. size=('10 um', '10 um'), unit='nm')")
+        raise MissingOptionError(name, "a .npy file stores no lateral size", ("size", "spacing"),
+                                 either=True, advice=" (e.g. size=('10 um', '10 um'))")
     if unit is None and height_unit is None:
-        raise ValueError(f"{name}: a .npy file stores no units: pass unit= (and "
-                         "height_unit= if the heights are in another unit), e.g. unit='nm'")
+        raise MissingOptionError(name, "a .npy file stores no units", ("unit",),
+                                 advice=" (and height_unit= if the heights are in another "
+                                 "unit), e.g. unit='nm'")
     return topography(arr, spacing=spacing, size=size, unit=unit, height_unit=height_unit,
                       periodic=periodic, attrs={"npy_dtype": str(arr.dtype)})

@@ -61,7 +61,7 @@ import xarray as xr
 
 from .. import units as u
 from ..topography import grid_of, topography
-from ._common import micro_as_u, nonuniform_profile, reader_errors
+from ._common import MissingOptionError, micro_as_u, nonuniform_profile, reader_errors
 
 __all__ = ["sniff", "read", "write", "looks_binary"]
 
@@ -618,7 +618,7 @@ def _lateral_pair(name, qx, qy, unit, fallback):
     """``((y, x), unit)`` from header quantities along x and y (y converted to x's unit)."""
     ux = qx[1] or qy[1] or fallback
     if ux is None:
-        raise _need_unit(name, "lateral size", "unit=")
+        raise _need_unit(name, "lateral size", ("unit",))
     factor = u.conversion_factor(qy[1], ux) if qy[1] else 1.0
     return (qy[0] * factor, qx[0]), unit or ux
 
@@ -657,9 +657,9 @@ def _check_profile_length(name, x, header, lunit) -> None:
             "they are")
 
 
-def _need_unit(name: str, what: str, option: str) -> ValueError:
-    return ValueError(f"{name}: the file states no unit for the {what}: pass {option} "
-                      "(e.g. unit='nm'); no unit is guessed")
+def _need_unit(name: str, what: str, options: tuple[str, ...]) -> MissingOptionError:
+    return MissingOptionError(name, f"the file states no unit for the {what}", options,
+                              either=True, advice=" (e.g. unit='nm'); no unit is guessed")
 
 
 @dataclass
@@ -707,7 +707,7 @@ def _height_unit(t: _Table, opts: _Options, column_unit: str | None = None) -> s
     hunit = opts.height_unit or opts.unit or t.factor_unit or column_unit \
         or t.header.height_unit()
     if hunit is None:
-        raise _need_unit(t.name, "heights", "unit= or height_unit=")
+        raise _need_unit(t.name, "heights", ("unit", "height_unit"))
     return hunit
 
 
@@ -785,8 +785,9 @@ def _matrix_lateral(t: _Table, opts: _Options):
     if dx is not None:
         spacing, lunit = _lateral_pair(t.name, dx, dy, opts.unit, header.lateral_unit())
         return spacing, None, lunit
-    raise ValueError(f"{t.name}: a height matrix without lateral size: pass size=(Ly, Lx) or "
-                     "spacing=(dy, dx) (numbers in unit=, or strings such as '10 um')")
+    raise MissingOptionError(t.name, "a height matrix without lateral size", ("size", "spacing"),
+                             either=True, advice=" ((Ly, Lx) or (dy, dx): numbers in unit=, "
+                             "or strings such as '10 um')")
 
 
 def _read_column(t: _Table, opts: _Options) -> xr.DataArray:
@@ -811,10 +812,11 @@ def _column_lateral(t: _Table, opts: _Options):
         size, stated = (header.size["profile"] or header.size["x"])
         lunit = opts.unit or stated or header.lateral_unit()
     else:
-        raise ValueError(f"{t.name}: a column of heights without lateral size: pass "
-                         "size= (the profile length) or spacing=")
+        raise MissingOptionError(t.name, "a column of heights without lateral size",
+                                 ("size", "spacing"), either=True,
+                                 advice=" (the profile length or the step)")
     if lunit is None and not any(isinstance(v, str) for v in (spacing, size)):
-        raise _need_unit(t.name, "lateral size", "unit=")
+        raise _need_unit(t.name, "lateral size", ("unit",))
     return spacing, size, lunit
 
 
@@ -827,7 +829,7 @@ def _read_profile(t: _Table, opts: _Options) -> xr.DataArray:
     lunit = opts.unit or t.column_units[0] or header.unit["x"] or header.unit["any"] \
         or header.lateral_unit()
     if lunit is None:
-        raise _need_unit(t.name, "x positions", "unit=")
+        raise _need_unit(t.name, "x positions", ("unit",))
     if not opts.lateral_given:
         _check_profile_length(t.name, t.values[:, 0], header, lunit)
     hunit = _height_unit(t, opts, t.column_units[hcol])
@@ -891,7 +893,7 @@ def _read_xyz(t: _Table, opts: _Options) -> xr.DataArray:
     cu = t.column_units
     lunit = opts.unit or cu[0] or cu[1] or t.header.lateral_unit()
     if lunit is None:
-        raise _need_unit(t.name, "x-y positions", "unit=")
+        raise _need_unit(t.name, "x-y positions", ("unit",))
     hunit = _height_unit(t, opts, cu[2])
     try:
         topo = _xyz(t.name, t.values, t.tokens, lunit, hunit, t.attrs)
