@@ -80,7 +80,7 @@ def _error_floor(dr: tuple, pairs: tuple, area: float, pixel_area: float,
                  geometry: str) -> np.ndarray:
     """Relative ``standard_error`` of a G flat over the bins, taken as the least possible.
 
-    Cached per grid and bins (the quadrature costs about 10 ms for 30 radial bins).
+    Cached per grid and bins: the quadrature is worth computing once per geometry.
     """
     dr = np.asarray(dr)
     out = np.sqrt(g_variance(dr, np.ones_like(dr), np.asarray(pairs), area=area,
