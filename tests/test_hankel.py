@@ -86,6 +86,7 @@ from xrough._kernels.hankel import (
     spectral_moment_kernel,
 )
 from xrough._kernels.spectral_models import SpectrumModel
+from xrough._kernels.spectrum_of_acf import spectrum_from_acf_kernel
 
 # q_r = 1, q_s = 1e6, C_r = 1, q_0 = 0: dr spans 1e-4/q_s ... 1e6/q_r (16 decades)
 SHARP_DR = np.array([1e-10, 1e-8, 1e-6, 3e-5, 1e-3, 0.1, 2, 7, 60, 1e3, 1e5, 1e6])
@@ -278,6 +279,25 @@ def test_shape_zero_and_bad_input():
         acf_from_spectrum_kernel([-1.0], m, m.breakpoints)
     with pytest.raises(ValueError, match="breakpoints"):
         acf_from_spectrum_kernel([1.0], m, [1.0])
+
+
+@pytest.mark.parametrize(
+    "check, match",
+    [
+        (lambda: PowerLawInterpolant([1.0, 3.0, 2.0], [1.0, 1.0, 1.0]),
+         r"^q must hold wavenumbers that are finite, positive and strictly increasing; "
+         r"got 2 at index 2 after 3$"),
+        (lambda: PowerLawInterpolant([0.0, 1.0], [1.0, 1.0]),
+         r"^q must .* positive .*got 0 first$"),
+        (lambda: spectrum_from_acf_kernel([1.0], [1.0, np.nan, 3.0, 4.0], np.ones(4)),
+         r"^dr must hold lags that are finite, positive .*; got nan at index 1$"),
+    ],
+)
+def test_increasing_grids_are_checked_by_one_rule_naming_the_argument(check, match):
+    """The q of a sampled spectrum and the dr of sampled G: one check, naming the argument
+    and the first value that breaks it."""
+    with pytest.raises(ValueError, match=match):
+        check()
 
 
 # --------------------------------------------------------------------------------------

@@ -11,8 +11,8 @@ from scipy import integrate
 
 import xrough
 from conftest import data_path, needs_bridge
-from xrough._kernels.hankel import (
-    power_law_moment_kernel,
+from xrough._kernels.hankel import power_law_moment_kernel
+from xrough._kernels.spectrum_of_acf import (
     smooth_acf_kernel,
     spectrum_from_acf_kernel,
     supported_interval,
@@ -466,6 +466,22 @@ def test_bad_input_is_refused_clearly(kind, match):
     G = bad(kind)
     with pytest.raises(ValueError, match=match):
         spectrum(G)
+
+
+def test_unsorted_lags_and_wavenumbers_name_the_coordinate_and_the_value():
+    """``spectrum`` (through check_acf, lags may start at 0) and ``acf_from_spectrum`` (the
+    samples of C, wavenumbers > 0) report the coordinate, the first value out of order, and
+    for G how to fix it."""
+    G = acf_array([0.0, 1.0, 3.0, 2.0, 4.0], [0.0, 1.0, 1.5, 1.2, 2.0])
+    with pytest.raises(ValueError, match=r"coordinate 'dr' must hold lags that are finite, "
+                       r">= 0 and strictly increasing \(use G.sortby\('dr'\)\); "
+                       r"got 2 at index 3 after 3"):
+        spectrum(G)
+    C = xr.DataArray([1.0, 1.0], dims="q", attrs={"units": "nm4"},
+                     coords={"q": ("q", [1.0, np.inf], {"units": "nm-1"})})
+    with pytest.raises(ValueError, match=r"coordinate 'q' must hold at least 2 wavenumbers "
+                       r"that are finite, positive .*; got inf at index 1"):
+        acf_from_spectrum(C, [1.0])
 
 
 def test_bad_options_and_types():

@@ -47,6 +47,7 @@ import xarray as xr
 from . import quality
 from . import units as u
 from ._kernels.acf_curve import acf_problem, relative_error_problem
+from ._kernels.checks import require_increasing
 from ._version import __version__
 
 __all__ = ["AcfSpec", "check_acf", "read_acf", "PROVENANCE", "result_attrs", "lag_coord",
@@ -150,10 +151,8 @@ def check_acf(G: xr.DataArray, *, what: str = "G", single: bool = False,
         raise ValueError(f"{what} must be in length^2 (a height-difference ACF, e.g. "
                          f"{u.power_units(unit_str, 2)!r}), but its units are "
                          f"{u.format_units(g_unit)!r}")
-    dr = np.asarray(G["dr"].values, dtype=float)
-    if not np.all(np.isfinite(dr)) or np.any(dr < 0) or np.any(np.diff(dr) <= 0):
-        raise ValueError("coordinate 'dr' must hold finite lags >= 0, strictly increasing "
-                         "(use G.sortby('dr'))")
+    dr = require_increasing(G["dr"].values, "coordinate 'dr'", allow_zero=True, noun="lags",
+                            hint=" (use G.sortby('dr'))")
     spec = AcfSpec(dr=dr, length_unit=length_unit, unit_str=unit_str,
                    g_factor=u.conversion_factor(g_unit, length_unit**2),
                    to_m=u.conversion_factor(length_unit, "m"),

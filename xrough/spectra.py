@@ -23,9 +23,10 @@ import xarray as xr
 from . import quality
 from . import units as _units
 from ._kernels.binning import check_points_per_decade, decade_aligned_grid, log_range
-from ._kernels.hankel import (
-    PowerLawInterpolant,
-    acf_from_spectrum_kernel,
+from ._kernels.checks import require_increasing
+from ._kernels.hankel import PowerLawInterpolant, acf_from_spectrum_kernel
+from ._kernels.spectral_models import SpectrumModel
+from ._kernels.spectrum_of_acf import (
     acf_plateau_kernel,
     smooth_acf_kernel,
     spectrum_error_kernel,
@@ -33,7 +34,6 @@ from ._kernels.hankel import (
     spectrum_support_kernel,
     support_grid,
 )
-from ._kernels.spectral_models import SpectrumModel
 from ._kernels.uncertainty import g_covariance
 from .acf import mark_gaps, read_acf, result_attrs
 from .models import model_attrs, model_from_attrs, self_affine_model
@@ -250,9 +250,7 @@ def spectrum_input(spectrum: Any) -> _SpectrumInput:
             )
         func: Any = model
     else:
-        if q.size < 2 or not (np.all(np.isfinite(q)) and q[0] > 0 and np.all(np.diff(q) > 0)):
-            raise ValueError(f"coordinate {dim!r} must hold at least two positive, finite, "
-                             "strictly increasing wavenumbers")
+        require_increasing(q, f"coordinate {dim!r}", noun="wavenumbers", min_size=2)
         if not (np.all(np.isfinite(values)) and np.all(values >= 0)):
             hint = (" (C from xrough.spectrum can be negative where G does not determine it: "
                     "keep C.where(C.supported == 1, drop=True))" if "supported" in

@@ -15,7 +15,7 @@ generalised cross-validation asks for it; the 2D radial Laplacian is then
 ``(1/r) d/dr (r dG/dr) = G (y'' + y'^2) / r^2`` with ``y = ln G``, ``x = ln r``.
 
 Whether the samples determine that second derivative is checked as the support of a
-spectrum is (:mod:`xrough._kernels.hankel`): the Laplacian is estimated three times, from
+spectrum is (:mod:`xrough._kernels.spectrum_of_acf`): the Laplacian is estimated three times, from
 all samples and from the even and the odd ones alone (each keeping both ends), and a lag
 where these estimates differ by more than :data:`DETERMINED` of a lower bound of the
 Laplacian at ``dr = 0`` is not determined, nor is any smaller lag

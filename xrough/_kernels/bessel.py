@@ -1,14 +1,14 @@
 """Quadrature building blocks of the Hankel transforms (pure numpy/scipy, no xarray).
 
 Shared by eq. 9 (:mod:`xrough._kernels.hankel`, ``G`` from ``C``) and eq. 10/11
-(:mod:`xrough._kernels.hankel` (inverse direction), ``C`` from ``G``):
+(:mod:`xrough._kernels.spectrum_of_acf`, ``C`` from ``G``):
 
-* composite Gauss-Legendre on panels (:func:`_panel_quadrature`), on grids that are
-  logarithmic between breakpoints (:func:`_log_grid`), processed in blocks of rows;
+* composite Gauss-Legendre on panels (:func:`panel_quadrature`), on grids that are
+  logarithmic between breakpoints (:func:`log_grid`), processed in blocks of rows;
 * ``1 - J0(t)`` and ``(1 - J0(t)) / t^2`` without cancellation at small ``t`` (power series
   for ``t < 1``);
 * ``int q f(q) J0(q r) dq`` beyond ``q r = T`` for ``f`` a sum of power laws per piece
-  (:func:`_oscillatory_terms`): each ``int t^beta J0(t) dt`` in closed form from the Hankel
+  (:func:`oscillatory_terms`): each ``int t^beta J0(t) dt`` in closed form from the Hankel
   asymptotic expansion of ``J0`` times the asymptotic antiderivative of ``t^gamma e^{it}``,
   regrouped into one series ``sum_m d_m(beta) t^-m`` and truncated where its terms fall below
   1e-17 (O(1) per piece, whatever the number of oscillations); steep pieces start the
@@ -22,6 +22,9 @@ from functools import lru_cache
 import numpy as np
 from scipy import special
 
+__all__ = ["gauss_legendre", "one_minus_j0", "one_minus_j0_over_t2", "log_grid", "blocks",
+           "panel_quadrature", "oscillatory_terms"]
+
 #: Number of terms of the combined asymptotic series and its relative truncation target.
 _N_ASYMPTOTIC = 30
 _ASYMPTOTIC_TOL = 1e-17
@@ -34,7 +37,7 @@ _BLOCK_NODES = 2**19
 # Gauss-Legendre panels and 1 - J0 without cancellation
 # --------------------------------------------------------------------------------------
 @lru_cache(maxsize=16)
-def _gauss_legendre(order: int) -> tuple[np.ndarray, np.ndarray]:
+def gauss_legendre(order: int) -> tuple[np.ndarray, np.ndarray]:
     """Gauss-Legendre nodes on [-1, 1] and weights (cached, read-only)."""
     x, w = np.polynomial.legendre.leggauss(order)
     x.setflags(write=False)
@@ -54,7 +57,7 @@ def _j0_series(t: np.ndarray) -> np.ndarray:
     return acc
 
 
-def _one_minus_j0(t: np.ndarray) -> np.ndarray:
+def one_minus_j0(t: np.ndarray) -> np.ndarray:
     """``1 - J0(t)`` without cancellation at small ``t`` (power series for ``t < 1``)."""
     t = np.asarray(t, dtype=float)
     out = 1.0 - special.j0(t)
@@ -65,7 +68,7 @@ def _one_minus_j0(t: np.ndarray) -> np.ndarray:
     return out
 
 
-def _one_minus_j0_over_t2(t: np.ndarray) -> np.ndarray:
+def one_minus_j0_over_t2(t: np.ndarray) -> np.ndarray:
     """``(1 - J0(t)) / t^2`` (``1/4`` at ``t = 0``) without cancellation at small ``t``."""
     t = np.asarray(t, dtype=float)
     small = t < 1.0
@@ -74,7 +77,7 @@ def _one_minus_j0_over_t2(t: np.ndarray) -> np.ndarray:
     return np.where(small, 0.25 * acc, (1.0 - special.j0(safe)) / safe**2)
 
 
-def _log_grid(bp: np.ndarray, per_decade: float, *, depth: float) -> np.ndarray:
+def log_grid(bp: np.ndarray, per_decade: float, *, depth: float) -> np.ndarray:
     """Breakpoints plus a logarithmic grid inside every segment.
 
     A segment starting at 0 gets a logarithmic grid over ``depth`` decades below its upper
@@ -89,20 +92,21 @@ def _log_grid(bp: np.ndarray, per_decade: float, *, depth: float) -> np.ndarray:
     return np.unique(np.concatenate(pts))
 
 
-def _blocks(n_rows: int, row_nodes: int):
+def blocks(n_rows: int, row_nodes: int):
+    """Slices of ``range(n_rows)``, about ``_BLOCK_NODES`` nodes each (``row_nodes`` a row)."""
     step = max(1, _BLOCK_NODES // max(row_nodes, 1))
     for start in range(0, n_rows, step):
         yield slice(start, min(start + step, n_rows))
 
 
-def _panel_quadrature(edges: np.ndarray, integrand, order: int) -> np.ndarray:
+def panel_quadrature(edges: np.ndarray, integrand, order: int) -> np.ndarray:
     """Sum of Gauss-Legendre panels between sorted ``edges`` along the last axis.
 
     ``integrand(t, row)`` gets node positions ``t`` of shape ``(rows, panels, order)`` and
     must return values of the same shape.  Zero-width panels contribute nothing (even if the
     integrand is not finite there).
     """
-    x, w = _gauss_legendre(order)
+    x, w = gauss_legendre(order)
     lo = edges[:, :-1]
     hi = edges[:, 1:]
     half = 0.5 * (hi - lo)
@@ -198,8 +202,57 @@ def _series_tier(t: np.ndarray, coeffs: list[np.ndarray]) -> np.ndarray:
     return ok.argmax(axis=1)
 
 
-def _oscillatory_terms(r: np.ndarray, klo, khi, c_top, alpha, g, t_split: float,
-                       order: int) -> np.ndarray:
+def _power_law_sum(x, idx, khi, c_top, alpha, rows):
+    """``q f(q) / r`` at ``x = q / K_hi`` for the pieces ``idx``: the physical prefactor."""
+    return c_top[idx] * khi[idx] * np.exp((1.0 + alpha[idx]) * np.log(x)) / rows
+
+
+def _closed_form(t, idx, rows, pieces, coeffs) -> np.ndarray:
+    """Asymptotic antiderivative of ``q f(q) J0(q r)`` at ``t = q r`` for the pieces ``idx``.
+
+    Evaluated in tiers of series length (far fewer terms are needed at large ``t``).
+    """
+    khi, c_top, alpha, g = pieces
+    x = t / (rows * khi[idx])
+    base = _power_law_sum(x, idx, khi, c_top, alpha, rows)
+    out = np.zeros_like(t)
+    tiers = _series_tier(t, coeffs)
+    for tier in np.unique(tiers):
+        sel = tiers == tier
+        n = _TERM_TIERS[tier]
+        ts, ii = t[sel], idx[sel]
+        phase = _phase(ts)
+        total = 0.0
+        for j in range(len(coeffs)):
+            s = _antiderivative(ts, coeffs[j][:, ii], phase, n)
+            total = total + (g[j, ii] * x[sel] ** j) * s if j else g[0, ii] * s
+        out[sel] = base[sel] * total
+    return out
+
+
+def _steep_panels(a, b, idx, rows, pieces, order: int):
+    """Gauss-Legendre of ``q f(q) J0(q r)`` on ``[a, b]`` in ``t`` (panels of width <= 2).
+
+    Returns ``(pair, value)``: the index into ``a`` of every panel and its integral.
+    """
+    khi, c_top, alpha, g = pieces
+    n_pan = np.ceil((b - a) / 2.0).astype(int)
+    rep = np.repeat(np.arange(idx.size), n_pan)
+    k = np.arange(rep.size) - np.repeat(np.cumsum(n_pan) - n_pan, n_pan)
+    width = (b - a)[rep] / n_pan[rep]
+    x, w = gauss_legendre(order)
+    t = (a[rep] + k * width)[:, None] + 0.5 * width[:, None] * (x + 1.0)
+    ii, rw = idx[rep][:, None], rows[rep][:, None]
+    xq = t / (rw * khi[ii])
+    poly = g[0, ii]
+    for j in range(1, g.shape[0]):
+        poly = poly + g[j, ii] * xq**j
+    f = _power_law_sum(xq, ii, khi, c_top, alpha, rw) * poly
+    return rep, ((f * special.j0(t)) @ w) * 0.5 * width
+
+
+def oscillatory_terms(r: np.ndarray, klo, khi, c_top, alpha, g, t_split: float,
+                      order: int) -> np.ndarray:
     """``int_{T/r}^inf q f(q) J0(q r) dq`` for pieces ``q f = c_top K_hi sum_j g_j x^(1+alpha+j)``.
 
     ``x = q / K_hi`` on ``[K_lo, K_hi]``; ``g`` has shape ``(terms, pieces)``.  Each power
@@ -212,8 +265,9 @@ def _oscillatory_terms(r: np.ndarray, klo, khi, c_top, alpha, g, t_split: float,
         return out
     klo, khi, c_top, alpha, g = klo[use], khi[use], c_top[use], alpha[use], g[:, use]
     nonzero = np.flatnonzero(np.any(g != 0, axis=1))
-    n_terms = int(nonzero[-1]) + 1 if nonzero.size else 1
-    coeffs = [_asymptotic_coefficients(1.0 + alpha + j) for j in range(n_terms)]
+    g = g[:int(nonzero[-1]) + 1 if nonzero.size else 1]
+    pieces = (khi, c_top, alpha, g)
+    coeffs = [_asymptotic_coefficients(1.0 + alpha + j) for j in range(g.shape[0])]
     t_start = np.max([_asymptotic_start(e, t_split) for e in coeffs], axis=0)
     # all (r, piece) pairs that reach beyond t_split
     ri, pj = np.nonzero(khi[None, :] * r[:, None] > t_split)
@@ -223,49 +277,18 @@ def _oscillatory_terms(r: np.ndarray, klo, khi, c_top, alpha, g, t_split: float,
     t_lo = np.maximum(klo[pj] * rr, t_split)
     t_hi = khi[pj] * rr
     t_asy = np.maximum(t_lo, t_start[pj])
-
-    def antiderivative(t, idx, rows):
-        x = t / (rows * khi[idx])
-        base = c_top[idx] * khi[idx] * np.exp((1.0 + alpha[idx]) * np.log(x)) / rows
-        out = np.zeros_like(t)
-        # evaluate in tiers of series length (far fewer terms are needed at large t)
-        tiers = _series_tier(t, coeffs)
-        for tier in np.unique(tiers):
-            sel = tiers == tier
-            n = _TERM_TIERS[tier]
-            ts, ii = t[sel], idx[sel]
-            phase = _phase(ts)
-            total = 0.0
-            for j in range(n_terms):
-                s = _antiderivative(ts, coeffs[j][:, ii], phase, n)
-                total = total + (g[j, ii] * x[sel] ** j) * s if j else g[0, ii] * s
-            out[sel] = base[sel] * total
-        return out
-
     # closed-form (asymptotic) part on [t_asy, t_hi]
     act = t_hi > t_asy
     if np.any(act):
         idx, rows = pj[act], rr[act]
-        val = antiderivative(t_hi[act], idx, rows) - antiderivative(t_asy[act], idx, rows)
+        val = (_closed_form(t_hi[act], idx, rows, pieces, coeffs)
+               - _closed_form(t_asy[act], idx, rows, pieces, coeffs))
         np.add.at(out, ri[act], val)
-    # steep pieces: Gauss-Legendre with panels of width <= 2 on [t_lo, min(t_hi, t_asy)]
+    # steep pieces: Gauss-Legendre on [t_lo, min(t_hi, t_asy)]
     b_all = np.minimum(t_hi, t_asy)
     steep = b_all > t_lo
     if np.any(steep):
-        idx, rows = pj[steep], rr[steep]
-        a, b = t_lo[steep], b_all[steep]
-        n_pan = np.ceil((b - a) / 2.0).astype(int)
-        rep = np.repeat(np.arange(idx.size), n_pan)
-        k = np.arange(rep.size) - np.repeat(np.cumsum(n_pan) - n_pan, n_pan)
-        width = (b - a)[rep] / n_pan[rep]
-        x, w = _gauss_legendre(order)
-        t = (a[rep] + k * width)[:, None] + 0.5 * width[:, None] * (x + 1.0)
-        ii, rw = idx[rep][:, None], rows[rep][:, None]
-        xq = t / (rw * khi[ii])
-        poly = g[0, ii]
-        for j in range(1, n_terms):
-            poly = poly + g[j, ii] * xq**j
-        f = c_top[ii] * khi[ii] * np.exp((1.0 + alpha[ii]) * np.log(xq)) * poly / rw
-        vals = ((f * special.j0(t)) @ w) * 0.5 * width
+        rep, vals = _steep_panels(t_lo[steep], b_all[steep], pj[steep], rr[steep], pieces,
+                                  order)
         np.add.at(out, ri[steep][rep], vals)
     return out

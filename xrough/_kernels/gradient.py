@@ -17,8 +17,8 @@ import numpy as np
 from .acf_curve import require_acf
 from .binning import log_range
 from .fitting import SPECTRUM_OUTPUTS, fit_spectrum_kernel, fitted_spectrum_gradient
-from .hankel import (
-    power_law_moment_kernel,
+from .hankel import power_law_moment_kernel
+from .spectrum_of_acf import (
     smooth_acf_kernel,
     spectrum_from_acf_kernel,
     spectrum_variants_kernel,
