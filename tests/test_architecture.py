@@ -162,14 +162,6 @@ def test_modules_do_not_reach_into_each_others_private_names():
     assert offenders == []
 
 
-#: ``_`` names still imported across modules, to be made public where they are defined.
-PRIVATE_IMPORTS_PENDING = {
-    ("xrough._kernels.solver", name) for name in (
-        "_coarse_start", "_ElasticOperator", "_full_contact_solution", "_full_contact_stress",
-        "_solve_approach", "_solve_load")
-} | {("xrough.io.text", "_nonuniform")}
-
-
 def test_no_private_name_is_imported_from_another_module():
     """A name another module imports is public where it is defined (no leading ``_``).
 
@@ -185,7 +177,6 @@ def test_no_private_name_is_imported_from_another_module():
             for alias in node.names if targets else ():
                 imported = (targets[0], alias.name)
                 if (alias.name.startswith("_") and not alias.name.endswith("__")
-                        and f"{targets[0]}.{alias.name}" not in MODULES
-                        and imported not in PRIVATE_IMPORTS_PENDING):
+                        and f"{targets[0]}.{alias.name}" not in MODULES):
                     offenders.append((name, *imported))
     assert offenders == []
