@@ -247,7 +247,7 @@ def acf_from_spectrum_kernel(
     Measured relative accuracy (against 30-digit mpmath) over 16 decades of ``dr``
     (``1e-4/q_s`` to ``1e6/q_r``, ``q_s/q_r = 1e6``, ``0.05 <= H <= 0.95``): a few 1e-15 for
     the sharp model (an exact piecewise power law), about 1e-10 for the smooth roll-off with
-    the default knot density.  200 values take about 10 ms (sharp) or 60 ms (smooth).
+    the default knot density (run times: docs/performance.md).
 
     Examples
     --------

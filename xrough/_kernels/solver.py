@@ -234,8 +234,8 @@ def _dot(a: np.ndarray, b: np.ndarray) -> float:
 FLOAT32_TOL = 1e-6
 #: Largest number of pixels entering or leaving the contact set for which the
 #: displacement is corrected pixel by pixel instead of by a pair of transforms, by the
-#: displacement's dtype (each pixel costs a pass over the map; a float32 pair costs
-#: about half a float64 one: 1024^2 on 2 cores, 4 and 7-13 ms, a pixel 0.5 ms).
+#: displacement's dtype (each pixel costs a pass over the map; a float32 pair of
+#: transforms costs about half a float64 one, so it is worth fewer pixels).
 POINT_LOADS_MAX = {np.float32: 6, np.float64: 12}
 #: Maps smaller than this solve in float64 throughout (their transforms are too cheap
 #: for float32 to pay).

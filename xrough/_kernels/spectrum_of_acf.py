@@ -347,8 +347,7 @@ def spectrum_from_acf_kernel(
     (:func:`acf_plateau_kernel`).  Against closed forms with 20 samples per decade over 6
     decades: error ~7e-6 of ``C(0)`` for a Gaussian height ACF; relative error 2e-4 for an
     exponential one up to ``q = 0.05 / dr_min`` (5e-4 at ``0.4 / dr_min``, where the
-    ballistic extension below ``dr_min`` starts to matter).  The cost is about 10 ms for
-    60 ``q`` and 121 samples.
+    ballistic extension below ``dr_min`` starts to matter).
 
     Raises
     ------
