@@ -886,3 +886,51 @@ def test_rolloff_shape_chosen_by_evidence():
     assert fit_acf(G).attrs["rolloff"] == "sharp"
     with pytest.raises(ValueError, match="rolloff must be one of"):
         fit_acf(G, model="eq36", rolloff="auto")
+
+
+# --------------------------------------------------------------------------------------
+# one parser of ``fix`` for both models; the auto gradient is the gradient of fit_acf
+# --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("fix, message", [
+    ({"H": 0.5}, "fix: cannot fix ['H'] with model={model!r}; fixable parameters are "
+                 "{fixable}"),
+    ({"hurst": 1.5}, "fix: hurst must lie in [0.01, 0.99], got 1.5"),
+    ({"hurst": "steep"}, "fix: hurst must lie in [0.01, 0.99], got 'steep'"),
+])
+def test_fix_errors_read_the_same_for_both_models(fix, message):
+    dr = np.geomspace(1e-2, 1e4, 30)
+    G = g_array(0.3 * dr**1.2, dr)
+    fixable = {"eq36": ("hurst", "C_b", "sigma_h"),
+               "spectrum": ("hurst", "lambda_r", "lambda_s")}
+    for model in ("eq36", "spectrum"):
+        with pytest.raises(ValueError) as info:
+            fit_acf(G, model=model, fix=fix)
+        assert str(info.value) == message.format(model=model, fixable=fixable[model])
+
+
+def test_fixed_parameters_are_described_alike_for_both_models():
+    from xrough.fitting import fixed_parameters
+    nm = xrough.units.ureg.nm
+    eq36, text36 = fixed_parameters({"hurst": 0.4, "sigma_h": np.inf}, "eq36", nm, nm)
+    spec, text = fixed_parameters({"hurst": 0.4, "lambda_r": np.inf}, "spectrum", nm, nm)
+    assert text36 == "hurst=0.4, sigma_h=inf" and text == "hurst=0.4, lambda_r=inf"
+    np.testing.assert_array_equal(eq36, [0.4, np.nan, 0.0])  # [H, C_b, 1/sigma_h^2]
+    np.testing.assert_array_equal(spec, [0.4, np.inf, np.nan])  # [H, lambda_r, lambda_s]
+
+
+def test_auto_gradient_is_fit_acf_then_gradient_from_fit():
+    """Where the exact gradient covers fewer than half of the lags, ``method='auto'`` is
+    eq. 26 of ``fit_acf(G)`` with fit_acf's own defaults (standard errors as weights, the
+    roll-off shape by evidence).  Both run the same kernel on the same numbers; they differ
+    only in where G_sa is converted between um^2 and nm^2, so they agree to rounding
+    (rtol 1e-12).  G in um^2 on lags in nm, with standard errors in nm^2, checks that the
+    units of the weights are read the same way."""
+    dr = np.geomspace(10.0, 1e3, 20)
+    G_nm2 = spectrum_acf(0.7, "sharp", lambda_r="10 um", lambda_s="1 nm", dr=dr).values
+    rel = 0.02 * (1 + np.arange(dr.size) % 3)  # uneven weights, so weighting matters
+    G = g_array(G_nm2 * 1e-6, dr, g_unit="um2")
+    G = G.assign_coords(standard_error=("dr", rel * G_nm2, {"units": "nm2"}))
+    auto = xrough.rms_gradient(G)
+    assert auto.attrs["method"] == "fit"
+    explicit = gradient_from_fit(fit_acf(G), G.dr)
+    np.testing.assert_allclose(auto.values, explicit.values, rtol=1e-12, atol=0)

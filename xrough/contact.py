@@ -26,7 +26,8 @@ from ._kernels.contact import KAPPA_PERSSON
 from ._kernels.gaps import bridge_energy
 from ._kernels.hankel import acf_from_spectrum_kernel
 from .acf import AcfSpec, gap_note, lag_coord, mark_gaps, read_acf, result_attrs
-from .fitting import fit_acf, rolloff_shapes
+from .fit_result import rolloff_shapes
+from .fitting import fit_acf
 from .gradient import rms_gradient
 from .preprocess import reliability_window
 from .spectra import spectrum_input

@@ -39,13 +39,14 @@ with ``<name>_std``, one standard deviation in the same units):
 
 plus ``reduced_chi2`` and ``n_bins``.
 
-The least-squares fits themselves (numpy) are in :mod:`xrough._kernels.fitting`;
-:func:`model_acf` evaluates a fit, and :func:`xrough.gradient_from_fit` the gradient it
-implies.
+The least-squares fits themselves (numpy) are in :mod:`xrough._kernels.fitting`.  A fit
+is read (its units, the G and the gradient it implies) by :mod:`xrough.fit_result`:
+:func:`model_acf` (also here) and :func:`xrough.gradient_from_fit`.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -58,7 +59,6 @@ from ._kernels.fitting import (
     AIC_MARGIN,
     CHI2_QUESTIONABLE,
     EQ36_OUTPUTS,
-    FLAGS,
     H_BOUNDS,
     HURST_STD_MAX,
     MISFIT_FAILED,
@@ -72,15 +72,13 @@ from ._kernels.fitting import (
     SPECTRUM_PARAMETERS,  # noqa: F401
     fit_eq36_kernel,
     fit_spectrum_kernel,
-    fitted_spectrum_acf,
 )
 from ._kernels.shape_factors import ROLLOFFS
-from .acf import lag_coord, mark_gaps, read_acf, result_attrs
+from .acf import AcfSpec, mark_gaps, read_acf, result_attrs
+from .fit_result import model_acf, rolloff_shapes  # noqa: F401  (read a fit; public here)
 
 __all__ = ["fit_acf", "model_acf", "describe_problems"]
 
-_FIXABLE = ("sigma_h", "hurst", "C_b")
-_SPECTRUM_FIXABLE = ("hurst", "lambda_r", "lambda_s")
 _SPECTRUM_EQ = ("eq. 9 of the {rolloff} model spectrum (eq. 35): G(dr) = (1/2pi) int dq q "
                 "C(q) [1 - J0(q dr)], G -> G_sa (dr/dr_ref)^(2H) for lambda_s << dr << "
                 "lambda_r")
@@ -103,47 +101,6 @@ def _area_unit(da: xr.DataArray, what: str) -> pint.Unit:
     return unit
 
 
-def _fixed_hurst(value) -> float:
-    H = float(value)
-    if not H_BOUNDS[0] <= H <= H_BOUNDS[1]:
-        raise ValueError(f"fix: hurst must lie in [{H_BOUNDS[0]}, {H_BOUNDS[1]}], got "
-                         f"{value!r}")
-    return H
-
-
-def _fixed_values(fix, lateral: pint.Unit, height: pint.Unit) -> tuple[np.ndarray, str]:
-    """``[H, C_b, 1/sigma_h^2]`` (NaN where free; lengths in ``lateral``) and a description."""
-    fix = dict(fix or {})
-    unknown = sorted(set(fix) - set(_FIXABLE))
-    if unknown:
-        raise ValueError(f"fix: cannot fix {unknown} with model='eq36'; fixable parameters "
-                         f"are {_FIXABLE}")
-    out = np.full(3, np.nan)
-    text = []
-    if "hurst" in fix:
-        out[0] = _fixed_hurst(fix["hurst"])
-        text.append(f"hurst={out[0]:g}")
-    if "C_b" in fix:
-        q = u.quantity(fix["C_b"], default_units="", what="fix['C_b']")
-        if not q.dimensionless or not (np.isfinite(q.to("").magnitude)
-                                       and q.to("").magnitude >= 0):
-            raise ValueError(f"fix: C_b must be a dimensionless number >= 0, got "
-                             f"{fix['C_b']!r}")
-        out[1] = float(q.to("").magnitude)
-        text.append(f"C_b={out[1]:g}")
-    if "sigma_h" in fix:
-        value = fix["sigma_h"]
-        if isinstance(value, (int, float, np.integer, np.floating)) and np.isinf(value) \
-                and value > 0:
-            out[2] = 0.0
-            text.append("sigma_h=inf")
-        else:
-            sig = u.length_in(value, height, what="fix['sigma_h']")
-            out[2] = 1.0 / (sig * u.conversion_factor(height, lateral)) ** 2
-            text.append(f"sigma_h={sig:g} {u.format_units(height)}")
-    return out, ", ".join(text) or "none"
-
-
 def reference_lag(dr: np.ndarray, lateral: pint.Unit) -> float:
     """Return the power of ten (decided in metres) nearest the geometric mean of ``dr``."""
     to_m = u.conversion_factor(lateral, "m")
@@ -155,36 +112,99 @@ def _variable(da: xr.DataArray, units: str, long_name: str) -> xr.DataArray:
     return da.assign_attrs({"units": units, "long_name": long_name})
 
 
-def fixed_spectrum(fix, lateral: pint.Unit, lambda_0: float) -> tuple[np.ndarray, str]:
-    """``[H, lambda_r, lambda_s]`` (NaN where free; lengths in ``lateral``), description."""
-    fix = dict(fix or {})
-    unknown = sorted(set(fix) - set(_SPECTRUM_FIXABLE))
+# --------------------------------------------------------------------------------------
+# the parameters held fixed (argument ``fix``)
+# --------------------------------------------------------------------------------------
+def _fix_hurst(value, lateral: pint.Unit, height: pint.Unit) -> tuple[float, str]:
+    try:
+        H = float(value)
+    except (TypeError, ValueError):
+        H = np.nan
+    if not H_BOUNDS[0] <= H <= H_BOUNDS[1]:
+        raise ValueError(f"fix: hurst must lie in [{H_BOUNDS[0]}, {H_BOUNDS[1]}], got "
+                         f"{value!r}")
+    return H, f"hurst={H:g}"
+
+
+def _fix_ballistic(value, lateral: pint.Unit, height: pint.Unit) -> tuple[float, str]:
+    q = u.quantity(value, default_units="", what="fix['C_b']")
+    if not q.dimensionless or not (np.isfinite(q.to("").magnitude)
+                                   and q.to("").magnitude >= 0):
+        raise ValueError(f"fix: C_b must be a dimensionless number >= 0, got {value!r}")
+    C_b = float(q.to("").magnitude)
+    return C_b, f"C_b={C_b:g}"
+
+
+def _is_number(value, limit: float) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and value == limit
+
+
+def _fix_plateau(value, lateral: pint.Unit, height: pint.Unit) -> tuple[float, str]:
+    """``1/sigma_h^2`` in ``lateral`` (0: no plateau, ``sigma_h = inf``)."""
+    if _is_number(value, np.inf):
+        return 0.0, "sigma_h=inf"
+    sig = u.length_in(value, height, what="fix['sigma_h']")
+    return (1.0 / (sig * u.conversion_factor(height, lateral)) ** 2,
+            f"sigma_h={sig:g} {u.format_units(height)}")
+
+
+def _fix_cutoff(name: str, none: float):
+    """Parser of a cutoff wavelength in ``lateral``; ``none`` (inf or 0) means no cutoff."""
+    def parse(value, lateral: pint.Unit, height: pint.Unit) -> tuple[float, str]:
+        if _is_number(value, none):
+            return none, f"{name}={none:g}"
+        length = u.length_in(value, lateral, what=f"fix[{name!r}]")
+        return length, f"{name}={length:g} {u.format_units(lateral)}"
+    return parse
+
+
+#: The parameters ``fix`` may hold, per model, in the order of the kernel's ``fixed``
+#: (eq. 36: ``[H, C_b, 1/sigma_h^2]``; spectrum: ``[H, lambda_r, lambda_s]``), each with
+#: the parser of its value: ``parse(value, lateral, height) -> (number, description)``.
+FIXABLE = {
+    "eq36": {"hurst": _fix_hurst, "C_b": _fix_ballistic, "sigma_h": _fix_plateau},
+    "spectrum": {"hurst": _fix_hurst, "lambda_r": _fix_cutoff("lambda_r", np.inf),
+                 "lambda_s": _fix_cutoff("lambda_s", 0.0)},
+}
+
+
+def fixed_parameters(fix: dict | None, model: str, lateral: pint.Unit, height: pint.Unit,
+                     lambda_0: float = np.inf) -> tuple[np.ndarray, str]:
+    """Read ``fix``: the ``fixed`` vector of ``model``'s kernel (NaN: free), a description.
+
+    Lengths in ``lateral``; ``height`` is the unit of a plain ``sigma_h``.
+
+    Examples
+    --------
+    >>> fixed_parameters({"hurst": 0.5}, "spectrum", u.ureg.nm, u.ureg.nm)
+    (array([0.5, nan, nan]), 'hurst=0.5')
+    >>> fixed_parameters({"H": 0.5}, "eq36", u.ureg.nm, u.ureg.nm)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: fix: cannot fix ['H'] with model='eq36'; fixable parameters are ...
+    """
+    fix, table = dict(fix or {}), FIXABLE[model]
+    unknown = sorted(set(fix) - set(table))
     if unknown:
-        raise ValueError(f"fix: cannot fix {unknown} with model='spectrum'; fixable "
-                         f"parameters are {_SPECTRUM_FIXABLE}")
-    out = np.full(3, np.nan)
-    text = []
-    lat = u.format_units(lateral)
-    if "hurst" in fix:
-        out[0] = _fixed_hurst(fix["hurst"])
-        text.append(f"hurst={out[0]:g}")
-    for k, name, limit in ((1, "lambda_r", np.inf), (2, "lambda_s", 0.0)):
-        if name not in fix:
-            continue
-        value = fix[name]
-        if isinstance(value, (int, float, np.integer, np.floating)) and value == limit:
-            out[k] = limit
-            text.append(f"{name}={limit:g}")
-        else:
-            out[k] = u.length_in(value, lateral, what=f"fix[{name!r}]")
-            text.append(f"{name}={out[k]:g} {lat}")
-    if out[1] > lambda_0:
-        raise ValueError(f"fix: lambda_r must not exceed lambda_0 = {lambda_0:g} {lat}")
-    if not np.isnan(out[1]) and out[2] >= out[1]:
-        raise ValueError("fix: lambda_s must be shorter than lambda_r")
+        raise ValueError(f"fix: cannot fix {unknown} with model={model!r}; fixable "
+                         f"parameters are {tuple(table)}")
+    out, text = np.full(len(table), np.nan), []
+    for k, (name, parse) in enumerate(table.items()):
+        if name in fix:
+            out[k], said = parse(fix[name], lateral, height)
+            text.append(said)
+    if model == "spectrum":
+        if out[1] > lambda_0:
+            raise ValueError(f"fix: lambda_r must not exceed lambda_0 = {lambda_0:g} "
+                             f"{u.format_units(lateral)}")
+        if not np.isnan(out[1]) and out[2] >= out[1]:
+            raise ValueError("fix: lambda_s must be shorter than lambda_r")
     return out, ", ".join(text) or "none"
 
 
+# --------------------------------------------------------------------------------------
+# the checks of a fit in words
+# --------------------------------------------------------------------------------------
 def _problem_text(name: str, v: dict) -> str:
     """One problem of a fit in words; ``v`` holds the numbers of one fit, or is empty."""
     one = bool(v)
@@ -515,6 +535,73 @@ def fit_acf(
     >>> print(f"H = {float(q.hurst):.3f}, sigma_h = {float(q.sigma_h):.2f} nm")
     H = 0.560, sigma_h = 2.05 nm
     """
+    setup = prepare_fit(G, model=model, dr_min=dr_min, dr_max=dr_max, weights=weights,
+                        fix=fix, rolloff=rolloff, lambda_0=lambda_0)
+    return _fit_dataset(setup, _fit_curves(setup))
+
+
+# --------------------------------------------------------------------------------------
+# a fit, step by step: arguments -> data in one length unit -> kernel per curve -> Dataset
+# --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class FitSetup:
+    """What :func:`fit_acf` decided before fitting: G, its weights and the kernel options.
+
+    Lengths in ``lateral`` (the unit of the lags of G); G and its standard errors in its
+    square.  ``lambda_0`` is ``inf`` for eq. 36 (no such parameter).
+    """
+
+    G: xr.DataArray
+    acf: AcfSpec
+    model: str
+    rolloff: str
+    height: pint.Unit
+    g_unit: pint.Unit
+    use: np.ndarray
+    weighted: bool
+    weighting: str
+    standard_error: xr.DataArray
+    fixed: np.ndarray
+    fixed_text: str
+    lambda_0: float
+    dr_ref: float
+
+    @property
+    def lateral(self) -> pint.Unit:
+        return self.acf.length_unit
+
+    @property
+    def kernel(self):
+        return fit_eq36_kernel if self.model == "eq36" else fit_spectrum_kernel
+
+    @property
+    def outputs(self) -> tuple[str, ...]:
+        return EQ36_OUTPUTS if self.model == "eq36" else SPECTRUM_OUTPUTS
+
+    @property
+    def options(self) -> dict:
+        """Keyword arguments of :attr:`kernel` for every curve (all but G and its errors)."""
+        extra = {} if self.model == "eq36" else {"lambda_0": self.lambda_0}
+        return {"dr": self.acf.dr, "use": self.use, "dr_ref": self.dr_ref,
+                "weighted": self.weighted, "fixed": self.fixed, "rolloff": self.rolloff,
+                "unit": self.acf.unit_str, **extra}
+
+    @property
+    def gradient_options(self) -> dict:
+        """Options of :func:`~xrough._kernels.fitting.fitted_spectrum_gradient`.
+
+        For the outputs of :attr:`kernel` (which are in ``lateral``; spectrum model only).
+        """
+        return {"dr_ref": self.dr_ref, "lam_0": self.lambda_0, "g_factor": 1.0}
+
+    def inputs(self) -> tuple[xr.DataArray, xr.DataArray]:
+        """G and its standard errors in ``lateral^2``, without their per-bin coords."""
+        def strip(da):
+            return da.drop_vars([c for c in da.coords if "dr" in da[c].dims and c != "dr"])
+        return strip(self.G * self.acf.g_factor), strip(self.standard_error)
+
+
+def _model_and_rolloff(model: str, rolloff: str | None) -> tuple[str, str]:
     if model not in MODELS:
         raise ValueError(f"model must be one of {MODELS}, got {model!r}")
     shapes = ROLLOFFS if model == "eq36" else ("auto", *ROLLOFFS)
@@ -522,79 +609,109 @@ def fit_acf(
     if rolloff not in shapes:
         raise ValueError(f"rolloff must be one of {shapes} for model={model!r}, got "
                          f"{rolloff!r}")
-    G, spec = read_acf(G)
-    acf_spec = spec  # spec is the parameter table further down
-    lateral, dr = spec.length_unit, spec.dr
-    g_unit = u.units_of(G, what="G")
-    height = g_unit**0.5
-    g_factor = spec.g_factor
+    return model, rolloff
+
+
+def _lags_used(acf: AcfSpec, dr_min: Any, dr_max: Any) -> np.ndarray:
+    """Mask of the positive lags of G in ``[dr_min, dr_max]``."""
+    lateral, dr = acf.length_unit, acf.dr
     lo = 0.0 if dr_min is None else u.length_in(dr_min, lateral, what="dr_min")
     hi = np.inf if dr_max is None else u.length_in(dr_max, lateral, what="dr_max")
     use = (dr > 0) & (dr >= lo * (1 - 1e-12)) & (dr <= hi * (1 + 1e-12))
     if not np.any(use):
         raise ValueError(f"no lag of G lies in [dr_min, dr_max] = [{lo:g}, {hi:g}] "
                          f"{u.format_units(lateral)}")
+    return use
 
+
+def _weighting(G: xr.DataArray, lateral: pint.Unit, weights: str | None) -> tuple:
+    """``(weighted, description, standard error in lateral^2 or ones)``."""
     if weights not in ("standard_error", None):
         raise ValueError(f"weights must be 'standard_error' or None, got {weights!r}")
-    G = G.chunk({"dr": -1}) if G.chunks is not None else G  # each fit needs all lags
-    weighted = weights == "standard_error" and "standard_error" in G.coords
-    if weighted:
+    if weights == "standard_error" and "standard_error" in G.coords:
         se_da = G.coords["standard_error"]
         se_factor = u.conversion_factor(_area_unit(se_da, "coordinate 'standard_error'"),
                                         lateral**2)
-        se = (se_da * se_factor).broadcast_like(G)
-        weighting = "standard_error (1/standard error of ln G)"
-    else:
-        se = xr.ones_like(G)
-        weighting = ("none" if weights is None
-                     else "none (G has no standard_error coordinate)")
+        return (True, "standard_error (1/standard error of ln G)",
+                (se_da * se_factor).broadcast_like(G))
+    return (False, "none" if weights is None else "none (G has no standard_error coordinate)",
+            xr.ones_like(G))
+
+
+def _long_cutoff(model: str, lambda_0: Any, lateral: pint.Unit) -> float:
     if model == "eq36":
         if lambda_0 is not None:
             raise ValueError("lambda_0 applies to model='spectrum' only")
-        fixed, fixed_text = _fixed_values(fix, lateral, height)
-        kernel, names = fit_eq36_kernel, EQ36_OUTPUTS
-        kwargs = {}
-    else:
-        lam0 = np.inf if lambda_0 is None else u.length_in(lambda_0, lateral,
-                                                           what="lambda_0")
-        fixed, fixed_text = fixed_spectrum(fix, lateral, lam0)
-        kernel, names = fit_spectrum_kernel, SPECTRUM_OUTPUTS
-        kwargs = {"lambda_0": lam0}
+        return np.inf
+    return np.inf if lambda_0 is None else u.length_in(lambda_0, lateral, what="lambda_0")
 
-    dr_ref = reference_lag(dr[use], lateral)
-    Gl = (G * g_factor).drop_vars([c for c in G.coords if "dr" in G[c].dims and c != "dr"])
-    se = se.drop_vars([c for c in se.coords if "dr" in se[c].dims and c != "dr"])
-    out = xr.apply_ufunc(
-        kernel, Gl, se,
+
+def prepare_fit(G: xr.DataArray, *, model: str = "spectrum", dr_min: Any = None,
+                dr_max: Any = None, weights: str | None = "standard_error",
+                fix: dict | None = None, rolloff: str | None = None,
+                lambda_0: Any = None) -> FitSetup:
+    """Check the arguments of :func:`fit_acf` (the same) and set up its kernel.
+
+    Raises what :func:`fit_acf` raises for its arguments; the fit of each curve (and its
+    errors about too few bins) is left to :attr:`FitSetup.kernel`.
+    """
+    model, rolloff = _model_and_rolloff(model, rolloff)
+    G, acf = read_acf(G)
+    g_unit = u.units_of(G, what="G")
+    use = _lags_used(acf, dr_min, dr_max)
+    G = G.chunk({"dr": -1}) if G.chunks is not None else G  # each fit needs all lags
+    weighted, weighting, se = _weighting(G, acf.length_unit, weights)
+    lam0 = _long_cutoff(model, lambda_0, acf.length_unit)
+    fixed, fixed_text = fixed_parameters(fix, model, acf.length_unit, g_unit**0.5, lam0)
+    return FitSetup(G=G, acf=acf, model=model, rolloff=rolloff, height=g_unit**0.5,
+                    g_unit=g_unit, use=use, weighted=weighted, weighting=weighting,
+                    standard_error=se, fixed=fixed, fixed_text=fixed_text, lambda_0=lam0,
+                    dr_ref=reference_lag(acf.dr[use], acf.length_unit))
+
+
+def _fit_curves(setup: FitSetup) -> xr.DataArray:
+    """Fit every curve: the kernel's outputs on the dim ``fit_output``."""
+    G, se = setup.inputs()
+    return xr.apply_ufunc(
+        setup.kernel, G, se,
         input_core_dims=[["dr"], ["dr"]], output_core_dims=[["fit_output"]],
         vectorize=True, dask="parallelized", output_dtypes=[float],
-        dask_gufunc_kwargs={"output_sizes": {"fit_output": len(names)}},
-        kwargs={"dr": dr, "use": use, "dr_ref": dr_ref, "weighted": weighted,
-                "fixed": fixed, "rolloff": rolloff, "unit": u.format_units(lateral),
-                **kwargs},
-        keep_attrs=False,
+        dask_gufunc_kwargs={"output_sizes": {"fit_output": len(setup.outputs)}},
+        kwargs=setup.options, keep_attrs=False,
     )
-    l2h = u.conversion_factor(lateral, height)
-    lat_s, h_s, g_s = u.format_units(lateral), u.format_units(height), u.format_units(g_unit)
-    part = {name: out.isel(fit_output=k, drop=True) for k, name in enumerate(names)}
+
+
+def _parameter_table(setup: FitSetup) -> dict:
+    """``name: (factor from the kernel's units, CF units, long_name)`` of each parameter."""
+    lat_s = u.format_units(setup.lateral)
+    to_g = 1.0 / setup.acf.g_factor
     spec = {
-        "sigma_h": (l2h, h_s, "rms height (plateau of G: G -> sigma_h^2)"),
-        "G_sa": (1.0 / g_factor, g_s, "self-affine term of G at dr_ref"),
+        "sigma_h": (u.conversion_factor(setup.lateral, setup.height),
+                    u.format_units(setup.height), "rms height (plateau of G: G -> sigma_h^2)"),
+        "G_sa": (to_g, u.format_units(setup.g_unit), "self-affine term of G at dr_ref"),
         "hurst": (1.0, "1", "Hurst exponent"),
     }
-    if model == "eq36":
+    if setup.model == "eq36":
         spec["C_b"] = (1.0, "1", "ballistic coefficient (gbar^2(0) = 4/C_b)")
         spec["lambda_r"] = (1.0, lat_s, "roll-off wavelength")
-    else:
-        spec["lambda_r"] = (1.0, lat_s, "roll-off wavelength 2 pi / q_r")
-        spec["lambda_s"] = (1.0, lat_s, "short-wavelength cutoff 2 pi / q_s (upper bound "
-                                        "where lambda_s_resolved = 0; NaN: no bound "
-                                        "within the lags)")
-        spec["C_r"] = (1.0 / g_factor, u.format_units(g_unit * lateral**2),
-                       "plateau of the spectrum, C(q -> 0)")
+        return spec
+    spec["lambda_r"] = (1.0, lat_s, "roll-off wavelength 2 pi / q_r")
+    spec["lambda_s"] = (1.0, lat_s, "short-wavelength cutoff 2 pi / q_s (upper bound "
+                                    "where lambda_s_resolved = 0; NaN: no bound "
+                                    "within the lags)")
+    spec["C_r"] = (to_g, u.format_units(setup.g_unit * setup.lateral**2),
+                   "plateau of the spectrum, C(q -> 0)")
+    return spec
+
+
+def _flag(da: xr.DataArray, dtype, long_name: str, **attrs) -> xr.DataArray:
+    return da.astype(dtype).assign_attrs(long_name=long_name, units="1", **attrs)
+
+
+def _fit_variables(setup: FitSetup, part: dict) -> dict:
+    """Build the data variables of the fit Dataset from the kernel's outputs ``part``."""
     data = {}
-    for name, (factor, units, long_name) in spec.items():
+    for name, (factor, units, long_name) in _parameter_table(setup).items():
         data[name] = _variable(part[name] * factor, units, long_name)
         data[f"{name}_std"] = _variable(part[f"{name}_std"] * factor, units,
                                         f"standard deviation of {name}")
@@ -604,53 +721,23 @@ def fit_acf(
     data["rms_misfit"] = _variable(part["rms_misfit"], "1",
                                    "rms of ln G_model - ln G over the bins (weighted as the "
                                    "fit): the typical relative misfit of G")
-    if model == "spectrum":
+    if setup.model == "spectrum":
         data["reduced_chi2_eq36"] = _variable(
             part["reduced_chi2_eq36"], "1",
             "reduced chi^2 of eq. 36 on the same bins (the fit's starting point)")
-        data["rolloff_shape"] = part["rolloff_shape"].astype(np.int8).assign_attrs(
-            long_name="roll-off shape of the fitted model spectrum", units="1",
+        data["rolloff_shape"] = _flag(
+            part["rolloff_shape"], np.int8, "roll-off shape of the fitted model spectrum",
             flag_values=" ".join(str(k) for k in range(len(ROLLOFFS))),
             flag_meanings=" ".join(ROLLOFFS))
         data["reduced_chi2_other_rolloff"] = _variable(
             part["reduced_chi2_other_rolloff"], "1",
             "reduced chi^2 of the other roll-off shape on the same bins (NaN: not fitted)")
-    data["fit_problems"] = part["fit_problems"].astype(np.int16).assign_attrs(
-        long_name="checks of the fit that failed (bit per check; see docs/quality.md)",
-        units="1", flag_masks=" ".join(str(1 << k) for k in range(len(PROBLEMS))),
+    data["fit_problems"] = _flag(
+        part["fit_problems"], np.int16,
+        "checks of the fit that failed (bit per check; see docs/quality.md)",
+        flag_masks=" ".join(str(1 << k) for k in range(len(PROBLEMS))),
         flag_meanings=" ".join(PROBLEMS))
-    used = dr[use]
-    attrs = {
-        "long_name": ("fit of the three-regime form of G" if model == "eq36"
-                      else "fit of the model spectrum to G"),
-        "model": model,
-        "equation": _EQ36 if model == "eq36" else _SPECTRUM_EQ.format(rolloff=rolloff),
-        "weighting": weighting,
-        "residuals": "ln G",
-        "dr_min": float(used.min()),
-        "dr_max": float(used.max()),
-        "dr_units": lat_s,
-        "fixed": fixed_text,
-        "rolloff": rolloff,
-        "uncertainty": ("1 standard deviation from the least-squares covariance times "
-                        + ("max(1, reduced_chi2)" if weighted else "reduced_chi2")),
-    }
-    attrs = result_attrs(G, **attrs)
-    attrs.setdefault("source", str(G.attrs.get("estimator", "")))
-    single = out.ndim == 1 and out.chunks is None
-    if model == "spectrum":
-        attrs["rolloff_choice"] = (
-            "by evidence: both shapes fitted, smooth kept when its AIC (chi^2 + 2 p of the "
-            f"log residuals) is lower by more than {AIC_MARGIN:g}, else sharp (eq. 35)"
-            if rolloff == "auto" else "given")
-        if rolloff == "auto" and single:
-            attrs["rolloff"] = ROLLOFFS[int(part["rolloff_shape"])]
-    if model == "eq36":
-        attrs["lambda_r_definition"] = (
-            "2 pi dr_x / kappa(H): dr_x = (C_sa sigma_h^2)^(1/(2H)) where the self-affine "
-            f"and plateau terms are equal, kappa(H) = q_r dr_x of the {rolloff} model "
-            "spectrum")
-    else:
+    if setup.model == "spectrum":
         data["lambda_r_resolved"] = _variable(
             part["lambda_r_resolved"].astype(np.int8), "1",
             "1: lambda_r fitted; 0: no roll-off in the data")
@@ -658,191 +745,76 @@ def fit_acf(
             part["lambda_s_resolved"].astype(np.int8), "1",
             "1: lambda_s fitted; 0: no ballistic regime in the data, lambda_s is an "
             "upper bound")
-        attrs["cutoffs"] = _CUTOFFS
-        if single:
-            attrs["ballistic_regime"] = ("resolved" if int(part["lambda_s_resolved"])
-                                         else "unresolved: lambda_s is an upper bound")
-            attrs["plateau"] = ("resolved" if int(part["lambda_r_resolved"]) else
-                                "unresolved: lambda_r = " + ("sigma_h = inf" if
-                                                             np.isinf(kwargs["lambda_0"])
-                                                             else "lambda_0"))
+    return data
+
+
+def _fit_attrs(setup: FitSetup, part: dict, single: bool) -> dict:
+    """Build the attributes of the fit Dataset (``single``: one computed fit)."""
+    eq36 = setup.model == "eq36"
+    used = setup.acf.dr[setup.use]
+    attrs = result_attrs(setup.G, **{
+        "long_name": ("fit of the three-regime form of G" if eq36
+                      else "fit of the model spectrum to G"),
+        "model": setup.model,
+        "equation": _EQ36 if eq36 else _SPECTRUM_EQ.format(rolloff=setup.rolloff),
+        "weighting": setup.weighting,
+        "residuals": "ln G",
+        "dr_min": float(used.min()),
+        "dr_max": float(used.max()),
+        "dr_units": u.format_units(setup.lateral),
+        "fixed": setup.fixed_text,
+        "rolloff": setup.rolloff,
+        "uncertainty": ("1 standard deviation from the least-squares covariance times "
+                        + ("max(1, reduced_chi2)" if setup.weighted else "reduced_chi2")),
+    })
+    attrs.setdefault("source", str(setup.G.attrs.get("estimator", "")))
+    if eq36:
+        attrs["lambda_r_definition"] = (
+            "2 pi dr_x / kappa(H): dr_x = (C_sa sigma_h^2)^(1/(2H)) where the self-affine "
+            f"and plateau terms are equal, kappa(H) = q_r dr_x of the {setup.rolloff} "
+            "model spectrum")
+    else:
+        attrs.update(_spectrum_attrs(setup, part, single))
     if single:  # a single fit: its chi^2 as an attribute too
         attrs["reduced_chi2"] = float(part["reduced_chi2"])
-    ds = xr.Dataset(data, attrs=attrs)
-    ds = ds.assign_coords(dr_ref=((), dr_ref, {"units": lat_s,
-                                               "long_name": "reference lag of G_sa"}))
-    if model == "spectrum":
-        ds = ds.assign_coords(lambda_0=((), kwargs["lambda_0"], {
+    return attrs
+
+
+def _spectrum_attrs(setup: FitSetup, part: dict, single: bool) -> dict:
+    """How the roll-off shape was chosen, the cutoffs and (one fit) what was resolved."""
+    auto = setup.rolloff == "auto"
+    attrs = {"rolloff_choice": (
+        "by evidence: both shapes fitted, smooth kept when its AIC (chi^2 + 2 p of the "
+        f"log residuals) is lower by more than {AIC_MARGIN:g}, else sharp (eq. 35)"
+        if auto else "given")}
+    if auto and single:
+        attrs["rolloff"] = ROLLOFFS[int(part["rolloff_shape"])]
+    attrs["cutoffs"] = _CUTOFFS
+    if single:
+        attrs["ballistic_regime"] = ("resolved" if int(part["lambda_s_resolved"])
+                                     else "unresolved: lambda_s is an upper bound")
+        attrs["plateau"] = ("resolved" if int(part["lambda_r_resolved"]) else
+                            "unresolved: lambda_r = " + ("sigma_h = inf" if
+                                                         np.isinf(setup.lambda_0)
+                                                         else "lambda_0"))
+    return attrs
+
+
+def _fit_dataset(setup: FitSetup, out: xr.DataArray) -> xr.Dataset:
+    """Build the fit Dataset of :func:`fit_acf` from the kernel's outputs ``out``."""
+    part = {name: out.isel(fit_output=k, drop=True) for k, name in enumerate(setup.outputs)}
+    single = out.ndim == 1 and out.chunks is None
+    lat_s = u.format_units(setup.lateral)
+    ds = xr.Dataset(_fit_variables(setup, part), attrs=_fit_attrs(setup, part, single))
+    ds = ds.assign_coords(dr_ref=((), setup.dr_ref, {"units": lat_s,
+                                                     "long_name": "reference lag of G_sa"}))
+    if setup.model == "spectrum":
+        ds = ds.assign_coords(lambda_0=((), setup.lambda_0, {
             "units": lat_s, "long_name": "long-wavelength cutoff of the model (inf: none)"}))
     lazy = part["quality"].chunks is not None
-    notes = "" if lazy else _fit_notes(ds, ds["fit_problems"].values, model, weighted)
-    ds = quality.mark_curves(ds, part["quality"], what=f"fit_acf (model {model!r})",
+    notes = "" if lazy else _fit_notes(ds, ds["fit_problems"].values, setup.model,
+                                       setup.weighted)
+    ds = quality.mark_curves(ds, part["quality"], what=f"fit_acf (model {setup.model!r})",
                              notes=notes)
-    return mark_gaps(ds, acf_spec, what="fit_acf", level="good", depends="the fit uses the "
-                     "measured bins only; over the gap G is bridged by the fitted model")
-
-
-# --------------------------------------------------------------------------------------
-# reading a fit
-# --------------------------------------------------------------------------------------
-def fit_units(params: xr.Dataset) -> tuple[pint.Unit, pint.Unit, str]:
-    """Lateral and height units and model of a fit, checking that it has what it needs."""
-    if not isinstance(params, xr.Dataset):
-        raise TypeError(f"params must be the xarray.Dataset of fit_acf, got "
-                        f"{type(params).__name__}")
-    model = params.attrs.get("model", "eq36")
-    if model not in MODELS:
-        raise ValueError(f"params.attrs['model'] must be one of {MODELS}, got {model!r}")
-    needed = PARAMETERS if model == "eq36" else (*SPECTRUM_PARAMETERS, *FLAGS)
-    missing = [v for v in (*needed, "dr_ref") if v not in params.variables]
-    if missing:
-        raise ValueError(f"params lacks {missing}; pass the Dataset returned by fit_acf")
-    lateral = u.as_length_unit(u.units_of(params["lambda_r"], what="lambda_r"),
-                               what="lambda_r")
-    height = u.as_length_unit(u.units_of(params["sigma_h"], what="sigma_h"), what="sigma_h")
-    return lateral, height, model
-
-
-def fit_lags(dr: Any, lateral: pint.Unit, params: xr.Dataset) -> np.ndarray:
-    """Lags in ``lateral`` (any form :func:`xrough.units.quantity` reads; default: fitted range)."""
-    if dr is None:
-        lo, hi = params.attrs.get("dr_min"), params.attrs.get("dr_max")
-        if lo is None or hi is None:
-            raise ValueError("pass dr (params has no dr_min/dr_max attributes)")
-        f = u.conversion_factor(u.parse_units(params.attrs.get("dr_units", lateral)),
-                                lateral)
-        return np.geomspace(lo * f, hi * f, 50)
-    return u.array_in(dr, lateral, what="dr", noun="distances", positive=True)
-
-
-def fit_in_lateral(params: xr.Dataset, lateral: pint.Unit, height: pint.Unit) -> dict:
-    """``sigma_h``, ``G_sa``, ``dr_ref``, ``lambda_r`` in the lateral unit, ``hurst``, ``C_b``.
-
-    (``C_b`` is None for the spectrum model.)
-    """
-    h2l = u.conversion_factor(height, lateral)
-    g_unit = u.units_of(params["G_sa"], what="G_sa")
-    ref_unit = u.as_length_unit(u.units_of(params["dr_ref"], what="dr_ref"), what="dr_ref")
-    return {
-        "sigma_h": params["sigma_h"] * h2l,
-        "G_sa": params["G_sa"] * u.conversion_factor(g_unit, lateral**2),
-        "dr_ref": float(params["dr_ref"]) * u.conversion_factor(ref_unit, lateral),
-        "lambda_r": params["lambda_r"],
-        "hurst": params["hurst"],
-        "C_b": params.get("C_b"),
-    }
-
-
-def fit_spectrum_inputs(params: xr.Dataset, lateral: pint.Unit) -> tuple[list, dict]:
-    """Per-fit inputs of the spectrum model (lengths in ``lateral``, ``G_sa`` as stored)."""
-    ref_unit = u.as_length_unit(u.units_of(params["dr_ref"], what="dr_ref"), what="dr_ref")
-    lam_0 = np.inf
-    if "lambda_0" in params.variables:
-        unit = u.as_length_unit(u.units_of(params["lambda_0"], what="lambda_0"),
-                                what="lambda_0")
-        lam_0 = float(params["lambda_0"]) * u.conversion_factor(unit, lateral)
-    s_unit = u.as_length_unit(u.units_of(params["lambda_s"], what="lambda_s"),
-                              what="lambda_s")
-    arrays = [params["hurst"], params["G_sa"], params["lambda_r"],
-              params["lambda_s"] * u.conversion_factor(s_unit, lateral),
-              params["lambda_r_resolved"], params["lambda_s_resolved"],
-              rolloff_shapes(params)]
-    arrays = [a.drop_vars([c for c in a.coords if c not in a.dims]) for a in arrays]
-    scalars = {"dr_ref": float(params["dr_ref"]) * u.conversion_factor(ref_unit, lateral),
-               "lam_0": lam_0}
-    return arrays, scalars
-
-
-def rolloff_shapes(params: xr.Dataset) -> xr.DataArray:
-    """Return the roll-off shape of each fit (index in ``ROLLOFFS``).
-
-    The variable ``rolloff_shape``, or, for fits without it, ``attrs["rolloff"]``
-    (default ``'sharp'``).
-    """
-    if "rolloff_shape" in params.variables:
-        return params["rolloff_shape"]
-    own = params.attrs.get("rolloff", "sharp")
-    if own not in ROLLOFFS:
-        raise ValueError(f"params.attrs['rolloff'] = {own!r} without a variable "
-                         "'rolloff_shape'; pass the Dataset returned by fit_acf")
-    return xr.full_like(params["hurst"], ROLLOFFS.index(own), dtype=np.int8)
-
-
-def per_fit(func, arrays, values, lateral, **kwargs) -> xr.DataArray:
-    return xr.apply_ufunc(
-        func, *arrays, input_core_dims=[[]] * len(arrays), output_core_dims=[["dr"]],
-        vectorize=True, dask="parallelized", output_dtypes=[float],
-        dask_gufunc_kwargs={"output_sizes": {"dr": values.size}},
-        kwargs={"dr": values, **kwargs}, keep_attrs=False,
-    ).assign_coords(lag_coord(values, u.format_units(lateral)))
-
-
-def model_acf(params: xr.Dataset, dr: Any = None) -> xr.DataArray:
-    r"""Evaluate the fitted height-difference ACF ``G(dr)`` (plots, checks).
-
-    For ``model="spectrum"``, eq. 9 of the fitted spectrum; for ``model="eq36"``,
-
-    .. math::
-
-        G(\Delta r) = \left[\frac{C_b}{\Delta r^2} + \frac{C_{sa}}{\Delta r^{2H}}
-                      + \frac{1}{\sigma_h^2}\right]^{-1},
-        \qquad C_{sa} = \Delta r_{ref}^{2H} / G_{sa}
-
-    Parameters
-    ----------
-    params : xarray.Dataset
-        The result of :func:`fit_acf` (any extra dims are broadcast).
-    dr : array_like, str, pint.Quantity or xarray.DataArray, optional
-        Positive lags; plain numbers in the unit of ``params.lambda_r``.  Default: 50
-        logarithmic points over the fitted range.
-
-    Returns
-    -------
-    xarray.DataArray
-        ``G`` on dim ``dr`` (units of ``params.lambda_r``) and the extra dims of
-        ``params``, in the units of ``params.G_sa``; ``attrs["equation"]`` is
-        ``"eq. 9"`` or ``"eq. 36"``.
-
-    Raises
-    ------
-    ValueError
-        ``params`` without the fitted variables or units; invalid ``dr``.
-
-    Notes
-    -----
-    A cutoff that the fit did not resolve (``lambda_s_resolved = 0``,
-    ``lambda_r_resolved = 0``) is absent from the curve (``lambda_s = 0``,
-    ``lambda_r = inf`` or ``lambda_0``), as in the fit.
-
-    Examples
-    --------
-    >>> import xrough
-    >>> from xrough.fitting import fit_acf, model_acf
-    >>> C = xrough.model_spectrum(hurst=0.5, lambda_r="1 um", lambda_s="10 nm",
-    ...                           rms_height="2 nm", unit="nm")
-    >>> p = fit_acf(xrough.acf_from_spectrum(C, dr_min=1, dr_max=1e5))
-    >>> curve = model_acf(p, [1e9])   # far out: sigma_h^2
-    >>> print(f"{float(curve[0]):.4f} {curve.attrs['units']} = "
-    ...       f"{float(p.sigma_h)**2:.4f} {p.sigma_h.attrs['units']}^2")
-    4.0000 nm2 = 4.0000 nm^2
-    """
-    lateral, height, model = fit_units(params)
-    values = fit_lags(dr, lateral, params)
-    g_unit = u.units_of(params["G_sa"], what="G_sa")
-    if model == "spectrum":
-        arrays, scalars = fit_spectrum_inputs(params, lateral)
-        out = per_fit(fitted_spectrum_acf, arrays, values, lateral, **scalars)
-        equation, what = "eq. 9", "model spectrum"
-    else:
-        p = fit_in_lateral(params, lateral, height)
-        x = xr.DataArray(values, dims="dr", coords=lag_coord(values, u.format_units(lateral)))
-        c_sa = p["dr_ref"] ** (2 * p["hurst"]) / p["G_sa"]
-        inv = p["C_b"] / x**2 + c_sa / x ** (2 * p["hurst"]) + 1.0 / p["sigma_h"] ** 2
-        out = (1.0 / inv) * u.conversion_factor(lateral**2, g_unit)
-        equation, what = "eq. 36", "eq. 36"
-    out = out.drop_vars([c for c in out.coords if c not in out.dims and c != "dr"])
-    out.name = "G"
-    out.attrs = {"units": u.format_units(g_unit),
-                 "long_name": f"height-difference ACF (fit of {what})",
-                 "equation": equation}
-    return out.transpose(..., "dr")
+    return mark_gaps(ds, setup.acf, what="fit_acf", level="good", depends="the fit uses "
+                     "the measured bins only; over the gap G is bridged by the fitted model")

@@ -9,7 +9,8 @@ needs at resolution ``dr``. Routes:
 :func:`rms_gradient_exact`
     eq. 26 of the spectrum of a measured G (eq. 10/11), where G determines it.
 :func:`gradient_from_fit`
-    eq. 26 of the fitted model spectrum, or eq. 37/38 for a fit of eq. 36.
+    eq. 26 of the fitted model spectrum, or eq. 37/38 for a fit of eq. 36 (it reads a fit,
+    so it lives in :mod:`xrough.fit_result` with the rest of that).
 :func:`rms_gradient`
     any of these from a G (``method="exact"``, ``"fit"``), the ballistic approximation
     ``gbar^2 = 4 G / dr^2`` (``"simple"``), or the first that G supports (``"auto"``);
@@ -29,22 +30,11 @@ from . import quality
 from . import units as u
 from ._kernels import gradient as kernels
 from ._kernels.binning import log_range
-from ._kernels.fitting import fitted_spectrum_gradient
 from ._kernels.hankel import power_law_moment_kernel
-from ._kernels.shape_factors import ROLLOFFS, rolloff_factor, self_affine_factor
 from ._kernels.spectral_models import model_gradient2
 from .acf import lag_coord, mark_gaps, read_acf, result_attrs
-from .fitting import (
-    describe_problems,
-    fit_acf,
-    fit_in_lateral,
-    fit_lags,
-    fit_spectrum_inputs,
-    fit_units,
-    fixed_spectrum,
-    per_fit,
-    reference_lag,
-)
+from .fit_result import gradient_from_fit
+from .fitting import describe_problems, fit_acf, prepare_fit
 from .models import model_attrs
 from .spectra import acf_samples, check_spectrum_options, spectrum_input, spectrum_lags
 
@@ -210,23 +200,17 @@ def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec,
     curve only when the exact gradient leaves lags open.
     """
     dr = spec.dr
-    weighted = "standard_error" in G.coords
-    se = (_strip(G.coords["standard_error"].broadcast_like(G)) * spec.g_factor
-          if weighted else xr.ones_like(Gl))
-    use = dr > 0
     fit = fit_gradient = None
+    se = xr.ones_like(Gl)
     if params is not None:
         fitted = _strip(_fitted_on_lags(params, G).drop_vars(
             [c for c in params.coords if c not in params.dims], errors="ignore"))
     else:
         fitted = xr.full_like(Gl, np.nan)
-        if np.count_nonzero(use) >= 5:
-            dr_ref = reference_lag(dr[use], spec.length_unit)
-            fixed, _ = fixed_spectrum(None, spec.length_unit, np.inf)
-            fit = {"use": use, "dr_ref": dr_ref, "weighted": weighted, "fixed": fixed,
-                   "rolloff": "auto", "lambda_0": np.inf, "unit": spec.unit_str}
-            fit_gradient = {"dr_ref": dr_ref, "lam_0": np.inf,
-                            "g_factor": 1.0}
+        if np.any(dr > 0):  # fit_acf(G), run by the kernel on the curves that need it
+            setup = prepare_fit(G)
+            _, se = setup.inputs()
+            fit, fit_gradient = setup.options, setup.gradient_options
     if fitted.chunks is None and Gl.chunks is not None:
         fitted = fitted.chunk()
 
@@ -236,7 +220,7 @@ def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec,
                                      fit_gradient=fit_gradient)
 
     out, code, n_exact, bits, level = xr.apply_ufunc(
-        kernel, Gl, _strip(se), noise, fitted.transpose(*Gl.dims), input_core_dims=[["dr"]] * 4,
+        kernel, Gl, se, noise, fitted.transpose(*Gl.dims), input_core_dims=[["dr"]] * 4,
         output_core_dims=[["dr"], [], [], [], []], vectorize=True, dask="parallelized",
         output_dtypes=[float, np.int8, np.int64, np.int16, np.int8], keep_attrs=False)
     code = code.assign_attrs(
@@ -251,7 +235,7 @@ def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec,
     info: dict = {}
     notes = ""
     if code.chunks is None:  # computed: say which route, and why
-        n_valid = np.count_nonzero(np.isfinite(Gl.values) & use, axis=-1)
+        n_valid = np.count_nonzero(np.isfinite(Gl.values) & (dr > 0), axis=-1)
         reasons = np.vectorize(_route_reason, otypes=[object])(
             code.values, n_exact.values, n_valid, bits.values, level.values,
             params is not None)
@@ -382,39 +366,12 @@ def rms_gradient_exact(
     """
     check_spectrum_options(smooth, support_rtol, interpolation, points_per_decade)
     acf = acf_samples(G, noise)
-    dr_lo, dr_hi = kernels.exact_support(acf.dr, acf.G, acf.noise, smooth=smooth,
-                                         support_rtol=support_rtol,
-                                         interpolation=interpolation)
-    if not np.isfinite(dr_lo):
-        raise ValueError(
-            f"G does not determine gbar anywhere to within support_rtol={support_rtol:g}: "
-            f"the extrapolation beyond dr = {acf.dr[0]:g}..{acf.dr[-1]:g} {acf.unit_str} or "
-            "noise dominates; pass a larger support_rtol or smooth=<decades>, or measure G "
-            "over a wider range")
-    tol = 1e-9 * dr_hi
-    if dr is None:
-        dr_arr = acf.dr[(acf.dr >= dr_lo - tol) & (acf.dr <= dr_hi + tol)]
-        if dr_arr.size == 0:
-            dr_arr = log_range(dr_lo, dr_hi, 20)
-    else:
-        dr_arr = u.array_in(dr, acf.length_unit, what="dr", noun="distances")
-        bad = (dr_arr < dr_lo - tol) | (dr_arr > dr_hi + tol)
-        if np.any(bad):
-            raise ValueError(
-                f"gbar is supported for {dr_lo:.4g} <= dr <= {dr_hi:.4g} {acf.unit_str} only "
-                f"(got dr = {dr_arr[bad][:3]}): elsewhere the extrapolation of G or noise "
-                f"changes gbar^2 by more than support_rtol={support_rtol:g}")
+    dr_lo, dr_hi = _exact_support(acf, smooth, support_rtol, interpolation)
+    dr_arr = _supported_lags(acf, dr, dr_lo, dr_hi, support_rtol)
     gbar = kernels.exact_gradient(acf.dr, acf.G, dr_arr, smooth=smooth,
                                   interpolation=interpolation,
                                   points_per_decade=points_per_decade)
-    positive = np.isfinite(gbar)  # noise can drive the cumulative sum negative
-    if not positive.all():
-        if dr is not None or not positive.any():
-            raise ValueError(
-                f"gbar^2 from the spectrum of G is not positive at dr = "
-                f"{dr_arr[~positive][:3]} {acf.unit_str} (noise in G); pass smooth=<decades> "
-                "or use rms_gradient(G, method='fit')")
-        dr_arr, gbar = dr_arr[positive], gbar[positive]
+    dr_arr, gbar = _positive_only(acf, dr_arr, gbar, given=dr is not None)
     attrs = result_attrs(G, **{
         "estimator": "eq. 26 with C from G by eq. 10/11",
         "dr_min_supported": float(dr_lo),
@@ -425,6 +382,50 @@ def rms_gradient_exact(
     })
     return mark_gaps(_gradient_da(gbar, dr_arr, acf.unit_str, attrs), acf,
                      what="rms_gradient_exact", depends=_GAP)
+
+
+def _exact_support(acf, smooth, support_rtol: float, interpolation: str) -> tuple:
+    """Lags ``(dr_lo, dr_hi)`` where G determines gbar; raise where it does nowhere."""
+    dr_lo, dr_hi = kernels.exact_support(acf.dr, acf.G, acf.noise, smooth=smooth,
+                                         support_rtol=support_rtol,
+                                         interpolation=interpolation)
+    if not np.isfinite(dr_lo):
+        raise ValueError(
+            f"G does not determine gbar anywhere to within support_rtol={support_rtol:g}: "
+            f"the extrapolation beyond dr = {acf.dr[0]:g}..{acf.dr[-1]:g} {acf.unit_str} or "
+            "noise dominates; pass a larger support_rtol or smooth=<decades>, or measure G "
+            "over a wider range")
+    return dr_lo, dr_hi
+
+
+def _supported_lags(acf, dr: Any, dr_lo: float, dr_hi: float,
+                    support_rtol: float) -> np.ndarray:
+    """Check the lags ``dr`` asked for (all supported), or take the supported lags of G."""
+    tol = 1e-9 * dr_hi
+    if dr is None:
+        dr_arr = acf.dr[(acf.dr >= dr_lo - tol) & (acf.dr <= dr_hi + tol)]
+        return dr_arr if dr_arr.size else log_range(dr_lo, dr_hi, 20)
+    dr_arr = u.array_in(dr, acf.length_unit, what="dr", noun="distances")
+    bad = (dr_arr < dr_lo - tol) | (dr_arr > dr_hi + tol)
+    if np.any(bad):
+        raise ValueError(
+            f"gbar is supported for {dr_lo:.4g} <= dr <= {dr_hi:.4g} {acf.unit_str} only "
+            f"(got dr = {dr_arr[bad][:3]}): elsewhere the extrapolation of G or noise "
+            f"changes gbar^2 by more than support_rtol={support_rtol:g}")
+    return dr_arr
+
+
+def _positive_only(acf, dr_arr: np.ndarray, gbar: np.ndarray, *, given: bool) -> tuple:
+    """Drop the default lags where noise drove gbar^2 negative; raise at lags ``given``."""
+    positive = np.isfinite(gbar)  # noise can drive the cumulative sum negative
+    if positive.all():
+        return dr_arr, gbar
+    if given or not positive.any():
+        raise ValueError(
+            f"gbar^2 from the spectrum of G is not positive at dr = "
+            f"{dr_arr[~positive][:3]} {acf.unit_str} (noise in G); pass smooth=<decades> "
+            "or use rms_gradient(G, method='fit')")
+    return dr_arr[positive], gbar[positive]
 
 
 def gradient_from_spectrum(
@@ -512,120 +513,3 @@ def gradient_from_spectrum(
         extra = {}
     return _gradient_da(np.sqrt(gbar2), dr_arr, spec.unit_str,
                         result_attrs(C, estimator="spectrum", **extra))
-
-
-def gradient_from_fit(params: xr.Dataset, dr: Any = None, *,
-                      rolloff: str | None = None) -> xr.DataArray:
-    r"""Scale-dependent rms gradient ``gbar(dr)`` from a fit of G.
-
-    For ``model="spectrum"``, eq. 26 of the fitted spectrum in closed form,
-
-    .. math::
-
-        \bar g^2(\Delta r) = \frac{1}{2\pi} \int_0^{2\pi/\Delta r} dq\, q^3\, C(q);
-
-    for ``model="eq36"``, the paper's eq. 37/38,
-
-    .. math::
-
-        \frac{1}{\bar g^2(\Delta r)} = \frac{1}{\bar g^2(0)}
-            + \frac{\Delta r^{2(1-H)}}{C'_{sa}} + \frac{\Delta r^4}{r_{ro}},
-        \quad \bar g^2(0) = \frac{4}{C_b},\;
-        C'_{sa} = \frac{c_{sa}(H)}{C_{sa}},\;
-        r_{ro} = c_{ro}(H)\, \sigma_h^2 \lambda_r^2
-
-    Parameters
-    ----------
-    params : xarray.Dataset
-        The result of :func:`fit_acf`.
-    dr : array_like, str, pint.Quantity or xarray.DataArray, optional
-        Positive lags; plain numbers in the unit of ``params.lambda_r``.  Default: 50
-        logarithmic points over the fitted range.
-    rolloff : {'sharp', 'smooth'}, optional
-        Roll-off shape; default ``params.attrs["rolloff"]``.  For eq. 36 it selects
-        ``c_ro(H)``; a spectrum fit only accepts its own shape (per fit: the variable
-        ``rolloff_shape``, used when ``attrs["rolloff"]`` is ``"auto"``).
-
-    Returns
-    -------
-    xarray.DataArray
-        ``gbar`` (units "1") on dim ``dr`` and the extra dims of ``params``;
-        ``attrs["equation"]`` is ``"eq. 26"`` or ``"eq. 37/38"``.
-
-    Raises
-    ------
-    ValueError
-        ``params`` without the fitted variables or units; invalid ``dr`` or ``rolloff``.
-
-    Notes
-    -----
-    *Spectrum model.*  Exact for the fitted spectrum; with ``lambda_s_resolved = 0`` the
-    spectrum has no short cutoff and ``gbar`` grows without bound as ``dr -> 0``
-    (as ``dr^-(1-H)``), and ``lambda_r_resolved = 0`` drops the plateau.
-
-    *Eq. 36.*  xrough's convention for the shape factors (docs/theory.md):
-    ``gbar^2(dr) = c_sa(H) G(dr)/dr^2`` in the self-affine regime and ``gbar^2(dr) =
-    c_ro(H) sigma_h^2 lambda_r^2 / dr^4`` for ``dr >> lambda_r``, with gbar from eq. 26,
-    so that
-
-    * ``c_sa(H) = 4 pi^(2-2H) H Gamma(1+H) / Gamma(2-H)``
-      (:func:`xrough._kernels.shape_factors.self_affine_factor`, both roll-off shapes);
-    * ``c_ro(H) = 2 pi^2 H / (1+H)`` (sharp, eq. 35) or ``2 pi^2 H`` (smooth), in the limit
-      ``lambda_s/lambda_r -> 0`` (:func:`xrough._kernels.shape_factors.rolloff_factor`).
-
-    Each term is exact deep inside its regime (``dr << lambda_s``: ``gbar -> gbar(0)``;
-    ``lambda_s << dr << lambda_r``; ``dr >> lambda_r``) and the sum of reciprocals is
-    an interpolation between them: near the crossovers it can be off by tens of percent.
-    ``C_b = 0`` gives ``gbar(0) = inf``; ``sigma_h = inf`` drops the roll-off term.
-
-    Examples
-    --------
-    >>> import xrough
-    >>> from xrough.fitting import fit_acf
-    >>> from xrough.gradient import gradient_from_fit
-    >>> C = xrough.model_spectrum(hurst=0.5, lambda_r="1 um", lambda_s="10 nm",
-    ...                           rms_height="2 nm", unit="nm")
-    >>> G = xrough.acf_from_spectrum(C, dr_min=1, dr_max=1e5)
-    >>> g = gradient_from_fit(fit_acf(G), [1e-6, 100.0])
-    >>> g.attrs["units"], g.attrs["equation"]
-    ('1', 'eq. 26')
-    >>> print(f"gbar(0) = {float(g[0]):.4f} (model {C.attrs['rms_gradient']:.4f})")
-    gbar(0) = 0.1026 (model 0.1026)
-    >>> g36 = gradient_from_fit(fit_acf(G, model="eq36"), [1e-6, 100.0])
-    >>> print(f"eq. 37/38: gbar(0) = {float(g36[0]):.4f}")
-    eq. 37/38: gbar(0) = 0.1236
-    """
-    lateral, height, model = fit_units(params)
-    own = params.attrs.get("rolloff", "sharp")
-    rolloff = own if rolloff is None else rolloff
-    if rolloff not in ROLLOFFS and not (model == "spectrum" and rolloff == own == "auto"):
-        raise ValueError(f"rolloff must be one of {ROLLOFFS}, got {rolloff!r}")
-    values = fit_lags(dr, lateral, params)
-    if model == "spectrum":
-        if rolloff != own:
-            raise ValueError(f"rolloff={rolloff!r} differs from the {own!r} spectrum that "
-                             "was fitted; refit with that shape")
-        arrays, scalars = fit_spectrum_inputs(params, lateral)
-        g_factor = u.conversion_factor(u.units_of(params["G_sa"], what="G_sa"), lateral**2)
-        out = per_fit(fitted_spectrum_gradient, arrays, values, lateral, g_factor=g_factor,
-                       **scalars)
-        equation, what = "eq. 26", "fitted spectrum"
-    else:
-        p = fit_in_lateral(params, lateral, height)
-        x = xr.DataArray(values, dims="dr", coords=lag_coord(values, u.format_units(lateral)))
-        H = p["hurst"]
-        c_sa = xr.apply_ufunc(self_affine_factor, H, dask="parallelized",
-                              output_dtypes=[float], keep_attrs=False)
-        c_ro = xr.apply_ufunc(lambda h: rolloff_factor(h, rolloff=rolloff), H,
-                              dask="parallelized", output_dtypes=[float], keep_attrs=False)
-        C_sa = p["dr_ref"] ** (2 * H) / p["G_sa"]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            r_ro = c_ro * p["sigma_h"] ** 2 * p["lambda_r"] ** 2
-            inv = p["C_b"] / 4.0 + x ** (2 * (1 - H)) * C_sa / c_sa + x**4 / r_ro
-            out = np.sqrt(1.0 / inv)
-        equation, what = "eq. 37/38", "fit of eq. 36"
-    out = out.drop_vars([c for c in out.coords if c not in out.dims and c != "dr"])
-    out.name = "gbar"
-    out.attrs = {"units": "1", "long_name": f"scale-dependent rms gradient ({what})",
-                 "equation": equation, "rolloff": rolloff}
-    return out.transpose(..., "dr")

@@ -497,45 +497,47 @@ def _with_shape(out, shape, chi2_other):
     return out
 
 
-def _fit_spectrum_shape(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lambda_0, unit):
-    """Fit the model spectrum of one roll-off shape to one G (see :func:`fit_spectrum_kernel`).
+class _ShapeProblem:
+    """The fit of the model spectrum of one roll-off shape to one G (one length unit).
 
     Optimiser parameters ``theta = [ln(G_sa/G_ref), H, ln eta, ln eps]`` with
-    ``eta = (dr_max/lambda_r)^(2-2H)`` and ``eps = (lambda_s/dr_min)^(2H)``: each of
-    ``eta``, ``eps`` is, to leading order, the relative change of G at the end of the fitted
-    range that its cutoff causes, linear in it once the cutoff lies outside the lags, and 0
-    when there is no cutoff.  ``fixed = [H, lambda_r, lambda_s]`` (NaN: free).
+    ``eta = (dr_max/lambda_r)^(2-2H)`` and ``eps = (lambda_s/dr_min)^(2H)``; lengths in
+    units of ``dr_ref`` (``x = dr / dr_ref``).
     """
-    free, n, p, x, G_sel, G_ref, w = _fit_data(G, se, dr=dr, use=use, dr_ref=dr_ref,
-                                               weighted=weighted, fixed=fixed, unit=unit,
-                                               what="the model spectrum")
-    ly = np.log(G_sel / G_ref)
-    x_lo, x_hi = float(x.min()), float(x.max())
-    lam_0 = lambda_0 / dr_ref
-    fix_r, fix_s = fixed[1] / dr_ref, fixed[2] / dr_ref
 
-    def cutoffs(t):
+    def __init__(self, G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lambda_0, unit):
+        self.free, self.n, p, self.x, G_sel, self.G_ref, self.w = _fit_data(
+            G, se, dr=dr, use=use, dr_ref=dr_ref, weighted=weighted, fixed=fixed, unit=unit,
+            what="the model spectrum")
+        self.dof = self.n - p
+        self.index = {k: i for i, k in enumerate(np.flatnonzero(self.free))}
+        self.ly = np.log(G_sel / self.G_ref)
+        self.x_lo, self.x_hi = float(self.x.min()), float(self.x.max())
+        self.dr_ref, self.lambda_0, self.lam_0 = dr_ref, lambda_0, lambda_0 / dr_ref
+        self.fixed, self.fix_r, self.fix_s = fixed, fixed[1] / dr_ref, fixed[2] / dr_ref
+        self.weighted, self.rolloff = weighted, rolloff
+        span = 2 * np.log(10 * self.x_hi / self.x_lo)
+        self.lower = np.array([-np.inf, H_BOUNDS[0], _LN_FLOOR, _LN_FLOOR])
+        self.upper = np.array([np.inf, H_BOUNDS[1], span, span])
+        self.steps = np.array([0.0, 1e-5, 1e-5, 1e-5])
+
+    def cutoffs(self, t):
+        """``(lambda_r, lambda_s)`` of ``theta`` in units of ``dr_ref``."""
         with np.errstate(over="ignore", divide="ignore"):
-            lr = x_hi * np.exp(-t[2] / (2 - 2 * t[1])) if free[2] else fix_r
-            ls = x_lo * np.exp(t[3] / (2 * t[1])) if free[3] else fix_s
-        return min(lr, lam_0), ls
+            lr = self.x_hi * np.exp(-t[2] / (2 - 2 * t[1])) if self.free[2] else self.fix_r
+            ls = self.x_lo * np.exp(t[3] / (2 * t[1])) if self.free[3] else self.fix_s
+        return min(lr, self.lam_0), ls
 
-    def residuals(t):
-        lr, ls = cutoffs(t)
-        return (t[0] + np.log(_acf_shape(x, t[1], lr, ls, lam_0, rolloff)) - ly) / w
+    def residuals(self, t):
+        lr, ls = self.cutoffs(t)
+        return (t[0] + np.log(_acf_shape(self.x, t[1], lr, ls, self.lam_0, self.rolloff))
+                - self.ly) / self.w
 
-    theta, chi2_eq36 = _spectrum_start(G, se, dr=dr, use=use, dr_ref=dr_ref,
-                                       weighted=weighted, fixed=fixed, rolloff=rolloff,
-                                       unit=unit, G_ref=G_ref, x_lo=x_lo, x_hi=x_hi)
-    if not free[1]:
-        theta[1] = fixed[0]
-    span = 2 * np.log(10 * x_hi / x_lo)
-    lower = np.array([-np.inf, H_BOUNDS[0], _LN_FLOOR, _LN_FLOOR])
-    upper = np.array([np.inf, H_BOUNDS[1], span, span])
-    theta = np.clip(theta, lower + 1e-3, upper - 1e-3)
-    steps = np.array([0.0, 1e-5, 1e-5, 1e-5])
+    def misfit(self, t) -> float:
+        return _rms_misfit(self.residuals(t), self.w)
 
-    def optimise(theta, active):
+    def optimise(self, theta, active):
+        """Least squares over the ``active`` parameters, the others held at ``theta``."""
         cache = {}
 
         def full(t):
@@ -544,126 +546,147 @@ def _fit_spectrum_shape(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lam
             return out
 
         def fun(t):
-            cache["t"], cache["r"] = t.copy(), residuals(full(t))
+            cache["t"], cache["r"] = t.copy(), self.residuals(full(t))
             return cache["r"]
 
         def jac(t):
-            r0 = cache["r"] if np.array_equal(cache.get("t"), t) else residuals(full(t))
+            r0 = cache["r"] if np.array_equal(cache.get("t"), t) else self.residuals(full(t))
             cols = []
             for k in np.flatnonzero(active):
                 if k == 0:
-                    cols.append(1.0 / w)
+                    cols.append(1.0 / self.w)
                     continue
-                h = steps[k] if full(t)[k] + steps[k] <= upper[k] else -steps[k]
+                h = self.steps[k] if full(t)[k] + self.steps[k] <= self.upper[k] \
+                    else -self.steps[k]
                 tt = full(t)
                 tt[k] += h
-                cols.append((residuals(tt) - r0) / h)
+                cols.append((self.residuals(tt) - r0) / h)
             return np.column_stack(cols)
 
         res = optimize.least_squares(fun, theta[active], jac=jac,
-                                     bounds=(lower[active], upper[active]), method="trf",
-                                     x_scale="jac", ftol=1e-10, xtol=1e-10, gtol=1e-10,
-                                     max_nfev=200)
+                                     bounds=(self.lower[active], self.upper[active]),
+                                     method="trf", x_scale="jac", ftol=1e-10, xtol=1e-10,
+                                     gtol=1e-10, max_nfev=200)
         return full(res.x)
 
-    def linear_jacobian(t):
+    def linear_jacobian(self, t):
         """Jacobian in ``[ln(G_sa/G_ref), H, eta, eps]`` over the free parameters."""
-        r0 = residuals(t)
+        r0 = self.residuals(t)
         cols = []
-        for k in np.flatnonzero(free):
+        for k in np.flatnonzero(self.free):
             tt = t.copy()
             if k == 0:
-                cols.append(1.0 / w)
+                cols.append(1.0 / self.w)
                 continue
             if k == 1:
-                h = 1e-6 if t[1] + 1e-6 <= upper[1] else -1e-6
+                h = 1e-6 if t[1] + 1e-6 <= self.upper[1] else -1e-6
                 tt[1] += h
             else:
                 v = np.exp(t[k])
                 h = 1e-6 * max(v, 1e-3)
                 tt[k] = np.log(v + h)
-            cols.append((residuals(tt) - r0) / h)
+            cols.append((self.residuals(tt) - r0) / h)
         return np.column_stack(cols), r0
 
-    dof = n - p
-    index = {k: i for i, k in enumerate(np.flatnonzero(free))}
+    def covariance(self, theta):
+        """Covariance of the free parameters at ``theta`` and the reduced chi^2."""
+        J, r = self.linear_jacobian(theta)
+        chi2 = float(np.sum(r**2)) / self.dof
+        # unweighted: the residual scatter sets the error scale; weighted: the standard
+        # errors do, inflated when the model does not describe the data within them
+        return np.linalg.pinv(J.T @ J) * (max(1.0, chi2) if self.weighted else chi2), chi2
 
-    def solve(theta):
+    def drop_unresolved(self, theta, active, cov_free) -> bool:
+        """Set the cutoffs the data do not resolve to none; whether one moved."""
+        lr, ls = self.cutoffs(theta)
+        # a cutoff beyond a decade outside the lags is an extrapolation: not resolved
+        far = {2: lr > OUTSIDE * self.x_hi, 3: ls < self.x_lo / OUTSIDE}
+        moved = False
+        for k in (2, 3):
+            if not active[k] or (k == 2 and np.isfinite(self.lam_0)):
+                continue
+            i = self.index[k]
+            v, s = np.exp(theta[k]), np.sqrt(max(cov_free[i, i], 0.0))
+            if far[k] or not v > max(_SIGNIFICANCE * s, _MIN_EFFECT):
+                moved |= theta[k] > _LN_FLOOR + 1e-9
+                theta[k], active[k] = _LN_FLOOR, False
+        return moved
+
+    def solve(self, theta):
         """Optimise from ``theta``, refitting after dropping cutoffs the data do not resolve."""
-        active = free.copy()
+        active = self.free.copy()
         moved = True
         for _ in range(3):
             if moved:
-                theta = optimise(theta, active)
-            J, r = linear_jacobian(theta)
-            chi2 = float(np.sum(r**2)) / dof
-            # unweighted: the residual scatter sets the error scale; weighted: the standard
-            # errors do, inflated when the model does not describe the data within them
-            cov_free = np.linalg.pinv(J.T @ J) * (max(1.0, chi2) if weighted else chi2)
-            moved = False
-            lr, ls = cutoffs(theta)
-            # a cutoff beyond a decade outside the lags is an extrapolation: not resolved
-            far = {2: lr > OUTSIDE * x_hi, 3: ls < x_lo / OUTSIDE}
-            for k in (2, 3):
-                if not active[k] or (k == 2 and np.isfinite(lam_0)):
-                    continue
-                v, s = np.exp(theta[k]), np.sqrt(max(cov_free[index[k], index[k]], 0.0))
-                if far[k] or not v > max(_SIGNIFICANCE * s, _MIN_EFFECT):
-                    moved |= theta[k] > _LN_FLOOR + 1e-9
-                    theta[k], active[k] = _LN_FLOOR, False
+                theta = self.optimise(theta, active)
+            cov_free, chi2 = self.covariance(theta)
+            moved = self.drop_unresolved(theta, active, cov_free)
             if not moved:
                 break
         return theta, active, cov_free, chi2
 
-    def misfit(theta):
-        return _rms_misfit(residuals(theta), w)
+    def physical(self, pv):
+        """``[ln sigma_h, ln G_sa, H, ln lambda_r, ln lambda_s, ln C_r]`` (lateral unit)."""
+        a, H, eta, eps = pv
+        dr_ref, lambda_0 = self.dr_ref, self.lambda_0
+        with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+            lr, ls = self.cutoffs([a, H, np.log(eta), np.log(eps)])
+            lr, ls = lr * dr_ref, ls * dr_ref
+            c = (2 * np.pi * self.G_ref * np.exp(a) / dr_ref ** (2 * H)
+                 / self_affine_constant(H))
+            q_0 = 0.0 if np.isinf(lambda_0) else 2 * np.pi / lambda_0
+            sigma2, C_r = _spectrum_moments(c, H, 2 * np.pi / lr, 2 * np.pi / ls, q_0,
+                                            self.rolloff)
+            return np.array([0.5 * np.log(sigma2), a + np.log(self.G_ref), H, np.log(lr),
+                             np.log(ls), np.log(C_r)])
 
-    theta, active, cov_free, chi2 = solve(theta)
 
+def _shape_start(problem: _ShapeProblem, G, se, **kw) -> tuple[np.ndarray, float]:
+    """Start from the fit of eq. 36, within the bounds; and the reduced chi^2 of eq. 36."""
+    theta, chi2_eq36 = _spectrum_start(G, se, **kw, G_ref=problem.G_ref, x_lo=problem.x_lo,
+                                       x_hi=problem.x_hi)
+    if not problem.free[1]:
+        theta[1] = problem.fixed[0]
+    return np.clip(theta, problem.lower + 1e-3, problem.upper - 1e-3), chi2_eq36
+
+
+def _best_solution(problem: _ShapeProblem, theta, chi2_eq36: float) -> tuple:
+    """Solve from ``theta`` and, if that fit is poor, from the best points of a grid."""
     def poor(theta, chi2):
-        return chi2 > chi2_eq36 or (chi2 > CHI2_QUESTIONABLE if weighted
-                                    else misfit(theta) > _RESTART_MISFIT)
+        return chi2 > chi2_eq36 or (chi2 > CHI2_QUESTIONABLE if problem.weighted
+                                    else problem.misfit(theta) > _RESTART_MISFIT)
 
-    if np.any(free[1:]) and poor(theta, chi2):
+    best = problem.solve(theta)
+    if np.any(problem.free[1:]) and poor(best[0], best[3]):
         # a poor fit may sit in a local minimum (e.g. lambda_s beyond lambda_r): restart
         # from the best points of a coarse grid (amplitude solved for at each)
-        for start in _grid_starts(theta, free, lower, upper, x, ly, w, cutoffs, lam_0,
-                                  rolloff):
-            candidate = solve(start)
-            if candidate[3] < chi2 * (1 - 1e-6):
-                theta, active, cov_free, chi2 = candidate
-            if not poor(theta, chi2):
+        for start in _grid_starts(best[0], problem.free, problem.lower, problem.upper,
+                                  problem.x, problem.ly, problem.w, problem.cutoffs,
+                                  problem.lam_0, problem.rolloff):
+            candidate = problem.solve(start)
+            if candidate[3] < best[3] * (1 - 1e-6):
+                best = candidate
+            if not poor(best[0], best[3]):
                 break
-    rms_misfit = misfit(theta)
+    return best
 
+
+def _shape_parameters(problem: _ShapeProblem, theta, active, cov_free) -> tuple:
+    """Read the parameters off ``theta``: values, std (lateral unit), resolved cutoffs."""
+    free, fixed = problem.free, problem.fixed
     cov = np.zeros((4, 4))
     cov[np.ix_(free, free)] = cov_free
-    lr_fit, _ = cutoffs(theta)
-    resolved_r = bool(active[2] and lr_fit < lam_0 * (1 - 1e-9)) or not free[2]
+    lr_fit, _ = problem.cutoffs(theta)
+    resolved_r = bool(active[2] and lr_fit < problem.lam_0 * (1 - 1e-9)) or not free[2]
     resolved_s = bool(active[3]) or not free[3]
     pvec = np.array([theta[0], theta[1],
                      np.exp(theta[2]) if resolved_r else 0.0,
                      np.exp(theta[3]) if resolved_s else 0.0])
     sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
-
-    def physical(pv):
-        """``[ln sigma_h, ln G_sa, H, ln lambda_r, ln lambda_s, ln C_r]`` (lateral unit)."""
-        a, H, eta, eps = pv
-        with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
-            lr, ls = cutoffs([a, H, np.log(eta), np.log(eps)])
-            lr, ls = lr * dr_ref, ls * dr_ref
-            c = 2 * np.pi * G_ref * np.exp(a) / dr_ref ** (2 * H) / self_affine_constant(H)
-            q_0 = 0.0 if np.isinf(lambda_0) else 2 * np.pi / lambda_0
-            sigma2, C_r = _spectrum_moments(c, H, 2 * np.pi / lr, 2 * np.pi / ls, q_0,
-                                            rolloff)
-            return np.array([0.5 * np.log(sigma2), a + np.log(G_ref), H, np.log(lr),
-                             np.log(ls), np.log(C_r)])
-
-    values = physical(pvec)
+    values = problem.physical(pvec)
     grad = np.zeros((6, 4))
     with np.errstate(invalid="ignore"):  # inf - inf where there is no roll-off: NaN
-        _gradients(physical, pvec, values, free, sd, grad)
-    with np.errstate(invalid="ignore"):
+        _gradients(problem.physical, pvec, values, free, sd, grad)
         rel = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", grad, cov, grad), 0.0))
     out = np.exp(values)
     out[2] = values[2]
@@ -674,27 +697,48 @@ def _fit_spectrum_shape(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lam
         std[3] = np.nan
     if free[3] and not resolved_s:  # 2-sigma upper bound of lambda_s (< lambda_r)
         with np.errstate(over="ignore"):
-            bound = x_lo * dr_ref * (_SIGNIFICANCE * sd[3]) ** (1 / (2 * theta[1]))
+            bound = problem.x_lo * problem.dr_ref * (_SIGNIFICANCE * sd[3]) ** (
+                1 / (2 * theta[1]))
         out[4], std[4] = min(bound, out[3]), np.nan
     if free[2] and not resolved_r:
-        out[3] = lambda_0
+        out[3] = problem.lambda_0
     if not free[2]:
         out[3], std[3] = fixed[1], 0.0
     if not free[3]:
         out[4], std[4] = fixed[2], 0.0
-    lo, hi = x_lo * dr_ref, x_hi * dr_ref
-    if free[3] and not resolved_s and out[4] > hi:  # a bound beyond the lags says nothing
-        out[4] = np.nan
-    bits, code = fit_problems(chi2, rms_misfit, out[2], weighted=weighted, dr_min=lo,
-                              dr_max=hi, sigma_h=out[0], lambda_r=out[3], lambda_s=out[4],
+    if free[3] and not resolved_s and out[4] > problem.x_hi * problem.dr_ref:
+        out[4] = np.nan  # a bound beyond the lags says nothing
+    return out, std, resolved_r, resolved_s
+
+
+def _fit_spectrum_shape(G, se, **kw):
+    """Fit the model spectrum of one roll-off shape to one G (see :func:`fit_spectrum_kernel`).
+
+    Optimiser parameters ``theta = [ln(G_sa/G_ref), H, ln eta, ln eps]`` with
+    ``eta = (dr_max/lambda_r)^(2-2H)`` and ``eps = (lambda_s/dr_min)^(2H)``: each of
+    ``eta``, ``eps`` is, to leading order, the relative change of G at the end of the fitted
+    range that its cutoff causes, linear in it once the cutoff lies outside the lags, and 0
+    when there is no cutoff.  ``kw["fixed"] = [H, lambda_r, lambda_s]`` (NaN: free).
+    """
+    problem = _ShapeProblem(G, se, **kw)
+    start_kw = {k: v for k, v in kw.items() if k != "lambda_0"}
+    theta, chi2_eq36 = _shape_start(problem, G, se, **start_kw)
+    theta, active, cov_free, chi2 = _best_solution(problem, theta, chi2_eq36)
+    rms_misfit = problem.misfit(theta)
+    out, std, resolved_r, resolved_s = _shape_parameters(problem, theta, active, cov_free)
+    free = problem.free
+    bits, code = fit_problems(chi2, rms_misfit, out[2], weighted=problem.weighted,
+                              dr_min=problem.x_lo * problem.dr_ref,
+                              dr_max=problem.x_hi * problem.dr_ref, sigma_h=out[0],
+                              lambda_r=out[3], lambda_s=out[4],
                               r_ok=resolved_r and free[2], s_ok=resolved_s and free[3],
                               hurst_free=bool(free[1]), chi2_other=chi2_eq36,
                               hurst_std=std[2])
     if code == 2:  # the numbers mean nothing (but a fixed value stays what it was)
         keep = np.array([False, False, not free[1], not free[2], not free[3], False])
         out[~keep], std[~keep] = np.nan, np.nan
-    return np.array([*out, *std, chi2, n, resolved_r, resolved_s, rms_misfit, chi2_eq36,
-                     np.nan, np.nan, bits, code], dtype=float)
+    return np.array([*out, *std, chi2, problem.n, resolved_r, resolved_s, rms_misfit,
+                     chi2_eq36, np.nan, np.nan, bits, code], dtype=float)
 
 
 # --------------------------------------------------------------------------------------

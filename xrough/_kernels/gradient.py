@@ -123,8 +123,9 @@ def auto_gradient(g, se, noise, fitted=None, *, dr, exact: dict, fit: dict | Non
     (:func:`~xrough._kernels.fitting.fit_problems`) counts as no fit.
     ``fitted``: the gradient of a fit already made on the lags ``dr`` (then no fit runs);
     ``exact``: options of :func:`exact_on_lags`; ``fit``/``fit_gradient``: options of
-    :func:`~xrough._kernels.fitting.fit_spectrum_kernel` and
-    :func:`~xrough._kernels.fitting.fitted_spectrum_gradient` (None: no fit).
+    :func:`~xrough._kernels.fitting.fit_spectrum_kernel` (with its lags ``dr``) and
+    :func:`~xrough._kernels.fitting.fitted_spectrum_gradient` (None: no fit), as
+    :class:`xrough.fitting.FitSetup` makes them.
 
     Returns ``(gbar, route, n_exact, fit_problems, quality)``: the route's code in
     :data:`AUTO_METHODS`, the number of lags the exact gradient covers, the problem bits of
@@ -160,7 +161,7 @@ def _fit_gradient(g, se, dr, fit, fit_gradient):
     if fit is None:
         return None, -1, 0
     try:
-        params = dict(zip(SPECTRUM_OUTPUTS, fit_spectrum_kernel(g, se, dr=dr, **fit)))
+        params = dict(zip(SPECTRUM_OUTPUTS, fit_spectrum_kernel(g, se, **fit)))
     except (ValueError, FloatingPointError, np.linalg.LinAlgError):
         return None, -1, 2
     bits, code = int(params["fit_problems"]), int(params["quality"])
