@@ -337,7 +337,7 @@ def fit_acf(
         one; NaN bins are skipped.
     model : {'spectrum', 'eq36'}
         The model spectrum (default: no model bias for self-affine surfaces with a
-        roll-off; see Notes, *Which model*) or eq. 36 (closed form, 100 times faster,
+        roll-off; see Notes, *Which model*) or eq. 36 (closed form, much cheaper,
         biased by up to 0.1 in ``H`` on such surfaces).
     dr_min, dr_max : float, str or pint.Quantity, optional
         Range of lags to fit (plain numbers in the unit of ``dr``); default: all.
@@ -430,7 +430,7 @@ def fit_acf(
     from the moments of the fitted spectrum.  G is eq. 9 evaluated by
     :func:`xrough._kernels.hankel.acf_from_spectrum_kernel` (exact for the sharp shape,
     to about 1e-8 for the smooth one).  The optimiser (``scipy.optimize.least_squares``,
-    trust-region reflective, about 50 evaluations of eq. 9, 0.1 to 0.5 s per curve)
+    trust-region reflective, about 50 evaluations of eq. 9 per curve)
     works on ``ln G_sa``, ``H``, ``ln eta`` and ``ln eps`` with
     ``eta = (dr_max/lambda_r)^(2-2H)`` and ``eps = (lambda_s/dr_min)^(2H)``
     (``dr_min``, ``dr_max``: the fitted range), started from the fit of eq. 36.  To
@@ -476,9 +476,9 @@ def fit_acf(
     pixels) the sharp shape gives ``H = 0.64 +- 0.01`` at a reduced chi^2 of 1.8 (rated
     good by every other check), the smooth one ``H = 0.77 +- 0.01`` at 0.11.  Because the
     bins of G are correlated the chi^2 difference overstates the evidence; the margin of 2
-    is therefore a lower bound of what decides.  Fitting both costs about 3 times the
-    sharp fit alone (the smooth G of eq. 9 is slower; 0.09 s to 0.33 s for a
-    1024^2 map); pass ``rolloff`` to fit one shape.
+    is therefore a lower bound of what decides.  Fitting both costs more than the sharp fit
+    alone (the smooth G of eq. 9 is slower to evaluate); pass ``rolloff`` to fit
+    one shape.
 
     *Which model.*  Eq. 36 approaches the self-affine law as ``dr^(2H-2)`` from the
     ballistic side and as ``dr^(2H)`` from the plateau side, whereas G of eq. 35 does so
