@@ -746,7 +746,7 @@ def test_acf_keeps_the_provenance_of_the_topography(opened, estimator):
     """G from every estimator carries the provenance attrs of the topography.
 
     'auto' on a map split into dask chunks in y and x takes the tiled estimator
-    (xrough.correlation._choose_estimator); that is checked, then the same attrs.
+    (xrough.correlation._choice.choose_estimator); that is checked, then the same attrs.
     """
     G = ESTIMATORS[estimator](opened)
     if estimator == "auto-chunked-map":
