@@ -6,7 +6,6 @@
   units are a power of length is converted, nothing else);
 - :func:`assert_same_physics`: results equal after both are converted to SI;
 - :func:`assert_same_attrs`: attrs equal, with attrs that are lengths converted;
-- :class:`CountingScheduler`: a dask scheduler that counts how often a graph is run.
 """
 
 from __future__ import annotations
@@ -238,21 +237,3 @@ def assert_attrs_close(got: dict, ref: dict, *, rtol: float, what: str = "attrs"
         else:
             np.testing.assert_allclose(np.asarray(y, dtype=float), np.asarray(x, dtype=float),
                                        rtol=rtol, err_msg=f"{what}[{key!r}]")
-
-
-# --------------------------------------------------------------------------------- dask
-class CountingScheduler:
-    """A dask scheduler (threads) that counts the graphs it is asked to run.
-
-    ``with dask.config.set(scheduler=counter)``, every ``compute``, ``.values`` or
-    ``np.asarray`` of a dask-backed object goes through :meth:`__call__`.
-    """
-
-    def __init__(self) -> None:
-        self.calls = 0
-
-    def __call__(self, dsk, keys, **kwargs):
-        import dask.threaded
-
-        self.calls += 1
-        return dask.threaded.get(dsk, keys, **kwargs)
