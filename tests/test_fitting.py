@@ -26,6 +26,7 @@ from xrough._kernels.shape_factors import (
 from xrough._kernels.spectral_models import SpectrumModel
 from xrough.fitting import fit_acf, model_acf
 from xrough.gradient import gradient_from_fit
+from xrough.testing import assert_netcdf_round_trip
 
 HURSTS = (0.3, 0.5, 0.8)
 ROLLOFFS = ("sharp", "smooth")
@@ -399,9 +400,7 @@ def test_netcdf_round_trip_is_identical(tmp_path):
     assert np.isinf(float(p.sigma_h[1]))
     for value in p.attrs.values():
         assert isinstance(value, (str, float, int)) and not isinstance(value, bool)
-    p.to_netcdf(tmp_path / "fit.nc")
-    with xr.open_dataset(tmp_path / "fit.nc") as back:
-        xr.testing.assert_identical(back.load(), p)
+    assert_netcdf_round_trip(p, tmp_path / "fit.nc")
 
 
 @pytest.mark.parametrize("make, kwargs, match", [
@@ -798,9 +797,7 @@ def test_spectrum_netcdf_round_trip_is_identical(tmp_path):
     assert p.quality_flag.values.tolist() == [0, 0]
     for value in p.attrs.values():
         assert isinstance(value, (str, float, int)) and not isinstance(value, bool)
-    p.to_netcdf(tmp_path / "fit.nc")
-    with xr.open_dataset(tmp_path / "fit.nc") as back:
-        xr.testing.assert_identical(back.load(), p)
+    assert_netcdf_round_trip(p, tmp_path / "fit.nc")
 
 
 @pytest.mark.parametrize("kwargs, match", [
