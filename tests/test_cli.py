@@ -188,6 +188,7 @@ def test_report_states_the_default_detrending(report):
     assert "detrend before G: plane" in out
 
 
+@pytest.mark.slow  # 65 s: the whole job
 def test_report_footer_says_which_file_got_which_detrending(files, monkeypatch, capsys):
     """A map and a profile are detrended differently by default (plane, line): the
     footer said 'line, plane' without saying which file got which."""
@@ -235,6 +236,7 @@ def test_implausible_heights_are_flagged(files, monkeypatch, capsys):
         "warnings"][0]
 
 
+@pytest.mark.slow  # 2 min: the whole job
 def test_demo_runs_small(files, monkeypatch, capsys):
     status, out, err = run("demo", "-n", "64", "--pairs", "1000", "-o", "demo", cwd=files,
                            monkeypatch=monkeypatch, capsys=capsys)

@@ -464,6 +464,7 @@ def test_results_round_trip_netcdf(tmp_path):
         assert_netcdf_round_trip(res, tmp_path / f"r{k}.nc")
 
 
+@pytest.mark.slow  # 40 s (Persson theory on three stacked G)
 def test_extra_dims_give_one_result_per_scan():
     stack = xr.concat([_surface(n=128, seed=s) for s in range(3)], dim="scan")
     G = stack.rough.acf()
@@ -543,6 +544,7 @@ def test_quick_stress_estimates_follow_the_gradient():
     assert ds.sigma_quick.attrs["units"] == "Pa"
 
 
+@pytest.mark.slow  # 15-90 s a case (exact gradient and Persson theory)
 @pytest.mark.parametrize("hurst", [0.05, 0.5, 0.95])
 @pytest.mark.parametrize("noise", [0.0, 0.05])
 def test_stability_with_the_default_exact_gradient(hurst, noise):
