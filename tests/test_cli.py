@@ -473,6 +473,7 @@ def test_installed_command_runs(files):
     assert len(res.stderr.strip().splitlines()) == 1
 
 
+@pytest.mark.slow  # 90 s: the whole job
 def test_report_prints_quality_notes_not_flagged_numbers(files, monkeypatch, capsys):
     """A map on a steep tilt (2 nm per nm), not detrended: G ~ dr^2 over all lags, so the
     fit has no self-affine range; its H, sigma_h and lambda_r were printed as findings."""
