@@ -141,6 +141,7 @@ API_MODULES = [
     "xrough.units",
     "xrough.acf",
     "xrough.cli",
+    "xrough.testing",
 ]
 #: Not reference material: the accessor classes (documented as DataArray.rough...), the
 #: xarray backend entry point, and the per-format readers behind open_topography.

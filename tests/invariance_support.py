@@ -6,7 +6,6 @@
   units are a power of length is converted, nothing else);
 - :func:`assert_same_physics`: results equal after both are converted to SI;
 - :func:`assert_same_attrs`: attrs equal, with attrs that are lengths converted;
-- :class:`CountingScheduler`: a dask scheduler that counts how often a graph is run.
 """
 
 from __future__ import annotations
@@ -16,6 +15,7 @@ import xarray as xr
 
 import xrough
 from xrough import units as xu
+from xrough.testing import assert_units_equal
 
 #: Factor from nm to each length unit the unit-invariance tests use.
 FROM_NM = {"nm": 1.0, "um": 1e-3, "m": 1e-9}
@@ -162,15 +162,12 @@ def assert_same_physics(a, b, *, rtol: float, atol_frac: float = 0.0,
     times the largest ``|value|`` of the variable (for data that cross zero), or the
     per-variable ``tolerances[name] = (rtol, atol_frac)``; other dtypes equal.
     """
-    va, vb = variables(to_si(a)), variables(to_si(b))
-    assert set(va) == set(vb), f"variables differ: {sorted(set(va) ^ set(vb))}"
+    sa, sb = to_si(a), to_si(b)
+    assert_units_equal(sa, sb)  # also the same variables, dims and shapes
+    va, vb = variables(sa), variables(sb)
     tolerances = tolerances or {}
     for name, x in va.items():
         y = vb[name]
-        assert x.dims == y.dims, f"{name}: dims {x.dims} != {y.dims}"
-        assert x.shape == y.shape, f"{name}: shape {x.shape} != {y.shape}"
-        assert x.attrs.get("units") == y.attrs.get("units"), \
-            f"{name}: SI units {x.attrs.get('units')} != {y.attrs.get('units')}"
         r, af = tolerances.get(name, (rtol, atol_frac))
         if x.dtype.kind == "f":
             xv = np.asarray(x.values, dtype=float)
@@ -238,21 +235,3 @@ def assert_attrs_close(got: dict, ref: dict, *, rtol: float, what: str = "attrs"
         else:
             np.testing.assert_allclose(np.asarray(y, dtype=float), np.asarray(x, dtype=float),
                                        rtol=rtol, err_msg=f"{what}[{key!r}]")
-
-
-# --------------------------------------------------------------------------------- dask
-class CountingScheduler:
-    """A dask scheduler (threads) that counts the graphs it is asked to run.
-
-    ``with dask.config.set(scheduler=counter)``, every ``compute``, ``.values`` or
-    ``np.asarray`` of a dask-backed object goes through :meth:`__call__`.
-    """
-
-    def __init__(self) -> None:
-        self.calls = 0
-
-    def __call__(self, dsk, keys, **kwargs):
-        import dask.threaded
-
-        self.calls += 1
-        return dask.threaded.get(dsk, keys, **kwargs)

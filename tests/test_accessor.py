@@ -200,7 +200,13 @@ def test_topography_results_identical(topo, name, args, kwargs):
     _assert_same(getattr(topo.rough, name)(*args, **kwargs), func(topo, *args, **kwargs))
 
 
-@pytest.mark.parametrize(("name", "args", "kwargs"), G_CALLS, ids=[c[0] for c in G_CALLS])
+#: G_CALLS that take 40-60 s each (exact gradients, fits, Persson theory on the fixture G)
+SLOW_G_CALLS = {"fit", "gradient", "stress_acf", "persson"}
+
+
+@pytest.mark.parametrize(("name", "args", "kwargs"), [
+    pytest.param(*c, id=c[0], marks=[pytest.mark.slow] if c[0] in SLOW_G_CALLS else [])
+    for c in G_CALLS])
 def test_G_results_identical(G, name, args, kwargs):
     func = METHODS[RoughDataArrayAccessor][name]
     _assert_same(getattr(G.rough, name)(*args, **kwargs), func(G, *args, **kwargs))

@@ -8,6 +8,7 @@ import ast
 import os
 import subprocess
 import sys
+from fnmatch import fnmatch
 from pathlib import Path
 
 import pytest
@@ -68,16 +69,40 @@ def _graph():
 
 MODULES, EDGES, LOCAL = _graph()
 
+#: The layers of the architecture page, lowest first, as patterns of module names; a
+#: pattern also covers a package's submodules (``xrough.cli`` covers ``xrough.cli.main``).
+#: Modules no pattern names are concept modules (``xrough.correlation``, ``xrough.io.x3p``,
+#: and any new package of a concept). Foundation: kernels, the unit boundary, the quality
+#: vocabulary and the version (``io``'s readers and their shared glue build topographies:
+#: concept). Front end: the package root,
+#: the accessors, plots, the command line and the test assertions offered to users.
+FOUNDATION = ("xrough._kernels", "xrough._version", "xrough.units", "xrough.quality")
+FRONT_END = ("xrough", "xrough.__main__", "xrough.accessor", "xrough.plot", "xrough.cli",
+             "xrough.testing")
+LAYERS = ("foundation", "concept", "front end")
+
+
+def _matches(name: str, patterns) -> bool:
+    return any(fnmatch(name, p) or (p != "xrough" and fnmatch(name, p + ".*"))
+               for p in patterns)
+
+
+def layer(name: str) -> str:
+    """The layer of a module, by :data:`FOUNDATION` and :data:`FRONT_END`."""
+    if _matches(name, FOUNDATION):
+        return "foundation"
+    return "front end" if _matches(name, FRONT_END) else "concept"
+
 
 def test_no_import_cycles():
-    """Depth-first search over the module graph (package __init__ files excluded as sources
-    of re-exports only: a module importing its own package root would show up below)."""
+    """Depth-first search over the module graph. The package root re-exports everything,
+    so it is no target here (no module imports it: the test after this one)."""
     state: dict[str, int] = {}
 
     def visit(node, stack):
         state[node] = 1
         for nxt in EDGES[node]:
-            if nxt == "xrough" or nxt.endswith("__init__"):
+            if nxt == "xrough":
                 continue
             if state.get(nxt) == 1:
                 cycle = stack[stack.index(nxt):] + [nxt]
@@ -113,6 +138,35 @@ def test_kernels_import_only_kernels():
     offenders = [(name, t) for name, targets in EDGES.items()
                  if name.startswith("xrough._kernels") for t in targets
                  if not t.startswith("xrough._kernels")]
+    assert offenders == []
+
+
+@pytest.mark.parametrize("name, expected", [
+    ("xrough", "front end"), ("xrough.cli", "front end"), ("xrough.cli.main", "front end"),
+    ("xrough.plot.figures", "front end"), ("xrough.testing", "front end"),
+    ("xrough._kernels.pairs", "foundation"), ("xrough.units", "foundation"),
+    ("xrough.io._common", "concept"), ("xrough.quality", "foundation"),
+    ("xrough.acf", "concept"), ("xrough.correlation", "concept"),
+    ("xrough.correlation.fft", "concept"), ("xrough.io", "concept"),
+    ("xrough.io.x3p", "concept"), ("xrough.unitsx", "concept"), ("xrough.plotting", "concept"),
+])
+def test_layers_follow_the_module_names(name, expected):
+    """Subpackages fall into their package's layer; a longer name is not a prefix match."""
+    assert layer(name) == expected
+
+
+def test_every_layer_has_modules():
+    found = {layer(name) for name in MODULES}
+    assert found == set(LAYERS)
+
+
+def test_imports_go_from_front_end_to_concept_to_foundation():
+    """No module imports one of a higher layer (foundation -> concept -> front end), at
+    the top of the file or inside a function."""
+    rank = {name: LAYERS.index(layer(name)) for name in MODULES}
+    offenders = [f"{name} ({layer(name)}) imports {t} ({layer(t)})"
+                 for name, targets in EDGES.items() for t in sorted(targets)
+                 if rank[t] > rank[name]]
     assert offenders == []
 
 

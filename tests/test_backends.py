@@ -9,7 +9,7 @@ same numbers, only the scheduling differs) and names, dims, coords and attrs ide
 
 Functions that work map by map or curve by curve must stay lazy: the result is
 dask-backed, building it runs no graph and ``.compute()`` runs one. A
-:class:`~invariance_support.CountingScheduler` counts the graphs. Not lazy by nature,
+:class:`~dask_counting.CountingScheduler` counts the graphs. Not lazy by nature,
 compared only: results whose size depends on the data (the exact gradient's supported
 lags, the spectrum's supported range), the contact solver (iterative on whole maps) and
 spectra of a model (a few numbers).
@@ -21,12 +21,11 @@ from __future__ import annotations
 import functools
 import warnings
 
-import dask
 import numpy as np
 import pytest
 import xarray as xr
+from dask_counting import counting
 from invariance_support import (
-    CountingScheduler,
     model_G,
     model_G_stack,
     model_spectrum_nm,
@@ -113,8 +112,7 @@ def same_on_dask():
     """
     def check(func, data, chunks, *, lazy: bool, ignore_attrs=(), ref=None):
         ref = func(data) if ref is None else ref
-        counter = CountingScheduler()
-        with dask.config.set(scheduler=counter):
+        with counting() as counter:
             got = func(data.chunk(chunks))
             built = counter.calls
             backed = _lazy_variables(got)
@@ -249,9 +247,8 @@ def test_numpy_equals_dask(same_on_dask, name, g_chunks):
 
 def test_the_counting_scheduler_counts():
     """The check itself: a lazy sum builds without computing and computes once."""
-    counter = CountingScheduler()
     data = xr.DataArray(np.arange(12.0).reshape(3, 4), dims=("scan", "x")).chunk(scan=1)
-    with dask.config.set(scheduler=counter):
+    with counting() as counter:
         total = data.sum("x")
         assert counter.calls == 0
         total.compute()

@@ -188,6 +188,7 @@ def test_report_states_the_default_detrending(report):
     assert "detrend before G: plane" in out
 
 
+@pytest.mark.slow  # 65 s: the whole job
 def test_report_footer_says_which_file_got_which_detrending(files, monkeypatch, capsys):
     """A map and a profile are detrended differently by default (plane, line): the
     footer said 'line, plane' without saying which file got which."""
@@ -235,6 +236,7 @@ def test_implausible_heights_are_flagged(files, monkeypatch, capsys):
         "warnings"][0]
 
 
+@pytest.mark.slow  # 2 min: the whole job
 def test_demo_runs_small(files, monkeypatch, capsys):
     status, out, err = run("demo", "-n", "64", "--pairs", "1000", "-o", "demo", cwd=files,
                            monkeypatch=monkeypatch, capsys=capsys)
@@ -473,6 +475,7 @@ def test_installed_command_runs(files):
     assert len(res.stderr.strip().splitlines()) == 1
 
 
+@pytest.mark.slow  # 90 s: the whole job
 def test_report_prints_quality_notes_not_flagged_numbers(files, monkeypatch, capsys):
     """A map on a steep tilt (2 nm per nm), not detrended: G ~ dr^2 over all lags, so the
     fit has no self-affine range; its H, sigma_h and lambda_r were printed as findings."""

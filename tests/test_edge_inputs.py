@@ -104,6 +104,7 @@ def _scaled_acf(G, s):
     return (G * s).assign_attrs(G.attrs).assign_coords(standard_error=G.standard_error * s)
 
 
+@pytest.mark.slow  # 90-110 s a case in a timed run on two busy cores
 @pytest.mark.filterwarnings("ignore::xrough.QualityWarning")  # H is loose on this small G
 @pytest.mark.parametrize("k", [-520, 520])
 def test_functions_of_G_are_invariant_under_its_scale(G, k):

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import xarray as xr
+from dask_counting import computes_nothing
 
 import xrough
 from xrough._kernels.fitting import PROBLEMS
@@ -25,6 +26,7 @@ from xrough._kernels.shape_factors import (
 from xrough._kernels.spectral_models import SpectrumModel
 from xrough.fitting import fit_acf, model_acf
 from xrough.gradient import gradient_from_fit
+from xrough.testing import assert_netcdf_round_trip
 
 HURSTS = (0.3, 0.5, 0.8)
 ROLLOFFS = ("sharp", "smooth")
@@ -377,18 +379,9 @@ def test_numpy_and_dask_agree(backend):
     G = g_array(values, dr, dims=("scan", "dr"), se=0.02 * values)
     expected = _stacked([fit_acf(G.isel(scan=k), model="eq36") for k in range(3)], "eq36")
     if backend == "dask":
-        import dask
-
-        calls = []
-
-        def counting_scheduler(dsk, keys, **kwargs):
-            calls.append(1)
-            return dask.get(dsk, keys, **kwargs)
-
-        with dask.config.set(scheduler=counting_scheduler):
+        with computes_nothing():
             p = fit_acf(G.chunk({"scan": 1}), model="eq36")
             curve, grad = model_acf(p, [1.0, 10.0]), gradient_from_fit(p, [1.0, 10.0])
-        assert calls == []  # building the graph computes nothing
         assert p.hurst.chunks is not None and curve.chunks is not None
         assert grad.chunks is not None
         # dr split into chunks: rechunked for the fit, same numbers
@@ -407,9 +400,7 @@ def test_netcdf_round_trip_is_identical(tmp_path):
     assert np.isinf(float(p.sigma_h[1]))
     for value in p.attrs.values():
         assert isinstance(value, (str, float, int)) and not isinstance(value, bool)
-    p.to_netcdf(tmp_path / "fit.nc")
-    with xr.open_dataset(tmp_path / "fit.nc") as back:
-        xr.testing.assert_identical(back.load(), p)
+    assert_netcdf_round_trip(p, tmp_path / "fit.nc")
 
 
 @pytest.mark.parametrize("make, kwargs, match", [
@@ -776,18 +767,9 @@ def test_spectrum_numpy_and_dask_agree(backend):
                       if k not in ("reduced_chi2", "plateau", "ballistic_regime")}
     expected.attrs["rolloff"] = "auto"  # several fits: each has its rolloff_shape
     if backend == "dask":
-        import dask
-
-        calls = []
-
-        def counting_scheduler(dsk, keys, **kwargs):
-            calls.append(1)
-            return dask.get(dsk, keys, **kwargs)
-
-        with dask.config.set(scheduler=counting_scheduler):
+        with computes_nothing():
             p = fit_acf(G.chunk({"scan": 1}))
             curve, grad = model_acf(p, [1.0, 10.0]), gradient_from_fit(p, [1.0, 10.0])
-        assert calls == []  # building the graph computes nothing
         assert p.hurst.chunks is not None and curve.chunks is not None
         assert grad.chunks is not None
         p, curve, grad = p.compute(), curve.compute(), grad.compute()
@@ -815,9 +797,7 @@ def test_spectrum_netcdf_round_trip_is_identical(tmp_path):
     assert p.quality_flag.values.tolist() == [0, 0]
     for value in p.attrs.values():
         assert isinstance(value, (str, float, int)) and not isinstance(value, bool)
-    p.to_netcdf(tmp_path / "fit.nc")
-    with xr.open_dataset(tmp_path / "fit.nc") as back:
-        xr.testing.assert_identical(back.load(), p)
+    assert_netcdf_round_trip(p, tmp_path / "fit.nc")
 
 
 @pytest.mark.parametrize("kwargs, match", [

@@ -21,6 +21,7 @@ import xrough
 from conftest import data_path
 from xrough.io import BRIDGE, FORMATS, bridge, detect_format, open_topography
 from xrough.io.backend import XroughBackendEntrypoint
+from xrough.testing import assert_units_equal
 from xrough.topography import grid_of
 
 ENGINE = "xrough" if "xrough" in xr.backends.list_engines() else XroughBackendEntrypoint
@@ -98,7 +99,7 @@ def test_open_dataset_every_native_format(fmt, parts, options):
     height = ds["height"]
     assert height.dims == expected.dims and height.shape == expected.shape
     np.testing.assert_array_equal(height.values, expected.values)
-    assert height.attrs["units"] == expected.attrs["units"]
+    assert_units_equal(height, expected)  # data and every coord
     for d in expected.dims:
         np.testing.assert_array_equal(height[d].values, expected[d].values)
         assert height[d].attrs["units"] == expected[d].attrs["units"]

@@ -17,6 +17,7 @@ import xarray as xr
 import xrough
 from conftest import data_path
 from xrough.io import detect_format, netcdf, npy, open_topography, text
+from xrough.testing import assert_units_equal
 from xrough.topography import grid_of
 
 INSTR = "instruments"
@@ -307,7 +308,7 @@ def test_text_write_read_round_trip(tmp_path):
     text.write(topo, tmp_path / "map.txt")
     back = open_topography(tmp_path / "map.txt")
     np.testing.assert_array_equal(back.values, topo.values)
-    assert back.attrs["units"] == topo.attrs["units"]
+    assert_units_equal(back, topo)  # data and every coord
     assert grid_of(back).spacing == pytest.approx(grid_of(topo).spacing, rel=1e-15)
     prof = topo.isel(y=0, drop=True)
     text.write(prof, tmp_path / "prof.txt")

@@ -9,6 +9,7 @@ from test_correlation import brute_force_binned
 
 import xrough
 from xrough._kernels.binning import log_bin_edges
+from xrough.testing import assert_netcdf_round_trip
 
 maps = st.tuples(st.integers(2, 7), st.integers(2, 7), st.integers(0, 2**31 - 1),
                  st.floats(0.0, 0.6), st.booleans(), st.sampled_from([(1.0, 1.0),
@@ -64,9 +65,7 @@ def test_netcdf_round_trip_is_identical(tmp_path_factory, n, unit, periodic, see
                              attrs={"instrument": "AFM", "note": "é ü"})
     path = tmp_path_factory.mktemp("nc") / "t.nc"
     for da in (topo, topo.rough.acf()):
-        da.to_netcdf(path)
-        with xr.open_dataarray(path) as back:
-            xr.testing.assert_identical(back.load(), da)
+        assert_netcdf_round_trip(da, path)
 
 
 @pytest.mark.parametrize("keep_attrs", [True, False])

@@ -16,6 +16,7 @@ import xarray as xr
 
 import xrough
 from xrough import quality
+from xrough.testing import assert_netcdf_round_trip
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "instruments"
 
@@ -77,9 +78,7 @@ def test_marked_results_survive_netcdf(tmp_path):
     G = _g(0.01 * dr**2, dr, se=0.0004 * dr**2)
     with pytest.warns(xrough.QualityWarning):
         fit = xrough.fit_acf(G)
-    fit.to_netcdf(tmp_path / "fit.nc")
-    with xr.open_dataset(tmp_path / "fit.nc") as back:
-        xr.testing.assert_identical(back.load(), fit)
+    assert_netcdf_round_trip(fit, tmp_path / "fit.nc")
     assert fit.attrs["quality"] == "failed" and int(fit.quality_flag) == 2
 
 

@@ -10,6 +10,7 @@ from xrough import units
 from xrough._kernels.hankel import spectral_moment_kernel
 from xrough._kernels.spectral_models import SpectrumModel
 from xrough.spectra import acf_from_spectrum, model_spectrum
+from xrough.testing import assert_netcdf_round_trip
 
 BASE = dict(hurst=0.8, lambda_r="1 um", lambda_s="10 nm")
 
@@ -136,16 +137,11 @@ def test_given_q_in_output_units():
 @pytest.mark.parametrize("name", ["c.nc"])
 def test_netcdf_round_trip(tmp_path, name):
     C = spectrum_nm(lambda_0="20 um", rolloff="smooth")
-    C.to_netcdf(tmp_path / name)
-    with xr.open_dataarray(tmp_path / name) as back:
-        xr.testing.assert_identical(C, back.load())
+    back = assert_netcdf_round_trip(C, tmp_path / name)
     G = acf_from_spectrum(C)
-    G.to_netcdf(tmp_path / "g.nc")
-    with xr.open_dataarray(tmp_path / "g.nc") as back:
-        xr.testing.assert_identical(G, back.load())
-        # the re-opened spectrum still evaluates through its model
-    with xr.open_dataarray(tmp_path / name) as back:
-        xr.testing.assert_identical(acf_from_spectrum(back.load()), G)
+    assert_netcdf_round_trip(G, tmp_path / "g.nc")
+    # the re-opened spectrum still evaluates through its model
+    xr.testing.assert_identical(acf_from_spectrum(back), G)
 
 
 @pytest.mark.parametrize(

@@ -19,6 +19,7 @@ from xrough._kernels.spectrum_of_acf import (
 )
 from xrough.gradient import gradient_from_spectrum, rms_gradient_exact
 from xrough.spectra import acf_from_spectrum, model_spectrum, spectrum
+from xrough.testing import assert_netcdf_round_trip
 
 LAMBDA_R, LAMBDA_S = 1000.0, 10.0  # nm
 
@@ -502,9 +503,7 @@ def test_netcdf_round_trip(tmp_path):
     for name, da in (("c.nc", spectrum(G, points_per_decade=5)),
                      ("gbar.nc", rms_gradient_exact(G)),
                      ("gm.nc", gradient_from_spectrum(model_spectrum(**model(0.8, "sharp"))))):
-        da.to_netcdf(tmp_path / name)
-        with xr.open_dataarray(tmp_path / name) as back:
-            xr.testing.assert_identical(da, back.load())
+        assert_netcdf_round_trip(da, tmp_path / name)
 
 
 # --------------------------------------------------------------------------------------

@@ -18,7 +18,8 @@ import dask.threaded
 import numpy as np
 import pytest
 import xarray as xr
-from invariance_support import CountingScheduler, assert_attrs_close
+from dask_counting import CountingScheduler
+from invariance_support import assert_attrs_close
 
 import xrough
 from xrough.stitching import STITCH_DIAGNOSTICS, stitch

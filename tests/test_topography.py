@@ -7,6 +7,7 @@ import xarray as xr
 
 import xrough
 from xrough import units as u
+from xrough.testing import assert_netcdf_round_trip
 
 
 def test_from_array_with_string_spacing_and_units():
@@ -146,9 +147,7 @@ def test_netcdf_round_trip_topography_and_G(tmp_path):
     Gr = topo.rough.acf(estimator="random", n_pairs=2000, seed=1)
     for k, da in enumerate((topo, G, Gr)):
         path = tmp_path / f"a{k}.nc"
-        da.to_netcdf(path)
-        with xr.open_dataarray(path) as back:
-            xr.testing.assert_identical(back.load(), da)
+        assert_netcdf_round_trip(da, path)
 
 
 def test_netcdf_round_trip_synthetic_and_stack(tmp_path):
@@ -160,9 +159,7 @@ def test_netcdf_round_trip_synthetic_and_stack(tmp_path):
     G = stack.rough.acf()
     for k, da in enumerate((topo, G)):
         path = tmp_path / f"b{k}.nc"
-        da.to_netcdf(path)
-        with xr.open_dataarray(path) as back:
-            xr.testing.assert_identical(back.load(), da)
+        assert_netcdf_round_trip(da, path)
 
 
 def test_plots_return_axes():

@@ -11,6 +11,7 @@ from scipy.special import erf
 
 import xrough
 from xrough._kernels.contact import contact_area
+from xrough.testing import assert_netcdf_round_trip
 from xrough.validation import compare_with_simulation, fit_kappa
 
 E_STAR = 1e6  # Pa
@@ -147,9 +148,7 @@ def test_units_and_netcdf_round_trip(comparison, tmp_path):
         assert c[name].attrs["units"] == unit, name
     assert c.p0.attrs["units"] == "Pa" and c.dr.attrs["units"] == "nm"
     path = tmp_path / "validation.nc"
-    c.to_netcdf(path)
-    with xr.open_dataset(path) as back:
-        xr.testing.assert_identical(back.load(), c)
+    assert_netcdf_round_trip(c, path)
 
 
 @pytest.mark.parametrize("kwargs", [
