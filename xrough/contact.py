@@ -13,6 +13,7 @@ array and ``.compute()`` runs the graph once.
 from __future__ import annotations
 
 import functools
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -675,27 +676,20 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     >>> ds.a_r.dims, ds.sigma_c.attrs["units"]
     (('p0', 'dr'), 'Pa')
     """
-    if theory not in THEORIES:
-        raise ValueError(f"theory must be one of {THEORIES}, got {theory!r}")
-    if not (np.isfinite(kappa) and kappa > 0):
-        raise ValueError(f"kappa must be positive, got {kappa!r}")
-    wanted = PERSSON_VARIABLES if variables is None else tuple(variables)
-    unknown = set(wanted) - set(PERSSON_VARIABLES)
-    if unknown:
-        raise ValueError(f"unknown variables {sorted(unknown)}; choose from "
-                         f"{PERSSON_VARIABLES}")
+    wanted = _persson_variables(theory, kappa, variables)
     E = u.positive_si(E_star, _PRESSURE, what="E_star")
     p0s = u.positive_si(p0, _PRESSURE, what="p0", many=True)
-    many = np.ndim(p0s) > 0
     G, spec = read_acf(G)
     G = G.transpose(..., "dr")
     G_si, error = _si(G, spec)
-    p0_da = xr.DataArray(np.atleast_1d(p0s), dims="p0")
-    dr_m = xr.DataArray(spec.dr * spec.to_m, dims="dr")
+    run = _PerssonRun(G=G, spec=spec, G_si=G_si, error=error, E=E, kappa=float(kappa),
+                      theory=theory, wanted=wanted,
+                      p0=xr.DataArray(np.atleast_1d(p0s), dims="p0"),
+                      dr_m=xr.DataArray(spec.dr * spec.to_m, dims="dr"))
     out: dict[str, xr.DataArray] = {}
     checks: list = []
     derivative: list = []
-    method = "none"
+    area, method = None, "none"
     if set(wanted) - {"sigma_quick"}:  # everything else needs gbar(dr)
         if gradient is None:
             if set(_NEED_FIT) & set(wanted) and gradient_method in ("auto", "fit"):
@@ -703,115 +697,26 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
             gradient = rms_gradient(G, method=gradient_method,
                                     fit=fit if gradient_method in ("auto", "fit") else None)
         method = str(gradient.attrs.get("method", "given"))
-        given = _gradient_on(gradient, G, spec)
-        gbar = _per_curve(k.nonincreasing, given)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            raised = (gbar / given).max("dr") - 1
-        derivative.append((raised > RAISED, "questionable",
-                           f"the rms gradient rises with dr by more than {RAISED:.0%} "
-                           "somewhere (noise in G, or a form the detrending left): gbar "
-                           "cannot (eq. 26), so p_star, a_r and sigma_c use its running "
-                           "maximum from larger lags, which is above the estimate there"))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            p_star = p0_da / (E * gbar)
-        a_r = k.contact_area(p_star, kappa)
-        need_ai = theory != "persson" or "a_ri" in wanted
-        a_ri = k.improved_area(p_star, a_r) if need_ai else None
-        weight = k.weighting(theory, a_r, a_ri)
-    if "p_star" in wanted:
-        out["p_star"] = p_star.assign_attrs(
-            units="1", long_name="reduced pressure p0 / (E* gbar)", equation="eq. 29")
-    if "a_r" in wanted:
-        out["a_r"] = a_r.assign_attrs(units="1", long_name="relative contact area",
-                                      equation="eq. 29: erf(sqrt(pi) kappa p* / 2)")
-    if "a_ri" in wanted:
-        out["a_ri"] = a_ri.assign_attrs(units="1", long_name="improved relative contact "
-                                        "area", equation="eq. 50")
-    if "sigma_c" in wanted:
-        out["sigma_c"] = (p0_da / a_r).assign_attrs(
-            units="Pa", long_name="mean contact stress at resolution dr",
-            equation="eq. 39/40: p0 / a_r")
+        area = _contact_area(run, gradient)
+        derivative.append(area.check)
+        out.update(_area_vars(run, area))
     if "sigma_quick" in wanted:
-        if fit is None:
-            fit = fit_acf(G)
-        lf = u.conversion_factor(u.as_length_unit(u.units_of(fit["lambda_r"],
-                                                             what="lambda_r"),
-                                                  what="lambda_r"), "m")
-        hf = u.conversion_factor(u.as_length_unit(u.units_of(fit["sigma_h"], what="sigma_h"),
-                                                  what="sigma_h"), "m")
-        params = [a.drop_vars([c for c in a.coords if c not in a.dims])
-                  for a in (fit["hurst"], fit["sigma_h"], fit["lambda_r"],
-                            rolloff_shapes(fit))]
-        est = xr.apply_ufunc(
-            k.quick_stress, dr_m, G_si, params[0], params[1] * hf, params[2] * lf,
-            params[3], dask="parallelized", output_dtypes=[float], keep_attrs=False,
-            kwargs={"E_star": E})
-        out["sigma_quick"] = np.maximum(est, p0_da).assign_attrs(
-            units="Pa", long_name="quick estimate of the mean contact stress",
-            equation="eq. 41 (dr < lambda_r), eq. 42 (dr > lambda_r), at least p0")
-    if {"Gamma_sigma", "Gamma_sigma_sa", "Gamma_sigma_51"} & set(wanted):
-        gbar0 = xr.apply_ufunc(_first_finite, gbar, input_core_dims=[["dr"]],
-                               dask="parallelized", output_dtypes=[float])
+        fit = fit_acf(G) if fit is None else fit
+        out["sigma_quick"] = _sigma_quick(run, fit)
     if "G_sigma" in wanted or "Gamma_sigma" in wanted:
-        lap, why = _laplacian(G, G_si, error, spec, smooth_tail=smooth_full)
-        derivative += _derivative_checks(why, spec)
-        full = (E / 2) ** 2 * lap
-        g_sigma = p0_da**2 + full * weight
-        negative = g_sigma < 0  # <s(r) s(r+dr)> of compressive stresses is never < 0
-        checks.append((negative.any("dr"), "questionable",
-                       "G_sigma < 0 at some lags (set NaN): the stress ACF of a contact "
-                       "without adhesion cannot be negative; the Laplacian of G is "
-                       "negative there beyond what W[a_r] can weight (noisy or detrended "
-                       "G, or ringing of a sharp cutoff)"))
-        g_sigma = g_sigma.where(~negative)
-        tail = (f"G_sigma_full beyond its roll-off continued by dr^-{k.STEEP_DECAY:g}"
-                if smooth_full else "G_sigma_full of eq. 24 as is")
-        if "G_sigma" in wanted:
-            out["G_sigma"] = g_sigma.assign_attrs(
-                units="Pa2", long_name="stress autocorrelation function",
-                equation=f"eq. 30/48 with W of eq. 49 ({theory}); {tail}")
-        if "Gamma_sigma" in wanted:
-            p_zero = p0_da / (E * gbar0)
-            a0 = k.contact_area(p_zero, kappa)
-            if theory != "persson":
-                a0 = k.improved_area(p_zero, a0)
-            out["Gamma_sigma"] = (g_sigma / a0).assign_attrs(
-                units="Pa2", long_name="reduced stress autocorrelation function",
-                equation=f"eq. 47 ({theory}: divided by "
-                f"{'a_r' if theory == 'persson' else 'a_ri'} at the smallest dr); {tail}")
+        stress, stress_checks, stress_derivative = _stress_vars(run, area, smooth_full)
+        out.update(stress)
+        checks += stress_checks
+        derivative += stress_derivative
     if {"Gamma_sigma_sa", "Gamma_sigma_51"} & set(wanted):
-        if fit is None:
-            fit = fit_acf(G)
-        hurst = fit["hurst"].drop_vars([c for c in fit["hurst"].coords
-                                        if c not in fit["hurst"].dims])
-        asymptotes = {
-            "Gamma_sigma_sa": (k.asymptote_weight(theory, float(kappa)),
-                               f"small-p* limit of eq. 47-50 ({theory})"),
-            "Gamma_sigma_51": (k.EQ51_PRINTED, "eq. 51 as printed, its c_sa read as "
-                               "1 / c_sa(H) of xrough")}
-        for name in [n for n in asymptotes if n in wanted]:
-            w, what = asymptotes[name]
-            out[name] = xr.apply_ufunc(
-                k.stress_asymptote, dr_m, G_si, hurst, gbar0, dask="parallelized",
-                output_dtypes=[float], keep_attrs=False,
-                kwargs={"E_star": E, "weight": w}).expand_dims(
-                p0=p0_da.sizes["p0"]).assign_attrs(
-                units="Pa2", long_name="small-pressure asymptote of the reduced stress ACF",
-                equation=f"eq. 51: w E*^2 H^2 gbar(0) sqrt(G / c_sa(H)) / dr, w = {w:.4g} "
-                f"({what}); c_sa(H) = gbar^2 dr^2 / G; self-affine range, p* -> 0")
+        fit = fit_acf(G) if fit is None else fit
+        out.update(_asymptote_vars(run, area, fit))
     if "G_du" in wanted:
-        out["G_du"] = (_strip(G) * weight).assign_attrs(
+        out["G_du"] = (_strip(G) * area.weight).assign_attrs(
             units=G.attrs["units"], long_name="displacement autocorrelation function",
             equation=f"eq. 34 with W of eq. 49 ({theory})")
-    out = {name: v.transpose("p0", ..., "dr") for name, v in out.items()}
-    coords = {**_own_coords(G), **lag_coord(spec.dr, spec.unit_str),
-              "p0": ("p0", np.atleast_1d(p0s), {"units": "Pa", "long_name": "mean pressure"})}
-    ds = xr.Dataset(out, coords=coords, attrs=result_attrs(
-        G, E_star=E, E_star_units="Pa", kappa=float(kappa), theory=theory,
-        gradient_method=method,
-        note="real-space Persson theory: functions of q evaluated at dr = 2 pi / q; NaN "
-        "where the rms gradient is not determined"))
-    if not many:
+    ds = _persson_dataset(run, out, p0s, method)
+    if np.ndim(p0s) == 0:
         ds = ds.isel(p0=0)
         checks = [(mask.isel(p0=0), level, note) for mask, level, note in checks]
     flat, unresolved = _unresolved(G_si, error, spec, "the rms gradient (eq. 26) and the "
@@ -823,6 +728,178 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     return _rate(ds, checks, what="persson", inherited=(
         gradient if set(wanted) - {"sigma_quick"} else None,
         fit if set(_NEED_FIT) & set(wanted) else None))
+
+
+@dataclass(frozen=True)
+class _PerssonRun:
+    """What every output of :func:`persson` reads: G in SI, the parameters, the axes."""
+
+    G: xr.DataArray
+    spec: AcfSpec
+    G_si: xr.DataArray
+    error: xr.DataArray | None
+    E: float
+    kappa: float
+    theory: str
+    wanted: tuple[str, ...]
+    p0: xr.DataArray
+    dr_m: xr.DataArray
+
+
+@dataclass(frozen=True)
+class _ContactArea:
+    """The rms gradient used (non-increasing), the areas of eq. 29/50 and ``W`` of eq. 49."""
+
+    gbar: xr.DataArray
+    p_star: xr.DataArray
+    a_r: xr.DataArray
+    a_ri: xr.DataArray | None
+    weight: xr.DataArray
+    check: tuple
+
+    @functools.cached_property
+    def gbar0(self) -> xr.DataArray:
+        """``gbar`` at the smallest lag where it is finite (eq. 47, 51)."""
+        return xr.apply_ufunc(_first_finite, self.gbar, input_core_dims=[["dr"]],
+                              dask="parallelized", output_dtypes=[float])
+
+
+def _persson_variables(theory: str, kappa: float, variables) -> tuple[str, ...]:
+    """Check ``theory`` and ``kappa``; return the variables asked for."""
+    if theory not in THEORIES:
+        raise ValueError(f"theory must be one of {THEORIES}, got {theory!r}")
+    if not (np.isfinite(kappa) and kappa > 0):
+        raise ValueError(f"kappa must be positive, got {kappa!r}")
+    wanted = PERSSON_VARIABLES if variables is None else tuple(variables)
+    unknown = set(wanted) - set(PERSSON_VARIABLES)
+    if unknown:
+        raise ValueError(f"unknown variables {sorted(unknown)}; choose from "
+                         f"{PERSSON_VARIABLES}")
+    return wanted
+
+
+def _contact_area(run: _PerssonRun, gradient: xr.DataArray) -> _ContactArea:
+    """``p*`` and ``a_r`` (eq. 29), ``a_ri`` (eq. 50) where needed, and ``W`` (eq. 49)."""
+    given = _gradient_on(gradient, run.G, run.spec)
+    gbar = _per_curve(k.nonincreasing, given)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        raised = (gbar / given).max("dr") - 1
+    check = (raised > RAISED, "questionable",
+             f"the rms gradient rises with dr by more than {RAISED:.0%} somewhere (noise "
+             "in G, or a form the detrending left): gbar cannot (eq. 26), so p_star, a_r "
+             "and sigma_c use its running maximum from larger lags, which is above the "
+             "estimate there")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        p_star = run.p0 / (run.E * gbar)
+    a_r = k.contact_area(p_star, run.kappa)
+    need_ai = run.theory != "persson" or "a_ri" in run.wanted
+    a_ri = k.improved_area(p_star, a_r) if need_ai else None
+    return _ContactArea(gbar=gbar, p_star=p_star, a_r=a_r, a_ri=a_ri,
+                        weight=k.weighting(run.theory, a_r, a_ri), check=check)
+
+
+def _area_vars(run: _PerssonRun, area: _ContactArea) -> dict[str, xr.DataArray]:
+    """``p_star``, ``a_r``, ``a_ri`` and ``sigma_c``, those asked for."""
+    made = {
+        "p_star": lambda: area.p_star.assign_attrs(
+            units="1", long_name="reduced pressure p0 / (E* gbar)", equation="eq. 29"),
+        "a_r": lambda: area.a_r.assign_attrs(
+            units="1", long_name="relative contact area",
+            equation="eq. 29: erf(sqrt(pi) kappa p* / 2)"),
+        "a_ri": lambda: area.a_ri.assign_attrs(
+            units="1", long_name="improved relative contact area", equation="eq. 50"),
+        "sigma_c": lambda: (run.p0 / area.a_r).assign_attrs(
+            units="Pa", long_name="mean contact stress at resolution dr",
+            equation="eq. 39/40: p0 / a_r"),
+    }
+    return {name: make() for name, make in made.items() if name in run.wanted}
+
+
+def _sigma_quick(run: _PerssonRun, fit: xr.Dataset) -> xr.DataArray:
+    """Estimate the contact stress quickly (eq. 41/42) from a fit, at least ``p0``."""
+    lf = u.conversion_factor(u.as_length_unit(u.units_of(fit["lambda_r"], what="lambda_r"),
+                                              what="lambda_r"), "m")
+    hf = u.conversion_factor(u.as_length_unit(u.units_of(fit["sigma_h"], what="sigma_h"),
+                                              what="sigma_h"), "m")
+    params = [a.drop_vars([c for c in a.coords if c not in a.dims])
+              for a in (fit["hurst"], fit["sigma_h"], fit["lambda_r"], rolloff_shapes(fit))]
+    est = xr.apply_ufunc(
+        k.quick_stress, run.dr_m, run.G_si, params[0], params[1] * hf, params[2] * lf,
+        params[3], dask="parallelized", output_dtypes=[float], keep_attrs=False,
+        kwargs={"E_star": run.E})
+    return np.maximum(est, run.p0).assign_attrs(
+        units="Pa", long_name="quick estimate of the mean contact stress",
+        equation="eq. 41 (dr < lambda_r), eq. 42 (dr > lambda_r), at least p0")
+
+
+def _stress_vars(run: _PerssonRun, area: _ContactArea, smooth_full: bool):
+    """``G_sigma`` (eq. 30/48) and ``Gamma_sigma`` (eq. 47), those asked for.
+
+    Returns the variables, the per-``p0`` checks and the per-curve checks of the Laplacian.
+    """
+    lap, why = _laplacian(run.G, run.G_si, run.error, run.spec, smooth_tail=smooth_full)
+    full = (run.E / 2) ** 2 * lap
+    g_sigma = run.p0**2 + full * area.weight
+    negative = g_sigma < 0  # <s(r) s(r+dr)> of compressive stresses is never < 0
+    checks = [(negative.any("dr"), "questionable",
+               "G_sigma < 0 at some lags (set NaN): the stress ACF of a contact without "
+               "adhesion cannot be negative; the Laplacian of G is negative there beyond "
+               "what W[a_r] can weight (noisy or detrended G, or ringing of a sharp "
+               "cutoff)")]
+    g_sigma = g_sigma.where(~negative)
+    tail = (f"G_sigma_full beyond its roll-off continued by dr^-{k.STEEP_DECAY:g}"
+            if smooth_full else "G_sigma_full of eq. 24 as is")
+    out = {}
+    if "G_sigma" in run.wanted:
+        out["G_sigma"] = g_sigma.assign_attrs(
+            units="Pa2", long_name="stress autocorrelation function",
+            equation=f"eq. 30/48 with W of eq. 49 ({run.theory}); {tail}")
+    if "Gamma_sigma" in run.wanted:
+        p_zero = run.p0 / (run.E * area.gbar0)
+        a0 = k.contact_area(p_zero, run.kappa)
+        if run.theory != "persson":
+            a0 = k.improved_area(p_zero, a0)
+        out["Gamma_sigma"] = (g_sigma / a0).assign_attrs(
+            units="Pa2", long_name="reduced stress autocorrelation function",
+            equation=f"eq. 47 ({run.theory}: divided by "
+            f"{'a_r' if run.theory == 'persson' else 'a_ri'} at the smallest dr); {tail}")
+    return out, checks, _derivative_checks(why, run.spec)
+
+
+def _asymptote_vars(run: _PerssonRun, area: _ContactArea,
+                    fit: xr.Dataset) -> dict[str, xr.DataArray]:
+    """Return the small-pressure asymptotes of ``Gamma_sigma`` (eq. 51) asked for."""
+    hurst = fit["hurst"].drop_vars([c for c in fit["hurst"].coords
+                                    if c not in fit["hurst"].dims])
+    asymptotes = {
+        "Gamma_sigma_sa": (k.asymptote_weight(run.theory, run.kappa),
+                           f"small-p* limit of eq. 47-50 ({run.theory})"),
+        "Gamma_sigma_51": (k.EQ51_PRINTED, "eq. 51 as printed, its c_sa read as "
+                           "1 / c_sa(H) of xrough")}
+    out = {}
+    for name in [n for n in asymptotes if n in run.wanted]:
+        w, what = asymptotes[name]
+        out[name] = xr.apply_ufunc(
+            k.stress_asymptote, run.dr_m, run.G_si, hurst, area.gbar0, dask="parallelized",
+            output_dtypes=[float], keep_attrs=False,
+            kwargs={"E_star": run.E, "weight": w}).expand_dims(
+            p0=run.p0.sizes["p0"]).assign_attrs(
+            units="Pa2", long_name="small-pressure asymptote of the reduced stress ACF",
+            equation=f"eq. 51: w E*^2 H^2 gbar(0) sqrt(G / c_sa(H)) / dr, w = {w:.4g} "
+            f"({what}); c_sa(H) = gbar^2 dr^2 / G; self-affine range, p* -> 0")
+    return out
+
+
+def _persson_dataset(run: _PerssonRun, out: dict, p0s, method: str) -> xr.Dataset:
+    """Build the result Dataset on ``(p0, ..., dr)`` with its coords and attrs."""
+    out = {name: v.transpose("p0", ..., "dr") for name, v in out.items()}
+    coords = {**_own_coords(run.G), **lag_coord(run.spec.dr, run.spec.unit_str),
+              "p0": ("p0", np.atleast_1d(p0s), {"units": "Pa", "long_name": "mean pressure"})}
+    return xr.Dataset(out, coords=coords, attrs=result_attrs(
+        run.G, E_star=run.E, E_star_units="Pa", kappa=run.kappa, theory=run.theory,
+        gradient_method=method,
+        note="real-space Persson theory: functions of q evaluated at dr = 2 pi / q; NaN "
+        "where the rms gradient is not determined"))
 
 
 # ---------------------------------------------------------------------------------------
