@@ -154,6 +154,16 @@ def log_axis(axis) -> None:
     when fewer than two powers of ten are in view (decided when the figure is drawn, so it
     holds after later lines change the limits). Matplotlib's default labels every minor
     tick of an axis spanning about a decade, and they overlap on a narrow axes.
+
+    Examples
+    --------
+    >>> fig, ax = pyplot("Agg").subplots(figsize=(3, 2))
+    >>> _ = ax.plot([150.0, 700.0], [1.0, 2.0])
+    >>> log_axis(ax.xaxis)
+    >>> fig.canvas.draw()
+    >>> minor = [t.get_text() for t in ax.get_xticklabels(which="minor") if t.get_text()]
+    >>> [m.split("times")[0][-2] for m in minor]  # the mantissas: 2 and 5 x 10^2 only
+    ['2', '5']
     """
     from matplotlib import ticker
 
