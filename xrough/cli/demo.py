@@ -139,7 +139,7 @@ def _print_table(r: dict, args: argparse.Namespace) -> None:
         ("elastic energy of full contact", show(r["energy"].v_el), ""),
         (f"contact area at dr = {show(at.dr)}", show(at.a_r), ""),
         (f"contact stress at dr = {show(at.dr)}", show(at.sigma_c), ""),
-        (f"adhesive patch radius (gamma = {_GAMMA})", show(r["patch"].a_c), ""),
+        (f"adhesive patch radius (gamma = {_GAMMA.replace('^2', '²')})", show(r["patch"].a_c), ""),
     ]
     print(f"\n{'quantity':<40} {'from G':>20} {'model':>10}")
     for name, value, model in rows:
