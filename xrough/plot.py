@@ -173,7 +173,8 @@ def log_axis(axis) -> None:
 
         def __call__(self, x, pos=None):
             lo, hi = sorted(self.axis.get_view_interval())
-            if not (x > 0 and lo > 0):
+            # matplotlib < 3.9 also asks for the labels of ticks outside the view
+            if not (x > 0 and lo > 0 and lo <= x <= hi):
                 return ""
             powers = np.floor(np.log10(hi)) - np.ceil(np.log10(lo)) + 1
             mantissa = x / 10 ** np.floor(np.log10(x) + 1e-9)
