@@ -334,6 +334,37 @@ def stitch_curves(
     log-log slope of the measurement's own curve, so that all curves refer to the same lag.
     """
     items = _as_mapping(measurements)
+    windows = _checked_windows(windows, items, acf_kwargs)
+    first = next(iter(items.values()))
+    lunit = unit or _lateral_unit(first)
+    hunit = height_unit or _height_unit(first)
+    u.as_length_unit(lunit, what="unit")
+    u.as_length_unit(hunit, what="height_unit")
+    ppd = check_points_per_decade(points_per_decade)
+    plans = {name: _plan_measurement(name, da, windows.get(name), lunit, hunit, min_pixels,
+                                     long_fraction) for name, da in items.items()}
+    centres, edges = log_bins(min(p["lo"] for p in plans.values()),
+                              max(p["hi"] for p in plans.values()), ppd)
+    # one graph for all measurements: lazy where any input is, else computed at once
+    # (in parallel threads, or on a dask.distributed Client when one is active)
+    lazy = any(_is_lazy(da) for da in items.values())
+    in_graph = lazy or (parallel and sum(not _is_acf(da) for da in items.values()) > 1)
+    rows, meta = [], []
+    for name, da in items.items():
+        row, attrs = _measurement_row(name, da, plans[name], centres, edges, ppd,
+                                      in_graph=in_graph, acf_kwargs=acf_kwargs)
+        rows.append(row)
+        meta.append(_measurement_meta(name, da, attrs, plans[name]["f"]))
+    packed = (dsa.stack if in_graph else np.stack)(rows, axis=1)  # (3, measurement, dr)
+    ds = _curves_dataset(packed, centres, plans, meta, lunit=lunit, hunit=hunit, ppd=ppd)
+    return ds.compute() if in_graph and not lazy else ds
+
+
+def _checked_windows(windows, items: dict, acf_kwargs: dict) -> dict:
+    """Check the ``windows`` of :func:`stitch_curves` and return them as a dict.
+
+    Refuses windows of unknown measurements and ACF options that stitching sets itself.
+    """
     windows = dict(windows or {})
     unknown = set(windows) - set(items)
     if unknown:
@@ -342,75 +373,88 @@ def stitch_curves(
     for key in ("bins", "dr_min", "dr_max", "pool", "points_per_decade"):
         if key in acf_kwargs:
             raise ValueError(f"{key!r} is set by stitching; use windows= to restrict lags")
-    first = next(iter(items.values()))
-    lunit = unit or _lateral_unit(first)
-    hunit = height_unit or _height_unit(first)
-    u.as_length_unit(lunit, what="unit")
-    u.as_length_unit(hunit, what="height_unit")
-    ppd = check_points_per_decade(points_per_decade)
+    return windows
 
-    info = {}
-    for name, da in items.items():
-        own = _lateral_unit(da)
-        lo, hi, rule = _window_of(name, da, windows.get(name), own, min_pixels, long_fraction)
-        f = u.conversion_factor(own, lunit)
-        info[name] = dict(own=own, f=f, lo=lo * f, hi=hi * f, rule=rule,
-                          g_factor=u.conversion_factor(_height_unit(da), hunit) ** 2)
-    centres, edges = log_bins(min(v["lo"] for v in info.values()),
-                              max(v["hi"] for v in info.values()), ppd)
 
-    names = list(items)
-    # one graph for all measurements: lazy where any input is, else computed at once
-    # (in parallel threads, or on a dask.distributed Client when one is active)
-    lazy = any(_is_lazy(items[n]) for n in names)
-    n_topo = sum(not _is_acf(items[n]) for n in names)
-    in_graph = lazy or (parallel and n_topo > 1)
-    nb = len(centres)
-    rows, sources, checksums, pixel, scan, kinds = [], [], [], [], [], []
-    for name in names:
-        da, i = items[name], info[name]
-        own_edges = log_bin_edges(i["lo"], i["hi"], ppd) / i["f"]
-        dr, gm, sem, nm, attrs = _curve(name, da, own_edges, chunk=in_graph,
-                                        acf_kwargs=acf_kwargs)
-        rebin = dict(dr=dr * i["f"], centres=centres, edges=edges, lo=i["lo"], hi=i["hi"],
-                     g_factor=i["g_factor"])
-        if in_graph:  # one array (one collection: G and its errors share their graph)
-            curve = dsa.stack([dsa.asarray(x).astype(float) for x in (gm, sem, nm)])
-            rows.append(curve.rechunk(-1).map_blocks(
-                _rebin_packed, **rebin, chunks=((3,), (nb,)), dtype=float,
-                meta=np.empty((0, 0))))
-        else:
-            rows.append(_rebin_packed(np.stack([gm, sem, nm]).astype(float), **rebin))
-        sources.append(str(attrs.get("source_file", attrs.get("source", "")) or name))
-        checksums.append(str(attrs.get("source_sha256", "")))
-        pixel.append(float(attrs.get("pixel_size", np.nan)) * i["f"])
-        scan.append(float(attrs.get("scan_size", np.nan)) * i["f"])
-        kinds.append("G" if _is_acf(da) else
-                     f"{'map' if len(grid_of(da).dims) == 2 else 'profile'}")
-    packed = (dsa.stack if in_graph else np.stack)(rows, axis=1)  # (3, measurement, dr)
+def _plan_measurement(name: str, da: xr.DataArray, override, lunit: str, hunit: str,
+                      min_pixels: float, long_fraction: float) -> dict:
+    """Window of one measurement in the common unit, with the factors to reach it.
+
+    ``f`` converts its lags to ``lunit``, ``g_factor`` its G to ``hunit`` squared; ``lo``
+    and ``hi`` are its window in ``lunit`` and ``rule`` says what set them.
+    """
+    own = _lateral_unit(da)
+    lo, hi, rule = _window_of(name, da, override, own, min_pixels, long_fraction)
+    f = u.conversion_factor(own, lunit)
+    return dict(f=f, lo=lo * f, hi=hi * f, rule=rule,
+                g_factor=u.conversion_factor(_height_unit(da), hunit) ** 2)
+
+
+def _measurement_row(name: str, da: xr.DataArray, plan: dict, centres: np.ndarray,
+                     edges: np.ndarray, ppd: float, *, in_graph: bool, acf_kwargs: dict):
+    """G, standard error and pair count of one measurement on the common bins.
+
+    Returns a ``(3, len(centres))`` array (dask when ``in_graph``) and the attrs of its G.
+    """
+    own_edges = log_bin_edges(plan["lo"], plan["hi"], ppd) / plan["f"]
+    dr, gm, sem, nm, attrs = _curve(name, da, own_edges, chunk=in_graph,
+                                    acf_kwargs=acf_kwargs)
+    rebin = dict(dr=dr * plan["f"], centres=centres, edges=edges, lo=plan["lo"],
+                 hi=plan["hi"], g_factor=plan["g_factor"])
+    if not in_graph:
+        return _rebin_packed(np.stack([gm, sem, nm]).astype(float), **rebin), attrs
+    # one array (one collection: G and its errors share their graph)
+    curve = dsa.stack([dsa.asarray(x).astype(float) for x in (gm, sem, nm)])
+    return curve.rechunk(-1).map_blocks(_rebin_packed, **rebin, chunks=((3,), (len(centres),)),
+                                        dtype=float, meta=np.empty((0, 0))), attrs
+
+
+def _measurement_meta(name: str, da: xr.DataArray, attrs: dict, f: float) -> dict:
+    """Describe one measurement as the curves record it.
+
+    Its source, checksum, pixel and scan size (in the common unit, ``f`` times its own)
+    and kind.
+    """
+    kind = "G" if _is_acf(da) else ("map" if len(grid_of(da).dims) == 2 else "profile")
+    return {"source": str(attrs.get("source_file", attrs.get("source", "")) or name),
+            "source_sha256": str(attrs.get("source_sha256", "")),
+            "pixel_size": float(attrs.get("pixel_size", np.nan)) * f,
+            "scan_size": float(attrs.get("scan_size", np.nan)) * f,
+            "kind": kind}
+
+
+def _curves_dataset(packed, centres: np.ndarray, plans: dict, meta: list[dict], *,
+                    lunit: str, hunit: str, ppd: float) -> xr.Dataset:
+    """Build the Dataset of :func:`stitch_curves` from packed ``(3, measurement, dr)`` rows."""
+    names = list(plans)
     g, se, cnt = packed[0], packed[1], packed[2].astype(np.int64)
     gunits = u.power_units(hunit, 2)
     dims = ("measurement", "dr")
-    ds = xr.Dataset(
+
+    def per_measurement(key, attrs=None):
+        values = [plans[n][key] for n in names] if key in ("lo", "hi") else [
+            m[key] for m in meta]
+        return ("measurement", values, attrs or {})
+
+    return xr.Dataset(
         {"G": (dims, g, {"units": gunits, "long_name": "height-difference ACF",
                          "symbol": "G"}),
          "standard_error": (dims, se, {"units": gunits, "long_name": "standard error of G"}),
          "pair_count": (dims, cnt, {"units": "1", "long_name": "number of point pairs"})},
         coords={"measurement": ("measurement", names),
                 "dr": ("dr", centres, {"units": lunit, "long_name": "lag distance"}),
-                "dr_min": ("measurement", [info[n]["lo"] for n in names],
-                           {"units": lunit, "long_name": "short end of the reliable window"}),
-                "dr_max": ("measurement", [info[n]["hi"] for n in names],
-                           {"units": lunit, "long_name": "long end of the reliable window"}),
-                "pixel_size": ("measurement", pixel, {"units": lunit}),
-                "scan_size": ("measurement", scan, {"units": lunit}),
-                "kind": ("measurement", kinds),
-                "source": ("measurement", sources),
-                "source_sha256": ("measurement", checksums,
-                                  {"long_name": "SHA-256 of the source file ('' if none)"})},
+                "dr_min": per_measurement("lo", {
+                    "units": lunit, "long_name": "short end of the reliable window"}),
+                "dr_max": per_measurement("hi", {
+                    "units": lunit, "long_name": "long end of the reliable window"}),
+                "pixel_size": per_measurement("pixel_size", {"units": lunit}),
+                "scan_size": per_measurement("scan_size", {"units": lunit}),
+                "kind": per_measurement("kind"),
+                "source": per_measurement("source"),
+                "source_sha256": per_measurement("source_sha256", {
+                    "long_name": "SHA-256 of the source file ('' if none)"})},
         attrs=result_attrs(None, points_per_decade=ppd, window_rules="; ".join(
-            f"{n}: {info[n]['rule']}" for n in names)))
-    return ds.compute() if in_graph and not lazy else ds
+            f"{n}: {plans[n]['rule']}" for n in names)))
 
 
 # ---------------------------------------------------------------------------- mismatch
@@ -763,24 +807,12 @@ def stitch(
         curves = stitch_curves(measurements, points_per_decade=points_per_decade,
                                windows=windows, **kwargs)
     names = [str(n) for n in curves.measurement.values]
-    coverage_attrs = _coverage_attrs(names)
-    lunit = curves.dr.attrs["units"]
-    gunits = curves.G.attrs["units"]
     keep = _window_bins(curves)
     gaps = _uncovered(curves, keep)
     lazy = any(curves[k].chunks is not None for k in ("G", "standard_error", "pair_count"))
-    stack = dsa.stack if lazy else np.stack  # one array: one collection for dask
-    curves_3d = stack([curves[k].data.astype(float) for k in
-                       ("G", "standard_error", "pair_count")])
-    args = (curves_3d, curves.dr.values, _scan_sizes(curves), keep, level, names, threshold)
-    nk = int(keep.sum())
-    if lazy:  # one small task over the re-binned curves
-        parts = dask.delayed(_combine_curves, nout=4, pure=True)(*args)
-        per_bin = dsa.from_delayed(parts[0], shape=(2, nk), dtype=float)
-        counts = dsa.from_delayed(parts[1], shape=(3, nk), dtype=np.int64)
-        code = dsa.from_delayed(parts[3], shape=(), dtype=np.int8)
-    else:
-        per_bin, counts, (factors, errors), code = _combine_curves(*args)
+    per_bin, counts, factors, code = _level_and_combine(curves, keep, level=level,
+                                                        threshold=threshold, lazy=lazy)
+    gunits = curves.G.attrs["units"]
     out = xr.DataArray(
         per_bin[0], dims=("dr",), name="G",
         coords={"dr": ("dr", curves.dr.values[keep], dict(curves.dr.attrs)),
@@ -790,17 +822,61 @@ def stitch(
                                                       "long_name": "standard error of G"}),
                 "n_measurements": ("dr", counts[1], {
                     "units": "1", "long_name": "measurements combined in the bin"}),
-                "coverage": ("dr", counts[2], coverage_attrs)})
+                "coverage": ("dr", counts[2], _coverage_attrs(names))})
     diagnostics = {}
     if not lazy:  # from the values: known at once on numpy, not before compute on dask
         mism = stitch_mismatch(curves, threshold=threshold, warn=warn)
         diagnostics = {"mismatch_pairs": ", ".join(str(p) for p in mism.pair.values),
                        "mismatch_ratio": mism.ratio.values.astype(float),
                        "mismatch_z": mism.z.values.astype(float),
-                       "level_factors": factors.astype(float),
-                       "level_factor_errors": errors.astype(float)}
-    out.attrs = result_attrs(None, **{
-        "units": gunits,
+                       "level_factors": factors[0].astype(float),
+                       "level_factor_errors": factors[1].astype(float)}
+    out.attrs = _stitched_attrs(curves, level=level, diagnostics=diagnostics, gaps=gaps)
+    if gaps and warn:
+        quality.warn("; ".join(text for _, _, text in gaps) + ": G is not measured there "
+                     "(attrs uncovered_dr_min/max); fit, energy, gradient, stress ACF, "
+                     "Persson theory, patch radius and spectrum of this G bridge the gap "
+                     "or mark what depends on it", StitchingGapWarning)
+    text = "" if lazy else "; ".join(_unexplained_factors(names, *factors, threshold))
+    out = quality.mark_curves(out, xr.DataArray(code), what="stitch", notes=text, warn=False)
+    if text and warn:
+        quality.warn(text, LevelFactorWarning)
+    return out
+
+
+def _level_and_combine(curves: xr.Dataset, keep: np.ndarray, *, level: bool,
+                       threshold: float, lazy: bool) -> tuple:
+    """:func:`_combine_curves` on the curves: at once, or one small task on lazy curves.
+
+    On lazy curves the level factors stay unknown (``None``) until compute.
+    """
+    stack = dsa.stack if lazy else np.stack  # one array: one collection for dask
+    curves_3d = stack([curves[k].data.astype(float) for k in
+                       ("G", "standard_error", "pair_count")])
+    args = (curves_3d, curves.dr.values, _scan_sizes(curves), keep, level,
+            [str(n) for n in curves.measurement.values], threshold)
+    if not lazy:
+        return _combine_curves(*args)
+    nk = int(keep.sum())
+    parts = dask.delayed(_combine_curves, nout=4, pure=True)(*args)
+    return (dsa.from_delayed(parts[0], shape=(2, nk), dtype=float),
+            dsa.from_delayed(parts[1], shape=(3, nk), dtype=np.int64), None,
+            dsa.from_delayed(parts[3], shape=(), dtype=np.int8))
+
+
+def _stitched_attrs(curves: xr.Dataset, *, level: bool, diagnostics: dict,
+                    gaps: list) -> dict:
+    """Attrs of the stitched G (see :func:`stitch`), with the value ``diagnostics``."""
+    names = [str(n) for n in curves.measurement.values]
+    lunit = curves.dr.attrs["units"]
+
+    def known_or(sizes: xr.DataArray, fallback: xr.DataArray, pick) -> float:
+        values = sizes.values
+        return float(pick(values)) if np.isfinite(values).any() else float(
+            pick(fallback.values))
+
+    return result_attrs(None, **{
+        "units": curves.G.attrs["units"],
         "long_name": "height-difference autocorrelation function",
         "symbol": "G",
         "equation": "eq. 1: G(dr) = 1/2 <(h(r) - h(r + dr))^2>",
@@ -815,10 +891,8 @@ def stitch(
                       f"at most {LEVEL_FACTOR_BOUND:g} or 1/{LEVEL_FACTOR_BOUND:g} "
                       "without a mark" if level else "none (level=False)"),
         "points_per_decade": float(curves.attrs.get("points_per_decade", np.nan)),
-        "pixel_size": float(np.nanmin(curves.pixel_size.values)) if np.isfinite(
-            curves.pixel_size.values).any() else float(curves.dr_min.min()),
-        "scan_size": float(np.nanmax(curves.scan_size.values)) if np.isfinite(
-            curves.scan_size.values).any() else float(curves.dr_max.max()),
+        "pixel_size": known_or(curves.pixel_size, curves.dr_min, np.nanmin),
+        "scan_size": known_or(curves.scan_size, curves.dr_max, np.nanmax),
         "reliable_dr_min": float(curves.dr_min.min()),
         "reliable_dr_max": float(curves.dr_max.max()),
         "reliable_dr_units": lunit,
@@ -830,16 +904,6 @@ def stitch(
         "source_sha256": ", ".join(str(c) for c in curves.source_sha256.values)
         if "source_sha256" in curves.coords else "",
     })
-    if gaps and warn:
-        quality.warn("; ".join(text for _, _, text in gaps) + ": G is not measured there "
-                     "(attrs uncovered_dr_min/max); fit, energy, gradient, stress ACF, "
-                     "Persson theory, patch radius and spectrum of this G bridge the gap "
-                     "or mark what depends on it", StitchingGapWarning)
-    text = "" if lazy else "; ".join(_unexplained_factors(names, factors, errors, threshold))
-    out = quality.mark_curves(out, xr.DataArray(code), what="stitch", notes=text, warn=False)
-    if text and warn:
-        quality.warn(text, LevelFactorWarning)
-    return out
 
 
 def _window_bins(curves: xr.Dataset) -> np.ndarray:
