@@ -214,57 +214,94 @@ def _read(path: Path, max_points: int | None):
         raise ValueError(f"{path.name}: not an SDF file (it does not start with "
                          f"'aISO-1.0' or 'bISO-1.0' but with {raw[:8]!r})")
     if binary:
-        header, payload = _parse_binary(raw, path)
-        tokens, trailer = None, ""
+        header, data = _parse_binary(raw, path)
+        trailer = ""
     else:
-        header, tokens, trailer = _parse_text(raw, path)
+        header, data, trailer = _parse_text(raw, path)
+    field = _fields(header, path)
+    nx, ny = field("NumPoints", int), field("NumProfiles", int)
+    if nx < 1 or ny < 1:
+        raise ValueError(f"{path.name}: NumPoints = {nx} and NumProfiles = {ny} must be "
+                         "positive")
+    check_points(path, nx * ny, max_points, f"the header ({nx} x {ny})")
+    heights = _heights(data, field, nx, ny, path)
+    attrs = _attrs(header, trailer, path)
+    try:
+        if ny == 1:
+            return topography(heights, spacing=field("Xscale"), unit="m", attrs=attrs)
+        # the first profile is the top of the picture: reversed, the last is y = 0
+        return topography(heights.reshape(ny, nx)[::-1],
+                          spacing=(field("Yscale"), field("Xscale")), unit="m", attrs=attrs)
+    except ValueError as err:
+        raise ValueError(f"{path.name}: {err}") from None
+
+
+def _fields(header: dict[str, str], path: Path):
+    """Check that the header has the required keys; return a reader of its numbers."""
     lower = {k.lower(): k for k in header}
     missing = [k for k in _REQUIRED if k.lower() not in lower]
     if missing:
         raise ValueError(f"{path.name}: the SDF header lacks {', '.join(missing)}")
 
-    def field(key, kind=float):
+    def field(key, kind=float, default=None):
+        if key.lower() not in lower:
+            return default
         return _number(header[lower[key.lower()]], key, path, kind)
 
-    nx, ny = field("NumPoints", int), field("NumProfiles", int)
-    if nx < 1 or ny < 1:
-        raise ValueError(f"{path.name}: NumPoints = {nx} and NumProfiles = {ny} must be "
-                         "positive")
-    dx, dy, dz = field("Xscale"), field("Yscale"), field("Zscale")
+    return field
+
+
+def _heights(data, field, nx: int, ny: int, path: Path) -> np.ndarray:
+    """Read the heights in metres, NaN at missing points.
+
+    ``data`` is the binary payload (bytes) or the text tokens (a list of str).
+    """
     code = field("DataType", int)
     if code not in _DATA_TYPES:
         raise ValueError(f"{path.name}: unknown DataType {code} (known: 0-7)")
-    if "compression" in lower and field("Compression", int) != 0:
-        raise ValueError(f"{path.name}: compressed SDF data (Compression = "
-                         f"{field('Compression', int)}) is not supported")
-    _, dtype, marker = _DATA_TYPES[code]
+    compression = field("Compression", int, 0)
+    if compression != 0:
+        raise ValueError(f"{path.name}: compressed SDF data (Compression = {compression}) "
+                         "is not supported")
+    name, dtype, marker = _DATA_TYPES[code]
     n = nx * ny
-    check_points(path, n, max_points, f"the header ({nx} x {ny})")
-    if binary:
-        if len(payload) < n * dtype.itemsize:
-            raise ValueError(f"{path.name}: the file holds {len(payload)} bytes of data, "
-                             f"{nx} x {ny} points of type {_DATA_TYPES[code][0]} need "
-                             f"{n * dtype.itemsize} (truncated)")
-        values = np.frombuffer(payload, dtype=dtype, count=n).astype(float)
+    if isinstance(data, bytes):
+        if len(data) < n * dtype.itemsize:
+            raise ValueError(f"{path.name}: the file holds {len(data)} bytes of data, "
+                             f"{nx} x {ny} points of type {name} need {n * dtype.itemsize} "
+                             "(truncated)")
+        values = np.frombuffer(data, dtype=dtype, count=n).astype(float)
     else:
-        if len(tokens) != n:
-            raise ValueError(f"{path.name}: the data section holds {len(tokens)} values, "
+        if len(data) != n:
+            raise ValueError(f"{path.name}: the data section holds {len(data)} values, "
                              f"NumPoints x NumProfiles = {nx} x {ny} = {n} (truncated or "
                              "corrupted)")
-        values = np.empty(n)
-        for i, tok in enumerate(tokens):
-            if tok.upper() == "BAD":
-                values[i] = np.nan
-                continue
-            try:
-                values[i] = float(tok)
-            except ValueError:
-                raise ValueError(f"{path.name}: data value {i} is not a number: "
-                                 f"{tok!r}") from None
+        values = _text_values(data, path)
     if marker is not None:
         values[values == marker] = np.nan
-    heights = values * dz
+    return values * field("Zscale")
 
+
+def _text_values(tokens: list[str], path: Path) -> np.ndarray:
+    """Numbers of the text data section; ``BAD`` (any case) is a missing point."""
+    text = np.array(tokens)
+    text[np.char.upper(text) == "BAD"] = "nan"
+    try:
+        return text.astype(float)
+    except ValueError:  # numpy and Python parse a few spellings differently: one by one
+        pass
+    values = np.empty(len(tokens))
+    for i, tok in enumerate(text):
+        try:
+            values[i] = float(tok)
+        except ValueError:
+            raise ValueError(f"{path.name}: data value {i} is not a number: "
+                             f"{str(tok)!r}") from None
+    return values
+
+
+def _attrs(header: dict[str, str], trailer: str, path: Path) -> dict:
+    """Attrs from the header (but the grid keys) and the XML-like tags of the trailer."""
     attrs: dict = {}
     for key, value in header.items():
         if key in _REQUIRED and key != "DataType":
@@ -286,11 +323,4 @@ def _read(path: Path, max_points: int | None):
             if name in _RESERVED or name in attrs:
                 name = f"trailer_{name}"
             attrs.setdefault(name, value.strip())
-    try:
-        if ny == 1:
-            return topography(heights, spacing=dx, unit="m", attrs=attrs)
-        # the first profile is the top of the picture: reversed, the last is y = 0
-        return topography(heights.reshape(ny, nx)[::-1], spacing=(dy, dx), unit="m",
-                          attrs=attrs)
-    except ValueError as err:
-        raise ValueError(f"{path.name}: {err}") from None
+    return attrs

@@ -286,20 +286,11 @@ def _read(path: Path, index: int, max_points: int | None):
     if raw[:12] not in _MAGICS:
         raise ValueError(f"{path.name}: not a SUR file (it starts with {raw[:12]!r}, not "
                          "'DIGITAL SURF' or 'DSCOMPRESSED')")
-    first = _header(raw, 0, path, 0)
-    n_objects = max(first["n_objects"], 1)
+    headers = _object_headers(raw, path)
+    n_objects = len(headers)
     if not 0 <= index < n_objects:
         raise ValueError(f"{path.name}: index={index} but the file has {n_objects} "
                          f"object{'s' if n_objects > 1 else ''} (0 to {n_objects - 1})")
-    pos, headers = 0, []
-    for k in range(n_objects):  # every object's size, to check them against the file's
-        headers.append(first if k == 0 else _header(raw, pos, path, k))
-        _, pos = _points(raw, headers[-1], path, k, decode=False)
-    if pos != len(raw):
-        raise ValueError(f"{path.name}: the file has {len(raw)} bytes, {len(raw) - pos} more "
-                         f"than the headers of its {n_objects} object(s) account for (the "
-                         f"last data ends at byte {pos} by their comment, private zone and "
-                         "point sizes): bytes inserted into the file shift the data")
     h = headers[index]
     kind = OBJECT_TYPES.get(h["object_type"], f"type {h['object_type']}")
     if h["object_type"] not in _HEIGHT_TYPES:
@@ -307,28 +298,65 @@ def _read(path: Path, index: int, max_points: int | None):
                          "another object with index=")
     check_points(path, h["n_points"], max_points, f"object {index}")
     points, _ = _points(raw, h, path, index, decode=True, trusted=max_points is not None)
+    heights = _heights(points, h)
+    attrs = _attrs(raw, h, kind)
+    if n_objects > 1:
+        attrs.update(n_objects=n_objects, object_index=index)
+    height_unit = _unit(h["dz_unit"], path, "Z")
+    lateral_unit = _unit(h["dx_unit"], path, "X")
+    dx = _f32(h["dx"])
+    if not dx > 0:
+        raise ValueError(f"{path.name}: the X spacing must be positive, got {dx}")
+    # a ValueError without the file's name gets it from ``reader_errors``
+    if h["ny"] == 1:
+        return topography(heights[0], spacing=dx, unit=lateral_unit,
+                          height_unit=height_unit, attrs=attrs)
+    y_unit = _unit(h["dy_unit"], path, "Y")
+    to_lateral = u.conversion_factor(y_unit, lateral_unit) if y_unit != lateral_unit else 1
+    dy = _f32(h["dy"]) * to_lateral
+    if h["y_offset"]:
+        attrs["y_offset"] = _f32(h["y_offset"]) * u.conversion_factor(y_unit, lateral_unit)
+    if not dy > 0:
+        raise ValueError(f"the Y spacing must be positive, got {dy}")
+    return topography(heights, spacing=(dy, dx), unit=lateral_unit, height_unit=height_unit,
+                      attrs=attrs)
 
-    dz = _f32(h["dz"])
-    heights = points.astype(float) * dz
+
+def _object_headers(raw: bytes, path: Path) -> list[dict]:
+    """Read the header of every object and check their sizes against the file's."""
+    first = _header(raw, 0, path, 0)
+    n_objects = max(first["n_objects"], 1)
+    pos, headers = 0, []
+    for k in range(n_objects):
+        headers.append(first if k == 0 else _header(raw, pos, path, k))
+        _, pos = _points(raw, headers[-1], path, k, decode=False)
+    if pos != len(raw):
+        raise ValueError(f"{path.name}: the file has {len(raw)} bytes, {len(raw) - pos} more "
+                         f"than the headers of its {n_objects} object(s) account for (the "
+                         f"last data ends at byte {pos} by their comment, private zone and "
+                         "point sizes): bytes inserted into the file shift the data")
+    return headers
+
+
+def _heights(points: np.ndarray, h: dict) -> np.ndarray:
+    """Heights ``(ny, nx)`` in the Z unit, row 0 at y = 0, NaN at non-measured points."""
+    heights = points.astype(float) * _f32(h["dz"])
     if h["z_offset"]:
         heights += _f32(h["z_offset"])
     if h["special_points"] == 1:
         heights[points == h["z_min"] - 2] = np.nan
-    nx, ny = h["nx"], h["ny"]
-    heights = heights.reshape(ny, nx)
+    heights = heights.reshape(h["ny"], h["nx"])
     if h["inversion"] in (1, 2, 3):
         heights = -heights
         if h["inversion"] == 2:
             heights = heights[:, ::-1]
         elif h["inversion"] == 3:
             heights = heights[::-1, :]
-    heights = heights[::-1]  # the first line is the top of the picture, the last y = 0
-    height_unit = _unit(h["dz_unit"], path, "Z")
-    lateral_unit = _unit(h["dx_unit"], path, "X")
-    dx = _f32(h["dx"])
-    if not dx > 0:
-        raise ValueError(f"{path.name}: the X spacing must be positive, got {dx}")
+    return heights[::-1]  # the first line is the top of the picture, the last y = 0
 
+
+def _attrs(raw: bytes, h: dict, kind: str) -> dict:
+    """Attrs of one object: its names, acquisition, date, comment, offset and inversion."""
     attrs: dict = {"object_type": kind}
     for key in ("object_name", "operator_name"):
         if h[key]:
@@ -342,27 +370,11 @@ def _read(path: Path, index: int, max_points: int | None):
         except ValueError:
             pass
     start = h["data_start"] - h["comment_size"] - h["private_size"]
-    comment = raw[start:start + h["comment_size"]].split(b"\0", 1)[0]
-    comment = comment.decode("latin-1").strip()
+    comment = _string(raw[start:start + h["comment_size"]])
     if comment:
         attrs["comment"] = comment
     if h["x_offset"]:
         attrs["x_offset"] = _f32(h["x_offset"])
     if h["inversion"]:
         attrs["inversion"] = int(h["inversion"])
-    if n_objects > 1:
-        attrs.update(n_objects=n_objects, object_index=index)
-    # a ValueError without the file's name gets it from ``reader_errors``
-    if ny == 1:
-        return topography(heights[0], spacing=dx, unit=lateral_unit,
-                          height_unit=height_unit, attrs=attrs)
-    dy = _f32(h["dy"])
-    y_unit = _unit(h["dy_unit"], path, "Y")
-    if y_unit != lateral_unit:
-        dy *= u.conversion_factor(y_unit, lateral_unit)
-    if h["y_offset"]:
-        attrs["y_offset"] = _f32(h["y_offset"]) * u.conversion_factor(y_unit, lateral_unit)
-    if not dy > 0:
-        raise ValueError(f"the Y spacing must be positive, got {dy}")
-    return topography(heights, spacing=(dy, dx), unit=lateral_unit, height_unit=height_unit,
-                      attrs=attrs)
+    return attrs
