@@ -1,7 +1,7 @@
 """The declared minimum versions are the ones the oldest-versions CI run installs.
 
 pyproject.toml gives each core dependency a minimum (``>=``); .ci/oldest-constraints.txt
-pins each of them (``==``) for .ci/oldest, which runs the whole suite on those versions.
+pins each of them (``==``) for .ci/oldest, which runs the fast suite on those versions.
 The two must name the same versions, or the minimums stop being tested.
 """
 

@@ -27,7 +27,7 @@ from ._kernels.contact import KAPPA_PERSSON
 from ._kernels.gaps import bridge_energy
 from ._kernels.hankel import acf_from_spectrum_kernel
 from .acf import AcfSpec, gap_note, lag_coord, mark_gaps, read_acf, result_attrs
-from .fit_result import rolloff_shapes
+from .fit_result import read_fit, rolloff_shapes
 from .fitting import fit_acf
 from .gradient import rms_gradient
 from .preprocess import reliability_window
@@ -817,10 +817,8 @@ def _area_vars(run: _PerssonRun, area: _ContactArea) -> dict[str, xr.DataArray]:
 
 def _sigma_quick(run: _PerssonRun, fit: xr.Dataset) -> xr.DataArray:
     """Estimate the contact stress quickly (eq. 41/42) from a fit, at least ``p0``."""
-    lf = u.conversion_factor(u.as_length_unit(u.units_of(fit["lambda_r"], what="lambda_r"),
-                                              what="lambda_r"), "m")
-    hf = u.conversion_factor(u.as_length_unit(u.units_of(fit["sigma_h"], what="sigma_h"),
-                                              what="sigma_h"), "m")
+    reading = read_fit(fit)
+    lf, hf = (u.conversion_factor(unit, "m") for unit in (reading.lateral, reading.height))
     params = [a.drop_vars([c for c in a.coords if c not in a.dims])
               for a in (fit["hurst"], fit["sigma_h"], fit["lambda_r"], rolloff_shapes(fit))]
     est = xr.apply_ufunc(
