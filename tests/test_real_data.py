@@ -13,8 +13,8 @@ then check what the physics demands of its results, what the quality marks must 
 them, and what the warnings must say about the marks. Nothing is compared with a stored
 number.
 
-Each measurement's tests share an ``xdist_group``: with ``-n 2 --dist loadgroup`` its
-chain is computed on one worker only.
+With ``-n 2`` the module runs on one worker (``--dist loadscope``, set in pyproject.toml),
+so each chain is computed once.
 
 Tolerances (each test says which it uses):
 
@@ -129,8 +129,7 @@ RESULTS = STEPS[2:]  # the results that carry quality marks
 
 def _params(all_cases: bool):
     """Every case, or (for the steps after the fit) those whose chain completes."""
-    return [pytest.param(cid, id=cid, marks=[pytest.mark.xdist_group(cid)]
-                         + ([needs_bridge] if case.bridge else []))
+    return [pytest.param(cid, id=cid, marks=[needs_bridge] if case.bridge else [])
             for cid, case in CASES.items() if all_cases or case.refuses is None]
 
 
@@ -604,7 +603,6 @@ def test_nothing_marked_that_was_not_warned(chain, step):
 # ---------------------------------------------------------------------------------------
 # stitching
 # ---------------------------------------------------------------------------------------
-@pytest.mark.xdist_group("uncd-stitched")
 def test_stitched_gap_is_warned_and_marked(chains):
     """Where no instrument covers the lags (TEM ends near 58 nm, the stylus starts near
     400 nm), G is not measured: the stitched G must say so and warn."""
@@ -620,7 +618,6 @@ def test_stitched_gap_is_warned_and_marked(chains):
     assert _xrough_warnings(chain, "G"), f"lags {holes} nm uncovered, nothing warned"
 
 
-@pytest.mark.xdist_group("uncd-stitched")
 def test_stitched_mismatch_beyond_threshold_warns(chains):
     chain = chains("uncd-stitched")
     G = chain.get("G")
@@ -630,7 +627,6 @@ def test_stitched_mismatch_beyond_threshold_warns(chains):
     assert bool((np.abs(z) > 3).any()) == bool(warned), (z, warned)
 
 
-@pytest.mark.xdist_group("uncd-stitched")
 def test_stitched_G_spans_the_instruments(chains):
     """The union of the windows: from below 1 nm (AFM) to beyond 50 um (stylus)."""
     G = chains("uncd-stitched").get("G")
