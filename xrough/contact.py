@@ -819,7 +819,7 @@ def _sigma_quick(run: _PerssonRun, fit: xr.Dataset) -> xr.DataArray:
     """Estimate the contact stress quickly (eq. 41/42) from a fit, at least ``p0``."""
     reading = read_fit(fit)
     lf, hf = (u.conversion_factor(unit, "m") for unit in (reading.lateral, reading.height))
-    params = [a.drop_vars([c for c in a.coords if c not in a.dims])
+    params = [a.reset_coords(drop=True)
               for a in (fit["hurst"], fit["sigma_h"], fit["lambda_r"], rolloff_shapes(fit))]
     est = xr.apply_ufunc(
         k.quick_stress, run.dr_m, run.G_si, params[0], params[1] * hf, params[2] * lf,
@@ -867,8 +867,7 @@ def _stress_vars(run: _PerssonRun, area: _ContactArea, smooth_full: bool):
 def _asymptote_vars(run: _PerssonRun, area: _ContactArea,
                     fit: xr.Dataset) -> dict[str, xr.DataArray]:
     """Return the small-pressure asymptotes of ``Gamma_sigma`` (eq. 51) asked for."""
-    hurst = fit["hurst"].drop_vars([c for c in fit["hurst"].coords
-                                    if c not in fit["hurst"].dims])
+    hurst = fit["hurst"].reset_coords(drop=True)
     asymptotes = {
         "Gamma_sigma_sa": (k.asymptote_weight(run.theory, run.kappa),
                            f"small-p* limit of eq. 47-50 ({run.theory})"),

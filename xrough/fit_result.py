@@ -103,7 +103,7 @@ class FitReading:
         arrays = [self.params["hurst"], self.params["G_sa"], self.params["lambda_r"],
                   self.in_lateral("lambda_s"), self.params["lambda_r_resolved"],
                   self.params["lambda_s_resolved"], rolloff_shapes(self.params)]
-        arrays = [a.drop_vars([c for c in a.coords if c not in a.dims]) for a in arrays]
+        arrays = [a.reset_coords(drop=True) for a in arrays]
         lam_0 = self.scalar("lambda_0") if "lambda_0" in self.params.variables else np.inf
         return xr.apply_ufunc(
             func, *arrays, input_core_dims=[[]] * len(arrays), output_core_dims=[["dr"]],

@@ -170,8 +170,7 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto",
     out = out.transpose(..., "dr").assign_coords(G["dr"].coords)
     out = out.drop_vars([c for c in out.coords if c not in out.dims and c != "dr"
                          and c != "gradient_method"], errors="ignore")
-    level = level.drop_vars([c for c in level.coords if c not in level.dims],
-                            errors="ignore")
+    level = level.reset_coords(drop=True)
     out.name = "gbar"
     attrs = {"units": "1", "long_name": "scale-dependent rms gradient",
              "equation": _EQUATIONS.get(method, "eq. 26 (route per curve: see "

@@ -199,7 +199,7 @@ def flag_of(obj: xr.DataArray | xr.Dataset) -> xr.DataArray:
     """
     if FLAG in obj.coords:
         flag = obj[FLAG]
-        return flag.drop_vars([c for c in flag.coords if c not in flag.dims]).astype(np.int8)
+        return flag.reset_coords(drop=True).astype(np.int8)
     level = obj.attrs.get("quality", "good")
     return xr.DataArray(np.int8(level_code(level) if level in LEVELS else 0))
 
@@ -390,7 +390,7 @@ def mark_curves(obj, codes, *, what: str, notes: str = "", warn: bool = True):
         # np.maximum would strip their attrs, and assign_coords below would put them back
         # on the result without units
         old = out[FLAG]
-        old = old.drop_vars([c for c in old.coords if c not in old.dims])
+        old = old.reset_coords(drop=True)
         codes = np.maximum(old, codes)
     out = out.assign_coords({FLAG: flag_coord(codes, what=what)})
     flag = out[FLAG]
