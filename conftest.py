@@ -11,3 +11,11 @@ def _doctest_namespace(doctest_namespace):
     import xrough
 
     doctest_namespace.update(np=np, xr=xr, xrough=xrough)
+
+
+@pytest.fixture(autouse=True)
+def _no_fit_in_memory():
+    """Each test starts with no fit kept in memory (xrough.memo): none rests on another's."""
+    from xrough.fitting import fit_acf
+
+    fit_acf.cache_clear()

@@ -76,6 +76,7 @@ from ._kernels.fitting import (
 from ._kernels.shape_factors import ROLLOFFS
 from .acf import AcfSpec, mark_gaps, read_acf, result_attrs
 from .fit_result import model_acf, rolloff_shapes  # noqa: F401  (read a fit; public here)
+from .memo import by_content
 
 __all__ = ["fit_acf", "model_acf", "describe_problems"]
 
@@ -290,6 +291,7 @@ def _fit_notes(ds: xr.Dataset, bits: np.ndarray, model: str, weighted: bool) -> 
 # --------------------------------------------------------------------------------------
 # public functions
 # --------------------------------------------------------------------------------------
+@by_content()
 def fit_acf(
     G: xr.DataArray,
     *,
@@ -407,6 +409,12 @@ def fit_acf(
 
     Notes
     -----
+    *Computed once.*  A fit of an equal G (same values, coords and attrs, whichever object
+    holds them) with equal options is not computed again in the same session: the result
+    is handed out from memory (a copy, with the same warnings), so ``G.rough.fit()``
+    followed by ``G.rough.persson(...)``, which needs that fit, fits once
+    (:func:`xrough.memo.by_content`; ``fit_acf.cache_clear()`` forgets).
+
     *Residuals.*  Both models minimise ``sum_i [(ln G_model(dr_i) - ln G_i) / s_i]^2``
     with ``s_i = standard_error_i / G_i`` (the standard error of ``ln G``), or ``s_i = 1``
     unweighted: G spans decades and its errors are relative, so log residuals give every

@@ -102,7 +102,9 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto",
         curve ``attrs["method"]`` and ``attrs["fallback_reason"]`` say it in words.
     fit : xarray.Dataset, optional
         A :func:`xrough.fit_acf` result of this G, reused by ``'fit'`` and ``'auto'``
-        instead of fitting again.
+        instead of fitting again. Without it, a default fit of this G that the session
+        has already made (``G.rough.fit()``) is reused; ``'auto'`` otherwise fits only
+        the curves whose exact gradient leaves lags open.
 
     Returns
     -------
@@ -136,6 +138,8 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto",
     """
     if method not in GRADIENT_METHODS:
         raise ValueError(f"method must be one of {GRADIENT_METHODS}, got {method!r}")
+    if fit is None and method == "auto":
+        fit = fit_acf.peek(G)  # the fit of this G that the chain has made, if any
     G, spec = read_acf(G)
     G = G.transpose(..., "dr")
     if G.chunks is not None:

@@ -28,17 +28,20 @@ All attributes are str, so a NetCDF archive keeps them; the flag is an ``int8`` 
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import os
 import sys
 import warnings
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 
 import dask.array as dsa
 import numpy as np
 import xarray as xr
 
 __all__ = ["LEVELS", "QualityWarning", "FLAG", "SEPARATOR", "level_code", "worst", "mark",
-           "mark_curves", "flag_coord", "flag_of", "notes_of", "warn", "user_stacklevel"]
+           "mark_curves", "flag_coord", "flag_of", "notes_of", "warn", "user_stacklevel",
+           "recorded"]
 
 #: The levels, best first; the integer code of a level is its index.
 LEVELS = ("good", "questionable", "failed")
@@ -108,7 +111,40 @@ def warn(message, category: type[Warning] = UserWarning) -> None:
     >>> caught[0].category.__name__, caught[0].filename.startswith("<doctest")  # this line
     ('RuntimeWarning', True)
     """
+    for said in _RECORDINGS.get():
+        said.append((message, category))
     warnings.warn(message, category, stacklevel=user_stacklevel())
+
+
+#: The open :func:`recorded` lists of this context (innermost last).
+_RECORDINGS: contextvars.ContextVar[tuple[list, ...]] = contextvars.ContextVar(
+    "xrough_recorded_warnings", default=())
+
+
+@contextlib.contextmanager
+def recorded() -> Iterator[list]:
+    """Collect what :func:`warn` says inside the block (it is still issued as usual).
+
+    Yields a list that fills with ``(message, category)`` pairs, so that a result
+    computed once can say the same again when it is handed out a second time
+    (:func:`xrough.memo.by_content`).  Per context (thread, task): safe under threads.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("ignore")
+    ...     with recorded() as said:
+    ...         warn("a note", QualityWarning)
+    >>> said == [("a note", QualityWarning)]
+    True
+    """
+    said: list = []
+    token = _RECORDINGS.set((*_RECORDINGS.get(), said))
+    try:
+        yield said
+    finally:
+        _RECORDINGS.reset(token)
 
 
 def level_code(level) -> int:

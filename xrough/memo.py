@@ -1,0 +1,122 @@
+"""Results computed once per content: a chain never fits the same G twice.
+
+A user's chain calls the same costly step more than once without knowing it:
+``G.rough.fit()`` and then ``G.rough.persson(...)``, which needs that fit of G for its
+quick stress estimate, its small-pressure asymptotes and the lags where G does not
+determine the rms gradient. :func:`by_content` makes such a step answer a repeated call at
+once: the key is dask's token of the arguments, which hashes the data, coords and attrs of
+an xarray object (and names a dask array by its graph), so an equal G with equal options
+gets the same result whichever object holds it, and a G that differs in a single value, a
+unit or an attribute does not.
+
+What a hit hands out is what the computation returned: a deep copy of it (changing it does
+not change the next answer), with the same :class:`xrough.QualityWarning` issued again at
+the caller's line. ``cache_clear()`` empties a function's cache, ``cache_info()`` counts.
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import threading
+from collections import OrderedDict
+from collections.abc import Callable
+from typing import Any
+
+from dask.base import tokenize
+
+from . import quality
+
+__all__ = ["by_content"]
+
+
+def _again(kept: tuple[Any, list]) -> Any:
+    """Hand out a kept result again: a copy, with what it warned said again."""
+    result, said = kept
+    for message, category in said:
+        quality.warn(message, category)
+    return result.copy(deep=True)
+
+
+def by_content(maxsize: int = 32) -> Callable:
+    """Decorate a pure function of xarray objects: equal arguments, one computation.
+
+    Parameters
+    ----------
+    maxsize : int
+        Results kept (the least recently used goes first).
+
+    Returns
+    -------
+    callable
+        A decorator. An equal call is one with equal arguments once the defaults are
+        filled in. The decorated function has ``peek(*args, **kwargs)`` (a copy of the
+        kept result of an equal call, or None; nothing is computed or warned),
+        ``cache_clear()`` and
+        ``cache_info()`` (a dict of ``hits``, ``misses``, ``size``); its signature and
+        docstring are those of the function (``__wrapped__``).
+
+    Examples
+    --------
+    >>> calls = []
+    >>> @by_content()
+    ... def double(x):
+    ...     calls.append(x)
+    ...     return xr.DataArray(2 * x)
+    >>> import xarray as xr
+    >>> a, b = double(xr.DataArray(1.0)), double(xr.DataArray(1.0))  # equal, not the same
+    >>> len(calls), float(b), double.cache_info()["hits"]
+    (1, 2.0, 1)
+    """
+    def decorate(func: Callable) -> Callable:
+        cache: OrderedDict[str, tuple[Any, list]] = OrderedDict()
+        lock = threading.Lock()
+        counts = {"hits": 0, "misses": 0}
+
+        signature = inspect.signature(func)
+
+        def key_of(args, kwargs) -> str:  # f(G) and f(G, model="spectrum") are one call
+            bound = signature.bind(*args, **kwargs)
+            bound.apply_defaults()
+            return tokenize(func.__module__, func.__qualname__, bound.arguments)
+
+        @functools.wraps(func)
+        def wrapper(*args, **kwargs):
+            key = key_of(args, kwargs)
+            with lock:
+                hit = cache.get(key)
+                if hit is not None:
+                    cache.move_to_end(key)
+                    counts["hits"] += 1
+                else:
+                    counts["misses"] += 1
+            if hit is not None:
+                return _again(hit)
+            with quality.recorded() as said:
+                result = func(*args, **kwargs)
+            with lock:
+                cache[key] = (result.copy(deep=True), list(said))
+                while len(cache) > maxsize:
+                    cache.popitem(last=False)
+            return result
+
+        def peek(*args, **kwargs):
+            """Return the kept result of an equal call (a copy; nothing said), or None."""
+            with lock:
+                hit = cache.get(key_of(args, kwargs))
+            return None if hit is None else hit[0].copy(deep=True)
+
+        def cache_clear() -> None:
+            with lock:
+                cache.clear()
+                counts.update(hits=0, misses=0)
+
+        def cache_info() -> dict:
+            with lock:
+                return {**counts, "size": len(cache)}
+
+        wrapper.peek = peek
+        wrapper.cache_clear = cache_clear
+        wrapper.cache_info = cache_info
+        return wrapper
+    return decorate
