@@ -14,8 +14,8 @@ def _doctest_namespace(doctest_namespace):
 
 
 @pytest.fixture(autouse=True)
-def _no_fit_in_memory():
-    """Each test starts with no fit kept in memory (xrough.memo): none rests on another's."""
-    from xrough.fitting import fit_acf
+def _nothing_in_memory():
+    """Each test starts with no result kept in memory (xrough.memo): none rests on another's."""
+    from xrough.memo import forget
 
-    fit_acf.cache_clear()
+    forget()

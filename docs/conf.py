@@ -132,6 +132,7 @@ API_MODULES = [
     "xrough.spectra",
     "xrough.models",
     "xrough.fitting",
+    "xrough.memo",
     "xrough.gradient",
     "xrough.contact",
     "xrough.stitching",

@@ -232,7 +232,9 @@ def test_spectral_functions_are_unit_invariant(case, unit):
 _FIT = 1e-7  # least-squares optimiser: stops at its own tolerance
 _SPLINE = (1e-8, 1e-8)  # GCV smoothing spline of ln G
 _HANKEL = 1e-9  # spectrum of G: oscillatory sums that amplify round-off
-_PERSSON_TOL = {"sigma_quick": (_FIT, 0.0), "G_sigma": _SPLINE, "Gamma_sigma": _SPLINE}
+_PERSSON_TOL = {"sigma_quick": (_FIT, 0.0), "G_sigma": _SPLINE, "Gamma_sigma": _SPLINE,
+                # eq. 51 with G's local exponent: the slope of the same smoothing spline
+                "Gamma_sigma_sa": _SPLINE, "Gamma_sigma_51": _SPLINE}
 
 
 G_FUNCTIONS: dict[str, tuple[Callable, dict]] = {

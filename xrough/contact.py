@@ -30,6 +30,7 @@ from .acf import AcfSpec, gap_note, lag_coord, mark_gaps, read_acf, result_attrs
 from .fit_result import read_fit, rolloff_shapes
 from .fitting import fit_acf
 from .gradient import rms_gradient
+from .memo import by_content
 from .preprocess import reliability_window
 from .spectra import spectrum_input
 
@@ -96,27 +97,28 @@ def _per_curve(func, *arrays, out: dict[str, int] | None = None, **kwargs):
         keep_attrs=False)
 
 
-def _laplacian(G: xr.DataArray, G_si: xr.DataArray, error: xr.DataArray | None,
-               spec: AcfSpec, *, smooth_tail: bool = False):
-    """Laplacian of G (dimensionless) on its lags, per curve, and why a lag has none.
+@by_content()
+def _laplacian(G: xr.DataArray):
+    """Laplacian of G (dimensionless) on its lags, per curve, why a lag has none, and H(dr).
 
-    Returns the Laplacian (NaN where G does not determine it, optionally without roll-off
-    ringing) and the code per lag of :func:`xrough._kernels.contact.laplacian_curve`
-    (0, ``UNDETERMINED``, ``OUTSIDE_WINDOW``).
+    Returns the Laplacian (NaN where G does not determine it), the code per lag of
+    :func:`xrough._kernels.contact.laplacian_curve` (0, ``UNDETERMINED``,
+    ``OUTSIDE_WINDOW``) and the local exponent ``(1/2) dln G / dln dr`` of the same
+    smoothed G.  Kept by content: :func:`stress_acf` and :func:`persson` of one G compute
+    it once.
     """
+    G, spec = read_acf(G)
+    G_si, error = _si(G, spec)
     dr = spec.dr * spec.to_m
     lo, hi = reliability_window(G)
     window = (0.0 if lo is None else lo * spec.to_m, np.inf if hi is None else hi * spec.to_m)
-    parts = {"part": 2, "dr": spec.dr.size}
+    parts = {"part": 3, "dr": spec.dr.size}
     if error is None:
         res = _per_curve(lambda g, dr, window: k.laplacian_curve(g, None, dr=dr, window=window),
                          G_si, out=parts, dr=dr, window=window)
     else:
         res = _per_curve(k.laplacian_curve, G_si, error, out=parts, dr=dr, window=window)
-    lap, why = res.isel(part=0), res.isel(part=1)
-    if smooth_tail:
-        lap = _per_curve(k.smooth_tail, lap, G_si, dr=dr)
-    return lap, why
+    return res.isel(part=0), res.isel(part=1), res.isel(part=2)
 
 
 def _lag_runs(dr: np.ndarray, hit: np.ndarray, unit: str) -> str:
@@ -463,7 +465,7 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
         return out
     G, spec = read_acf(G)
     G_si, error = _si(G, spec)
-    lap, why = _laplacian(G, G_si, error, spec)
+    lap, why, _ = _laplacian(G)
     full = (E / 2) ** 2 * lap
     out = full.transpose(..., "dr").assign_coords(
         {**_own_coords(G), **lag_coord(spec.dr, spec.unit_str)})
@@ -544,8 +546,8 @@ def stress_acf_from_spectrum(C: xr.DataArray, dr: Any, *, E_star: Any) -> xr.Dat
 
 PERSSON_VARIABLES = ("p_star", "a_r", "a_ri", "sigma_c", "sigma_quick", "G_sigma",
                      "Gamma_sigma", "Gamma_sigma_sa", "Gamma_sigma_51", "G_du")
-#: The outputs that need the fit of G.
-_NEED_FIT = ("sigma_quick", "Gamma_sigma_sa", "Gamma_sigma_51")
+#: The outputs that need a fit of G (eq. 42: the roll-off law beyond the lags' reach).
+_NEED_FIT = ("sigma_quick",)
 
 
 def _gradient_on(gradient: xr.DataArray, G: xr.DataArray, spec: AcfSpec) -> xr.DataArray:
@@ -593,7 +595,9 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     - ``sigma_quick``: the quick estimates ``E* sqrt(c_sa(H) G(dr)) / dr`` below
       ``lambda_r`` (eq. 41) and ``E* sqrt(c_ro(H)) lambda_r sigma_h / dr^2`` beyond it
       (eq. 42), or ``p0`` where that is larger, with ``H``, ``sigma_h``, ``lambda_r`` from
-      :func:`xrough.fit_acf` (or ``fit``);
+      :func:`xrough.fit_acf` (or ``fit``): the one ``H`` of the fit, not G's local
+      exponent, which misjudges ``gbar`` by up to 50 % near ``lambda_r`` (docs:
+      validation, "Two routes to eq. 41 and 51");
     - ``G_sigma = p0^2 + G_sigma_full W`` (eq. 30/48), with ``W`` of eq. 49: ``a_r``
       (``"persson"``, the original theory), ``a_ri^2 / a_r`` (``"modified"``) or
       ``a_r^2 / a_ri`` (``"modified_ar2"``). The print of eq. 49 is garbled; ``"modified"``
@@ -612,8 +616,11 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
       self-affine range, ``w E*^2 H^2 gbar(0) sqrt(G / c_sa(H)) / dr`` with ``w = 1``
       (original weighting, independent of ``kappa``), ``2 / kappa`` (``"modified"``;
       ``sqrt(pi / 2)`` for Persson's ``kappa``) or ``kappa^2 / 4`` (``"modified_ar2"``;
-      ``2 / pi``), ``H`` from the fit and ``c_sa`` xrough's, defined by
-      ``gbar^2(dr) = c_sa(H) G / dr^2`` (as in eq. 41);
+      ``2 / pi``), ``H = H(dr) = dln G / (2 dln dr)`` G's own local exponent (of the
+      smoothed G whose Laplacian gives ``G_sigma``; no fit: it follows G into its
+      crossovers, where one fitted ``H`` misses ``Gamma_sigma`` by a factor 2 to 6, docs:
+      validation) and ``c_sa`` xrough's, defined by ``gbar^2(dr) = c_sa(H) G / dr^2`` (as
+      in eq. 41);
     - ``Gamma_sigma_51``: eq. 51 as printed,
       ``pi gbar(lambda_s) H^2 E*^2 sqrt(G c_sa) / (2 dr)`` with the print's ``c_sa`` read
       as ``1 / c_sa`` of xrough (the one convention in which it is a limit of eq. 47-50):
@@ -651,8 +658,11 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
         Only these outputs (others are not computed); default all of
         ``p_star, a_r, a_ri, sigma_c, sigma_quick, G_sigma, Gamma_sigma, G_du``.
     fit : xarray.Dataset, optional
-        Precomputed :func:`xrough.fit_acf` result for ``sigma_quick``,
-        ``Gamma_sigma_sa`` and ``Gamma_sigma_51``.
+        A :func:`xrough.fit_acf` result of G, for the roll-off law of ``sigma_quick``
+        (eq. 42) and, with ``gradient_method`` ``'auto'`` or ``'fit'``, the lags where G
+        does not determine ``gbar``. Default: the default fit of G, which is computed once
+        per G (a ``G.rough.fit()`` before is reused, :func:`xrough.fit_acf`) and only if
+        an output asked for needs it.
     smooth_full : bool
         Continue ``G_sigma_full`` beyond its roll-off by ``dr^-4`` (the paper's choice for
         partial contact); False keeps eq. 24 with its ringing.
@@ -709,8 +719,7 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
         checks += stress_checks
         derivative += stress_derivative
     if {"Gamma_sigma_sa", "Gamma_sigma_51"} & set(wanted):
-        fit = fit_acf(G) if fit is None else fit
-        out.update(_asymptote_vars(run, area, fit))
+        out.update(_asymptote_vars(run, area))
     if "G_du" in wanted:
         out["G_du"] = (_strip(G) * area.weight).assign_attrs(
             units=G.attrs["units"], long_name="displacement autocorrelation function",
@@ -835,7 +844,9 @@ def _stress_vars(run: _PerssonRun, area: _ContactArea, smooth_full: bool):
 
     Returns the variables, the per-``p0`` checks and the per-curve checks of the Laplacian.
     """
-    lap, why = _laplacian(run.G, run.G_si, run.error, run.spec, smooth_tail=smooth_full)
+    lap, why, _ = _laplacian(run.G)
+    if smooth_full:
+        lap = _per_curve(k.smooth_tail, lap, run.G_si, dr=run.dr_m.values)
     full = (run.E / 2) ** 2 * lap
     g_sigma = run.p0**2 + full * area.weight
     negative = g_sigma < 0  # <s(r) s(r+dr)> of compressive stresses is never < 0
@@ -864,10 +875,12 @@ def _stress_vars(run: _PerssonRun, area: _ContactArea, smooth_full: bool):
     return out, checks, _derivative_checks(why, run.spec)
 
 
-def _asymptote_vars(run: _PerssonRun, area: _ContactArea,
-                    fit: xr.Dataset) -> dict[str, xr.DataArray]:
-    """Return the small-pressure asymptotes of ``Gamma_sigma`` (eq. 51) asked for."""
-    hurst = fit["hurst"].reset_coords(drop=True)
+def _asymptote_vars(run: _PerssonRun, area: _ContactArea) -> dict[str, xr.DataArray]:
+    """Return the small-pressure asymptotes of ``Gamma_sigma`` (eq. 51) asked for.
+
+    ``H`` is G's own local exponent ``dln G / (2 dln dr)`` at each lag: no model.
+    """
+    hurst = _laplacian(run.G)[2]
     asymptotes = {
         "Gamma_sigma_sa": (k.asymptote_weight(run.theory, run.kappa),
                            f"small-p* limit of eq. 47-50 ({run.theory})"),
@@ -883,7 +896,8 @@ def _asymptote_vars(run: _PerssonRun, area: _ContactArea,
             p0=run.p0.sizes["p0"]).assign_attrs(
             units="Pa2", long_name="small-pressure asymptote of the reduced stress ACF",
             equation=f"eq. 51: w E*^2 H^2 gbar(0) sqrt(G / c_sa(H)) / dr, w = {w:.4g} "
-            f"({what}); c_sa(H) = gbar^2 dr^2 / G; self-affine range, p* -> 0")
+            f"({what}); c_sa(H) = gbar^2 dr^2 / G; H = H(dr) = dln G / (2 dln dr), the "
+            "local exponent of G; self-affine range, p* -> 0")
     return out
 
 

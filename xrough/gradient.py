@@ -35,6 +35,7 @@ from ._kernels.spectral_models import model_gradient2
 from .acf import lag_coord, mark_gaps, read_acf, result_attrs
 from .fit_result import gradient_from_fit
 from .fitting import describe_problems, fit_acf, prepare_fit
+from .memo import by_content
 from .models import model_attrs
 from .spectra import acf_samples, check_spectrum_options, spectrum_input, spectrum_lags
 
@@ -140,6 +141,12 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto",
         raise ValueError(f"method must be one of {GRADIENT_METHODS}, got {method!r}")
     if fit is None and method == "auto":
         fit = fit_acf.peek(G)  # the fit of this G that the chain has made, if any
+    return _rms_gradient(G, method, fit)
+
+
+@by_content()
+def _rms_gradient(G: xr.DataArray, method: str, fit: xr.Dataset | None) -> xr.DataArray:
+    """:func:`rms_gradient` once per content: Persson theory and the user share it."""
     G, spec = read_acf(G)
     G = G.transpose(..., "dr")
     if G.chunks is not None:

@@ -11,7 +11,8 @@ unit or an attribute does not.
 
 What a hit hands out is what the computation returned: a deep copy of it (changing it does
 not change the next answer), with the same :class:`xrough.QualityWarning` issued again at
-the caller's line. ``cache_clear()`` empties a function's cache, ``cache_info()`` counts.
+the caller's line. ``cache_clear()`` empties a function's cache, ``cache_info()`` counts,
+:func:`forget` empties them all.
 """
 
 from __future__ import annotations
@@ -27,7 +28,17 @@ from dask.base import tokenize
 
 from . import quality
 
-__all__ = ["by_content"]
+__all__ = ["by_content", "forget"]
+
+#: ``cache_clear`` of every function decorated in this session.
+_CLEARS: list = []
+
+
+def _copy(result: Any) -> Any:
+    """Copy an xarray result deeply (each of a tuple of them)."""
+    if isinstance(result, tuple):
+        return tuple(_copy(part) for part in result)
+    return result.copy(deep=True) if hasattr(result, "copy") else result
 
 
 def _again(kept: tuple[Any, list]) -> Any:
@@ -35,11 +46,15 @@ def _again(kept: tuple[Any, list]) -> Any:
     result, said = kept
     for message, category in said:
         quality.warn(message, category)
-    return result.copy(deep=True)
+    return _copy(result)
 
 
 def by_content(maxsize: int = 32) -> Callable:
     """Decorate a pure function of xarray objects: equal arguments, one computation.
+
+    The function returns an xarray object (or a tuple of them); its arguments are what
+    :func:`dask.base.tokenize` hashes by value (xarray and numpy objects, numbers,
+    strings, pint Quantities, dicts and tuples of these).
 
     Parameters
     ----------
@@ -95,7 +110,7 @@ def by_content(maxsize: int = 32) -> Callable:
             with quality.recorded() as said:
                 result = func(*args, **kwargs)
             with lock:
-                cache[key] = (result.copy(deep=True), list(said))
+                cache[key] = (_copy(result), list(said))
                 while len(cache) > maxsize:
                     cache.popitem(last=False)
             return result
@@ -104,7 +119,7 @@ def by_content(maxsize: int = 32) -> Callable:
             """Return the kept result of an equal call (a copy; nothing said), or None."""
             with lock:
                 hit = cache.get(key_of(args, kwargs))
-            return None if hit is None else hit[0].copy(deep=True)
+            return None if hit is None else _copy(hit[0])
 
         def cache_clear() -> None:
             with lock:
@@ -115,8 +130,22 @@ def by_content(maxsize: int = 32) -> Callable:
             with lock:
                 return {**counts, "size": len(cache)}
 
+        _CLEARS.append(cache_clear)
         wrapper.peek = peek
         wrapper.cache_clear = cache_clear
         wrapper.cache_info = cache_info
         return wrapper
     return decorate
+
+
+def forget() -> None:
+    """Forget every result kept by :func:`by_content` (e.g. to time a first run).
+
+    Examples
+    --------
+    >>> forget()
+    >>> xrough.fit_acf.cache_info()["size"]
+    0
+    """
+    for clear in _CLEARS:
+        clear()

@@ -119,6 +119,8 @@ def quick_stress(dr, g, hurst, sigma_h, lambda_r, shape, *, E_star):
 def stress_asymptote(dr, g, hurst, gbar0, E_star, weight=1.0):
     """Eq. 51: ``Gamma_sigma ~ w E*^2 H^2 gbar(0) sqrt(G / c_sa(H)) / dr`` (Pa^2).
 
+    ``hurst``: one per curve, or the local exponent of G per lag.
+
     The small-pressure limit of eq. 47/48 in the self-affine range, from
     ``G_sigma_full = (E*/2)^2 (2H)^2 G / dr^2``, ``gbar^2(dr) = c_sa G / dr^2`` (xrough's
     ``c_sa``) and ``a_r -> kappa p*``, ``a_ri -> 2 p*``: ``w`` of :func:`asymptote_weight`
@@ -168,19 +170,22 @@ UNDETERMINED, OUTSIDE_WINDOW = 1.0, 2.0
 def laplacian_curve(g, error, *, dr, window=(0.0, np.inf)) -> np.ndarray:
     """2D radial Laplacian of the smoothed G at its lags, NaN where G does not determine it.
 
-    Returns two rows on ``dr``: the Laplacian (NaN at ``dr = 0``, in empty bins and where
-    it is not determined) and why a lag has none: 0 (it has one, or ``dr = 0`` / an empty
-    bin), :data:`UNDETERMINED` (at or below the largest lag where the estimates from all,
-    the even and the odd bins disagree, :meth:`AcfCurve.determined_laplacian`) or
-    :data:`OUTSIDE_WINDOW` (outside the reliable lag range ``window`` of the instrument).
+    Returns three rows on ``dr``: the Laplacian (NaN at ``dr = 0``, in empty bins and
+    where it is not determined), why a lag has none: 0 (it has one, or ``dr = 0`` / an
+    empty bin), :data:`UNDETERMINED` (at or below the largest lag where the estimates
+    from all, the even and the odd bins disagree, :meth:`AcfCurve.determined_laplacian`)
+    or :data:`OUTSIDE_WINDOW` (outside the reliable lag range ``window`` of the
+    instrument), and the local exponent ``H(dr) = (1/2) dln G / dln dr`` of the same
+    smoothed curve (NaN at ``dr = 0`` and in empty bins; not clipped).
     """
     curve = _curve(g, error, dr)
     lap, determined = curve.determined_laplacian()
-    out = np.full((2, dr.size), np.nan)
+    out = np.full((3, dr.size), np.nan)
     out[1] = 0.0
     at = np.searchsorted(dr, curve.dr)  # the curve's samples among the lags
     out[0, at] = np.where(determined, lap, np.nan)
     out[1, at] = np.where(determined, 0.0, UNDETERMINED)
+    out[2, at] = 0.5 * curve.log_slopes(curve.dr)[0]  # the same smoothing spline
     outside = (dr > 0) & ((dr < window[0]) | (dr > window[1]))
     out[0, outside] = np.nan
     out[1, outside] = np.maximum(out[1, outside], OUTSIDE_WINDOW)
