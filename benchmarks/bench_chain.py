@@ -28,8 +28,8 @@ Method: interleaved rounds, after an untimed warm-up (the chain of a small synth
 and profile: the library's lazy imports and first calls). Round 1 runs the chain of every
 map once, then round 2 again, and so on (``--rounds``), each round from a freshly opened
 map and a fresh G, as a user runs it. Before each chain the results the library keeps
-(the ``cache_clear()`` of its public functions, if any: a cache keyed by content would
-answer round 2 from round 1) are forgotten, so that every round computes what a user's
+(:func:`xrough.memo.forget`: results kept by content would answer round 2 from round
+1) are forgotten, so that every round computes what a user's
 first run on that map computes; within a chain, what one step keeps serves the next. A
 step's time is its median over the rounds, ``chain`` the median of the per-round sums.
 Interleaving spreads the noise of a shared machine over all maps instead of letting it
@@ -64,6 +64,7 @@ import numpy as np
 import xarray as xr
 
 import xrough
+from xrough.memo import forget
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data"
@@ -96,17 +97,10 @@ def _synthetic(n: int = 2048, profile: bool = False) -> xr.DataArray:
                                       seed=1, unit="nm", profile=profile)
 
 
-def _result_caches() -> list:
-    """The public functions of xrough that keep results (those with ``cache_clear``)."""
-    return [obj for name, obj in sorted(vars(xrough).items())
-            if not name.startswith("_") and callable(getattr(obj, "cache_clear", None))]
-
-
 def _chain(open_map, folder: Path) -> tuple[dict, dict, str | None]:
     """One run of the chain: CPU and wall seconds per step, and the failure if any."""
     cpu, wall, r = {}, {}, {}
-    for func in _result_caches():  # computed as the first time in a process, each round
-        func.cache_clear()
+    forget()  # computed as the first time in a process, each round
 
     def acf():
         topo = r["open"]
@@ -286,9 +280,7 @@ def main() -> int:
     if not args.no_synthetic:
         maps[SYNTHETIC] = _synthetic
 
-    caches = [f.__name__ for f in _result_caches()]
-    print(f"results kept by the library, forgotten before each chain: "
-          f"{', '.join(caches) or 'none'}")
+    print("results the library keeps (xrough.memo) are forgotten before each chain")
     cpu = {cid: [] for cid in maps}
     wall = {cid: [] for cid in maps}
     errors: dict[str, str] = {}
