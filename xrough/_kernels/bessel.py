@@ -83,13 +83,15 @@ def log_grid(bp: np.ndarray, per_decade: float, *, depth: float) -> np.ndarray:
     A segment starting at 0 gets a logarithmic grid over ``depth`` decades below its upper
     end (and 0 itself).
     """
-    pts = [bp]
     lo = np.where(bp[:-1] > 0, bp[:-1], bp[1:] * 10.0**-depth)
     n = np.ceil(per_decade * np.log10(bp[1:] / lo)).astype(int)
-    for a, b, k in zip(lo[n > 1], bp[1:][n > 1], n[n > 1], strict=True):
-        pts.append(np.geomspace(a, b, k + 1))
-    pts.append(lo)
-    return np.unique(np.concatenate(pts))
+    fine = n > 1
+    a, b, n = lo[fine], bp[1:][fine], n[fine]
+    # k = 0..n in each fine segment: a (b/a)^(k/n), both ends exact
+    seg = np.repeat(np.arange(n.size), n + 1)
+    k = np.arange(seg.size) - np.repeat(np.cumsum(n + 1) - (n + 1), n + 1)
+    pts = np.where(k == n[seg], b[seg], a[seg] * (b[seg] / a[seg]) ** (k / n[seg]))
+    return np.unique(np.concatenate([bp, pts, lo]))
 
 
 def blocks(n_rows: int, row_nodes: int):
@@ -162,44 +164,41 @@ def _phase(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return amp * (c + s), amp * (s - c)
 
 
-def _antiderivative(t: np.ndarray, e: np.ndarray, phase, n_terms: int) -> np.ndarray:
-    """``t^(1/2-beta) A(t)`` where ``A' = t^beta J0(t)``; ``e`` has shape ``(M+1, n)``.
+#: Signs of the real and imaginary parts of ``d_m = -i^(m+1) e_m`` (m = 0, 1, 2, 3, ...:
+#: ``-i e0, +e1, +i e2, -e3``), repeating with period 4.
+_RE_SIGN = np.tile([0.0, 1.0, 0.0, -1.0], _N_ASYMPTOTIC // 4 + 1)[:_N_ASYMPTOTIC + 1]
+_IM_SIGN = np.tile([-1.0, 0.0, 1.0, 0.0], _N_ASYMPTOTIC // 4 + 1)[:_N_ASYMPTOTIC + 1]
 
-    Returns ``sqrt(2/(pi t)) Re[e^{i(t-pi/4)} sum_{m<n_terms} d_m t^-m]``; multiply by
-    ``t^beta`` (in physical form: ``q C(q) / dr``) to get the antiderivative.
-    ``phase = _phase(t)``.
+
+def _series_lengths(t: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """Per ``t``: the shortest series of ``_TERM_TIERS`` whose truncation error is negligible.
+
+    The first omitted term ``|e_n| t^-n`` must stay below ``_ASYMPTOTIC_TOL`` (``e``:
+    coefficients of all pieces, shape ``(M+1, ...)``); the longest series is always
+    accurate beyond :func:`_asymptotic_start`.
     """
-    u = 1.0 / t
-    re = np.zeros_like(t)
-    im = np.zeros_like(t)
-    # d_m = -i^(m+1) e_m: m = 0,1,2,3 -> -i e0, +e1, +i e2, -e3, ...
-    for m in range(n_terms - 1, -1, -1):
-        re *= u
-        im *= u
-        r = m % 4
-        if r == 0:
-            im -= e[m]
-        elif r == 1:
-            re += e[m]
-        elif r == 2:
-            im += e[m]
-        else:
-            re -= e[m]
-    cos_p, sin_p = phase
-    return re * cos_p - im * sin_p
-
-
-def _series_tier(t: np.ndarray, coeffs: list[np.ndarray]) -> np.ndarray:
-    """Index into ``_TERM_TIERS``: the shortest series whose truncation error is negligible.
-
-    The first omitted term ``|e_n| t^-n`` must stay below ``_ASYMPTOTIC_TOL``.
-    """
-    big = np.max([np.abs(e).max(axis=1) for e in coeffs], axis=0)  # (M+1,)
+    big = np.abs(e.reshape(e.shape[0], -1)).max(axis=1)  # (M+1,)
     n = np.minimum(_TERM_TIERS, big.size - 1)
-    threshold = (big[n] / _ASYMPTOTIC_TOL) ** (1.0 / n)
-    threshold[-1] = 0.0  # the longest series is always used beyond _asymptotic_start
-    ok = t[:, None] >= threshold[None, :]
-    return ok.argmax(axis=1)
+    with np.errstate(divide="ignore"):
+        threshold = (big[n] / _ASYMPTOTIC_TOL) ** (1.0 / n)
+    threshold[-1] = 0.0
+    return n[np.argmax(t[:, None] >= threshold[None, :], axis=1)]
+
+
+def _series(t: np.ndarray, coef: np.ndarray) -> np.ndarray:
+    """``sqrt(2/(pi t)) Re[e^{i(t-pi/4)} sum_m d_m t^-m]``, ``d_m = -i^(m+1) coef_m``.
+
+    ``coef`` has shape ``(n, points)``: the series has ``n`` terms.
+    """
+    n = coef.shape[0]
+    u = np.empty(coef.shape)
+    u[0] = 1.0
+    if n > 1:
+        u[1:] = 1.0 / t
+        np.cumprod(u[1:], axis=0, out=u[1:])
+    terms = coef * u
+    cos_p, sin_p = _phase(t)
+    return (_RE_SIGN[:n] @ terms) * cos_p - (_IM_SIGN[:n] @ terms) * sin_p
 
 
 def _power_law_sum(x, idx, khi, c_top, alpha, rows):
@@ -207,26 +206,27 @@ def _power_law_sum(x, idx, khi, c_top, alpha, rows):
     return c_top[idx] * khi[idx] * np.exp((1.0 + alpha[idx]) * np.log(x)) / rows
 
 
-def _closed_form(t, idx, rows, pieces, coeffs) -> np.ndarray:
+def _closed_form(t, idx, rows, pieces, e) -> np.ndarray:
     """Asymptotic antiderivative of ``q f(q) J0(q r)`` at ``t = q r`` for the pieces ``idx``.
 
-    Evaluated in tiers of series length (far fewer terms are needed at large ``t``).
+    ``e``: coefficients of every term ``j`` of ``f``, shape ``(M+1, terms, pieces)``; the
+    terms are combined per point, ``sum_j g_j x^j e_m(1 + alpha + j)``, into one series,
+    evaluated in tiers of length (far fewer terms are needed at large ``t``).
     """
     khi, c_top, alpha, g = pieces
     x = t / (rows * khi[idx])
-    base = _power_law_sum(x, idx, khi, c_top, alpha, rows)
-    out = np.zeros_like(t)
-    tiers = _series_tier(t, coeffs)
-    for tier in np.unique(tiers):
-        sel = tiers == tier
-        n = _TERM_TIERS[tier]
-        ts, ii = t[sel], idx[sel]
-        phase = _phase(ts)
-        total = 0.0
-        for j in range(len(coeffs)):
-            s = _antiderivative(ts, coeffs[j][:, ii], phase, n)
-            total = total + (g[j, ii] * x[sel] ** j) * s if j else g[0, ii] * s
-        out[sel] = base[sel] * total
+    out = _power_law_sum(x, idx, khi, c_top, alpha, rows)
+    lengths = _series_lengths(t, e)
+    tiers = np.unique(lengths)
+    for n in tiers:
+        sel = slice(None) if tiers.size == 1 else np.flatnonzero(lengths == n)
+        ii, xs = idx[sel], x[sel]
+        coef = e[:n, 0, ii] * g[0, ii]
+        xj = np.ones_like(xs)
+        for j in range(1, g.shape[0]):
+            xj = xj * xs
+            coef += e[:n, j, ii] * (g[j, ii] * xj)
+        out[sel] *= _series(t[sel], coef)
     return out
 
 
@@ -267,8 +267,11 @@ def oscillatory_terms(r: np.ndarray, klo, khi, c_top, alpha, g, t_split: float,
     nonzero = np.flatnonzero(np.any(g != 0, axis=1))
     g = g[:int(nonzero[-1]) + 1 if nonzero.size else 1]
     pieces = (khi, c_top, alpha, g)
-    coeffs = [_asymptotic_coefficients(1.0 + alpha + j) for j in range(g.shape[0])]
-    t_start = np.max([_asymptotic_start(e, t_split) for e in coeffs], axis=0)
+    n_terms = g.shape[0]
+    beta = (1.0 + alpha)[None, :] + np.arange(n_terms)[:, None]  # (terms, pieces)
+    e = _asymptotic_coefficients(beta.ravel()).reshape(-1, n_terms, alpha.size)
+    t_start = _asymptotic_start(e.reshape(e.shape[0], -1), t_split).reshape(
+        n_terms, -1).max(axis=0)
     # all (r, piece) pairs that reach beyond t_split
     ri, pj = np.nonzero(khi[None, :] * r[:, None] > t_split)
     if ri.size == 0:
@@ -280,15 +283,15 @@ def oscillatory_terms(r: np.ndarray, klo, khi, c_top, alpha, g, t_split: float,
     # closed-form (asymptotic) part on [t_asy, t_hi]
     act = t_hi > t_asy
     if np.any(act):
-        idx, rows = pj[act], rr[act]
-        val = (_closed_form(t_hi[act], idx, rows, pieces, coeffs)
-               - _closed_form(t_asy[act], idx, rows, pieces, coeffs))
-        np.add.at(out, ri[act], val)
+        idx, rows = np.tile(pj[act], 2), np.tile(rr[act], 2)
+        val = _closed_form(np.concatenate([t_hi[act], t_asy[act]]), idx, rows, pieces, e)
+        k = idx.size // 2
+        out += np.bincount(ri[act], val[:k] - val[k:], minlength=out.size)
     # steep pieces: Gauss-Legendre on [t_lo, min(t_hi, t_asy)]
     b_all = np.minimum(t_hi, t_asy)
     steep = b_all > t_lo
     if np.any(steep):
         rep, vals = _steep_panels(t_lo[steep], b_all[steep], pj[steep], rr[steep], pieces,
                                   order)
-        np.add.at(out, ri[steep][rep], vals)
+        out += np.bincount(ri[steep][rep], vals, minlength=out.size)
     return out

@@ -386,21 +386,35 @@ def _spectrum_moments(c, H, q_r, q_s, q_0, rolloff):
     return C_r * q_r**2 * m0 / (2 * np.pi), C_r
 
 
+def _eq36_fit(G, se, *, dr, use, dr_ref, weighted, fixed, unit, **_):
+    """Fit eq. 36 to start the spectrum fit (``lambda_r`` of the sharp shape).
+
+    It does not depend on the roll-off shape (only its ``lambda_r`` does, converted by
+    :func:`_spectrum_start`), so ``rolloff="auto"`` computes it once for both shapes.
+    """
+    try:
+        return fit_eq36_kernel(G, se, dr=dr, use=use, dr_ref=dr_ref, weighted=weighted,
+                               fixed=np.array([fixed[0], np.nan, np.nan]), rolloff="sharp",
+                               unit=unit, check=False)
+    except ValueError:  # too few bins for eq. 36 (the spectrum has fixed cutoffs)
+        H = 0.5 if np.isnan(fixed[0]) else fixed[0]
+        return np.array([np.nan, np.nan, H, 0.0, np.inf] + [np.nan] * 5 + [np.inf])
+
+
 def _spectrum_start(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, unit, G_ref, x_lo,
-                    x_hi):
+                    x_hi, eq36=None):
     """Start ``[ln(G_sa/G_ref), H, ln eta, ln eps]`` from the fit of eq. 36, and its chi^2.
 
     The reduced chi^2 of eq. 36 (inf when it cannot be fitted) is the yardstick of
     :func:`fit_problems`: the model spectrum should fit a self-affine G at least as well.
+    ``eq36``: the values of :func:`_eq36_fit` (computed here when None).
     """
-    try:
-        out = fit_eq36_kernel(G, se, dr=dr, use=use, dr_ref=dr_ref, weighted=weighted,
-                              fixed=np.array([fixed[0], np.nan, np.nan]), rolloff=rolloff,
-                              unit=unit, check=False)
-    except ValueError:  # too few bins for eq. 36 (the spectrum has fixed cutoffs)
-        H = 0.5 if np.isnan(fixed[0]) else fixed[0]
-        out = [np.nan, G_ref, H, 0.0, np.inf] + [np.nan] * 5 + [np.inf]
+    out = eq36 if eq36 is not None else _eq36_fit(G, se, dr=dr, use=use, dr_ref=dr_ref,
+                                                   weighted=weighted, fixed=fixed, unit=unit)
     _, G_sa, H, C_b, lam = out[:5]
+    G_sa = G_ref if np.isnan(G_sa) else G_sa
+    if rolloff != "sharp":  # the fit is the same; its lambda_r is the sharp shape's
+        lam = lam * rolloff_crossover(H, rolloff="sharp") / rolloff_crossover(H, rolloff=rolloff)
     chi2 = float(out[len(PARAMETERS) * 2])
     H = float(np.clip(H, 0.05, 0.95))
     ln_eta = ((2 - 2 * H) * np.log(x_hi * dr_ref / lam) if np.isfinite(lam) and lam > 0
@@ -433,7 +447,10 @@ def _gradients(physical, pvec, values, free, sd, grad):
 
 
 def _grid_starts(theta, free, lower, upper, x, ly, w, cutoffs, lam_0, rolloff):
-    """Return the best starting points of :data:`_GRID` (free parameters), best first."""
+    """Return the best points of :data:`_GRID` as ``(chi^2, start)``, best first.
+
+    Only the free parameters vary; chi^2 is not reduced.
+    """
     axes = [g if free[k + 1] else np.array([theta[k + 1]]) for k, g in enumerate(_GRID)]
     trials = []
     for H, le, lp in ((a, b, c) for a in axes[0] for b in axes[1] for c in axes[2]):
@@ -446,7 +463,7 @@ def _grid_starts(theta, free, lower, upper, x, ly, w, cutoffs, lam_0, rolloff):
         t[0] = -np.sum(d / w**2) / np.sum(1.0 / w**2)  # the best amplitude
         trials.append((float(np.sum(((t[0] + d) / w) ** 2)), t))
     trials.sort(key=lambda item: item[0])
-    return [t for _, t in trials[:_N_RESTARTS]]
+    return trials[:_N_RESTARTS]
 
 
 def information_criterion(chi2: float, n: int, p: int, weighted: bool) -> float:
@@ -476,6 +493,7 @@ def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lam
     if rolloff != "auto":
         out = _fit_spectrum_shape(G, se, rolloff=rolloff, **kw)
         return _with_shape(out, ROLLOFFS.index(rolloff), np.nan)
+    kw["eq36"] = _eq36_fit(G, se, **kw)  # the start of both shapes
     fits = [_fit_spectrum_shape(G, se, rolloff=shape, **kw) for shape in ROLLOFFS]
     at = {name: k for k, name in enumerate(SPECTRUM_OUTPUTS)}
 
@@ -651,18 +669,32 @@ def _shape_start(problem: _ShapeProblem, G, se, **kw) -> tuple[np.ndarray, float
 
 
 def _best_solution(problem: _ShapeProblem, theta, chi2_eq36: float) -> tuple:
-    """Solve from ``theta`` and, if that fit is poor, from the best points of a grid."""
+    """Solve from ``theta`` and, if that fit is poor, from the best points of a grid.
+
+    A fit that lost both cutoffs (dropped as unresolved) is a pure power law, which eq. 36
+    contains: eq. 36 always fits it at least as well, and where the data resolve no cutoff
+    every restart ends at the same power law.  Unless it is poor by itself (as a local
+    minimum that lost its cutoffs is, e.g. chi^2 = 807 in the case of :data:`_GRID`), such
+    a fit restarts only from the grid points that already fit better than it does.
+    """
+    def poor_alone(theta, chi2):
+        return (chi2 > CHI2_QUESTIONABLE if problem.weighted
+                else problem.misfit(theta) > _RESTART_MISFIT)
+
     def poor(theta, chi2):
-        return chi2 > chi2_eq36 or (chi2 > CHI2_QUESTIONABLE if problem.weighted
-                                    else problem.misfit(theta) > _RESTART_MISFIT)
+        return chi2 > chi2_eq36 or poor_alone(theta, chi2)
 
     best = problem.solve(theta)
     if np.any(problem.free[1:]) and poor(best[0], best[3]):
         # a poor fit may sit in a local minimum (e.g. lambda_s beyond lambda_r): restart
         # from the best points of a coarse grid (amplitude solved for at each)
-        for start in _grid_starts(best[0], problem.free, problem.lower, problem.upper,
-                                  problem.x, problem.ly, problem.w, problem.cutoffs,
-                                  problem.lam_0, problem.rolloff):
+        starts = _grid_starts(best[0], problem.free, problem.lower, problem.upper,
+                              problem.x, problem.ly, problem.w, problem.cutoffs,
+                              problem.lam_0, problem.rolloff)
+        power_law = problem.free[2] and problem.free[3] and not (best[1][2] or best[1][3])
+        if power_law and not poor_alone(best[0], best[3]):
+            starts = [(cost, t) for cost, t in starts if cost < best[3] * problem.dof]
+        for _, start in starts:
             candidate = problem.solve(start)
             if candidate[3] < best[3] * (1 - 1e-6):
                 best = candidate
@@ -720,8 +752,8 @@ def _fit_spectrum_shape(G, se, **kw):
     range that its cutoff causes, linear in it once the cutoff lies outside the lags, and 0
     when there is no cutoff.  ``kw["fixed"] = [H, lambda_r, lambda_s]`` (NaN: free).
     """
-    problem = _ShapeProblem(G, se, **kw)
     start_kw = {k: v for k, v in kw.items() if k != "lambda_0"}
+    problem = _ShapeProblem(G, se, **{k: v for k, v in kw.items() if k != "eq36"})
     theta, chi2_eq36 = _shape_start(problem, G, se, **start_kw)
     theta, active, cov_free, chi2 = _best_solution(problem, theta, chi2_eq36)
     rms_misfit = problem.misfit(theta)
