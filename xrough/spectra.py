@@ -36,6 +36,7 @@ from ._kernels.spectrum_of_acf import (
 )
 from ._kernels.uncertainty import g_covariance
 from .acf import mark_gaps, read_acf, result_attrs
+from .memo import by_content
 from .models import model_attrs, model_from_attrs, self_affine_model
 
 __all__ = [
@@ -542,6 +543,7 @@ def _error_at(q: np.ndarray, acf: _AcfInput, grid_error, *, smooth, interpolatio
     return out
 
 
+@by_content()
 def spectrum(
     G: xr.DataArray,
     q: Any = None,
@@ -644,6 +646,9 @@ def spectrum(
 
     Notes
     -----
+    **Computed once.** The spectrum of an equal G with equal options is handed out again
+    (a copy) rather than computed twice in a session (:func:`xrough.memo.by_content`).
+
     **Supported range.** ``C(q)`` counts as determined by the data where it is positive
     and changes by at most ``support_rtol |C|`` when the extrapolation changes: the
     measured log-log slope at the smallest lag turns ballistic sooner (within 0.2 instead of
