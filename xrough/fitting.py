@@ -438,15 +438,16 @@ def fit_acf(
     from the moments of the fitted spectrum.  G is eq. 9 evaluated by
     :func:`xrough._kernels.hankel.acf_from_spectrum_kernel` (exact for the sharp shape,
     to about 1e-8 for the smooth one).  The optimiser (``scipy.optimize.least_squares``,
-    trust-region reflective, about 50 evaluations of eq. 9 per curve)
-    works on ``ln G_sa``, ``H``, ``ln eta`` and ``ln eps`` with
+    trust-region reflective) works on ``ln G_sa``, ``H``, ``ln eta`` and ``ln eps`` with
     ``eta = (dr_max/lambda_r)^(2-2H)`` and ``eps = (lambda_s/dr_min)^(2H)``
     (``dr_min``, ``dr_max``: the fitted range), started from the fit of eq. 36.  To
     leading order ``eps`` (``eta``) is the relative change of G at the short (long) end
     of the range that its cutoff causes: once the cutoff lies beyond the lags, G depends
     on it only through ``eps`` (a constant shift of G, ``-G_sa (lambda_s/2 pi
     dr_ref)^(2H) / (2H I)``) or ``eta`` (a term in ``dr^2``), linearly, and ``eps = 0``
-    (``eta = 0``) is the spectrum without that cutoff.
+    (``eta = 0``) is the spectrum without that cutoff.  ``ln G_sa`` enters ``ln G``
+    linearly: it is solved for at each step (variable projection) and the search runs over
+    the other three.
 
     *Unresolved cutoffs.*  A cutoff is resolved when its ``eps`` (``eta``) exceeds twice
     its standard deviation.  Otherwise the data cannot tell it from no cutoff: it is set

@@ -118,6 +118,11 @@ _GRID = (np.array([0.1, 0.3, 0.5, 0.7, 0.9]), np.array([-4.0, -1.0, 2.0, 5.0]),
          np.array([-4.0, -1.0, 2.0, 5.0]))
 _N_RESTARTS = 3
 _RESTART_MISFIT = 0.03
+#: Tolerances of one search (relative change of chi^2 and of the parameters) and its cap on
+#: the evaluations of the residuals (each step takes one more per parameter for the
+#: Jacobian): with the amplitude solved for, a search converges in 5 to 20 steps; the cap
+#: ends those that crawl along a direction the data do not determine.
+_FTOL, _XTOL, _GTOL, _MAX_NFEV = 1e-8, 1e-10, 1e-10, 30
 
 
 # --------------------------------------------------------------------------------------
@@ -538,54 +543,107 @@ class _ShapeProblem:
         self.lower = np.array([-np.inf, H_BOUNDS[0], _LN_FLOOR, _LN_FLOOR])
         self.upper = np.array([np.inf, H_BOUNDS[1], span, span])
         self.steps = np.array([0.0, 1e-5, 1e-5, 1e-5])
+        self.u = 1.0 / self.w  # the column of the amplitude in the Jacobian
+        self.uu = float(self.u @ self.u)
 
     def cutoffs(self, t):
         """``(lambda_r, lambda_s)`` of ``theta`` in units of ``dr_ref``."""
         with np.errstate(over="ignore", divide="ignore"):
             lr = self.x_hi * np.exp(-t[2] / (2 - 2 * t[1])) if self.free[2] else self.fix_r
             ls = self.x_lo * np.exp(t[3] / (2 * t[1])) if self.free[3] else self.fix_s
+        if self.free[2]:  # far below the lags G is flat; eta at its bound with H near 1
+            lr = max(lr, self.x_lo / _FAR_S)  # would underflow to lambda_r = 0 (C_r = 0)
         return min(lr, self.lam_0), ls
 
+    def released(self, theta, active):
+        """``theta`` with a fitted ``lambda_s`` at or beyond ``lambda_r`` moved just below it.
+
+        :func:`_acf_shape` keeps ``lambda_s`` below ``lambda_r``: beyond, G does not depend
+        on ``eps`` and a search could not move it (e.g. ``eps`` at ``H`` = 0.01, where
+        ``lambda_s = dr_min eps^(1/(2H))``, after ``lambda_r`` was dropped).
+        """
+        if not (active[3] and self.free[3]):
+            return theta
+        lr, ls = self.cutoffs(theta)
+        edge = (min(lr, _FAR_R * self.x_hi) if np.isinf(self.lam_0) else lr) / (1.0 + 1e-6)
+        if ls < edge:
+            return theta
+        theta = theta.copy()
+        theta[3] = np.clip(2 * theta[1] * np.log(0.9 * edge / self.x_lo), self.lower[3],
+                           self.upper[3])
+        return theta
+
     def residuals(self, t):
-        lr, ls = self.cutoffs(t)
-        return (t[0] + np.log(_acf_shape(self.x, t[1], lr, ls, self.lam_0, self.rolloff))
-                - self.ly) / self.w
+        return t[0] / self.w + self.deviations(t)
 
     def misfit(self, t) -> float:
         return _rms_misfit(self.residuals(t), self.w)
 
+    def deviations(self, t):
+        """``(ln G_model - ln G) / w`` without the amplitude ``t[0]`` (it adds ``t[0] / w``)."""
+        lr, ls = self.cutoffs(t)
+        return (np.log(_acf_shape(self.x, t[1], lr, ls, self.lam_0, self.rolloff))
+                - self.ly) / self.w
+
+    def amplitude(self, d) -> float:
+        """The amplitude ``t[0]`` that minimises ``sum (t[0] / w + d)^2`` (``d``: deviations)."""
+        return -float(self.u @ d) / self.uu
+
     def optimise(self, theta, active):
-        """Least squares over the ``active`` parameters, the others held at ``theta``."""
+        """Least squares over the ``active`` parameters, the others held at ``theta``.
+
+        The amplitude ``theta[0]`` enters the residuals linearly (a column ``1/w``): it is
+        solved for at each evaluation (variable projection), and the search runs over the
+        other active parameters only, with the residuals and their Jacobian projected onto
+        the complement of ``1/w``.  The same minimum, without the long narrow valley of
+        the amplitude against ``H`` that the search over all four parameters zig-zags down.
+        """
+        profile = bool(active[0])
+        rest = active.copy()
+        rest[0] = False
+        theta = np.array(theta, dtype=float)
+        if not np.any(rest):
+            if profile:
+                theta[0] = self.amplitude(self.deviations(theta))
+            return theta
+        u = self.u
         cache = {}
 
         def full(t):
             out = theta.copy()
-            out[active] = t
+            out[rest] = t
             return out
 
+        def project(v):
+            return v - np.multiply.outer(u, u @ v) / self.uu if profile else v
+
+        def dev(t):
+            d = self.deviations(full(t))
+            return d if profile else d + theta[0] * u
+
         def fun(t):
-            cache["t"], cache["r"] = t.copy(), self.residuals(full(t))
-            return cache["r"]
+            cache["t"], cache["d"] = t.copy(), dev(t)
+            return project(cache["d"])
 
         def jac(t):
-            r0 = cache["r"] if np.array_equal(cache.get("t"), t) else self.residuals(full(t))
+            d0 = cache["d"] if np.array_equal(cache.get("t"), t) else dev(t)
             cols = []
-            for k in np.flatnonzero(active):
-                if k == 0:
-                    cols.append(1.0 / self.w)
-                    continue
-                h = self.steps[k] if full(t)[k] + self.steps[k] <= self.upper[k] \
-                    else -self.steps[k]
-                tt = full(t)
-                tt[k] += h
-                cols.append((self.residuals(tt) - r0) / h)
-            return np.column_stack(cols)
+            for i, k in enumerate(np.flatnonzero(rest)):
+                h = self.steps[k] if t[i] + self.steps[k] <= self.upper[k] else -self.steps[k]
+                tt = t.copy()
+                tt[i] += h
+                cols.append((dev(tt) - d0) / h)
+            return project(np.column_stack(cols))
 
-        res = optimize.least_squares(fun, theta[active], jac=jac,
-                                     bounds=(self.lower[active], self.upper[active]),
-                                     method="trf", x_scale="jac", ftol=1e-10, xtol=1e-10,
-                                     gtol=1e-10, max_nfev=200)
-        return full(res.x)
+        res = optimize.least_squares(fun, theta[rest], jac=jac,
+                                     bounds=(self.lower[rest], self.upper[rest]),
+                                     method="trf", x_scale="jac", ftol=_FTOL, xtol=_XTOL,
+                                     gtol=_GTOL, max_nfev=_MAX_NFEV)
+        theta = full(res.x)
+        if profile:
+            d = cache["d"] if np.array_equal(cache.get("t"), res.x) else dev(res.x)
+            theta[0] = self.amplitude(d)
+        return theta
 
     def linear_jacobian(self, t):
         """Jacobian in ``[ln(G_sa/G_ref), H, eta, eps]`` over the free parameters."""
@@ -634,9 +692,10 @@ class _ShapeProblem:
         """Optimise from ``theta``, refitting after dropping cutoffs the data do not resolve."""
         active = self.free.copy()
         moved = True
-        for _ in range(3):
+        for k in range(3):
             if moved:
-                theta = self.optimise(theta, active)
+                # a refit after a cutoff was dropped may start where G ignores lambda_s
+                theta = self.optimise(theta if k == 0 else self.released(theta, active), active)
             cov_free, chi2 = self.covariance(theta)
             moved = self.drop_unresolved(theta, active, cov_free)
             if not moved:
