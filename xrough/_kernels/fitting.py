@@ -118,6 +118,8 @@ _GRID = (np.array([0.1, 0.3, 0.5, 0.7, 0.9]), np.array([-4.0, -1.0, 2.0, 5.0]),
          np.array([-4.0, -1.0, 2.0, 5.0]))
 _N_RESTARTS = 3
 _RESTART_MISFIT = 0.03
+#: Quadratures of eq. 9 a fit of one shape keeps for reuse (see :func:`_acf_shape`).
+_MEMO_SIZE = 1024
 #: Tolerances of one search (relative change of chi^2 and of the parameters) and its cap on
 #: the evaluations of the residuals (each step takes one more per parameter for the
 #: Jacobian): with the amplitude solved for, a search converges in 5 to 20 steps; the cap
@@ -349,7 +351,7 @@ def _rolloff_coefficient(H: float, rolloff: str) -> float:
     return 0.25 - 1.0 / (2.0 - 2.0 * H) if rolloff == "sharp" else -1.0 / (2 * H * (1 - H))
 
 
-def _acf_shape(x, H, lam_r, lam_s, lam_0, rolloff):
+def _acf_shape(x, H, lam_r, lam_s, lam_0, rolloff, memo=None):
     """G (eq. 9) of the model spectrum whose self-affine asymptote is ``x^(2H)``.
 
     All lengths in one unit; ``lam_r = inf`` (no roll-off; only without ``lam_0``),
@@ -358,17 +360,31 @@ def _acf_shape(x, H, lam_r, lam_s, lam_0, rolloff):
     value with the leading term, which is linear in ``q_s^(-2H)`` (a constant shift of G)
     resp. ``q_r^(2-2H)`` (a term in ``dr^2``); the next terms are smaller by
     ``(q_s dr)^(-3/2)`` resp. ``(q_r dr)^(2H)`` or ``(q_r dr)^2``.
+
+    ``memo``: a dict that keeps the quadratures of eq. 9 by ``(H, lambda_r, lambda_s)`` as
+    evaluated (after the moves above), for calls with the same ``x``, ``lam_0`` and
+    ``rolloff``: a fit asks for the same one again where a cutoff is far beyond the lags,
+    or ``lambda_s`` beyond ``lambda_r`` (the step in that cutoff of a Jacobian, the point
+    a covariance is computed at).  The values are the same, bit for bit.
     """
     kernel_I = float(self_affine_constant(H))
     lo, hi = float(np.min(x)), float(np.max(x))
     lr = min(lam_r, _FAR_R * hi) if np.isinf(lam_0) else min(lam_r, lam_0)
     ls = min(max(lam_s, lo / _FAR_S), lr / (1.0 + 1e-6))
-    q_r, q_s = 2 * np.pi / lr, 2 * np.pi / ls
-    q_0 = 0.0 if np.isinf(lam_0) else 2 * np.pi / lam_0
-    model = SpectrumModel(hurst=H, q_r=q_r, q_s=q_s, q_0=q_0, rolloff=rolloff,
-                          C_r=2 * np.pi / (kernel_I * q_r ** (2 + 2 * H)))
-    G = acf_from_spectrum_kernel(x, model, model.breakpoints,
-                                 knots_per_decade=_KNOTS[rolloff], **_QUADRATURE)
+    key = (float(H), float(lr), float(ls))
+    q_r = 2 * np.pi / lr
+    G = None if memo is None else memo.get(key)
+    if G is None:
+        q_s = 2 * np.pi / ls
+        q_0 = 0.0 if np.isinf(lam_0) else 2 * np.pi / lam_0
+        model = SpectrumModel(hurst=H, q_r=q_r, q_s=q_s, q_0=q_0, rolloff=rolloff,
+                              C_r=2 * np.pi / (kernel_I * q_r ** (2 + 2 * H)))
+        G = acf_from_spectrum_kernel(x, model, model.breakpoints,
+                                     knots_per_decade=_KNOTS[rolloff], **_QUADRATURE)
+        if memo is not None:
+            if len(memo) >= _MEMO_SIZE:
+                memo.pop(next(iter(memo)))  # the oldest
+            memo[key] = G
     if lam_s < ls:
         G = G + ((ls / (2 * np.pi)) ** (2 * H) - (lam_s / (2 * np.pi)) ** (2 * H)) / (
             2 * H * kernel_I)
@@ -451,7 +467,7 @@ def _gradients(physical, pvec, values, free, sd, grad):
             grad[:, k] = (physical(hi_p) - values) / h
 
 
-def _grid_starts(theta, free, lower, upper, x, ly, w, cutoffs, lam_0, rolloff):
+def _grid_starts(theta, free, lower, upper, x, ly, w, cutoffs, lam_0, rolloff, memo=None):
     """Return the best points of :data:`_GRID` as ``(chi^2, start)``, best first.
 
     Only the free parameters vary; chi^2 is not reduced.
@@ -462,7 +478,7 @@ def _grid_starts(theta, free, lower, upper, x, ly, w, cutoffs, lam_0, rolloff):
         t = np.clip(np.array([0.0, H, le, lp]), lower + 1e-3, upper - 1e-3)
         lr, ls = cutoffs(t)
         with np.errstate(all="ignore"):
-            d = np.log(_acf_shape(x, t[1], lr, ls, lam_0, rolloff)) - ly
+            d = np.log(_acf_shape(x, t[1], lr, ls, lam_0, rolloff, memo)) - ly
         if not np.all(np.isfinite(d)):
             continue
         t[0] = -np.sum(d / w**2) / np.sum(1.0 / w**2)  # the best amplitude
@@ -545,6 +561,7 @@ class _ShapeProblem:
         self.steps = np.array([0.0, 1e-5, 1e-5, 1e-5])
         self.u = 1.0 / self.w  # the column of the amplitude in the Jacobian
         self.uu = float(self.u @ self.u)
+        self.memo = {}  # quadratures of eq. 9 (see _acf_shape)
 
     def cutoffs(self, t):
         """``(lambda_r, lambda_s)`` of ``theta`` in units of ``dr_ref``."""
@@ -582,7 +599,8 @@ class _ShapeProblem:
     def deviations(self, t):
         """``(ln G_model - ln G) / w`` without the amplitude ``t[0]`` (it adds ``t[0] / w``)."""
         lr, ls = self.cutoffs(t)
-        return (np.log(_acf_shape(self.x, t[1], lr, ls, self.lam_0, self.rolloff))
+        return (np.log(_acf_shape(self.x, t[1], lr, ls, self.lam_0, self.rolloff,
+                                  self.memo))
                 - self.ly) / self.w
 
     def amplitude(self, d) -> float:
@@ -749,7 +767,7 @@ def _best_solution(problem: _ShapeProblem, theta, chi2_eq36: float) -> tuple:
         # from the best points of a coarse grid (amplitude solved for at each)
         starts = _grid_starts(best[0], problem.free, problem.lower, problem.upper,
                               problem.x, problem.ly, problem.w, problem.cutoffs,
-                              problem.lam_0, problem.rolloff)
+                              problem.lam_0, problem.rolloff, problem.memo)
         power_law = problem.free[2] and problem.free[3] and not (best[1][2] or best[1][3])
         if power_law and not poor_alone(best[0], best[3]):
             starts = [(cost, t) for cost, t in starts if cost < best[3] * problem.dof]
