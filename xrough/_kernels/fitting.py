@@ -120,6 +120,9 @@ _N_RESTARTS = 3
 _RESTART_MISFIT = 0.03
 #: Quadratures of eq. 9 a fit of one shape keeps for reuse (see :func:`_acf_shape`).
 _MEMO_SIZE = 1024
+#: A restart whose search comes this close to the end of an earlier search (see
+#: :func:`_same_end`) ends there.
+_REACHED = 1e-4
 #: Tolerances of one search (relative change of chi^2 and of the parameters) and its cap on
 #: the evaluations of the residuals (each step takes one more per parameter for the
 #: Jacobian): with the amplitude solved for, a search converges in 5 to 20 steps; the cap
@@ -536,6 +539,26 @@ def _with_shape(out, shape, chi2_other):
     return out
 
 
+class _Reached(Exception):
+    """A search reached the known end ``k`` of an earlier one (:meth:`_ShapeProblem.solve`)."""
+
+    def __init__(self, k):
+        super().__init__(k)
+        self.k = k
+
+
+def _same_end(r, r_end, rss_end, dof) -> bool:
+    """Whether the residuals ``r`` are (statistically) those of a known end of a search.
+
+    The same curve: the sum of squared differences to ``r_end`` is below _REACHED times
+    the reduced chi^2 there (a minute fraction of one standard error of the data, weighted
+    or as the scatter estimates it); and no better fit than it (a search that is below the
+    known end may be on its way to a lower minimum).
+    """
+    rss = float(r @ r)
+    return rss >= rss_end and float(np.sum((r - r_end) ** 2)) < _REACHED * rss_end / dof
+
+
 class _ShapeProblem:
     """The fit of the model spectrum of one roll-off shape to one G (one length unit).
 
@@ -562,6 +585,7 @@ class _ShapeProblem:
         self.u = 1.0 / self.w  # the column of the amplitude in the Jacobian
         self.uu = float(self.u @ self.u)
         self.memo = {}  # quadratures of eq. 9 (see _acf_shape)
+        self.ends, self.outcomes = [], []  # of the first searches of the solves (solve)
 
     def cutoffs(self, t):
         """``(lambda_r, lambda_s)`` of ``theta`` in units of ``dr_ref``."""
@@ -607,8 +631,11 @@ class _ShapeProblem:
         """The amplitude ``t[0]`` that minimises ``sum (t[0] / w + d)^2`` (``d``: deviations)."""
         return -float(self.u @ d) / self.uu
 
-    def optimise(self, theta, active):
+    def optimise(self, theta, active, ends=()):
         """Least squares over the ``active`` parameters, the others held at ``theta``.
+
+        ``ends``: ``(residuals, chi^2)`` of known ends of searches; a search that reaches
+        one (:func:`_same_end`) stops with :class:`_Reached` (its index).
 
         The amplitude ``theta[0]`` enters the residuals linearly (a column ``1/w``): it is
         solved for at each evaluation (variable projection), and the search runs over the
@@ -641,7 +668,11 @@ class _ShapeProblem:
 
         def fun(t):
             cache["t"], cache["d"] = t.copy(), dev(t)
-            return project(cache["d"])
+            r = project(cache["d"])
+            for k, (r_end, rss_end) in enumerate(ends):
+                if _same_end(r, r_end, rss_end, self.dof):
+                    raise _Reached(k)
+            return r
 
         def jac(t):
             d0 = cache["d"] if np.array_equal(cache.get("t"), t) else dev(t)
@@ -707,17 +738,31 @@ class _ShapeProblem:
         return moved
 
     def solve(self, theta):
-        """Optimise from ``theta``, refitting after dropping cutoffs the data do not resolve."""
+        """Optimise from ``theta``, refitting after dropping cutoffs the data do not resolve.
+
+        A first search that reaches the end of the first search of an earlier solve (see
+        :meth:`optimise`) would go on as that one did: it stops there, and the solve
+        returns that solve's result (a restart that funnels into a known minimum).
+        """
         active = self.free.copy()
+        try:
+            theta = self.optimise(theta, active, self.ends)
+        except _Reached as hit:
+            theta, active, cov_free, chi2 = self.outcomes[hit.k]
+            return theta.copy(), active.copy(), cov_free, chi2
+        r_end = self.residuals(theta)
         moved = True
         for k in range(3):
-            if moved:
+            if moved and k > 0:
                 # a refit after a cutoff was dropped may start where G ignores lambda_s
-                theta = self.optimise(theta if k == 0 else self.released(theta, active), active)
+                theta = self.optimise(self.released(theta, active), active)
             cov_free, chi2 = self.covariance(theta)
             moved = self.drop_unresolved(theta, active, cov_free)
             if not moved:
                 break
+        if np.all(np.isfinite(r_end)):
+            self.ends.append((r_end, float(r_end @ r_end)))
+            self.outcomes.append((theta.copy(), active.copy(), cov_free, chi2))
         return theta, active, cov_free, chi2
 
     def physical(self, pv):
