@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import warnings
 
+import dask
 import numpy as np
 import pytest
 import xarray as xr
@@ -131,3 +132,18 @@ def test_the_accessor_shows_the_signature_of_the_function():
     params = list(inspect.signature(xr.DataArray([1.0]).rough.fit).parameters)
     assert params[:2] == ["model", "dr_min"]
     assert fitting.fit_acf.__wrapped__.__name__ == "fit_acf"
+
+
+def test_arguments_that_cannot_be_hashed_are_computed_not_kept():
+    calls = []
+
+    @by_content()
+    def length(x, *, extra):
+        calls.append(1)
+        return xr.DataArray(float(len(x)))
+
+    with dask.config.set({"tokenize.ensure-deterministic": True}):
+        for _ in range(2):  # an object without a deterministic token: never kept
+            assert float(length(xr.DataArray([1.0, 2.0]), extra=object())) == 2.0
+    assert len(calls) == 2 and length.cache_info()["size"] == 0
+    assert length.peek(xr.DataArray([1.0, 2.0]), extra=object()) is None

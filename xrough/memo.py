@@ -97,7 +97,10 @@ def by_content(maxsize: int = 32) -> Callable:
 
         @functools.wraps(func)
         def wrapper(*args, **kwargs):
-            key = key_of(args, kwargs)
+            try:
+                key = key_of(args, kwargs)
+            except Exception:  # noqa: BLE001  (unhashable arguments: computed, not kept)
+                return func(*args, **kwargs)
             with lock:
                 hit = cache.get(key)
                 if hit is not None:
@@ -117,8 +120,12 @@ def by_content(maxsize: int = 32) -> Callable:
 
         def peek(*args, **kwargs):
             """Return the kept result of an equal call (a copy; nothing said), or None."""
+            try:
+                key = key_of(args, kwargs)
+            except Exception:  # noqa: BLE001
+                return None
             with lock:
-                hit = cache.get(key_of(args, kwargs))
+                hit = cache.get(key)
             return None if hit is None else _copy(hit[0])
 
         def cache_clear() -> None:
