@@ -174,8 +174,11 @@ def _fit_data(G, se, *, dr, use, dr_ref, weighted, fixed, unit, what):
 
     ``free`` flags the fitted parameters (the amplitude, and those of ``fixed`` that are
     NaN), ``n`` and ``p`` count bins and free parameters, ``x = dr / dr_ref``, ``G_ref`` is
-    the geometric mean of the selected ``G_sel`` and ``w`` the standard error of ``ln G``
-    (1 unweighted).
+    the power of two nearest the geometric mean of the selected ``G_sel`` (so that
+    ``G_sel / G_ref`` is the same to the last bit when G is scaled by a power of two: the
+    search, which can end in one of several near-equal minima on a G that no model
+    describes, then takes the same path in every unit) and ``w`` the standard error of
+    ``ln G`` (1 unweighted).
     """
     G = np.asarray(G, dtype=float)
     se = np.asarray(se, dtype=float)
@@ -184,7 +187,7 @@ def _fit_data(G, se, *, dr, use, dr_ref, weighted, fixed, unit, what):
     n, p = int(sel.sum()), int(free.sum())
     _check_count(n, p, what)
     x = dr[sel] / dr_ref
-    G_ref = float(np.exp(np.mean(np.log(G[sel]))))
+    G_ref = float(2.0 ** np.round(np.mean(np.log2(G[sel]))))
     w = se[sel] / G[sel] if weighted else np.ones(n)  # standard error of ln G
     return free, n, p, x, G[sel], G_ref, w
 
