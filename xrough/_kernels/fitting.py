@@ -631,7 +631,7 @@ class _ShapeProblem:
                 - self.ly) / self.w
 
     def amplitude(self, d) -> float:
-        """The amplitude ``t[0]`` that minimises ``sum (t[0] / w + d)^2`` (``d``: deviations)."""
+        """Return the amplitude ``t[0]`` minimising ``sum (t[0] / w + d)^2`` (``d``: deviations)."""
         return -float(self.u @ d) / self.uu
 
     def optimise(self, theta, active, ends=()):
