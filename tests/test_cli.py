@@ -478,7 +478,10 @@ def test_installed_command_runs(files):
 @pytest.mark.slow  # 90 s: the whole job
 def test_report_prints_quality_notes_not_flagged_numbers(files, monkeypatch, capsys):
     """A map on a steep tilt (2 nm per nm), not detrended: G ~ dr^2 over all lags, so the
-    fit has no self-affine range; its H, sigma_h and lambda_r were printed as findings."""
+    fit finds no self-affine range (failed) or H on its bound 0.99, "e.g. G ~ dr^2 from a
+    tilt" (questionable; the smooth roll-off fits the tilt's G with a 7 % smaller chi^2 than
+    the failed fit of the sharp one); its H, sigma_h and lambda_r were printed as
+    findings."""
     topo = surface()
     xrough.topography(topo.values + 2.0 * topo.x.values[None, :], spacing="31.25 nm",
                       unit="um", height_unit="nm").to_netcdf(files / "tilted_map.nc")
@@ -488,16 +491,20 @@ def test_report_prints_quality_notes_not_flagged_numbers(files, monkeypatch, cap
     assert status == 0
     row = table(out)[0]
     fit = xrough.open_analysis(files / "tilted.nc")["tilted_map"]["fit"]
-    assert fit.attrs["quality"] == "failed"
-    assert row["H"] == row["sigma_h (fit)"] == row["lambda_r"] == "failed"
+    level = fit.attrs["quality"]
+    assert level in ("questionable", "failed")
+    assert "tilt" in fit.attrs["quality_notes"] or "no self-affine range" in fit.attrs[
+        "quality_notes"]
+    for cell in (row["H"], row["sigma_h (fit)"], row["lambda_r"]):  # flagged, each
+        assert cell == "failed" if level == "failed" else cell.endswith(" ?")
     notes = out[out.index("quality ("):]
-    assert "tilted_map: fit failed: " in notes and fit.attrs["quality_notes"] in notes
+    assert f"tilted_map: fit {level}: " in notes and fit.attrs["quality_notes"] in notes
     assert "QualityWarning" not in err and "fit_acf" not in err  # said once, on stdout
     status, out, _ = run("report", "tilted_map.nc", "--detrend", "none", "--E-star",
                          E_STAR, "--p0", P0, "--json", "-o", "tilted.nc", cwd=files,
                          monkeypatch=monkeypatch, capsys=capsys)
     quality = json.loads(out)["measurements"][0]["quality"]
-    assert quality["fit"]["level"] == "failed" and quality["fit"]["notes"]
+    assert quality["fit"]["level"] == level and quality["fit"]["notes"]
 
 
 @pytest.fixture(scope="module")

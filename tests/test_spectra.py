@@ -307,3 +307,18 @@ def test_acf_bad_dr():
         acf_from_spectrum(C, dr_min="1 s")
     with pytest.raises(TypeError, match="DataArray"):
         acf_from_spectrum(C.values)
+
+
+def test_model_gradient_is_never_negative_below_the_rolloff():
+    """Regression: below q_r the power-law term of eq. 26 was b^e - q_r^e with b = q_r,
+    which numpy's array and scalar powers can make -1 ulp; beside the tiny flat term of
+    a large lag that gave gbar^2 < 0 (a sqrt warning, then NaN) on a fit with H = 0.95."""
+    from xrough._kernels.spectral_models import model_gradient2
+
+    q = 2 * np.pi / np.geomspace(1e-5, 1e5, 101)
+    g2 = model_gradient2(q, c=0.08767418290355335, hurst=0.950244120871398,
+                         q_r=0.006313766691069956, q_s=5334.066300105561)
+    assert np.all(g2 > 0)
+    below = q < 0.006313766691069956  # only the flat part: C_r q^4 / 4 / (2 pi)
+    c_r = 0.08767418290355335 / 0.006313766691069956 ** (2 + 2 * 0.950244120871398)
+    np.testing.assert_allclose(g2[below], c_r * q[below] ** 4 / 4 / (2 * np.pi), rtol=1e-12)

@@ -156,7 +156,8 @@ def model_gradient2(q_cut, *, c: float, hurst: float, q_r: float, q_s: float,
     Notes
     -----
     Sharp (eq. 35), with ``q_c = min(q_cut, q_s)``: ``2 pi gbar^2 = C_r (min(q_c, q_r)^4 -
-    q_0^4) / 4 + c (q_c^(2-2H) - q_r^(2-2H)) / (2 - 2H)`` (second term for ``q_c > q_r``).
+    q_0^4) / 4 + c (q_c^(2-2H) - q_r^(2-2H)) / (2 - 2H)`` (second term for ``q_c > q_r``,
+    evaluated as ``c q_r^(2-2H) expm1((2-2H) ln(q_c/q_r)) / (2-2H)``: never below 0).
     Smooth: ``int q^3 [1 + (q/q_r)^2]^-(1+H) dq = (q_r^4 / 2) Phi(u)``, ``u = (q/q_r)^2``,
     with ``Phi(u) = [(1+u)^(1-H) - 1]/(1-H) + [(1+u)^-H - 1]/H`` evaluated as
     ``E((1-H) L)/(1-H) + E(-H L)/H``, ``L = ln(1+u)``, ``E(x) = e^x - 1 - x`` (the linear
@@ -177,7 +178,10 @@ def model_gradient2(q_cut, *, c: float, hurst: float, q_r: float, q_s: float,
         a = np.clip(qc, q_0, q_r)
         b = np.clip(qc, q_r, q_s)
         flat = (a**4 - q_0**4) / (4 * q_r ** (2 + 2 * H))
-        return c * (flat + (b**e - q_r**e) / e) / (2 * np.pi)
+        # b^e - q_r^e as q_r^e expm1(e ln(b/q_r)): 0 at b = q_r to the last bit (numpy's
+        # array and scalar powers can differ by an ulp), no cancellation just above q_r
+        power = q_r**e * np.expm1(e * np.log(b / q_r)) / e
+        return c * (flat + power) / (2 * np.pi)
 
     def phi(v):
         L = np.log1p(v)
