@@ -31,7 +31,8 @@ import time
 
 import numpy as np
 
-from xrough._kernels.hankel import acf_from_spectrum_kernel, spectrum_from_acf_kernel
+from xrough._kernels.hankel import acf_from_spectrum_kernel
+from xrough._kernels.spectrum_of_acf import spectrum_from_acf_kernel
 from xrough.gradient import gradient_from_spectrum, rms_gradient_exact
 from xrough.memo import forget
 from xrough.models import self_affine_model
