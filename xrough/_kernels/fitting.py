@@ -521,7 +521,11 @@ def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lam
         out = _fit_spectrum_shape(G, se, rolloff=rolloff, **kw)
         return _with_shape(out, ROLLOFFS.index(rolloff), np.nan)
     kw["eq36"] = _eq36_fit(G, se, **kw)  # the start of both shapes
-    fits = [_fit_spectrum_shape(G, se, rolloff=shape, **kw) for shape in ROLLOFFS]
+    # the second shape starts where the first ended (its roll-off converted) and from eq. 36,
+    # without a grid: the first shape's restarts have searched the same landscape
+    sharp_fit, theta = _fit_spectrum_shape(G, se, rolloff=ROLLOFFS[0], theta_out=True, **kw)
+    seed = _converted(theta, ROLLOFFS[0], ROLLOFFS[1])
+    fits = [sharp_fit, _fit_spectrum_shape(G, se, rolloff=ROLLOFFS[1], seed=seed, **kw)]
     at = {name: k for k, name in enumerate(SPECTRUM_OUTPUTS)}
 
     def aic(out):
@@ -534,6 +538,20 @@ def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lam
     sharp, smooth = (aic(out) for out in fits)
     k = 1 if smooth < sharp - AIC_MARGIN or (np.isinf(sharp) and np.isfinite(smooth)) else 0
     return _with_shape(fits[k], k, fits[1 - k][at["reduced_chi2"]])
+
+
+def _converted(theta, shape: str, to: str):
+    """``theta`` of roll-off ``shape`` with the same ``lambda_r`` crossover in shape ``to``.
+
+    The crossover of the two shapes' G lies at different multiples of their ``lambda_r``
+    (:func:`rolloff_crossover`); a ``lambda_r`` at its floor (none) stays there.
+    """
+    theta = np.array(theta, dtype=float)
+    H = theta[1]
+    if theta[2] > _LN_FLOOR + 1e-9:
+        ratio = rolloff_crossover(H, rolloff=shape) / rolloff_crossover(H, rolloff=to)
+        theta[2] = max(theta[2] - (2 - 2 * H) * np.log(ratio), _LN_FLOOR)
+    return theta
 
 
 def _with_shape(out, shape, chi2_other):
@@ -793,8 +811,12 @@ def _shape_start(problem: _ShapeProblem, G, se, **kw) -> tuple[np.ndarray, float
     return np.clip(theta, problem.lower + 1e-3, problem.upper - 1e-3), chi2_eq36
 
 
-def _best_solution(problem: _ShapeProblem, theta, chi2_eq36: float) -> tuple:
+def _best_solution(problem: _ShapeProblem, theta, chi2_eq36: float, seed=None) -> tuple:
     """Solve from ``theta`` and, if that fit is poor, from the best points of a grid.
+
+    ``seed``: the end of the fit of the other roll-off shape (``rolloff="auto"``), the
+    first start instead; ``theta`` (eq. 36's start) is then the only restart, and no grid
+    is searched (the other shape's restarts searched it).
 
     A fit that lost both cutoffs (dropped as unresolved) is a pure power law, which eq. 36
     contains: eq. 36 always fits it at least as well, and where the data resolve no cutoff
@@ -809,6 +831,13 @@ def _best_solution(problem: _ShapeProblem, theta, chi2_eq36: float) -> tuple:
     def poor(theta, chi2):
         return chi2 > chi2_eq36 or poor_alone(theta, chi2)
 
+    if seed is not None:
+        best = problem.solve(np.clip(seed, problem.lower + 1e-3, problem.upper - 1e-3))
+        if poor(best[0], best[3]):
+            candidate = problem.solve(theta)
+            if candidate[3] < best[3] * (1 - 1e-6):
+                best = candidate
+        return best
     best = problem.solve(theta)
     if np.any(problem.free[1:]) and poor(best[0], best[3]):
         # a poor fit may sit in a local minimum (e.g. lambda_s beyond lambda_r): restart
@@ -868,7 +897,7 @@ def _shape_parameters(problem: _ShapeProblem, theta, active, cov_free) -> tuple:
     return out, std, resolved_r, resolved_s
 
 
-def _fit_spectrum_shape(G, se, **kw):
+def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, **kw):
     """Fit the model spectrum of one roll-off shape to one G (see :func:`fit_spectrum_kernel`).
 
     Optimiser parameters ``theta = [ln(G_sa/G_ref), H, ln eta, ln eps]`` with
@@ -880,7 +909,7 @@ def _fit_spectrum_shape(G, se, **kw):
     start_kw = {k: v for k, v in kw.items() if k != "lambda_0"}
     problem = _ShapeProblem(G, se, **{k: v for k, v in kw.items() if k != "eq36"})
     theta, chi2_eq36 = _shape_start(problem, G, se, **start_kw)
-    theta, active, cov_free, chi2 = _best_solution(problem, theta, chi2_eq36)
+    theta, active, cov_free, chi2 = _best_solution(problem, theta, chi2_eq36, seed)
     rms_misfit = problem.misfit(theta)
     out, std, resolved_r, resolved_s = _shape_parameters(problem, theta, active, cov_free)
     free = problem.free
@@ -894,8 +923,9 @@ def _fit_spectrum_shape(G, se, **kw):
     if code == 2:  # the numbers mean nothing (but a fixed value stays what it was)
         keep = np.array([False, False, not free[1], not free[2], not free[3], False])
         out[~keep], std[~keep] = np.nan, np.nan
-    return np.array([*out, *std, chi2, problem.n, resolved_r, resolved_s, rms_misfit,
-                     chi2_eq36, np.nan, np.nan, bits, code], dtype=float)
+    values = np.array([*out, *std, chi2, problem.n, resolved_r, resolved_s, rms_misfit,
+                       chi2_eq36, np.nan, np.nan, bits, code], dtype=float)
+    return (values, theta) if theta_out else values
 
 
 # --------------------------------------------------------------------------------------
