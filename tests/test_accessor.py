@@ -193,6 +193,9 @@ def _assert_same(a, b):
         assert a == b
 
 
+# the 64^2 fixture's fit ends at H = 0.94 (for 0.8), near its bound: said, and beside the
+# point here (the accessor and the function give the same result, warnings included)
+@pytest.mark.filterwarnings("ignore::xrough.quality.QualityWarning")
 @pytest.mark.parametrize(("name", "args", "kwargs"), TOPOGRAPHY_CALLS,
                          ids=[c[0] for c in TOPOGRAPHY_CALLS])
 def test_topography_results_identical(topo, name, args, kwargs):
@@ -212,6 +215,7 @@ def test_G_results_identical(G, name, args, kwargs):
     _assert_same(getattr(G.rough, name)(*args, **kwargs), func(G, *args, **kwargs))
 
 
+@pytest.mark.filterwarnings("ignore::xrough.quality.QualityWarning")
 def test_reliability_window_and_chains(topo):
     marked = topo.rough.reliable(short_cutoff="20 nm", long_cutoff="200 nm")
     assert marked.rough.reliability_window() == preprocess.reliability_window(marked)

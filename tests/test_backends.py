@@ -72,7 +72,8 @@ def _G_line() -> xr.DataArray:
 
 @functools.cache
 def _fit_stack() -> xr.Dataset:
-    return xrough.fit_acf(_G_stack(), model="eq36")
+    # eq. 36 misses the model spectrum's G of one curve by > 10 % rms: said, and compared
+    return _quiet(xrough.fit_acf, _G_stack(), model="eq36")
 
 
 INPUTS = {"stack": _stack, "map": _map, "periodic-map": lambda: _map(64, True),
@@ -191,7 +192,8 @@ CASES = {
     "patch_radius": ("G", lambda G: xrough.patch_radius(G, E_star="25 MPa",
                                                         gamma="50 mJ/m^2"), None, True, ()),
     "fit_acf": ("G", lambda G: xrough.fit_acf(G), None, True, ()),
-    "fit_acf-eq36": ("G", lambda G: xrough.fit_acf(G, model="eq36"), None, True, ()),
+    "fit_acf-eq36": ("G", lambda G: _quiet(xrough.fit_acf, G, model="eq36"), None, True,
+                     ()),
     "rms_gradient-simple": ("G", lambda G: xrough.rms_gradient(G, method="simple"), None,
                             True, ()),
     "rms_gradient-fit": ("G", lambda G: xrough.rms_gradient(G, method="fit"), None, True,

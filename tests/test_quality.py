@@ -130,7 +130,7 @@ def test_ballistic_g_has_no_self_affine_range():
         fit = xrough.fit_acf(G)
     assert fit.attrs["quality"] == "failed" and np.isnan(float(fit.hurst))
     assert np.isnan(float(fit.lambda_s))
-    with pytest.warns(xrough.QualityWarning, match="H ended on its bound"):
+    with pytest.warns(xrough.QualityWarning, match="within 0.05 of its bound"):
         eq36 = xrough.fit_acf(G, model="eq36")
     assert eq36.attrs["quality"] == "questionable" and float(eq36.hurst) == 0.99
 
@@ -155,12 +155,18 @@ def test_fit_flags_are_the_same_with_dask():
 @pytest.mark.data
 def test_sur_file_spectrum_fit_is_not_stuck():
     """sur-2.sur (plane removed): the default fit gave H = 0.259 with reduced chi^2 = 582
-    where eq. 36 gives 15; restarted, the spectrum fits better than eq. 36 (measured 7.4,
-    H = 0.345, rms misfit 2 %)."""
+    where eq. 36 gives 15; restarted, the spectrum fits better than eq. 36 (measured 10.3,
+    rms misfit 9 %), and the largest miss is rated."""
     topo = xrough.open_topography(_needs("sur-2.sur")).rough.detrend()
-    fit = xrough.fit_acf(topo.rough.acf())
+    with pytest.warns(xrough.QualityWarning, match=r"misses G by 3.8\d times"):
+        fit = xrough.fit_acf(topo.rough.acf())
     assert float(fit.reduced_chi2) < float(fit.reduced_chi2_eq36)
-    assert fit.attrs["quality"] == "good" and float(fit.rms_misfit) < 0.1
+    assert float(fit.rms_misfit) < 0.1
+    # but its roll-off plateaus where G still rises: 3.8 times below G at the largest lags
+    # (measured; 5.8 with the cleaning of tests/test_real_data.py), which the standard
+    # errors there hide from chi^2 and the weighted misfit; a glance at the plot rejects it
+    np.testing.assert_allclose(float(fit.max_misfit_factor), 3.82, rtol=0.02)
+    assert fit.attrs["quality"] == "questionable"
 
 
 @pytest.mark.data

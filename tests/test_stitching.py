@@ -310,8 +310,10 @@ def test_uncd_stitched():
     # G of a smooth surface), also across the gap the windows leave (TEM/stylus)
     slope = np.diff(np.log(G.values)) / np.diff(np.log(G.dr.values))
     assert np.abs(slope).max() < 2.0, slope
-    fit = G.rough.fit()
-    assert 0 < float(fit.hurst) < 1
+    # one model spectrum over 4 decades of three instruments misses G by 14 % rms: said
+    with pytest.warns(xrough.QualityWarning, match="misses G by 1[0-9]% rms"):
+        fit = G.rough.fit()
+    assert 0 < float(fit.hurst) < 1 and fit.attrs["quality"] == "questionable"
 
 
 def _levelled_pair(rel, eps, cover=((0, 4), (2, 8)), scans=(10.0, 100.0)):

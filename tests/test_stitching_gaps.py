@@ -187,8 +187,14 @@ def test_bridge_energy_closed_form():
                                 rel=1e-9)
 
 
+def _said(result) -> str:
+    """Notes and remarks (a check at level good says it as a remark: notes stay empty)."""
+    return (result.attrs.get("quality_notes", "") + " | "
+            + result.attrs.get("quality_remarks", ""))
+
+
 def _marked(result, level):
-    assert "not measured over dr = 40-400 nm" in result.attrs["quality_notes"]
+    assert "not measured over dr = 40-400 nm" in _said(result)
     assert result.attrs["quality"] == level
     assert int(np.max(result.quality_flag.values)) == xrough.quality.level_code(level)
 
@@ -218,7 +224,7 @@ def test_every_consumer_marks_the_gap(gapped, whole, consumer, level, expect):
         warnings.simplefilter("always")
         result = run(G)
     _marked(result, "questionable" if level == "questionable" else result.attrs["quality"])
-    assert expect in result.attrs["quality_notes"]
+    assert expect in _said(result)
     if level == "questionable":
         assert any("not measured over dr = 40-400 nm" in str(w.message) for w in caught
                    if w.category is xrough.QualityWarning)
@@ -317,7 +323,7 @@ def test_uncd_gap_is_recorded_warned_and_marked():
         fit = G.rough.fit()
         energy = G.rough.energy(E_star="1 GPa")
         stress = G.rough.stress_acf(E_star="1 GPa")
-    assert "bridged by the fitted model" in fit.attrs["quality_notes"]
+    assert "bridged by the fitted model" in fit.attrs["quality_remarks"]
     # H = 0.33: a fifth of v_el lies in the bridged decade, uncertain by about a tenth
     assert 0.1 < float(energy.gap_share) < 0.3
     assert 0.05 < float(energy.gap_share_error) < 0.2

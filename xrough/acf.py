@@ -55,7 +55,8 @@ __all__ = ["AcfSpec", "check_acf", "read_acf", "PROVENANCE", "result_attrs", "la
 
 #: Attributes that say where data came from; every estimator and result carries them on.
 PROVENANCE = ("source", "source_file", "source_sha256", "format", "overrides", "channel",
-              "instrument", "detrend", "reliable_dr_min", "reliable_dr_max")
+              "instrument", "detrend", "reliable_dr_min", "reliable_dr_max",
+              "reliable_dr_units", "reliable_rule")
 
 
 @dataclass(frozen=True)
@@ -261,7 +262,7 @@ def mark_gaps(result, spec, *, what: str, depends: str, level: str = "questionab
     ...     coords={"dr": ("dr", [1.0, 2.0, 40.0], {"units": "nm"})})
     >>> r = mark_gaps(xr.DataArray(1.0), check_acf(G), what="demo", depends="a note",
     ...               level="good")
-    >>> print(r.attrs["quality_notes"])  # doctest: +NORMALIZE_WHITESPACE
+    >>> print(r.attrs["quality_remarks"])  # doctest: +NORMALIZE_WHITESPACE
     G is not measured over dr = 3-30 nm (no measurement covers it: between its bins at 2
     and 40 nm G is taken as a power law): a note
     """

@@ -133,8 +133,12 @@ def _lag_runs(dr: np.ndarray, hit: np.ndarray, unit: str) -> str:
     return f" at dr = {' and '.join(runs)} {unit}" if runs else ""
 
 
-def _derivative_checks(why: xr.DataArray, spec: AcfSpec) -> list:
-    """Return the :func:`_rate` checks of the lags without a Laplacian (range named, eager)."""
+def _derivative_checks(why: xr.DataArray, spec: AcfSpec, window: bool = True) -> list:
+    """Return the :func:`_rate` checks of the lags without a Laplacian (range named, eager).
+
+    The lags outside the reliable window are NaN by design: a remark (level good), left
+    out with ``window=False`` (:func:`persson` says it once for all its variables).
+    """
     unit = spec.unit_str
     texts = {
         k.UNDETERMINED: (
@@ -151,13 +155,35 @@ def _derivative_checks(why: xr.DataArray, spec: AcfSpec) -> list:
     }
     checks = []
     for code, text in texts.items():
+        if code == k.OUTSIDE_WINDOW and not window:
+            continue
         hit = why == code
         span = ""
         if why.chunks is None:
             span = _lag_runs(spec.dr, np.asarray(hit.any([d for d in hit.dims if d != "dr"])),
                              unit)
-        checks.append((hit.any("dr"), "questionable", text.format(span=span)))
+        level = "good" if code == k.OUTSIDE_WINDOW else "questionable"
+        checks.append((hit.any("dr"), level, text.format(span=span)))
     return checks
+
+
+def _outside_window(ds: xr.Dataset, G: xr.DataArray, spec: AcfSpec) -> tuple:
+    """NaN every variable of ``ds`` at lags outside G's reliable window; the remark."""
+    lo, hi = reliability_window(G)
+    if lo is None and hi is None:
+        return ds, None
+    dr = xr.DataArray(spec.dr, dims="dr")
+    outside = (dr < (lo if lo is not None else -np.inf)) | (
+        dr > (hi if hi is not None else np.inf))
+    if not bool(outside.any()):
+        return ds, None
+    ds = ds.assign({name: v.where(~outside).assign_attrs(v.attrs)
+                    for name, v in ds.data_vars.items() if "dr" in v.dims})
+    rule = G.attrs.get("reliable_rule", "reliable_dr_min / reliable_dr_max in G's attrs")
+    note = (f"NaN{_lag_runs(spec.dr, outside.values, spec.unit_str)}: outside the lag "
+            f"range the instrument resolves ({rule}); acf(reliable=False) or "
+            "G.attrs without reliable_dr_min/max keeps them")
+    return ds, (xr.DataArray(True), "good", note)
 
 
 def _unresolved(G_si: xr.DataArray, error: xr.DataArray | None, spec: AcfSpec,
@@ -236,14 +262,32 @@ def _rate(result, checks, *, what: str, inherited=()):
         if source is None:
             continue
         codes = np.maximum(codes, quality.flag_of(source))
-        if source.attrs.get("quality_notes"):
-            notes.append(source.attrs["quality_notes"])
+        said = source.attrs.get("quality_notes")
+        if said and not any(said in note for note in notes):  # one cause, one note
+            notes.append(said)
+    failed = codes >= quality.level_code("failed")
+    # a failed curve's numbers mean nothing: NaN (lazy results: the flag says it; a mask
+    # from the flag would make every variable depend on every other)
+    if not lazy and bool(failed.any()):
+        result = _nan_where(result, failed)
     out = quality.mark_curves(result, codes.astype(np.int8), what=what,
                               notes=quality.SEPARATOR.join(notes))
     if out[quality.FLAG].ndim == 0:  # one curve: its remarks too (many: the flags only)
         for remark in remarks:
             out = quality.mark(out, remark, level="good", what=what)
     return out
+
+
+def _nan_where(result, mask: xr.DataArray):
+    """``result`` (DataArray or Dataset) with every float variable NaN where ``mask``."""
+    def blank(v):
+        if not np.issubdtype(v.dtype, np.floating):
+            return v
+        return v.where(~mask).assign_attrs(v.attrs)
+
+    if isinstance(result, xr.Dataset):
+        return result.assign({name: blank(v) for name, v in result.data_vars.items()})
+    return blank(result).rename(result.name)
 
 
 # ---------------------------------------------------------------------------------------
@@ -702,16 +746,20 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     area, method = None, "none"
     if set(wanted) - {"sigma_quick"}:  # everything else needs gbar(dr)
         if gradient is None:
-            if set(_NEED_FIT) & set(wanted) and gradient_method in ("auto", "fit"):
-                fit = fit_acf(G) if fit is None else fit  # one fit for both
-            gradient = rms_gradient(G, method=gradient_method,
-                                    fit=fit if gradient_method in ("auto", "fit") else None)
+            with quality.quiet():  # their notes are this result's: it warns once
+                if set(_NEED_FIT) & set(wanted) and gradient_method in ("auto", "fit"):
+                    fit = fit_acf(G) if fit is None else fit  # one fit for both
+                gradient = rms_gradient(
+                    G, method=gradient_method,
+                    fit=fit if gradient_method in ("auto", "fit") else None)
         method = str(gradient.attrs.get("method", "given"))
         area = _contact_area(run, gradient)
         derivative.append(area.check)
         out.update(_area_vars(run, area))
     if "sigma_quick" in wanted:
-        fit = fit_acf(G) if fit is None else fit
+        if fit is None:
+            with quality.quiet():
+                fit = fit_acf(G)
         out["sigma_quick"] = _sigma_quick(run, fit)
     if "G_sigma" in wanted or "Gamma_sigma" in wanted:
         stress, stress_checks, stress_derivative = _stress_vars(run, area, smooth_full)
@@ -733,7 +781,10 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     ds = ds.assign({name: v.where(~flat).assign_attrs(v.attrs)
                     for name, v in ds.data_vars.items()})
     checks += derivative + [unresolved]  # per curve, no p0 dim
-    ds = mark_gaps(ds, spec, what="persson", depends=_GAP_PERSSON)
+    ds, window = _outside_window(ds, G, spec)
+    checks += [window] if window else []
+    gap = gap_note(spec, _GAP_PERSSON)  # said with the rest: one warning
+    checks += [(xr.DataArray(True), "questionable", gap)] if gap else []
     return _rate(ds, checks, what="persson", inherited=(
         gradient if set(wanted) - {"sigma_quick"} else None,
         fit if set(_NEED_FIT) & set(wanted) else None))
@@ -872,7 +923,7 @@ def _stress_vars(run: _PerssonRun, area: _ContactArea, smooth_full: bool):
             units="Pa2", long_name="reduced stress autocorrelation function",
             equation=f"eq. 47 ({run.theory}: divided by "
             f"{'a_r' if run.theory == 'persson' else 'a_ri'} at the smallest dr); {tail}")
-    return out, checks, _derivative_checks(why, run.spec)
+    return out, checks, _derivative_checks(why, run.spec, window=False)
 
 
 def _asymptote_vars(run: _PerssonRun, area: _ContactArea) -> dict[str, xr.DataArray]:

@@ -57,12 +57,14 @@ from . import quality
 from . import units as u
 from ._kernels.fitting import (
     AIC_MARGIN,
-    CHI2_QUESTIONABLE,
+    CHI2_ALONE,
     EQ36_OUTPUTS,
     H_BOUNDS,
+    HURST_MARGIN,
     HURST_STD_MAX,
     MISFIT_FAILED,
     MISFIT_QUESTIONABLE,
+    MISS_FACTOR,
     MODELS,
     OTHER_BETTER,
     OUTSIDE,
@@ -210,20 +212,33 @@ def _problem_text(name: str, v: dict) -> str:
     """One problem of a fit in words; ``v`` holds the numbers of one fit, or is empty."""
     one = bool(v)
     if name == "poor_fit":
-        found = (f"reduced chi^2 = {v['chi2']:.3g} > {CHI2_QUESTIONABLE:g}, rms misfit of "
-                 f"ln G = {v['misfit']:.2g}" if one else
-                 f"reduced chi^2 > {CHI2_QUESTIONABLE:g} and rms misfit of ln G > "
-                 f"{MISFIT_QUESTIONABLE:g}")
-        return (f"the model misses G beyond its errors ({found}): the parameters carry a "
-                "model bias that their std does not include")
+        if not one:
+            return (f"the model misses G by more than {MISFIT_QUESTIONABLE:.0%} rms, or "
+                    f"beyond its errors (reduced chi^2 > {CHI2_ALONE:g}): the parameters "
+                    "carry a model bias that their std does not include")
+        return (f"the model misses G by {v['misfit']:.0%} rms (reduced chi^2 = "
+                f"{v['chi2']:.3g}): the parameters carry a model bias that their std does "
+                "not include")
     if name == "failed_fit":
         found = f" = {v['misfit']:.2g}" if one else ""
         return (f"the model does not describe G (rms misfit of ln G{found} > "
                 f"{MISFIT_FAILED:g}): its parameters are NaN")
+    if name == "misses_data":
+        found = f"{v['factor']:.3g} times" if one else f"more than {MISS_FACTOR:g} times"
+        return (f"the model misses G by {found} in a bin it fits (plot G with "
+                "fit.rough.plot): not a description of this G; narrow the dr range to "
+                "where G is self-affine, or detrend")
+    if name == "sigma_h_below_data":
+        return ("the fitted sigma_h is too small for G: G exceeds 2 sigma_h^2 (beyond two "
+                "standard errors), which no surface allows; the model's plateau is below "
+                "the data (a roll-off fitted where G still rises)")
     if name == "hurst_at_bound":
-        return (f"H ended on its bound {H_BOUNDS[0]:g} or {H_BOUNDS[1]:g}: G follows no "
-                "power law dr^(2H) with 0 < H < 1 over the lags (e.g. G ~ dr^2 from a tilt "
-                "or a curvature, or a plateau); detrend, or fit a narrower dr range")
+        found = f"H = {v['hurst']:.3g}" if one and np.isfinite(v["hurst"]) else "H"
+        return (f"{found} is within {HURST_MARGIN:g} of its bound {H_BOUNDS[0]:g} or "
+                f"{H_BOUNDS[1]:g}: the edge of what the model can tell (a surface that "
+                "close to H = 0 or 1, or a G that follows no power law dr^(2H) with "
+                "0 < H < 1: a tilt or a curvature, G ~ dr^2, or a plateau); look at the "
+                "plot, detrend, or fit a narrower dr range")
     if name == "other_model_better":
         found = f" (reduced chi^2 = {v['chi2_eq36']:.3g})" if one else ""
         return (f"eq. 36 fits G more than {OTHER_BETTER:g} times better{found}: use "
@@ -261,8 +276,8 @@ def describe_problems(bits: int, numbers: dict | None = None) -> str:
 
     Examples
     --------
-    >>> describe_problems(4)[:28]
-    'H ended on its bound 0.01 or'
+    >>> describe_problems(4)[:30]
+    'H is within 0.05 of its bound '
     """
     names = [name for k, name in enumerate(PROBLEMS) if int(bits) >> k & 1]
     if "failed_fit" in names and "poor_fit" in names:
@@ -277,6 +292,8 @@ def _fit_notes(ds: xr.Dataset, bits: np.ndarray, model: str, weighted: bool) -> 
         eq36 = float(ds.reduced_chi2_eq36) if model == "spectrum" else np.nan
         return describe_problems(int(bits), {"chi2": float(ds.reduced_chi2),
                                              "misfit": float(ds.rms_misfit),
+                                             "factor": float(ds.max_misfit_factor),
+                                             "hurst": float(ds.hurst),
                                              "chi2_eq36": eq36, "weighted": weighted})
     parts = []
     failed = bits >> PROBLEMS.index("failed_fit") & 1
@@ -730,6 +747,10 @@ def _fit_variables(setup: FitSetup, part: dict) -> dict:
     data["rms_misfit"] = _variable(part["rms_misfit"], "1",
                                    "rms of ln G_model - ln G over the bins (weighted as the "
                                    "fit): the typical relative misfit of G")
+    data["max_misfit_factor"] = _variable(
+        part["max_misfit_factor"], "1",
+        "largest factor between the model and G over the bins fitted, "
+        "exp(max |ln G_model - ln G|)")
     if setup.model == "spectrum":
         data["reduced_chi2_eq36"] = _variable(
             part["reduced_chi2_eq36"], "1",

@@ -35,6 +35,7 @@ lag range last, on the cleaned map.
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 import numpy as np
@@ -52,6 +53,8 @@ __all__ = [
     "mask_outliers",
     "reliable",
     "reliability_window",
+    "stated_reliability",
+    "stated_tip_radius",
 ]
 
 DETREND_MODES = tuple(k.DEGREES)
@@ -635,6 +638,94 @@ def reliable(
                  reliable_rule=f"dr_min: {'; '.join(lo_rule)}; dr_max: {hi_rule}")
     out = topography.copy(deep=False)
     out.attrs = attrs
+    return out
+
+
+#: Where files state the radius of their tip or stylus: an attribute named like
+#: ``tip_radius`` / ``Stylus`` / ``probe`` whose text holds ``radius`` (or ``radii``) and
+#: a length, e.g. a Dektak header's ``Stylus: Radius: 2.5 µm``.
+_TIP_KEY = re.compile(r"tip|stylus|probe|cantilever", re.IGNORECASE)
+_TIP_TEXT = re.compile(r"radi(?:us|i)\b[^0-9~\n]{0,12}~?\s*([0-9]*\.?[0-9]+(?:[eE][-+]?\d+)?)"
+                       r"\s*(nm|µm|μm|um|mm|m)\b", re.IGNORECASE)
+
+
+def stated_tip_radius(attrs: dict) -> tuple[str, str] | None:
+    """The tip (stylus) radius a file's metadata states, and the attribute that states it.
+
+    Looks through attributes whose name or value names a tip, stylus or probe for
+    ``radius <number> <length unit>`` (``tip_radius`` itself may be a number in the
+    ``tip_radius_units``, else the lateral unit is not assumed: a bare number is skipped).
+    Where several radii are stated (a tip measured before and after the scan), the largest
+    counts: the bluntest tip the scan may have had.
+
+    Returns
+    -------
+    (str, str) or None
+        ``("2.5 um", "Stylus")``: the radius as a length string, and the attribute's name.
+
+    Examples
+    --------
+    >>> stated_tip_radius({"Stylus": "Radius: 2.5 µm", "Force": "3 mg"})
+    ('2.5 um', 'Stylus')
+    >>> stated_tip_radius({"description": "Initial tip radii - 17 nm. Final tip radii - 26 nm"})
+    ('26 nm', 'description')
+    >>> stated_tip_radius({"Scan": "2 um"}) is None
+    True
+    """
+    found = []
+    for key, value in attrs.items():
+        if key == "tip_radius" and isinstance(value, (int, float, np.integer, np.floating)):
+            if attrs.get("tip_radius_units"):
+                found.append((float(value), str(attrs["tip_radius_units"]), key))
+            continue
+        if not isinstance(value, str):
+            continue
+        text = f"{key}: {value}"
+        if not _TIP_KEY.search(text):
+            continue
+        for number, unit in _TIP_TEXT.findall(text):
+            unit = {"µm": "um", "μm": "um"}.get(unit, unit.lower() if unit != "m" else "m")
+            found.append((float(number), unit, key))
+    if not found:
+        return None
+    value, unit, key = max(found, key=lambda f: u.length_in(f"{f[0]} {f[1]}", "m",
+                                                             what="tip radius"))
+    return f"{value:g} {unit}", key
+
+
+def stated_reliability(topography: xr.DataArray) -> xr.DataArray:
+    """Apply :func:`reliable` with the tip radius the file states, unless a window is set.
+
+    What :func:`xrough.height_difference_acf` does by default (``reliable=True``): a
+    topography without ``reliable_dr_min`` whose metadata state a tip or stylus radius
+    (:func:`stated_tip_radius`) gets the window of the tip rule; ``reliable_rule`` says
+    which attribute stated it. Lazy (dask) maps are returned as they are (the tip rule
+    reads the whole map: call :func:`reliable` on them yourself).
+
+    Examples
+    --------
+    >>> import numpy as np, xrough
+    >>> x = np.linspace(0, 100, 1001)
+    >>> topo = xrough.topography(np.sin(x) * 0.5, spacing=0.1, unit="um")
+    >>> topo.attrs["Stylus"] = "Radius: 2.5 µm"
+    >>> stated_reliability(topo).attrs["reliable_rule"][:50]
+    'dr_min: tip radius 2.5 um stated in the file (attr'
+    """
+    if "reliable_dr_min" in topography.attrs or topography.chunks is not None:
+        return topography
+    stated = stated_tip_radius(topography.attrs)
+    if stated is None:
+        return topography
+    radius, key = stated
+    try:
+        out = reliable(topography, tip_radius=radius)
+    except ValueError as err:
+        raise ValueError(f"{err} (the tip radius {radius} stated in the file's attr "
+                         f"{key!r}; acf(reliable=False) ignores it)") from None
+    out.attrs["reliable_rule"] = out.attrs["reliable_rule"].replace(
+        f"tip radius {u.length_in(radius, out.attrs['reliable_dr_units'], what='tip'):g} "
+        f"{out.attrs['reliable_dr_units']}",
+        f"tip radius {radius} stated in the file (attr {key!r})", 1)
     return out
 
 

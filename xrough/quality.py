@@ -113,12 +113,44 @@ def warn(message, category: type[Warning] = UserWarning) -> None:
     """
     for said in _RECORDINGS.get():
         said.append((message, category))
+    if _QUIET.get() and issubclass(category, QualityWarning):
+        return  # said by the result that holds this one (see quiet)
     warnings.warn(message, category, stacklevel=user_stacklevel())
 
 
 #: The open :func:`recorded` lists of this context (innermost last).
 _RECORDINGS: contextvars.ContextVar[tuple[list, ...]] = contextvars.ContextVar(
     "xrough_recorded_warnings", default=())
+
+
+#: Inside :func:`quiet`: quality warnings are recorded but not issued.
+_QUIET: contextvars.ContextVar[bool] = contextvars.ContextVar("xrough_quiet",
+                                                              default=False)
+
+
+@contextlib.contextmanager
+def quiet() -> Iterator[None]:
+    """Hold back the :class:`QualityWarning` of the steps inside the block.
+
+    For a result computed from intermediate results (``persson`` from a fit and a
+    gradient it computes itself): their notes become the result's notes, and the result
+    warns once, so that one cause is said once.  :func:`recorded` still collects them (a
+    step kept by :func:`xrough.memo.by_content` says them when the user asks for it).
+
+    Examples
+    --------
+    >>> import warnings, xarray as xr
+    >>> with warnings.catch_warnings(record=True) as caught, quiet():
+    ...     warnings.simplefilter("always")
+    ...     r = mark(xr.DataArray(1.0), "no plateau in G", what="sigma_h")
+    >>> r.attrs["quality"], len(caught)
+    ('questionable', 0)
+    """
+    token = _QUIET.set(True)
+    try:
+        yield
+    finally:
+        _QUIET.reset(token)
 
 
 @contextlib.contextmanager
@@ -304,7 +336,9 @@ def mark(obj, reason: str, *, level: str = "questionable", what: str,
     ``attrs["quality"]`` becomes the worse of its level and ``level``, ``reason`` is
     appended to ``attrs["quality_notes"]``, the ``quality_flag`` coordinate (if any) is
     raised to ``level`` on every curve, and a :class:`QualityWarning` says
-    ``"<what>: <level>: <reason>"``.
+    ``"<what>: <level>: <reason>"``.  At ``level="good"`` the reason is a remark (e.g. a
+    gap in G that the result bridges): appended to ``attrs["quality_remarks"]``, with no
+    warning, so that ``quality == "good"`` always comes with empty ``quality_notes``.
 
     Parameters
     ----------
@@ -313,7 +347,7 @@ def mark(obj, reason: str, *, level: str = "questionable", what: str,
     reason : str
         What the check found and what to do, e.g. ``"reduced chi^2 = 597 > 30: the model
         does not describe G; use model='eq36'"``.
-    level : {'questionable', 'failed'}
+    level : {'good', 'questionable', 'failed'}
         ``'failed'``: the numbers mean nothing (set them NaN); ``'questionable'``: they
         may be biased or uncertain beyond their stated error.
     what : str
@@ -338,6 +372,10 @@ def mark(obj, reason: str, *, level: str = "questionable", what: str,
     out = obj.copy()
     new = worst(out.attrs.get("quality", "good"), code)
     out.attrs["quality"] = new
+    if code == 0:  # a remark: said, but no finding against the result (notes stay empty)
+        out.attrs["quality_remarks"] = _join(out.attrs.get("quality_remarks", ""), reason)
+        out.attrs.setdefault("quality_notes", "")
+        return out
     out.attrs["quality_notes"] = _join(out.attrs.get("quality_notes", ""), reason)
     if FLAG in out.coords:
         flag = out[FLAG]

@@ -47,34 +47,48 @@ __all__ = [
 MODELS = ("spectrum", "eq36")
 PARAMETERS = ("sigma_h", "G_sa", "hurst", "C_b", "lambda_r")
 EQ36_OUTPUTS = (*PARAMETERS, *(f"{p}_std" for p in PARAMETERS), "reduced_chi2", "n_bins",
-                "rms_misfit", "fit_problems", "quality")
+                "rms_misfit", "max_misfit_factor", "fit_problems", "quality")
 SPECTRUM_PARAMETERS = ("sigma_h", "G_sa", "hurst", "lambda_r", "lambda_s", "C_r")
 FLAGS = ("lambda_r_resolved", "lambda_s_resolved")
 SPECTRUM_OUTPUTS = (*SPECTRUM_PARAMETERS, *(f"{p}_std" for p in SPECTRUM_PARAMETERS),
-                    "reduced_chi2", "n_bins", *FLAGS, "rms_misfit", "reduced_chi2_eq36",
+                    "reduced_chi2", "n_bins", *FLAGS, "rms_misfit", "max_misfit_factor",
+                    "reduced_chi2_eq36",
                     "rolloff_shape", "reduced_chi2_other_rolloff", "fit_problems", "quality")
 #: The checks of a fit (bit k of ``fit_problems``) and the quality level each implies
 #: (1 questionable, 2 failed; see :func:`fit_problems`).
 PROBLEM_LEVELS = {
-    "poor_fit": 1,              # the model misses G beyond its errors and by > 10 % rms
-    "failed_fit": 2,            # ... and by more than 20 % rms
-    "hurst_at_bound": 1,        # H ended on its bound 0.01 or 0.99
+    "poor_fit": 1,              # the model misses G beyond its errors, or by > 10 % rms
+    "failed_fit": 2,            # ... by more than 20 % rms
+    "hurst_at_bound": 1,        # H within HURST_MARGIN of its bound 0.01 or 0.99
     "other_model_better": 1,    # chi^2 > 10 and eq. 36 has a 3 times smaller one
     "no_self_affine_range": 2,  # the cutoffs leave no self-affine range inside the lags
     "outside_range": 1,         # lambda_r more than 10 times beyond the largest lag
     "not_finite": 2,            # H, chi^2 or sigma_h undefined
     "hurst_undetermined": 1,    # std of H above HURST_STD_MAX
+    "misses_data": 1,           # model and G differ by more than MISS_FACTOR in a bin
+    "sigma_h_below_data": 1,    # 2 sigma_h^2 below G (G <= 2 sigma_h^2 on any surface)
 }
 PROBLEMS = tuple(PROBLEM_LEVELS)
-#: A fit is poor (questionable) when its reduced chi^2 exceeds CHI2_QUESTIONABLE (the
-#: model misses G by more than 3 standard errors rms) and its rms misfit of ln G exceeds
-#: MISFIT_QUESTIONABLE (10 %: a smaller misfit moves gbar ~ G^(1/2), and what follows
-#: from it, by less than 5 %, and the tiny errors of a large map alone must not flag a
-#: fit); unweighted (no standard errors to judge by), only a failure counts.  A poor fit
-#: whose misfit exceeds MISFIT_FAILED (20 %) has failed.  See docs/quality.md for the
+#: A fit is poor (questionable) when its rms misfit of ln G exceeds MISFIT_QUESTIONABLE
+#: (10 %: a smaller misfit moves gbar ~ G^(1/2), and what follows from it, by less than
+#: 5 %), or, weighted, when its reduced chi^2 exceeds CHI2_ALONE (the model misses G by
+#: more than 4.5 standard errors rms: the standard errors are lower bounds, so a large map
+#: whose model is right by 1 % must not reach it; correct models of synthetic maps give
+#: 0.02 to 0.12).  A fit whose misfit exceeds MISFIT_FAILED (20 %) and whose reduced chi^2
+#: exceeds CHI2_QUESTIONABLE (unweighted: always) has failed.  See docs/quality.md for the
 #: measurements behind them.
-CHI2_QUESTIONABLE = 10.0
+CHI2_QUESTIONABLE, CHI2_ALONE = 10.0, 20.0
 MISFIT_QUESTIONABLE, MISFIT_FAILED = 0.1, 0.2
+#: ... but not when the misfit is below MISFIT_NEGLIGIBLE (2 %: gbar moves by < 1 %),
+#: however small the standard errors (a large map or an exact G).
+MISFIT_NEGLIGIBLE = 0.02
+#: A model that misses G by more than this factor in any fitted bin (either way) is not
+#: what a reader of the plot would call a fit, whatever the rms (the weights are smallest
+#: where a model of the wrong shape misses most: at the largest lags).
+MISS_FACTOR = 3.0
+#: A free H closer than this to its bound (H_BOUNDS) is on it: the data ask for an
+#: exponent outside 0 < H < 1 (a tilt, a form, a plateau) or do not determine it.
+HURST_MARGIN = 0.05
 #: The other model is "clearly better" when its reduced chi^2 is this many times smaller.
 OTHER_BETTER = 3.0
 #: A cutoff more than this factor outside the fitted lags is an extrapolation.
@@ -160,6 +174,16 @@ def _rms_misfit(r, w):
     that noisy bins do not dominate; the value is the typical relative misfit of G.
     """
     return float(np.sqrt(np.sum(r**2) / np.sum(1.0 / w**2)))
+
+
+def _max_factor(r, w) -> float:
+    """Return the largest factor between model and data, ``exp(max |ln G_model - ln G|)``."""
+    return float(np.exp(np.max(np.abs(r * w))))
+
+
+def _g_max(G_sel, w, weighted) -> float:
+    """Return the largest fitted G less two standard errors (``w``: of ``ln G``)."""
+    return float(np.max(G_sel * (1.0 - 2.0 * w))) if weighted else float(np.max(G_sel))
 
 
 def _check_count(n, p, what):
@@ -334,15 +358,18 @@ def fit_eq36_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, unit, c
     values = np.array([sigma_h, G_sa, H, C_b, lam])
     stds = np.array([sigma_std, G_sa * np.sqrt(var[0]), np.sqrt(var[1]),
                      np.sqrt(var[2]) * dr_ref**2 / G_ref, lam_std])
-    rms_misfit = _rms_misfit(_residuals(theta, x, y, w), w)
+    r = _residuals(theta, x, y, w)
+    rms_misfit, max_factor = _rms_misfit(r, w), _max_factor(r, w)
     bits, code = fit_problems(chi2, rms_misfit, H, weighted=weighted, dr_min=x[0] * dr_ref,
                               dr_max=x[-1] * dr_ref, sigma_h=sigma_h, lambda_r=lam,
                               lambda_s=0.0, r_ok=s > 0, s_ok=False,
-                              hurst_free=bool(free[1]), hurst_std=stds[2])
+                              hurst_free=bool(free[1]), hurst_std=stds[2],
+                              max_factor=max_factor, g_max=_g_max(G_sel, w, weighted))
     if code == 2 and check:  # the numbers mean nothing (but a fixed value stays)
         keep = np.array([np.isfinite(fixed[2]), False, not free[1], not free[2], False])
         values[~keep], stds[~keep] = np.nan, np.nan
-    return np.array([*values, *stds, chi2, n, rms_misfit, bits, code], dtype=float)
+    return np.array([*values, *stds, chi2, n, rms_misfit, max_factor, bits, code],
+                    dtype=float)
 
 
 # --------------------------------------------------------------------------------------
@@ -595,6 +622,7 @@ class _ShapeProblem:
         self.dof = self.n - p
         self.index = {k: i for i, k in enumerate(np.flatnonzero(self.free))}
         self.ly = np.log(G_sel / self.G_ref)
+        self.g_max = _g_max(G_sel, self.w, weighted)
         self.x_lo, self.x_hi = float(self.x.min()), float(self.x.max())
         self.dr_ref, self.lambda_0, self.lam_0 = dr_ref, lambda_0, lambda_0 / dr_ref
         self.fixed, self.fix_r, self.fix_s = fixed, fixed[1] / dr_ref, fixed[2] / dr_ref
@@ -910,7 +938,8 @@ def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, **kw):
     problem = _ShapeProblem(G, se, **{k: v for k, v in kw.items() if k != "eq36"})
     theta, chi2_eq36 = _shape_start(problem, G, se, **start_kw)
     theta, active, cov_free, chi2 = _best_solution(problem, theta, chi2_eq36, seed)
-    rms_misfit = problem.misfit(theta)
+    r = problem.residuals(theta)
+    rms_misfit, max_factor = _rms_misfit(r, problem.w), _max_factor(r, problem.w)
     out, std, resolved_r, resolved_s = _shape_parameters(problem, theta, active, cov_free)
     free = problem.free
     bits, code = fit_problems(chi2, rms_misfit, out[2], weighted=problem.weighted,
@@ -919,12 +948,13 @@ def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, **kw):
                               lambda_r=out[3], lambda_s=out[4],
                               r_ok=resolved_r and free[2], s_ok=resolved_s and free[3],
                               hurst_free=bool(free[1]), chi2_other=chi2_eq36,
-                              hurst_std=std[2])
+                              hurst_std=std[2], max_factor=max_factor,
+                              g_max=problem.g_max)
     if code == 2:  # the numbers mean nothing (but a fixed value stays what it was)
         keep = np.array([False, False, not free[1], not free[2], not free[3], False])
         out[~keep], std[~keep] = np.nan, np.nan
     values = np.array([*out, *std, chi2, problem.n, resolved_r, resolved_s, rms_misfit,
-                       chi2_eq36, np.nan, np.nan, bits, code], dtype=float)
+                       max_factor, chi2_eq36, np.nan, np.nan, bits, code], dtype=float)
     return (values, theta) if theta_out else values
 
 
@@ -933,25 +963,29 @@ def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, **kw):
 # --------------------------------------------------------------------------------------
 def fit_problems(chi2, rms_misfit, hurst, *, weighted, dr_min, dr_max, sigma_h, lambda_r,
                  lambda_s, r_ok, s_ok, hurst_free, chi2_other=np.inf,
-                 hurst_std=np.nan) -> tuple[int, int]:
+                 hurst_std=np.nan, max_factor=1.0, g_max=0.0) -> tuple[int, int]:
     """Return the problems of one fit (bits of :data:`PROBLEMS`) and its quality code.
 
     Code 0 good, 1 questionable, 2 failed (see :mod:`xrough.quality`).  ``dr_min``,
     ``dr_max``: the fitted lags; ``lambda_r``/``lambda_s`` (same unit) count only where
     ``r_ok``/``s_ok`` (resolved, fitted); ``chi2_other``: reduced chi^2 of the other
-    model on the same bins (inf: none); ``hurst_std``: standard deviation of H.
-    Thresholds: :data:`CHI2_QUESTIONABLE`, :data:`MISFIT_QUESTIONABLE`,
-    :data:`MISFIT_FAILED`, :data:`OTHER_BETTER`, :data:`OUTSIDE`, :data:`HURST_STD_MAX`.
+    model on the same bins (inf: none); ``hurst_std``: standard deviation of H;
+    ``max_factor``: the largest factor between model and G over the fitted bins;
+    ``g_max``: the largest G of the fitted bins less two standard errors (unit of
+    ``sigma_h^2``), which no surface exceeds by ``2 sigma_h^2`` (``G = sigma_h^2 - C(dr)``,
+    ``|C| <= sigma_h^2``).  Thresholds: :data:`CHI2_QUESTIONABLE`, :data:`CHI2_ALONE`,
+    :data:`MISFIT_QUESTIONABLE`, :data:`MISFIT_FAILED`, :data:`MISS_FACTOR`,
+    :data:`HURST_MARGIN`, :data:`OTHER_BETTER`, :data:`OUTSIDE`, :data:`HURST_STD_MAX`.
     """
     found = set()
-    # unweighted, no standard errors say what misfit the data allow: only a failure counts
-    poor = rms_misfit > (MISFIT_QUESTIONABLE if weighted else MISFIT_FAILED) and (
-        chi2 > CHI2_QUESTIONABLE or not weighted)
-    if poor:
+    if rms_misfit > MISFIT_QUESTIONABLE or (
+            weighted and chi2 > CHI2_ALONE and rms_misfit > MISFIT_NEGLIGIBLE):
         found.add("poor_fit")
-    if poor and rms_misfit > MISFIT_FAILED:
+    if rms_misfit > MISFIT_FAILED and (chi2 > CHI2_QUESTIONABLE or not weighted):
         found.add("failed_fit")
-    if hurst_free and not H_BOUNDS[0] + 1e-3 < hurst < H_BOUNDS[1] - 1e-3:
+    if max_factor > MISS_FACTOR:
+        found.add("misses_data")
+    if hurst_free and not (H_BOUNDS[0] + HURST_MARGIN < hurst < H_BOUNDS[1] - HURST_MARGIN):
         found.add("hurst_at_bound")
     if chi2 > CHI2_QUESTIONABLE and chi2_other * OTHER_BETTER < chi2:
         found.add("other_model_better")
@@ -964,6 +998,8 @@ def fit_problems(chi2, rms_misfit, hurst, *, weighted, dr_min, dr_max, sigma_h, 
         found.add("not_finite")
     if hurst_free and not hurst_std <= HURST_STD_MAX and np.isfinite(hurst):
         found.add("hurst_undetermined")
+    if np.isfinite(sigma_h) and g_max > 2.0 * sigma_h**2:
+        found.add("sigma_h_below_data")
     bits = sum(1 << k for k, name in enumerate(PROBLEMS) if name in found)
     code = max((PROBLEM_LEVELS[name] for name in found), default=0)
     return bits, code

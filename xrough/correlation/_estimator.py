@@ -10,6 +10,7 @@ import numpy as np
 import xarray as xr
 
 from .._kernels.pairs import g_from_packed, pool
+from ..preprocess import stated_reliability
 from ..topography import Grid, grid_of, require_whole_maps
 from ._choice import choose_estimator, choose_for_target, report_choice, target_value
 from ._fft import fft_kernel
@@ -38,6 +39,7 @@ def height_difference_acf(
     workers: int | None = None,
     progress: bool | None = None,
     target_error: Any = None,
+    reliable: bool = True,
 ) -> xr.DataArray:
     r"""Height-difference autocorrelation function ``G(dr)`` of a topography (eq. 1).
 
@@ -99,6 +101,12 @@ def height_difference_acf(
         combined with ``estimator`` (other than ``'auto'``) or ``n_pairs``; ``seed`` is
         used if random pairs are chosen. See Notes and ``docs/performance.md``.
 
+    reliable : bool
+        Where the file's metadata state a tip or stylus radius and no reliable lag range
+        was set (:func:`xrough.preprocess.reliable`), the tip rule sets it
+        (:func:`xrough.preprocess.stated_reliability`): G carries ``reliable_dr_min``,
+        ``reliable_dr_max`` and ``reliable_rule``, and the contact results derived from it
+        are NaN at finer lags than the tip resolves. ``False``: G over all lags, no window.
     Returns
     -------
     xarray.DataArray
@@ -185,12 +193,15 @@ def height_difference_acf(
                    dr_min=dr_min, dr_max=dr_max)
     run = dict(direction=direction, pool=pool, workers=workers, progress=progress)
     if target_error is not None:
+        topography = stated_reliability(topography) if reliable else topography
         return _for_target(topography, target_error, estimator=estimator, n_pairs=n_pairs,
                            seed=seed, options=options, **run)
     if estimator != "random" and (seed is not None or n_pairs != DEFAULT_PAIRS):
         raise ValueError("n_pairs and seed apply to estimator='random' only")
     check_bin_width(bins, bin_width)
     grid = grid_of(topography)
+    if reliable:
+        topography = stated_reliability(topography)
     if estimator == "auto":
         estimator = choose_estimator(topography, grid, direction, pool)
     if estimator == "tiled":
