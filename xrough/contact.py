@@ -279,7 +279,7 @@ def _rate(result, checks, *, what: str, inherited=()):
 
 
 def _nan_where(result, mask: xr.DataArray):
-    """``result`` (DataArray or Dataset) with every float variable NaN where ``mask``."""
+    """Return ``result`` (DataArray or Dataset) with every float variable NaN at ``mask``."""
     def blank(v):
         if not np.issubdtype(v.dtype, np.floating):
             return v

@@ -650,7 +650,7 @@ _TIP_TEXT = re.compile(r"radi(?:us|i)\b[^0-9~\n]{0,12}~?\s*([0-9]*\.?[0-9]+(?:[e
 
 
 def stated_tip_radius(attrs: dict) -> tuple[str, str] | None:
-    """The tip (stylus) radius a file's metadata states, and the attribute that states it.
+    """Find the tip (stylus) radius a file's metadata state, and the attribute stating it.
 
     Looks through attributes whose name or value names a tip, stylus or probe for
     ``radius <number> <length unit>`` (``tip_radius`` itself may be a number in the

@@ -100,13 +100,13 @@ def height_difference_acf(
         is marked questionable, with a :class:`~xrough.QualityWarning`). Cannot be
         combined with ``estimator`` (other than ``'auto'``) or ``n_pairs``; ``seed`` is
         used if random pairs are chosen. See Notes and ``docs/performance.md``.
-
     reliable : bool
         Where the file's metadata state a tip or stylus radius and no reliable lag range
         was set (:func:`xrough.preprocess.reliable`), the tip rule sets it
         (:func:`xrough.preprocess.stated_reliability`): G carries ``reliable_dr_min``,
         ``reliable_dr_max`` and ``reliable_rule``, and the contact results derived from it
         are NaN at finer lags than the tip resolves. ``False``: G over all lags, no window.
+
     Returns
     -------
     xarray.DataArray
