@@ -174,8 +174,11 @@ def test_real_files_with_meaningless_cutoffs():
     """plu-1.plu as read (tilted): lambda_s = 1.1 m for a 1.3 mm scan was reported as
     resolved; sdf-1.sdf (plane removed): an 'upper bound' lambda_s = 191 m for 6 um."""
     pytest.importorskip("SurfaceTopography")  # reads .plu (the formats extra)
+    with pytest.warns(xrough.QualityWarning, match="anisotropic"):  # stripes: G_x / G_y 3-8
+        G = xrough.open_topography(_needs("plu-1.plu")).rough.acf()
+    assert G.attrs["quality"] == "questionable" and G.attrs["anisotropy_ratio_min"] > 2
     with pytest.warns(xrough.QualityWarning, match="no self-affine range"):
-        fit = xrough.fit_acf(xrough.open_topography(_needs("plu-1.plu")).rough.acf())
+        fit = xrough.fit_acf(G)
     assert fit.attrs["quality"] == "failed" and np.isnan(float(fit.lambda_s))
     sdf = xrough.open_topography(_needs("sdf-1.sdf")).rough.detrend()
     with pytest.warns(xrough.QualityWarning, match="do not determine H"):  # 4 x 7 points

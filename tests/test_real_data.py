@@ -710,3 +710,17 @@ def test_stitched_G_spans_the_instruments(chains):
     G = chains("uncd-stitched").get("G")
     assert G.dr.values[0] < 1.0 and G.dr.values[-1] > 5e4
     assert G.attrs["stitched_from"] == "TEM, AFM, stylus"
+
+
+@pytest.mark.data
+def test_grooved_x3p_says_it_is_anisotropic():
+    """x3p-2.x3p (grooves of about 10 um period): its radial G says so, in attrs and in
+    one warning (G along x is 2.5 to 11 times G along y, measured)."""
+    topo = xrough.open_topography(data_path("instruments", "x3p-2.x3p")).rough.detrend()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        G = topo.rough.acf()
+    said = [w for w in caught if "G along x and along y" in str(w.message)]
+    assert len(said) == 1
+    assert G.attrs["quality"] == "questionable"
+    assert 2 < G.attrs["anisotropy_ratio_min"] < G.attrs["anisotropy_ratio_max"] < 20

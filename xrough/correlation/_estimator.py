@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 from typing import Any
 
 import dask.array as dsa
@@ -12,8 +13,9 @@ import xarray as xr
 from .._kernels.pairs import g_from_packed, pool
 from ..preprocess import stated_reliability
 from ..topography import Grid, grid_of, require_whole_maps
+from ._anisotropy import anisotropy_attrs
 from ._choice import choose_estimator, choose_for_target, report_choice, target_value
-from ._fft import fft_kernel
+from ._fft import fft_kernel, split_directions
 from ._plan import Plan, check_bin_width, plan
 from ._random import check_n_pairs, map_seeds, random_kernel
 from ._result import g_result, g_unit
@@ -257,13 +259,20 @@ def _in_memory(da: xr.DataArray, grid: Grid, estimator: str, *, n_pairs, seed, o
     else:
         workers = workers if workers is not None else (os.cpu_count() or 1)
         sums = _apply(fft_kernel, da, p, kwargs={"plan": p, "workers": workers,
-                                                 "progress": progress})
+                                                 "progress": progress},
+                      blocks=3 if p.directional else 1)
     if pool_dims:  # one tree reduction over the maps
         sums = sums.reduce(_pool_over, dim=list(pool_dims))
-    G, counts, total, sampling = _g_parts(sums, grid, p, random=random)
+    parts = _split(sums, p)
+    G, counts, total, sampling = _g_parts(parts[0], grid, p, random=random)
     extra = {"n_pairs": n_pairs, "seed": -1 if seed is None else int(seed)} if random else {}
     if pool_dims:
         extra["pooled_over"] = " ".join(pool_dims)
+    if len(parts) == 3 and G.chunks is None:  # G along y and x: the verdict (eager only)
+        axis = replace(p, lag_axes=1)
+        along = [_g_parts(part, grid, axis, random=False) for part in parts[1:]]
+        extra.update(anisotropy_attrs(G, total, *(a[k] for a in along for k in (0, 2)),
+                                      dr=p.dr, grid=grid))
     return g_result(
         da, grid, G, dr=p.dr, pair_count=counts.astype(np.int64), standard_error=total,
         coords={"sampling_error": sampling.assign_attrs(
@@ -274,9 +283,13 @@ def _in_memory(da: xr.DataArray, grid: Grid, estimator: str, *, n_pairs, seed, o
         points_per_decade=options["points_per_decade"], **extra)
 
 
-def _apply(kernel, da: xr.DataArray, p: Plan, *args, kwargs: dict) -> xr.DataArray:
-    """Packed sums (dim ``packed``) of each map of ``da`` by ``kernel``, lazy for dask."""
-    nb = int(p.keep.sum())
+def _apply(kernel, da: xr.DataArray, p: Plan, *args, kwargs: dict,
+           blocks: int = 1) -> xr.DataArray:
+    """Packed sums (dim ``packed``) of each map of ``da`` by ``kernel``, lazy for dask.
+
+    ``blocks``: bins per kept bin (3 for the FFT of a radial G: radial, along y, along x).
+    """
+    nb = int(p.keep.sum()) * blocks
     return xr.apply_ufunc(
         kernel, da, *args, input_core_dims=[list(p.core_dims)] + [[] for _ in args],
         output_core_dims=[["packed"]], dask="parallelized",
@@ -299,6 +312,18 @@ def _pool_over(data, axis):
         return dsa.reduction(data, chunk=pool, combine=pool, aggregate=pool, axis=axis,
                              dtype=float, concatenate=True, name="pool-pair-sums")
     return pool(data, axis)
+
+
+def _split(sums: xr.DataArray, p: Plan) -> tuple[xr.DataArray, ...]:
+    """Packed sums as ``(radial,)`` or ``(radial, along y, along x)`` (:func:`split_directions`)."""
+    nb = int(p.keep.sum())
+    if sums.sizes["packed"] != 3 * (3 * nb) + 2:
+        return (sums,)
+    return tuple(xr.apply_ufunc(
+        lambda x, d=d: split_directions(x, nb)[d], sums, input_core_dims=[["packed"]],
+        output_core_dims=[["packed"]], exclude_dims={"packed"}, dask="parallelized",
+        dask_gufunc_kwargs={"output_sizes": {"packed": 3 * nb + 2}}, output_dtypes=[float],
+        keep_attrs=False) for d in range(3))
 
 
 def _g_parts(sums: xr.DataArray, grid: Grid, p: Plan, *, random: bool):

@@ -18,7 +18,9 @@ def fft_kernel(h: np.ndarray, *, plan: Plan, workers: int, progress) -> np.ndarr
     (:func:`xrough._kernels.pairs.packed`).
     """
     batch, flat = plan.maps(h)
-    sums = np.empty((flat.shape[0], int(plan.keep.sum())))
+    # a radial G of a map also sums the lags along each pixel axis (free: the same folded
+    # sums), as two further blocks of bins (see :func:`split_directions`)
+    sums = np.empty((flat.shape[0], (3 if plan.directional else 1) * int(plan.keep.sum())))
     counts = np.empty_like(sums)
     nvalid = np.empty(flat.shape[0])
     exponents = np.zeros(flat.shape[0])
@@ -52,7 +54,28 @@ def _map_sums(scaled: np.ndarray, plan: Plan, workers: int):
     sums = 0.5 * binning.binned_sum(s, idx, nb)[plan.keep]
     counts = (plan.geometric_counts if n is None else
               0.5 * binning.binned_sum(n, idx, nb)[plan.keep])
+    if plan.directional:  # lags along y (d_x = 0), then along x (d_y = 0)
+        parts_s, parts_n = [sums], [counts]
+        for a, (axis_idx, axis_counts) in enumerate(plan.axis_bins()):
+            line = (slice(None), 0) if a == 0 else (0, slice(None))
+            parts_s.append(0.5 * binning.binned_sum(s[line], axis_idx, nb)[plan.keep])
+            parts_n.append(0.5 * (axis_counts if n is None else
+                                  binning.binned_sum(n[line], axis_idx, nb))[plan.keep])
+        sums, counts = np.concatenate(parts_s), np.concatenate(parts_n)
     return sums, counts, nvalid
+
+
+def split_directions(sums: np.ndarray, nb: int) -> tuple[np.ndarray, ...]:
+    """Packed sums of a radial FFT G as three packed arrays: radial, along y, along x.
+
+    Without the directional blocks (random pairs, profiles, one direction) ``(sums,)``.
+    """
+    if sums.shape[-1] != 3 * (3 * nb) + 2:
+        return (sums,)
+    blocks = [sums[..., k * 3 * nb:(k + 1) * 3 * nb] for k in range(3)]  # gsum, counts, gsq
+    tail = sums[..., -2:]
+    return tuple(np.concatenate([b[..., d * nb:(d + 1) * nb] for b in blocks] + [tail],
+                                axis=-1) for d in range(3))
 
 
 def scaled_map(h: np.ndarray, index: int, batch: tuple[int, ...]) -> tuple[np.ndarray, int]:

@@ -9,7 +9,7 @@ from tqdm.auto import tqdm
 
 from .. import units as u
 from .._kernels import binning
-from .._kernels.pairs import binned_geometry
+from .._kernels.pairs import binned_geometry, folded_geometric_counts
 from ..topography import Grid
 
 DIRECTIONS = ("radial", "x", "y")
@@ -41,6 +41,28 @@ class Plan:
         """Bin of each folded lag of the lag axes (cached with the plan's geometry)."""
         return binned_geometry(self.shape[-self.lag_axes:], self.spacing, self.periodic,
                                self.ks, tuple(self.edges.tolist()))[0]
+
+    @property
+    def directional(self) -> bool:
+        """Whether the FFT also sums G along the two pixel axes (a radial G of a map)."""
+        return self.lag_axes == 2
+
+    def axis_bins(self) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
+        """Per lag axis (kernel order): the bin of each lag along it, and pairs per bin.
+
+        The pairs are those of a complete map, ordered, as :func:`binned_geometry` counts.
+        """
+        out = []
+        edges = tuple(self.edges.tolist())
+        for a in range(2):
+            other = 1 - a
+            idx, counts, _ = binned_geometry((self.shape[-2 + a],), (self.spacing[a],),
+                                             self.periodic, (self.ks[a],), edges)
+            # the lags along axis a have lag 0 along the other axis: every line of it
+            rows = folded_geometric_counts((self.shape[-2 + other],), (self.ks[other],),
+                                           self.periodic)[0]
+            out.append((idx, counts * rows))
+        return tuple(out)
 
     def maps(self, h: np.ndarray) -> tuple[tuple[int, ...], np.ndarray]:
         """Split kernel input ``(..., *core)`` into its batch shape and a flat stack of maps."""
