@@ -210,3 +210,31 @@ def test_select_channel_by_position_id_and_name():
         select_channel(Path("a"), chans, 1.5, default=never)
     assert select_channel(Path("a"), chans, None,
                           default=lambda path, c, listing, warn: c[0]) is chans[0]
+
+
+def test_container_metadata_beside_a_file(tmp_path):
+    """A contact.engineering meta.yml beside a file: its entry for that file becomes attrs
+    container_<key> (nothing applied to the data); an entry for another file, no meta.yml,
+    or one that does not parse (warned) give none."""
+    import warnings
+
+    from xrough.io.container import container_attrs
+
+    (tmp_path / "meta.yml").write_text(
+        "surfaces:\n- topographies:\n"
+        "  - datafile: {original: a.txt}\n    description: Tip radius - 20 nm.\n"
+        "    is_periodic: false\n    unit: nm\n    size: !!python/tuple [1.5, 2.0]\n"
+        "    creator: {name: someone}\n"
+        "  - datafile: {original: b.txt}\n    description: other\n", encoding="utf-8")
+    got = container_attrs(tmp_path / "a.txt")
+    assert got == {"container_file": "meta.yml", "container_description":
+                   "Tip radius - 20 nm.", "container_is_periodic": 0,
+                   "container_unit": "nm", "container_size": "1.5 2.0"}
+    assert container_attrs(tmp_path / "c.txt") == {}
+    assert container_attrs(tmp_path / "sub" / "a.txt") == {}
+    (tmp_path / "meta.yml").write_text("surfaces: [unclosed", encoding="utf-8")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert container_attrs(tmp_path / "a.txt") == {}
+    assert len(caught) == 1 and "not read as a contact.engineering container" in \
+        str(caught[0].message)

@@ -55,6 +55,7 @@ __all__ = [
     "reliability_window",
     "stated_reliability",
     "stated_tip_radius",
+    "tip_window",
 ]
 
 DETREND_MODES = tuple(k.DEGREES)
@@ -696,11 +697,17 @@ def stated_tip_radius(attrs: dict) -> tuple[str, str] | None:
 def stated_reliability(topography: xr.DataArray) -> xr.DataArray:
     """Apply :func:`reliable` with the tip radius the file states, unless a window is set.
 
-    What :func:`xrough.height_difference_acf` does by default (``reliable=True``): a
-    topography without ``reliable_dr_min`` whose metadata state a tip or stylus radius
+    A topography without ``reliable_dr_min`` whose metadata state a tip or stylus radius
     (:func:`stated_tip_radius`) gets the window of the tip rule; ``reliable_rule`` says
     which attribute stated it. Lazy (dask) maps are returned as they are (the tip rule
     reads the whole map: call :func:`reliable` on them yourself).
+    :func:`xrough.height_difference_acf` does this by default (``reliable=True``).
+
+    Raises
+    ------
+    ValueError
+        The stated tip resolves no lag of the map (``acf()`` instead marks its G
+        questionable and keeps every lag: see :func:`tip_window`).
 
     Examples
     --------
@@ -711,22 +718,37 @@ def stated_reliability(topography: xr.DataArray) -> xr.DataArray:
     >>> stated_reliability(topo).attrs["reliable_rule"][:50]
     'dr_min: tip radius 2.5 um stated in the file (attr'
     """
+    out, note = tip_window(topography)
+    if note:
+        raise ValueError(note)
+    return out
+
+
+def tip_window(topography: xr.DataArray) -> tuple[xr.DataArray, str | None]:
+    """:func:`stated_reliability`, and what to say when the stated tip resolves no lag.
+
+    Returns the topography with its window, or unchanged with a note (the window of the
+    tip rule would be empty: the map is finer than the tip can follow everywhere).
+    """
     if "reliable_dr_min" in topography.attrs or topography.chunks is not None:
-        return topography
+        return topography, None
     stated = stated_tip_radius(topography.attrs)
     if stated is None:
-        return topography
+        return topography, None
     radius, key = stated
     try:
         out = reliable(topography, tip_radius=radius)
     except ValueError as err:
-        raise ValueError(f"{err} (the tip radius {radius} stated in the file's attr "
-                         f"{key!r}; acf(reliable=False) ignores it)") from None
+        return topography, (
+            f"the tip radius {radius} stated in the file (attr {key!r}) resolves no lag of "
+            f"this map ({err}): G at every lag is shaped by the tip, not the surface; "
+            "measure with a sharper tip or a larger scan, or acf(reliable=False) to take "
+            "G as it is")
     out.attrs["reliable_rule"] = out.attrs["reliable_rule"].replace(
         f"tip radius {u.length_in(radius, out.attrs['reliable_dr_units'], what='tip'):g} "
         f"{out.attrs['reliable_dr_units']}",
         f"tip radius {radius} stated in the file (attr {key!r})", 1)
-    return out
+    return out, None
 
 
 def reliability_window(obj: xr.DataArray) -> tuple[float | None, float | None]:

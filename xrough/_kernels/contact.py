@@ -178,17 +178,22 @@ def laplacian_curve(g, error, *, dr, window=(0.0, np.inf)) -> np.ndarray:
     instrument), and the local exponent ``H(dr) = (1/2) dln G / dln dr`` of the same
     smoothed curve (NaN at ``dr = 0`` and in empty bins; not clipped).
     """
-    curve = _curve(g, error, dr)
-    lap, determined = curve.determined_laplacian()
+    # the curve of the lags inside the window only: what the instrument does not resolve
+    # enters neither the smoothing nor the check of what G determines (whose scale, a
+    # lower bound of G_sigma(0), would otherwise come from the unresolved lags)
+    outside = (dr > 0) & ((dr < window[0]) | (dr > window[1]))
+    inside = ~outside
+    g, dr_in = np.asarray(g, dtype=float)[inside], dr[inside]
+    error = None if error is None else np.asarray(error, dtype=float)[inside]
     out = np.full((3, dr.size), np.nan)
     out[1] = 0.0
+    out[1, outside] = OUTSIDE_WINDOW
+    curve = _curve(g, error, dr_in)
+    lap, determined = curve.determined_laplacian()
     at = np.searchsorted(dr, curve.dr)  # the curve's samples among the lags
     out[0, at] = np.where(determined, lap, np.nan)
     out[1, at] = np.where(determined, 0.0, UNDETERMINED)
     out[2, at] = 0.5 * curve.log_slopes(curve.dr)[0]  # the same smoothing spline
-    outside = (dr > 0) & ((dr < window[0]) | (dr > window[1]))
-    out[0, outside] = np.nan
-    out[1, outside] = np.maximum(out[1, outside], OUTSIDE_WINDOW)
     return out
 
 

@@ -10,8 +10,9 @@ import dask.array as dsa
 import numpy as np
 import xarray as xr
 
+from .. import quality
 from .._kernels.pairs import g_from_packed, pool
-from ..preprocess import stated_reliability
+from ..preprocess import tip_window
 from ..topography import Grid, grid_of, require_whole_maps
 from ._anisotropy import anisotropy_attrs
 from ._choice import choose_estimator, choose_for_target, report_choice, target_value
@@ -189,21 +190,26 @@ def height_difference_acf(
     >>> Gt.attrs["estimator"], Gt.attrs["n_pairs"], bool(Gt.achieved_error < 0.05)
     ('random pairs', 60800, True)
     """
+    if reliable:  # the window of a tip radius the file states (once, then as asked)
+        topography, note = tip_window(topography)
+        G = height_difference_acf(
+            topography, direction=direction, estimator=estimator, bins=bins,
+            points_per_decade=points_per_decade, bin_width=bin_width, dr_min=dr_min,
+            dr_max=dr_max, pool=pool, n_pairs=n_pairs, seed=seed, workers=workers,
+            progress=progress, target_error=target_error, reliable=False)
+        return quality.mark(G, note, what="height_difference_acf") if note else G
     if estimator not in ESTIMATORS:
         raise ValueError(f"estimator must be one of {ESTIMATORS}, got {estimator!r}")
     options = dict(bins=bins, points_per_decade=points_per_decade, bin_width=bin_width,
                    dr_min=dr_min, dr_max=dr_max)
     run = dict(direction=direction, pool=pool, workers=workers, progress=progress)
     if target_error is not None:
-        topography = stated_reliability(topography) if reliable else topography
         return _for_target(topography, target_error, estimator=estimator, n_pairs=n_pairs,
                            seed=seed, options=options, **run)
     if estimator != "random" and (seed is not None or n_pairs != DEFAULT_PAIRS):
         raise ValueError("n_pairs and seed apply to estimator='random' only")
     check_bin_width(bins, bin_width)
     grid = grid_of(topography)
-    if reliable:
-        topography = stated_reliability(topography)
     if estimator == "auto":
         estimator = choose_estimator(topography, grid, direction, pool)
     if estimator == "tiled":

@@ -27,6 +27,7 @@ from pathlib import Path
 from .. import units as u
 from ..topography import topography
 from ._common import MissingOptionError
+from .container import container_attrs
 
 __all__ = ["FORMATS", "BRIDGE", "detect_format", "open_topography", "file_sha256",
            "list_channels", "MissingOptionError"]
@@ -272,7 +273,10 @@ def open_topography(
     -------
     xarray.DataArray
         Topography with units, the file's metadata, and provenance attrs ``source_file``,
-        ``source_sha256``, ``format`` and the overrides applied.
+        ``source_sha256``, ``format`` and the overrides applied; what a contact.engineering
+        container's ``meta.yml`` beside the file says about it, as ``container_<key>``
+        (:func:`xrough.io.container.container_attrs`; e.g. a description that states the
+        tip radius, which :func:`xrough.height_difference_acf` then uses).
 
     Raises
     ------
@@ -290,6 +294,8 @@ def open_topography(
         da = read(path, **_reader_options(path, name, read, options, stated))
     da, applied = _overrides(da, size=size, unit=unit, height_unit=height_unit,
                              height_scale=height_scale, periodic=periodic)
+    for key, value in container_attrs(path).items():  # a contact.engineering container
+        da.attrs.setdefault(key, value)
     da.attrs.update(source_file=path.name, source_sha256=file_sha256(path), format=name,
                     overrides="; ".join(applied) if applied else "none")
     da.attrs.setdefault("source", path.name)
