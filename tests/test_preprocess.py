@@ -500,7 +500,8 @@ def test_numpy_and_dask_stacks_agree(backend, func, kwargs):
         assert out.chunks is None
     xr.testing.assert_allclose(out, ref, rtol=1e-12, atol=1e-12)
     assert out.dims == stack.dims
-    for key in set(ref.attrs) - {"outliers_masked", "outlier_fraction"}:
+    eager_only = {"outliers_masked", "outlier_fraction", "outlier_local_excursions"}
+    for key in set(ref.attrs) - eager_only:
         assert out.attrs[key] == ref.attrs[key]
     # each map of the stack is processed on its own
     single = func(stack.isel(scan=1), **kwargs)
@@ -594,3 +595,32 @@ def test_wrong_dims_profiles_and_too_few_points():
         pp.detrend(sparse, mode="curvature")
     with pytest.raises(TypeError, match="xarray.DataArray"):
         pp.reliability_window(np.zeros(3))
+
+
+def test_global_threshold_says_what_it_cannot_see():
+    """A bump of 40 local standard deviations on a bowed profile lies inside the range of
+    the heights: a global threshold masks nothing and says so (count in attrs, the
+    topography questionable, one warning naming window=); window= masks it; a Gaussian
+    surface without bumps gets 0 and no mark."""
+    import warnings
+
+    x = np.arange(4000) * 0.1
+    rng = np.random.default_rng(4)
+    h = 1e-3 * (x - 200.0) ** 2 + 0.05 * rng.standard_normal(x.size)
+    h[1000:1004] += 2.0  # 40 sigma of the local noise, 1/20 of the bow's range
+    topo = xrough.topography(h, spacing=0.1, unit="um")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = topo.rough.mask_outliers(threshold=5)
+    assert out.attrs["outliers_masked"] == 0
+    assert out.attrs["outlier_local_excursions"] == 4
+    assert out.attrs["quality"] == "questionable" and "window=" in out.attrs["quality_notes"]
+    assert len([w for w in caught if "stand out from their neighbours" in str(w.message)]) == 1
+    local = topo.rough.mask_outliers(threshold=5, window=2.1)
+    assert np.isnan(local.values[1000:1004]).all()
+    assert "outlier_local_excursions" not in local.attrs  # judged locally already
+    plain = xrough.topography(0.05 * rng.standard_normal(x.size), spacing=0.1, unit="um")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        quiet = plain.rough.mask_outliers(threshold=5)
+    assert quiet.attrs["outlier_local_excursions"] == 0 and "quality" not in quiet.attrs

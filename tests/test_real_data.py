@@ -753,3 +753,16 @@ def test_uncd_container_states_the_tips():
     Gs = stylus.rough.detrend(mode="curvature").rough.acf()
     assert Gs.attrs["reliable_dr_min"] == pytest.approx(2.07e-3, rel=0.02)  # mm
     assert "container_description" in Gs.attrs["reliable_rule"]
+
+
+@pytest.mark.data
+def test_dektak_bumps_are_said_by_a_global_threshold():
+    """dektak-1.csv: the tutorial's mask_outliers(threshold=5) masks none of the bumps a
+    glance shows (a global scale on a wavy profile), and says so: 30 points stand out
+    from their neighbours (measured), the cleaned profile is questionable."""
+    topo = xrough.open_topography(data_path("instruments", "dektak-1.csv")).rough.detrend()
+    with pytest.warns(xrough.QualityWarning, match="stand out from their neighbours"):
+        clean = topo.rough.mask_outliers(threshold=5)
+    assert clean.attrs["outliers_masked"] == 0
+    assert clean.attrs["outlier_local_excursions"] == 30
+    assert clean.attrs["quality"] == "questionable"
