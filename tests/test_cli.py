@@ -612,3 +612,17 @@ def test_missing_option_error_names_the_keywords_for_python_users(unlabelled):
         xrough.open_topography(unlabelled / "matrix.txt")
     assert info.value.options == ("unit", "height_unit") and info.value.either
     assert "pass unit= or height_unit=" in str(info.value)
+
+
+def test_detrend_is_said_in_the_words_asked_and_sticking_says_why(files, monkeypatch,
+                                                                   capsys):
+    """--detrend curvature on a profile is reported as curvature (it said 'parabola'); a
+    gamma above the elastic energy of full contact gives no patch radius, and the table
+    says why, with both numbers."""
+    status, out, _ = run("report", "profile.nc", "--detrend", "curvature", "--E-star",
+                         E_STAR, "--p0", P0, "--gamma", "100 J/m^2", "-o", "c.nc",
+                         cwd=files, monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 0
+    assert "detrend before G: curvature" in out and "parabola" not in out
+    v_el = float(xrough.open_analysis(files / "c.nc")["profile"]["patch"].v_el)
+    assert f"none: sticks everywhere (v_el {v_el:.3g} < gamma 100 J/m2)" in out

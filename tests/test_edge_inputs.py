@@ -197,3 +197,18 @@ def test_stress_acf_from_spectrum_follows_the_unit_of_C(model_C):
     ref = xrough.stress_acf_from_spectrum(model_C, [1.0, 100.0], E_star="1 MPa")
     out = xrough.stress_acf_from_spectrum(pm, [1.0, 100.0], E_star="1 MPa")
     np.testing.assert_allclose(out.values, ref.values * 1e-12, rtol=1e-12)
+
+
+def test_a_falling_G_from_few_points_is_not_called_a_height_acf():
+    """A 4 x 4 map's G (xrough's own estimate) that falls over its 4 bins: the message
+    names too few points, not a height ACF given by mistake; the same values given
+    without the estimator's attrs keep the height-ACF diagnosis."""
+    h = np.array([[0.0, 1.0, 0.2, 0.9], [0.8, 0.1, 1.0, 0.0],
+                  [0.1, 0.9, 0.0, 1.1], [1.0, 0.0, 0.9, 0.2]])
+    G = xrough.topography(h, spacing=1.0, unit="nm").rough.acf()
+    assert G.values[-1] < 0.9 * G.values[0]
+    with pytest.raises(ValueError, match="from so few points"):
+        xrough.fit_acf(G)
+    given = xr.DataArray(G.values, dims="dr", coords={"dr": G.dr}, attrs={"units": "nm2"})
+    with pytest.raises(ValueError, match="that is a height ACF"):
+        xrough.fit_acf(given)

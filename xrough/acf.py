@@ -162,8 +162,8 @@ def check_acf(G: xr.DataArray, *, what: str = "G", single: bool = False,
     if G.chunks is None:
         lines = np.moveaxis(np.asarray(G.values, dtype=float), G.get_axis_num("dr"), -1)
         problem = acf_problem(dr, lines.reshape(-1, dr.size) * spec.g_factor,
-                              min_bins=min_bins,
-                              unit=unit_str)
+                              min_bins=min_bins, unit=unit_str,
+                              estimated=str(G.attrs.get("equation", "")).startswith("eq. 1:"))
         if not problem and "standard_error" in G.coords:
             se = G.coords["standard_error"].broadcast_like(G)
             factor = (1.0 if "units" not in se.attrs else  # unit-less: read as G's

@@ -278,6 +278,16 @@ def _rate(result, checks, *, what: str, inherited=()):
     return out
 
 
+def _span(values: xr.DataArray) -> str:
+    """``"0.0032"`` or ``"0.0011 to 0.0032"``: the finite values, for a note (eager)."""
+    v = np.asarray(values.values if values.chunks is None else [], dtype=float)
+    v = v[np.isfinite(v)]
+    if not v.size:
+        return "see"
+    lo, hi = float(v.min()), float(v.max())
+    return f"{lo:.3g}" if np.isclose(lo, hi) else f"{lo:.3g} to {hi:.3g}"
+
+
 def _nan_where(result, mask: xr.DataArray):
     """Return ``result`` (DataArray or Dataset) with every float variable NaN at ``mask``."""
     def blank(v):
@@ -1027,8 +1037,10 @@ def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
     gam = u.positive_si(gamma, _ENERGY, what="gamma")
     G, spec = read_acf(G)
     G_si, _ = _si(G, spec)
-    res = _per_curve(k.patch_radius_curve, G_si, out={"k": 2}, dr=spec.dr * spec.to_m,
-                     E_star=E, gamma=gam) / spec.to_m
+    res = _per_curve(k.patch_radius_curve, G_si, out={"k": 3}, dr=spec.dr * spec.to_m,
+                     E_star=E, gamma=gam)
+    v_full = res.isel(k=2)
+    res = res.isel(k=slice(0, 2)) / spec.to_m
     unit = spec.unit_str
     a_c, upper = res.isel(k=0), res.isel(k=1)
     lags = spec.dr[spec.dr > 0]
@@ -1038,7 +1050,11 @@ def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
             equation="eq. 46: gamma = v_el(a_c) + E* G(a_c) / (8 a_c)"),
          "a_c_upper": res.isel(k=1).assign_attrs(
             units=unit, long_name="adhesive patch radius, upper estimate",
-            equation="eq. 44: gamma = v_el(a_c)")},
+            equation="eq. 44: gamma = v_el(a_c)"),
+         "v_el": v_full.assign_attrs(
+            units="J m-2", long_name="elastic energy per area of full contact",
+            equation="eq. 16 (a_c is inf where gamma >= v_el: the surfaces stick "
+            "everywhere)")},
         coords=_own_coords(G),
         attrs=result_attrs(G, E_star=E, E_star_units="Pa", gamma=gam, gamma_units="J m-2"))
     finite = np.isfinite(a_c)
@@ -1046,8 +1062,8 @@ def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
     return _rate(ds, [
         (np.isinf(a_c), "good",
          f"a_c = inf: gamma = {gam:.3g} J m-2 exceeds the elastic energy of full contact "
-         "v_el (elastic_energy(G)), so no patch stops growing: adhesion closes the whole "
-         "gap and the surfaces stick everywhere"),
+         f"v_el ({_span(v_full.where(np.isinf(a_c)))} J m-2, variable v_el), so no patch "
+         "stops growing: adhesion closes the whole gap and the surfaces stick everywhere"),
         (finite & (upper > lags[-1]), "questionable",
          "a_c (or its upper estimate) lies beyond the largest lag of G: it is the root "
          "of G's flat continuation (in closed form), not of data: measure larger scales "

@@ -71,8 +71,12 @@ G_RANGE = 1e280
 RELATIVE_ERROR_RANGE = 1e100
 
 
+#: Fewer valid bins than this cannot show how a G grows (a map of a few pixels per side).
+FEW_BINS = 8
+
+
 def acf_problem(dr: np.ndarray, lines: np.ndarray, *, min_bins: int = 2,
-                unit: str = "") -> str:
+                unit: str = "", estimated: bool = False) -> str:
     """Say what is wrong with the values of G (the rules of :mod:`xrough.acf`), or ``""``.
 
     Parameters
@@ -85,6 +89,10 @@ def acf_problem(dr: np.ndarray, lines: np.ndarray, *, min_bins: int = 2,
         Valid bins needed per curve.
     unit : str
         Lag unit, for messages.
+    estimated : bool
+        G says it was estimated from heights (xrough's estimators, attr ``equation``
+        "eq. 1: ..."): with fewer than :data:`FEW_BINS` bins a G that falls is one of too
+        few points, and with more the message also names what else makes such a G fall.
     """
     lines = np.atleast_2d(np.asarray(lines, dtype=float))
     if np.any(np.isinf(lines)):
@@ -110,10 +118,18 @@ def acf_problem(dr: np.ndarray, lines: np.ndarray, *, min_bins: int = 2,
             ln_g = np.log(pos)
             third = max(1, ln_g.size // 3)
             if np.median(ln_g[-third:]) < np.median(ln_g[:third]) - np.log(DECREASE):
-                return ("decreases overall (its last third is more than 10 % below its "
-                        "first third): that is a height ACF <h(r) h(r+dr)> = sigma_h^2 - G, "
+                found = ("decreases overall (its last third is more than 10 % below its "
+                         "first third)")
+                if estimated and pos.size < FEW_BINS:
+                    return (f"{found} over its {pos.size} bins: estimated from so few "
+                            "points, G does not show how it grows (a map of a few pixels "
+                            "per side); measure a larger map")
+                return (f"{found}: that is a height ACF <h(r) h(r+dr)> = sigma_h^2 - G, "
                         "not the height-difference ACF G(dr) = 1/2 <(h(r) - h(r+dr))^2>, "
-                        "which grows from 0 at dr = 0 to sigma_h^2")
+                        "which grows from 0 at dr = 0 to sigma_h^2" + (
+                            "; or, if it is G of measured heights, they repeat at these "
+                            "lags (a periodic surface: G falls past half a period) or a "
+                            "few features dominate them" if estimated else ""))
         if np.any(g[valid] < 0):
             return ("has negative values: a height-difference ACF is "
                     "1/2 <(h(r) - h(r+dr))^2> >= 0")

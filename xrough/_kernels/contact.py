@@ -245,7 +245,10 @@ def _first_root(f, lo: float, hi: float, n: int = 4000) -> float:
 
 
 def patch_radius_curve(g, *, dr, E_star, gamma) -> np.ndarray:
-    """``[a_c (eq. 46), a_c upper (eq. 44)]`` of one curve (m; inf: sticks everywhere).
+    """``[a_c (eq. 46), a_c upper (eq. 44), v_el]`` of one curve (m, m, J m-2).
+
+    ``inf`` radii: the surfaces stick everywhere (``gamma >= v_el``, the elastic energy of
+    full contact per area, eq. 16, which the search needs and returns).
 
     Between the first and the last sample the smallest root is searched on a log grid and
     refined; outside them G is continued as in :class:`AcfCurve` and the roots are closed
@@ -283,4 +286,5 @@ def patch_radius_curve(g, *, dr, E_star, gamma) -> np.ndarray:
         root(refined, 8 * gamma / (3 * E_star * c),
              E_star * curve.plateau / (8 * (v_full - gamma))),
         root(upper, 4 * gamma / (E_star * c),
-             E_star * curve.plateau / (4 * (v_full - gamma)))])
+             E_star * curve.plateau / (4 * (v_full - gamma))),
+        v_full])

@@ -183,14 +183,14 @@ def open_file(path: str, args: argparse.Namespace) -> xr.DataArray:
 def _detrend(topo: xr.DataArray, mode: str) -> tuple[xr.DataArray, str]:
     """Detrend by ``mode`` (``auto``: a plane, which is a line for a profile).
 
-    Returns the topography and what was removed: ``none``, ``mean``, ``plane``, ``line``
-    (a plane of a profile), ``curvature`` or ``parabola`` (a curvature of a profile).
+    Returns the topography and what was removed, in the words of ``--detrend``: ``none``,
+    ``mean``, ``plane`` (``line`` for a profile when ``auto`` chose it) or ``curvature``.
     """
     if mode == "none":
         return topo, "none"
-    mode = "plane" if mode == "auto" else mode
     profile = "y" not in topo.dims
-    label = {"plane": "line", "curvature": "parabola"}.get(mode, mode) if profile else mode
+    label = ("line" if profile else "plane") if mode == "auto" else mode
+    mode = "plane" if mode == "auto" else mode
     return detrend(topo, mode=mode), label
 
 

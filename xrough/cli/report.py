@@ -110,6 +110,12 @@ def _rated(cell: str, level: str) -> str:
     return {"good": cell, "questionable": f"{cell} ?"}.get(level, "failed")
 
 
+def _sticks(patch: xr.Dataset) -> str:
+    """Why there is no patch radius: gamma above the elastic energy of full contact."""
+    v_el, gamma = float(patch.v_el), float(patch.attrs["gamma"])
+    return f"none: sticks everywhere (v_el {v_el:.3g} < gamma {gamma:.3g} J/m2)"
+
+
 def _cells(m: dict, at: xr.Dataset, gbar_there: xr.DataArray) -> tuple[str, ...]:
     """Return a row of the table: each number in its unit, rated by its quality."""
     r = m["results"]
@@ -117,7 +123,7 @@ def _cells(m: dict, at: xr.Dataset, gbar_there: xr.DataArray) -> tuple[str, ...]
     levels = {key: level for key, (level, _) in _quality(r).items()}
     lf, lp = levels["fit"], levels["persson"]
     patch = ("-" if "patch" not in r else
-             _rated(show(r["patch"].a_c, none="none: sticks everywhere"), levels["patch"]))
+             _rated(show(r["patch"].a_c, none=_sticks(r["patch"])), levels["patch"]))
     return (m["name"], _rated(show(fit.sigma_h, none="no plateau"), lf),
             _rated(f"{float(fit.hurst):.3f}+-{float(fit.hurst_std):.3f}", lf),
             _rated(show(fit.lambda_r, none="no roll-off"), lf),
