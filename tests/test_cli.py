@@ -626,3 +626,21 @@ def test_detrend_is_said_in_the_words_asked_and_sticking_says_why(files, monkeyp
     assert "detrend before G: curvature" in out and "parabola" not in out
     v_el = float(xrough.open_analysis(files / "c.nc")["profile"]["patch"].v_el)
     assert f"none: sticks everywhere (v_el {v_el:.3g} < gamma 100 J/m2)" in out
+
+
+@pytest.mark.data
+def test_report_says_each_cause_once(monkeypatch, capsys, tmp_path):
+    """The notes of a fit reappear in the gradient and Persson theory that used it: the
+    report prints each once, naming the results it concerns (it printed them three
+    times, on dektak-1.csv)."""
+    from conftest import data_path
+
+    status, out, _ = run("report", data_path("instruments", "dektak-1.csv"), "--E-star",
+                         E_STAR, "--p0", P0, "-o", "once.nc", cwd=tmp_path,
+                         monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 0
+    causes = [line.strip() for line in out.splitlines() if line.startswith("    - ")]
+    texts = [c.rsplit(" (", 1)[0] for c in causes]
+    assert len(texts) == len(set(texts)), causes
+    shared = [c for c in causes if c.endswith("(fit, rms gradient, Persson theory)")]
+    assert any("misses G by 29.8 times" in c for c in shared), causes

@@ -388,3 +388,24 @@ def test_dataset_plots_take_ax_like_dataarrays():
     with pytest.raises(ValueError, match="not both"):
         persson.rough.plot(ax=ax, axes=[ax])
     plt.close("all")
+
+
+def test_questionable_curves_are_drawn_as_such():
+    """A questionable result is dashed with hollow points and says so in the legend; a
+    good one is drawn plain, without a legend entry for its quality."""
+    import warnings
+
+    C = xrough.model_spectrum(hurst=0.8, lambda_r="1 um", lambda_s="10 nm",
+                              rms_gradient=0.5, unit="nm")
+    G = xrough.acf_from_spectrum(C, dr_min="1 nm", dr_max="100 um")
+    good = G.rough.persson(E_star="25 MPa", p0="0.1 MPa")
+    assert good.attrs["quality"] == "good"
+    ax = good.rough.plot(variables=["a_r"])[0]
+    assert ax.lines[0].get_linestyle() == "-" and ax.get_legend() is None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        bad = xrough.quality.mark(good, "a test of the marks", what="persson")
+    ax = bad.rough.plot(variables=["a_r"])[0]
+    assert ax.lines[0].get_linestyle() == "--"
+    assert ax.lines[0].get_markerfacecolor() == "none"
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["questionable"]

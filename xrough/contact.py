@@ -147,7 +147,7 @@ def _derivative_checks(why: xr.DataArray, spec: AcfSpec, window: bool = True) ->
             f"more than {DETERMINED:.0%} of a lower bound of G_sigma(0) (the bins of the "
             "smallest lags hold a few lattice distances each along different directions, "
             "and pixel noise or a scan that differs along its fast and slow axes makes G "
-            "zig-zag between them); the stress ACF there is a property of the pixels, not "
+            "zig-zag between them): the stress ACF there is a property of the pixels, not "
             "of the surface"),
         k.OUTSIDE_WINDOW: (
             "the Laplacian of G (eq. 24) is NaN{span}: outside the reliable lag range "
@@ -913,7 +913,7 @@ def _stress_vars(run: _PerssonRun, area: _ContactArea, smooth_full: bool):
     negative = g_sigma < 0  # <s(r) s(r+dr)> of compressive stresses is never < 0
     checks = [(negative.any("dr"), "questionable",
                "G_sigma < 0 at some lags (set NaN): the stress ACF of a contact without "
-               "adhesion cannot be negative; the Laplacian of G is negative there beyond "
+               "adhesion cannot be negative: the Laplacian of G is negative there beyond "
                "what W[a_r] can weight (noisy or detrended G, or ringing of a sharp "
                "cutoff)")]
     g_sigma = g_sigma.where(~negative)

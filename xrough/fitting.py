@@ -226,8 +226,8 @@ def _problem_text(name: str, v: dict) -> str:
     if name == "misses_data":
         found = f"{v['factor']:.3g} times" if one else f"more than {MISS_FACTOR:g} times"
         return (f"the model misses G by {found} in a bin it fits (plot G with "
-                "fit.rough.plot): not a description of this G; narrow the dr range to "
-                "where G is self-affine, or detrend")
+                "fit.rough.plot): not a description of this G (narrow the dr range to "
+                "where G is self-affine, or detrend)")
     if name == "sigma_h_below_data":
         return ("the fitted sigma_h is too small for G: G exceeds 2 sigma_h^2 (beyond two "
                 "standard errors), which no surface allows; the model's plateau is below "
@@ -237,7 +237,7 @@ def _problem_text(name: str, v: dict) -> str:
         return (f"{found} is within {HURST_MARGIN:g} of its bound {H_BOUNDS[0]:g} or "
                 f"{H_BOUNDS[1]:g}: the edge of what the model can tell (a surface that "
                 "close to H = 0 or 1, or a G that follows no power law dr^(2H) with "
-                "0 < H < 1: a tilt or a curvature, G ~ dr^2, or a plateau); look at the "
+                "0 < H < 1: a tilt or a curvature, G ~ dr^2, or a plateau): look at the "
                 "plot, detrend, or fit a narrower dr range")
     if name == "other_model_better":
         found = f" (reduced chi^2 = {v['chi2_eq36']:.3g})" if one else ""

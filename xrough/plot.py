@@ -45,6 +45,10 @@ BAND_FLOOR = 0.1
 _MICRO = re.compile(r"(?<![A-Za-z])u(?=m(?![A-Za-z]))|(?<![A-Za-z])micro(?=m)")
 
 
+#: Legend words of the quality flags a curve is drawn with (see :mod:`xrough.quality`).
+LEVEL_WORDS = {1: "questionable", 2: "failed"}
+
+
 def display_unit(units: str) -> str:
     """Write a unit string for a label as people write it: ``µm``, ``nm²``, ``J/m²``.
 
@@ -228,7 +232,9 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
     """Log-log plot of a function of ``dr`` or ``q``, with the standard error as a band.
 
     Extra dims (e.g. ``scan``) give one line each. Lines and bands break at NaN bins and
-    at the uncovered bins of a stitched G. On a log axis the band's lower edge is
+    at the uncovered bins of a stitched G. A curve whose ``quality_flag`` is questionable
+    is dashed with hollow points and says so in the legend (failed curves are NaN). On a
+    log axis the band's lower edge is
     ``max(G - s, BAND_FLOOR * G)``: where the standard error ``s`` reaches G, the band
     stays visible down to G / 10 instead of vanishing. The y axis is linear when the data
     cross zero (stress ACFs).
@@ -249,6 +255,7 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
     user_label = kwargs.pop("label", None)
     values = np.asarray(da.values, dtype=float)
     log_y = bool(np.all(values[np.isfinite(values)] > 0))  # stress ACFs cross zero
+    marked = False
     for k in range(stacked.sizes["_line"]):
         line = stacked.isel(_line=k)
         x = np.asarray(line[dim].values, dtype=float)
@@ -263,7 +270,16 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
                               for d in extra
                               if d in line.coords)
             label = f"{user_label} ({index})" if user_label else index
-        (ln,) = ax.plot(x, y, label=label, **kwargs)
+        flag = (int(line.coords["quality_flag"].values)
+                if "quality_flag" in line.coords and line.coords["quality_flag"].ndim == 0
+                else 0)
+        style = dict(kwargs)
+        if flag:  # questionable (failed curves are NaN): dashed, hollow points
+            style = {"linestyle": "--", "marker": "o", "markersize": 3,
+                     "markerfacecolor": "none", **kwargs}
+            label = f"{label} ({LEVEL_WORDS[flag]})" if label else LEVEL_WORDS[flag]
+            marked = True
+        (ln,) = ax.plot(x, y, label=label, **style)
         if se is not None:
             se = rest[0]
             lo = np.maximum(y - se, BAND_FLOOR * y) if log_y else y - se
@@ -274,7 +290,7 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
     else:
         ax.set_yscale("linear")
     _set_labels(ax, _label(da[dim], dim), _label(da, da.name or ""))
-    if extra or user_label:
+    if extra or user_label or marked:
         ax.legend()
     return ax
 

@@ -453,7 +453,7 @@ def mask_outliers(topography: xr.DataArray, *, threshold: float = 5.0, method: s
                         f"{threshold:g} robust "
                         "standard deviations of the heights does not see (the heights' "
                         "spread holds the form and the large-scale roughness): spikes, or "
-                        "sharp features of the surface; look at them, or judge each point "
+                        "sharp features of the surface: look at them, or judge each point "
                         "against its neighbourhood with window=")
     out = _like(topography, result, attrs)
     return quality.mark(out, note, what="mask_outliers") if note else out
@@ -765,7 +765,7 @@ def tip_window(topography: xr.DataArray) -> tuple[xr.DataArray, str | None]:
     except ValueError as err:
         return topography, (
             f"the tip radius {radius} stated in the file (attr {key!r}) resolves no lag of "
-            f"this map ({err}): G at every lag is shaped by the tip, not the surface; "
+            f"this map ({err}): G at every lag is shaped by the tip, not the surface: "
             "measure with a sharper tip or a larger scan, or acf(reliable=False) to take "
             "G as it is")
     out.attrs["reliable_rule"] = out.attrs["reliable_rule"].replace(

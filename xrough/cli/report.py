@@ -29,8 +29,10 @@ _STEEPEST = 10.0
 _COLUMNS = ("measurement", "sigma_h (fit)", "H", "lambda_r", "rms grad", "v_el", "a_r",
             "sigma_c", "at dr", "patch radius")
 #: The results of a row whose quality is shown, by their key in the results.
-_RATED = {"fit": "fit", "gradient": "rms gradient", "persson": "Persson theory",
+_RATED = {"G": "G", "fit": "fit", "gradient": "rms gradient", "persson": "Persson theory",
           "energy": "elastic energy", "patch": "patch radius"}
+#: How a result quotes the notes of the fit it used (stripped to say each cause once).
+_QUOTED = re.compile(r"^(the given fit|fit): ")
 
 
 def add_parser(sub, **common) -> None:
@@ -216,6 +218,31 @@ def _figure(measured: list[dict], p0_text: str):
 # ---------------------------------------------------------------------- output
 
 
+def _notes(m: dict) -> list[str]:
+    """The quality of one measurement's results: their levels, then each cause once.
+
+    A result that used another quotes its notes (Persson theory those of its gradient,
+    the gradient those of the fit): each note is printed once, with the results it
+    concerns.
+    """
+    levels = {key: level for key, (level, _) in _quality(m["results"]).items()
+              if level != "good"}
+    if not levels:
+        return []
+    by_level: dict[str, list[str]] = {}
+    for key, level in levels.items():
+        by_level.setdefault(level, []).append(_RATED[key])
+    head = "; ".join(f"{', '.join(names)} {level}" for level, names in by_level.items())
+    causes: dict[str, list[str]] = {}
+    for key in levels:
+        for note in notes_of(m["results"][key]):
+            note = _QUOTED.sub("", note)
+            if _RATED[key] not in causes.setdefault(note, []):
+                causes[note].append(_RATED[key])
+    return [f"  {m['name']}: {head}",
+            *(f"    - {note} ({', '.join(names)})" for note, names in causes.items())]
+
+
 def _print_table(measured: list[dict], rows: list[tuple[str, ...]], parameters: str) -> None:
     """Print the table, the quality notes under it and what the numbers are."""
     widths = [max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(_COLUMNS)]
@@ -225,9 +252,7 @@ def _print_table(measured: list[dict], rows: list[tuple[str, ...]], parameters: 
     modes = sorted({m["detrend"] for m in measured})
     if len(modes) > 1:  # say which file got which
         modes = [f"{m['name']} {m['detrend']}" for m in measured]
-    notes = [f"  {m['name']}: {_RATED[key]} {level}: {'; '.join(texts)}"
-             for m in measured for key, (level, texts) in _quality(m["results"]).items()
-             if level != "good"]
+    notes = [line for m in measured for line in _notes(m)]
     if notes:
         print("quality (a number marked ? is questionable; failed: it means nothing):")
         print("\n".join(notes))

@@ -56,9 +56,9 @@ def anisotropy_attrs(G, se, G_y, se_y, G_x, se_x, *, dr: np.ndarray, grid: Grid)
             f"(G_x / G_y from {lo:.2g} to {hi:.2g}, at dr = {lags.min():.3g} to "
             f"{lags.max():.3g} {grid.lateral_unit}): the surface is anisotropic (a texture, "
             "grooves, stripes) or the scan differs along its fast and slow axes (line "
-            "offsets: detrend(..., per_line=True)); the radial G averages directions that "
+            "offsets: detrend(..., per_line=True)): the radial G averages directions that "
             "no single direction has, and the contact theory of an isotropic surface may "
-            "not hold; compare acf(direction='x') and acf(direction='y')")
+            "not hold (compare acf(direction='x') and acf(direction='y'))")
     quality.warn(f"height_difference_acf: questionable: {text}", quality.QualityWarning)
     return {"anisotropy_ratio_min": lo, "anisotropy_ratio_max": hi,
             "quality": "questionable", "quality_notes": text}
