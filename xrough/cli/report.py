@@ -219,7 +219,7 @@ def _figure(measured: list[dict], p0_text: str):
 
 
 def _notes(m: dict) -> list[str]:
-    """The quality of one measurement's results: their levels, then each cause once.
+    """Say the quality of one measurement's results: their levels, then each cause once.
 
     A result that used another quotes its notes (Persson theory those of its gradient,
     the gradient those of the fit): each note is printed once, with the results it
