@@ -20,7 +20,8 @@ numbers are blanked so that one check is one row), so a new check shows up as a 
 
 Tolerances ("matches"), per result:
 
-* fit: ``|H - H_true| <= 3 hurst_std`` (its own stated error);
+* fit: ``|H - H_true| <= min(3 hurst_std, 0.1)`` (its own stated error, and close enough
+  to quote);
 * gradient: ``|gbar / gbar_true - 1| <= 10 %`` on every finite lag from 2 pixels to L/8
   (a 10 % misfit moves contact results by about 5 %, docs/quality.md);
 * energy: ``|v_el / v_el_true - 1| <= 10 %`` (v_el_true: eq. 16 of the exact G);
@@ -59,6 +60,8 @@ from xrough.contact import stress_acf_from_spectrum
 from xrough.gradient import gradient_from_spectrum
 
 E_STAR, P0, GAMMA = 25e6, 1e5, "50 mJ/m^2"
+#: A fitted H farther than this from the truth is no finding, whatever its stated error.
+H_CLOSE = 0.1
 RESULTS = ("fit", "gradient", "energy", "stress_acf", "persson", "patch")
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
@@ -148,7 +151,9 @@ def truth_matches(res: dict, G: xr.DataArray, C, spec: dict) -> dict:
     out = {}
     fit = res["fit"]
     H, Hs = float(fit.hurst), float(fit.hurst_std)
-    out["fit"] = bool(np.isfinite(H) and abs(H - spec["hurst"]) <= 3 * Hs)
+    # within its own stated error, and close enough to quote: an H = 0.01 +- 0.1 of an
+    # H = 0.3 surface is within 3 std, but no finding
+    out["fit"] = bool(np.isfinite(H) and abs(H - spec["hurst"]) <= min(3 * Hs, H_CLOSE))
     g0 = gradient_from_spectrum(C, dr).values
     g = res["gradient"].values
     ok = mid & np.isfinite(g)

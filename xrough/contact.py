@@ -243,13 +243,16 @@ def _own_coords(G: xr.DataArray) -> dict:
             if "dr" not in v.dims and c != quality.FLAG}
 
 
-def _rate(result, checks, *, what: str, inherited=()):
+def _rate(result, checks, *, what: str, G, inherited=()):
     """Rate a result per curve: ``checks`` are ``(mask, level, note)``, one mask per curve.
 
-    A curve gets the worst level of the checks its mask fires and of the ``inherited``
-    inputs (a gradient or fit with their own ``quality_flag``); on numpy results the
-    notes of the checks that fired (and the inputs' notes) are joined and warned once.
+    A curve gets the worst level of the checks its mask fires and of its inputs: ``G``
+    (its own marks: directions that differ, a stated tip that resolves no lag, a missed
+    target error) and the ``inherited`` ones (a gradient or fit with their own
+    ``quality_flag``); on numpy results the notes of the checks that fired (and the
+    inputs' notes) are joined and warned once.
     """
+    inherited = (G, *inherited)
     codes = xr.DataArray(np.int8(0))
     notes, remarks = [], []  # remarks: notes of checks at level "good" (no warning)
     lazy = any(mask.chunks is not None for mask, _, _ in checks)
@@ -390,7 +393,7 @@ def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Datas
          "lower bound"),
         (part["above"] > EXTRAPOLATED, "questionable",
          f"more than {EXTRAPOLATED:.0%} of v_el comes from beyond the largest lag, where G "
-         "is continued flat: measure larger scales")], what="elastic_energy")
+         "is continued flat: measure larger scales")], what="elastic_energy", G=G)
 
 
 def _bridged_energy(ds: xr.Dataset, G_si: xr.DataArray, spec: AcfSpec) -> tuple:
@@ -534,7 +537,7 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
     return _rate(out, [(few, "questionable", "fewer than 5 valid bins: the Laplacian is "
                         "that of the log-log polygon through them, not of a smoothed G; "
                         "use more points per decade"), *_derivative_checks(why, spec),
-                       unresolved], what="stress_acf")
+                       unresolved], what="stress_acf", G=G)
 
 
 def stress_acf_from_spectrum(C: xr.DataArray, dr: Any, *, E_star: Any) -> xr.DataArray:
@@ -795,7 +798,7 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     checks += [window] if window else []
     gap = gap_note(spec, _GAP_PERSSON)  # said with the rest: one warning
     checks += [(xr.DataArray(True), "questionable", gap)] if gap else []
-    return _rate(ds, checks, what="persson", inherited=(
+    return _rate(ds, checks, what="persson", G=G, inherited=(
         gradient if set(wanted) - {"sigma_quick"} else None,
         fit if set(_NEED_FIT) & set(wanted) else None))
 
@@ -1071,4 +1074,4 @@ def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
         (finite & (a_c < lags[0]), "questionable",
          "a_c lies below the smallest lag of G: it is the root of G's ballistic "
          "continuation (G ~ dr^2, in closed form), not of data: measure finer scales to "
-         "confirm it")], what="patch_radius")
+         "confirm it")], what="patch_radius", G=G)
