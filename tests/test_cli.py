@@ -644,3 +644,22 @@ def test_report_says_each_cause_once(monkeypatch, capsys, tmp_path):
     assert len(texts) == len(set(texts)), causes
     shared = [c for c in causes if c.endswith("(fit, rms gradient, Persson theory)")]
     assert any("misses G by 29.8 times" in c for c in shared), causes
+
+
+@pytest.mark.data
+def test_report_uses_the_stylus_the_file_states(monkeypatch, capsys, tmp_path):
+    """dektak-1.csv states a 2.5 um stylus: report quotes a_r at 1.64 um, the first lag
+    the stylus resolves (it quoted 156 nm); --all-lags keeps every lag."""
+    from conftest import data_path
+
+    path = data_path("instruments", "dektak-1.csv")
+    status, out, _ = run("report", path, "--E-star", E_STAR, "--p0", P0, "-o", "a.nc",
+                         cwd=tmp_path, monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 0
+    row = table(out)[0]
+    assert row["at dr"] == "1.641 µm", row
+    assert xrough.open_analysis(tmp_path / "a.nc")["dektak-1"]["G"].attrs[
+        "reliable_dr_min"] == pytest.approx(1.55, rel=0.02)
+    status, out, _ = run("report", path, "--E-star", E_STAR, "--p0", P0, "--all-lags",
+                         "-o", "b.nc", cwd=tmp_path, monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 0 and table(out)[0]["at dr"] == "156.2 nm"

@@ -69,6 +69,10 @@ def add_acf_options(p: argparse.ArgumentParser, name: str) -> None:
                    help="lags in all directions (default) or along x or y only")
     p.add_argument("--points-per-decade", type=float, default=10,
                    help="log-spaced bins of G per decade of lag (default 10)")
+    p.add_argument("--all-lags", action="store_true",
+                   help="keep every lag: ignore a tip or stylus radius that the file or its "
+                   "container states (by default the lags finer than the tip resolves are "
+                   "left out of the contact results)")
 
 
 # -------------------------------------------------------------- options, checked
@@ -213,7 +217,8 @@ def _measure(path: str, name: str, args: argparse.Namespace,
             _check_lags(path, topo, args.direction)
             topo, how = _detrend(topo, args.detrend)
             G = topo.rough.acf(direction=args.direction,
-                               points_per_decade=args.points_per_decade)
+                               points_per_decade=args.points_per_decade,
+                               reliable=not args.all_lags)
             G.attrs.update(measurement=name, source_path=str(path))
             result = {"G": G, **(analyse(G) if analyse is not None else {})}
     except CLIError:
