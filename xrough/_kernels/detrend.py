@@ -555,18 +555,38 @@ def min_curvature(h: np.ndarray, *, nd: int, axis: int, steps: np.ndarray, spaci
     array([-1., -1.])
     """
     h = np.asarray(h, dtype=float)
-    h = np.moveaxis(h, h.ndim - nd + axis, -1)  # stencil axis last, other grid axis before
-    out = np.empty(h.shape[: h.ndim - nd] + (len(steps),))
-    n = h.shape[-1]
-    for j, k in enumerate(np.asarray(steps, dtype=int)):
-        if periodic:
-            kappa = np.roll(h, -k, -1) - 2 * h + np.roll(h, k, -1)
-        elif 2 * k < n:
-            kappa = h[..., 2 * k:] - 2 * h[..., k:n - k] + h[..., : n - 2 * k]
-        else:
-            out[..., j] = np.nan
-            continue
-        kappa = np.where(np.isfinite(kappa), kappa, np.inf) / (k * spacing) ** 2
-        low = kappa.reshape(kappa.shape[: kappa.ndim - nd] + (-1,)).min(axis=-1)
-        out[..., j] = np.where(np.isfinite(low), low, np.nan)
+    ax = h.ndim - nd + axis  # the stencil axis, sliced in place (no transposed copy)
+    batch = h.shape[: h.ndim - nd]
+    grid_axes = tuple(range(h.ndim - nd, h.ndim))
+    out = np.empty(batch + (len(steps),))
+    n = h.shape[ax]
+
+    def cut(a, b):
+        return tuple(slice(a, b) if i == ax else slice(None) for i in range(h.ndim))
+
+    buffer, twice = np.empty_like(h), 2.0 * h
+    missing = bool(np.isnan(h).any())  # else the plain (vectorised) minimum
+    steps = np.asarray(steps, dtype=int)
+    if periodic:  # wrapped once, then sliced like an open map (no copy per step)
+        wrap = int(min(steps.max(initial=0), n))
+        padded = np.concatenate([h[cut(n - wrap, None)], h, h[cut(None, wrap)]], axis=ax)
+    with np.errstate(invalid="ignore"):
+        for j, k in enumerate(steps):
+            if periodic:
+                k_mod = k % n
+                kappa = np.add(padded[cut(wrap + k_mod, wrap + k_mod + n)],
+                               padded[cut(wrap - k_mod, wrap - k_mod + n)], out=buffer)
+                kappa -= twice
+            elif 2 * k < n:
+                kappa = np.add(h[cut(2 * k, None)], h[cut(None, n - 2 * k)],
+                               out=buffer[cut(None, n - 2 * k)])
+                kappa -= twice[cut(k, n - k)]
+            else:
+                out[..., j] = np.nan
+                continue
+            # the least over the map, NaN (a missing point) ignored; NaN if all are
+            reduce = np.fmin.reduce if missing else np.minimum.reduce
+            low = reduce(kappa, axis=grid_axes if batch else None)
+            out[..., j] = low / (k * spacing) ** 2
+    out[~np.isfinite(out)] = np.nan
     return out
