@@ -939,3 +939,19 @@ def test_auto_gradient_is_fit_acf_then_gradient_from_fit():
     assert auto.attrs["method"] == "fit"
     explicit = gradient_from_fit(fit_acf(G), G.dr)
     np.testing.assert_allclose(auto.values, explicit.values, rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize("H", [0.3, 0.8])
+def test_auto_rolloff_finds_the_smooth_fit_from_the_sharp_end(H):
+    """rolloff='auto' starts the smooth shape where the sharp one ended (its lambda_r moved
+    to the same crossover) and from eq. 36, without a grid of its own: on the exact G of a
+    smooth spectrum it keeps the smooth shape with the parameters of rolloff='smooth'
+    (to 1e-6: the same minimum, reached from another start) and the truth (to 1e-6)."""
+    dr = np.geomspace(0.5, 5e4, 50)
+    G = spectrum_acf(H, "smooth", lambda_r=2e3, lambda_s=5, dr=dr)
+    auto, smooth = fit_acf(G), fit_acf(G, rolloff="smooth")
+    assert auto.attrs["rolloff"] == "smooth"
+    for name in ("hurst", "lambda_r", "lambda_s", "sigma_h"):
+        np.testing.assert_allclose(float(auto[name]), float(smooth[name]), rtol=1e-6)
+    np.testing.assert_allclose(float(auto.hurst), H, rtol=1e-6)
+    np.testing.assert_allclose(float(auto.lambda_r), 2e3, rtol=1e-6)

@@ -624,3 +624,31 @@ def test_global_threshold_says_what_it_cannot_see():
         warnings.simplefilter("error")
         quiet = plain.rough.mask_outliers(threshold=5)
     assert quiet.attrs["outlier_local_excursions"] == 0 and "quality" not in quiet.attrs
+
+
+def test_a_stated_tip_sets_the_window_of_G_or_says_it_resolves_nothing():
+    """acf() with a tip radius in the attrs: the tip rule's window (the rule in attrs, the
+    same as reliable(tip_radius=...)); a tip too blunt for the scan keeps every lag and
+    marks G questionable with one warning; reliable=False ignores it; a window already
+    set is kept."""
+    import warnings
+
+    topo = xrough.self_affine_surface(hurst=0.8, lambda_r="64 nm", lambda_s="4 nm",
+                                      size="256 nm", n=128, rms_gradient=0.1, seed=1,
+                                      unit="nm")
+    tipped = topo.assign_attrs(tip_radius=5.0, tip_radius_units="nm")
+    G = tipped.rough.acf()
+    direct = topo.rough.reliable(tip_radius="5 nm").attrs["reliable_dr_min"]
+    assert G.attrs["reliable_dr_min"] == direct
+    assert "stated in the file (attr 'tip_radius')" in G.attrs["reliable_rule"]
+    assert "reliable_dr_min" not in tipped.rough.acf(reliable=False).attrs
+    kept = tipped.rough.reliable(short_cutoff="10 nm").rough.acf()
+    assert kept.attrs["reliable_dr_min"] == 10.0
+    blunt = topo.assign_attrs(Stylus="Radius: 5 mm")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        G_blunt = blunt.rough.acf()
+    said = [w for w in caught if "resolves no lag" in str(w.message)]
+    assert len(said) == 1 and G_blunt.attrs["quality"] == "questionable"
+    assert "reliable_dr_min" not in G_blunt.attrs
+    np.testing.assert_array_equal(G_blunt.values, topo.rough.acf().values)
