@@ -510,3 +510,27 @@ def test_grooves_are_anisotropic_in_any_unit_and_their_axis_lags_are_exact():
     theirs = ref[np.isin(axis_bins, radial_bins)]
     assert mine.size >= 10 and np.all(np.isfinite(mine))
     np.testing.assert_allclose(mine, theirs, rtol=1e-10)
+
+
+def test_anisotropy_is_judged_per_map_of_a_stack():
+    """A stack of a grooved map and an isotropic one: the flag marks the grooved map only
+    (quality_flag per scan, one warning), and Persson theory of the stack inherits it
+    map by map; the isotropic map's own G is unmarked."""
+    import warnings
+
+    maps = [xrough.self_affine_surface(hurst=0.8, lambda_r="32 nm", lambda_s="4 nm",
+                                       size="256 nm", n=256, rms_gradient=0.05, seed=s,
+                                       unit="nm") for s in (3, 4)]
+    grooved = (maps[0] + 2.0 * np.sin(2 * np.pi * maps[0].x / 16.0)).transpose("y", "x")
+    stack = xr.concat([grooved.assign_attrs(maps[0].attrs), maps[1]], dim="scan")
+    stack.attrs = maps[0].attrs
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        G = stack.rough.acf()
+    assert G.quality_flag.values.tolist() == [1, 0]
+    assert len([w for w in caught if "G along x and along y" in str(w.message)]) == 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        P = G.rough.persson(E_star="25 MPa", p0="0.1 MPa", gradient_method="simple")
+    assert P.quality_flag.values[0] >= 1
+    assert "quality_flag" not in maps[1].rough.acf().coords

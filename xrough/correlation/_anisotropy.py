@@ -12,6 +12,7 @@ has, and the contact theory of an isotropic surface does not describe it.
 from __future__ import annotations
 
 import numpy as np
+import xarray as xr
 
 from .. import quality
 from ..topography import Grid
@@ -26,39 +27,39 @@ RATIO, SIGNIFICANCE = 1.5, 3.0
 WINDOW = 0.25
 
 
-def anisotropy_attrs(G, se, G_y, se_y, G_x, se_x, *, dr: np.ndarray, grid: Grid) -> dict:
-    """Attributes of a radial G whose directions differ (``{}`` if they do not), and a warning.
+def anisotropy(G_y, se_y, G_x, se_x, *, dr: np.ndarray, grid: Grid):
+    """Which curves of a radial G have directions that differ, and what to say.
 
-    All arguments but ``dr`` and ``grid`` are computed DataArrays on dim ``dr`` (further
-    dims: every curve counts).  Where ``G_x / G_y`` leaves ``[1/RATIO, RATIO]`` beyond
-    :data:`SIGNIFICANCE` standard errors at some lag up to :data:`WINDOW` of the shorter
-    side: ``anisotropy_ratio_min`` and ``_max`` (the extremes of ``G_x / G_y`` there),
-    ``quality = "questionable"`` and the finding in ``quality_notes``, with one
-    :class:`~xrough.QualityWarning`.  Only what is found is recorded, so an isotropic G
-    has the attributes of its lazy twin (a lazy G is not judged: compute it, or compare
+    ``G_y``, ``se_y``, ``G_x``, ``se_x``: G along y and along x and their standard errors,
+    computed DataArrays on dim ``dr`` (further dims: one verdict per curve).  Where
+    ``G_x / G_y`` leaves ``[1/RATIO, RATIO]`` beyond :data:`SIGNIFICANCE` standard errors
+    at some lag up to :data:`WINDOW` of the shorter side, the curve is questionable.
+
+    Returns ``None`` when no curve is, else ``(codes, note, attrs)``: the level code per
+    curve (int8 on the extra dims), the finding in words and the attrs
+    ``anisotropy_ratio_min`` / ``_max`` (the extremes of ``G_x / G_y`` over every
+    curve's window).  Only what is found is recorded, so an isotropic G has the
+    attributes of its lazy twin (a lazy G is not judged: compute it, or compare
     ``acf(direction='x')`` and ``acf(direction='y')``).
     """
-    del G, se  # the radial G: its own errors are not those of the comparison
-    gx, gy = np.asarray(G_x, dtype=float), np.asarray(G_y, dtype=float)
-    ex, ey = np.asarray(se_x, dtype=float), np.asarray(se_y, dtype=float)
     with np.errstate(divide="ignore", invalid="ignore"):
-        log_ratio = np.log(gx / gy)
-        error = np.sqrt((ex / gx) ** 2 + (ey / gy) ** 2)
-    inside = np.broadcast_to(dr <= WINDOW * min(grid.size), log_ratio.shape)
-    usable = inside & np.isfinite(log_ratio) & (gx > 0) & (gy > 0)
+        log_ratio = np.log(G_x / G_y)
+        error = np.sqrt((se_x / G_x) ** 2 + (se_y / G_y) ** 2)
+    inside = xr.DataArray(dr <= WINDOW * min(grid.size), dims="dr")
+    usable = inside & np.isfinite(log_ratio) & (G_x > 0) & (G_y > 0)
     hit = usable & (np.abs(log_ratio) > np.log(RATIO)) & (
-        np.abs(log_ratio) > SIGNIFICANCE * np.nan_to_num(error, nan=np.inf))
-    if not hit.any():
-        return {}
-    lo, hi = (float(np.exp(f(log_ratio[usable]))) for f in (np.min, np.max))
-    lags = dr[np.any(hit.reshape(-1, dr.size), axis=0)]
-    text = (f"G along x and along y differ beyond {SIGNIFICANCE:g} standard errors "
+        np.abs(log_ratio) > SIGNIFICANCE * error.fillna(np.inf))
+    if not bool(hit.any()):
+        return None
+    values = log_ratio.where(usable).values
+    lo, hi = float(np.exp(np.nanmin(values))), float(np.exp(np.nanmax(values)))
+    lags = dr[np.asarray(hit.any([d for d in hit.dims if d != "dr"]))]
+    note = (f"G along x and along y differ beyond {SIGNIFICANCE:g} standard errors "
             f"(G_x / G_y from {lo:.2g} to {hi:.2g}, at dr = {lags.min():.3g} to "
             f"{lags.max():.3g} {grid.lateral_unit}): the surface is anisotropic (a texture, "
             "grooves, stripes) or the scan differs along its fast and slow axes (line "
             "offsets: detrend(..., per_line=True)): the radial G averages directions that "
             "no single direction has, and the contact theory of an isotropic surface may "
             "not hold (compare acf(direction='x') and acf(direction='y'))")
-    quality.warn(f"height_difference_acf: questionable: {text}", quality.QualityWarning)
-    return {"anisotropy_ratio_min": lo, "anisotropy_ratio_max": hi,
-            "quality": "questionable", "quality_notes": text}
+    codes = hit.any("dr").astype(np.int8) * np.int8(quality.level_code("questionable"))
+    return codes, note, {"anisotropy_ratio_min": lo, "anisotropy_ratio_max": hi}

@@ -14,7 +14,7 @@ from .. import quality
 from .._kernels.pairs import g_from_packed, pool
 from ..preprocess import tip_window
 from ..topography import Grid, grid_of, require_whole_maps
-from ._anisotropy import anisotropy_attrs
+from ._anisotropy import anisotropy
 from ._choice import choose_estimator, choose_for_target, report_choice, target_value
 from ._fft import fft_kernel, split_directions
 from ._plan import Plan, check_bin_width, plan
@@ -274,12 +274,14 @@ def _in_memory(da: xr.DataArray, grid: Grid, estimator: str, *, n_pairs, seed, o
     extra = {"n_pairs": n_pairs, "seed": -1 if seed is None else int(seed)} if random else {}
     if pool_dims:
         extra["pooled_over"] = " ".join(pool_dims)
+    found = None
     if len(parts) == 3 and G.chunks is None:  # G along y and x: the verdict (eager only)
         axis = replace(p, lag_axes=1)
         along = [_g_parts(part, grid, axis, random=False) for part in parts[1:]]
-        extra.update(anisotropy_attrs(G, total, *(a[k] for a in along for k in (0, 2)),
-                                      dr=p.dr, grid=grid))
-    return g_result(
+        found = anisotropy(*(a[k] for a in along for k in (0, 2)), dr=p.dr, grid=grid)
+        if found is not None:
+            extra.update(found[2])
+    G = g_result(
         da, grid, G, dr=p.dr, pair_count=counts.astype(np.int64), standard_error=total,
         coords={"sampling_error": sampling.assign_attrs(
             units=g_unit(grid),
@@ -287,6 +289,10 @@ def _in_memory(da: xr.DataArray, grid: Grid, estimator: str, *, n_pairs, seed, o
         estimator="random pairs" if random else "fft (all pairs)", direction=direction,
         geometry=p.geometry, bins=options["bins"],
         points_per_decade=options["points_per_decade"], **extra)
+    if found is None:
+        return G
+    codes, note, _ = found  # one verdict per curve (quality_flag), said once
+    return quality.mark_curves(G, codes, what="height_difference_acf", notes=note)
 
 
 def _apply(kernel, da: xr.DataArray, p: Plan, *args, kwargs: dict,
