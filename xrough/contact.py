@@ -1002,7 +1002,8 @@ def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
     Either rests on the continuation, not on data, and is flagged questionable
     (:mod:`xrough.quality`). When ``gamma`` is at least the energy of full contact
     ``v_el``, no finite radius solves the equation and the result is ``inf`` (the surfaces
-    stick everywhere; ``attrs["quality_notes"]`` says so).
+    stick everywhere; ``attrs["quality_remarks"]`` says so, and the variable ``v_el`` gives
+    the energy).
 
     Parameters
     ----------
@@ -1016,7 +1017,9 @@ def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
     Returns
     -------
     xarray.Dataset
-        ``a_c`` (eq. 46) and ``a_c_upper`` (eq. 44) in the unit of ``dr``.
+        ``a_c`` (eq. 46) and ``a_c_upper`` (eq. 44) in the unit of ``dr``, and ``v_el``
+        (J m-2, eq. 16: the elastic energy of full contact per area, which ``gamma`` must
+        stay below for a finite radius).
 
     Raises
     ------
