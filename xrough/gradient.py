@@ -257,8 +257,10 @@ def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec,
             if taken != "exact":
                 info["fallback_reason"] = str(reasons)
             if params is not None and int(level) and code in (1, 3):
+                # the fit's own notes, each as it said it (so that a result that also
+                # quotes the fit, or a report, can say each once)
                 notes = quality.SEPARATOR.join(
-                    [notes, "the given fit: " + params.attrs.get("quality_notes", "")])
+                    [notes, *quality.notes_of(params)])
     return out, info, level, notes
 
 

@@ -54,7 +54,6 @@ __all__ = [
     "mask_outliers",
     "reliable",
     "reliability_window",
-    "stated_reliability",
     "stated_tip_radius",
     "tip_window",
 ]
@@ -448,13 +447,12 @@ def mask_outliers(topography: xr.DataArray, *, threshold: float = 5.0, method: s
             if found:
                 note = (f"{found} points stand out from their neighbours by more than "
                         f"{LOCAL_EXCURSION:g} robust standard deviations (of the residual "
-                        "from the medians of their neighbours along x or y), which a global "
-                        "threshold of "
-                        f"{threshold:g} robust "
-                        "standard deviations of the heights does not see (the heights' "
-                        "spread holds the form and the large-scale roughness): spikes, or "
-                        "sharp features of the surface: look at them, or judge each point "
-                        "against its neighbourhood with window=")
+                        "from the medians of their neighbours along x or y), which a "
+                        f"global threshold of {threshold:g} robust standard deviations of "
+                        "the heights does not see (the heights' spread holds the form and "
+                        "the large-scale roughness): spikes, or sharp features of the "
+                        "surface: look at them, or judge each point against its "
+                        "neighbourhood with window=")
     out = _like(topography, result, attrs)
     return quality.mark(out, note, what="mask_outliers") if note else out
 
@@ -679,7 +677,9 @@ def stated_tip_radius(attrs: dict) -> tuple[str, str] | None:
 
     Looks through attributes whose name or value names a tip, stylus or probe for
     ``radius <number> <length unit>`` (``tip_radius`` itself may be a number in the
-    ``tip_radius_units``, else the lateral unit is not assumed: a bare number is skipped).
+    ``tip_radius_units``, else the lateral unit is not assumed: a bare number is skipped,
+    as is a radius that is not a positive length in a unit pint knows: metadata never
+    stop the analysis).
     Where several radii are stated (a tip measured before and after the scan), the largest
     counts: the bluntest tip the scan may have had.
 
@@ -696,42 +696,53 @@ def stated_tip_radius(attrs: dict) -> tuple[str, str] | None:
     ('26 nm', 'description')
     >>> stated_tip_radius({"Scan": "2 um"}) is None
     True
+    >>> stated_tip_radius({"tip_radius": 20.0, "tip_radius_units": "pixels"}) is None
+    True
     """
+    def length(number, unit, key):
+        """``(value, unit in xrough's spelling, metres, key)``; None if it is no length."""
+        try:
+            unit = u.format_units(u.as_length_unit(str(unit), what=f"attr {key!r}"))
+        except ValueError:
+            return None
+        value = float(number)
+        if not (np.isfinite(value) and value > 0):
+            return None
+        return value, unit, u.length_in(f"{value} {unit}", "m", what=f"attr {key!r}"), key
+
     found = []
     for key, value in attrs.items():
         if key == "tip_radius" and isinstance(value, (int, float, np.integer, np.floating)):
-            if attrs.get("tip_radius_units"):
-                found.append((float(value), str(attrs["tip_radius_units"]), key))
+            found.append(length(value, attrs.get("tip_radius_units", ""), key))
             continue
         if not isinstance(value, str):
             continue
         text = f"{key}: {value}"
-        if not _TIP_KEY.search(text):
-            continue
-        for number, unit in _TIP_TEXT.findall(text):
-            unit = {"µm": "um", "μm": "um"}.get(unit, unit.lower() if unit != "m" else "m")
-            found.append((float(number), unit, key))
+        if _TIP_KEY.search(text):
+            found += [length(number, unit.lower(), key)
+                      for number, unit in _TIP_TEXT.findall(text)]
+    found = [f for f in found if f is not None]  # a statement in no length unit: skipped
     if not found:
         return None
-    value, unit, key = max(found, key=lambda f: u.length_in(f"{f[0]} {f[1]}", "m",
-                                                             what="tip radius"))
+    value, unit, _, key = max(found, key=lambda f: f[2])
     return f"{value:g} {unit}", key
 
 
-def stated_reliability(topography: xr.DataArray) -> xr.DataArray:
+def tip_window(topography: xr.DataArray) -> tuple[xr.DataArray, str | None]:
     """Apply :func:`reliable` with the tip radius the file states, unless a window is set.
 
     A topography without ``reliable_dr_min`` whose metadata state a tip or stylus radius
-    (:func:`stated_tip_radius`) gets the window of the tip rule; ``reliable_rule`` says
-    which attribute stated it. Lazy (dask) maps are returned as they are (the tip rule
-    reads the whole map: call :func:`reliable` on them yourself).
-    :func:`xrough.height_difference_acf` does this by default (``reliable=True``).
+    (:func:`stated_tip_radius`) gets the window of the tip rule, and ``reliable_rule``
+    says which attribute stated it. :func:`xrough.height_difference_acf` does this by
+    default (``reliable=True``). Lazy (dask) maps are returned as they are: the tip rule
+    reads the whole map (call :func:`reliable` on them yourself).
 
-    Raises
-    ------
-    ValueError
-        The stated tip resolves no lag of the map (``acf()`` instead marks its G
-        questionable and keeps every lag: see :func:`tip_window`).
+    Returns
+    -------
+    (xarray.DataArray, str or None)
+        The topography (with the window, or unchanged), and ``None``, or what to say when
+        the stated tip resolves no lag of the map (the tip rule's window would be empty):
+        the topography is then returned unchanged.
 
     Examples
     --------
@@ -739,20 +750,9 @@ def stated_reliability(topography: xr.DataArray) -> xr.DataArray:
     >>> x = np.linspace(0, 100, 1001)
     >>> topo = xrough.topography(np.sin(x) * 0.5, spacing=0.1, unit="um")
     >>> topo.attrs["Stylus"] = "Radius: 2.5 µm"
-    >>> stated_reliability(topo).attrs["reliable_rule"][:50]
-    'dr_min: tip radius 2.5 um stated in the file (attr'
-    """
-    out, note = tip_window(topography)
-    if note:
-        raise ValueError(note)
-    return out
-
-
-def tip_window(topography: xr.DataArray) -> tuple[xr.DataArray, str | None]:
-    """:func:`stated_reliability`, and what to say when the stated tip resolves no lag.
-
-    Returns the topography with its window, or unchanged with a note (the window of the
-    tip rule would be empty: the map is finer than the tip can follow everywhere).
+    >>> out, note = tip_window(topo)
+    >>> note is None, out.attrs["reliable_rule"].endswith("stated in the file (attr 'Stylus')")
+    (True, True)
     """
     if "reliable_dr_min" in topography.attrs or topography.chunks is not None:
         return topography, None
@@ -768,10 +768,8 @@ def tip_window(topography: xr.DataArray) -> tuple[xr.DataArray, str | None]:
             f"this map ({err}): G at every lag is shaped by the tip, not the surface: "
             "measure with a sharper tip or a larger scan, or acf(reliable=False) to take "
             "G as it is")
-    out.attrs["reliable_rule"] = out.attrs["reliable_rule"].replace(
-        f"tip radius {u.length_in(radius, out.attrs['reliable_dr_units'], what='tip'):g} "
-        f"{out.attrs['reliable_dr_units']}",
-        f"tip radius {radius} stated in the file (attr {key!r})", 1)
+    out.attrs["reliable_rule"] += (f"; the tip radius {radius} as stated in the file "
+                                   f"(attr {key!r})")
     return out, None
 
 

@@ -31,8 +31,7 @@ _COLUMNS = ("measurement", "sigma_h (fit)", "H", "lambda_r", "rms grad", "v_el",
 #: The results of a row whose quality is shown, by their key in the results.
 _RATED = {"G": "G", "fit": "fit", "gradient": "rms gradient", "persson": "Persson theory",
           "energy": "elastic energy", "patch": "patch radius"}
-#: How a result quotes the notes of the fit it used (stripped to say each cause once).
-_QUOTED = re.compile(r"^(the given fit|fit): ")
+
 
 
 def add_parser(sub, **common) -> None:
@@ -236,7 +235,6 @@ def _notes(m: dict) -> list[str]:
     causes: dict[str, list[str]] = {}
     for key in levels:
         for note in notes_of(m["results"][key]):
-            note = _QUOTED.sub("", note)
             if _RATED[key] not in causes.setdefault(note, []):
                 causes[note].append(_RATED[key])
     return [f"  {m['name']}: {head}",

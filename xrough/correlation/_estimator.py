@@ -106,7 +106,7 @@ def height_difference_acf(
     reliable : bool
         Where the file's metadata state a tip or stylus radius and no reliable lag range
         was set (:func:`xrough.preprocess.reliable`), the tip rule sets it
-        (:func:`xrough.preprocess.stated_reliability`): G carries ``reliable_dr_min``,
+        (:func:`xrough.preprocess.tip_window`): G carries ``reliable_dr_min``,
         ``reliable_dr_max`` and ``reliable_rule``, and the contact results derived from it
         are NaN at finer lags than the tip resolves. ``False``: G over all lags, no window.
 
