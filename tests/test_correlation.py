@@ -496,7 +496,7 @@ def test_grooves_are_anisotropic_in_any_unit_and_their_axis_lags_are_exact():
     p = plan(grid, direction="radial", bins="log", points_per_decade=10, bin_width=None,
              dr_min=None, dr_max=None)
     parts = est._split(est._apply(est.fft_kernel, h, p, kwargs={
-        "plan": p, "workers": 1, "progress": False}, blocks=3), p)
+        "plan": p, "workers": 1, "progress": False, "directional": True}, blocks=3), p)
     from dataclasses import replace
     G_x = est._g_parts(parts[2], grid, replace(p, lag_axes=1), random=False)[0].values
     edges = p.edges

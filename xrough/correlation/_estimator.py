@@ -264,9 +264,13 @@ def _in_memory(da: xr.DataArray, grid: Grid, estimator: str, *, n_pairs, seed, o
         sums = _random_sums(da, grid, p, n_pairs=n_pairs, seed=seed, progress=progress)
     else:
         workers = workers if workers is not None else (os.cpu_count() or 1)
+        # G along each axis too, for the check of directions: of a computed map only (a
+        # lazy G is not judged, so its graph carries nothing for it)
+        directional = p.directional and da.chunks is None
         sums = _apply(fft_kernel, da, p, kwargs={"plan": p, "workers": workers,
-                                                 "progress": progress},
-                      blocks=3 if p.directional else 1)
+                                                 "progress": progress,
+                                                 "directional": directional},
+                      blocks=3 if directional else 1)
     if pool_dims:  # one tree reduction over the maps
         sums = sums.reduce(_pool_over, dim=list(pool_dims))
     parts = _split(sums, p)

@@ -9,8 +9,12 @@ from .._kernels.pairs import few_points_message, folded_pair_sums, packed
 from ._plan import Plan, progress_bar
 
 
-def fft_kernel(h: np.ndarray, *, plan: Plan, workers: int, progress) -> np.ndarray:
+def fft_kernel(h: np.ndarray, *, plan: Plan, workers: int, progress,
+               directional: bool = False) -> np.ndarray:
     """Map (..., *core) heights to their sums of G per kept bin, packed.
+
+    ``directional`` (a radial G of a map only, :attr:`Plan.directional`): also the sums
+    along each pixel axis, as two further blocks of bins (:func:`split_directions`).
 
     Each map is scaled by its own power of two (nearest its largest ``|h|``, see
     :func:`scaled_map`), so that no square of a height overflows; the sums are those of
@@ -18,9 +22,9 @@ def fft_kernel(h: np.ndarray, *, plan: Plan, workers: int, progress) -> np.ndarr
     (:func:`xrough._kernels.pairs.packed`).
     """
     batch, flat = plan.maps(h)
-    # a radial G of a map also sums the lags along each pixel axis (free: the same folded
-    # sums), as two further blocks of bins (see :func:`split_directions`)
-    sums = np.empty((flat.shape[0], (3 if plan.directional else 1) * int(plan.keep.sum())))
+    # the lags along each pixel axis are among the folded sums (free), as further blocks
+    directional = directional and plan.directional
+    sums = np.empty((flat.shape[0], (3 if directional else 1) * int(plan.keep.sum())))
     counts = np.empty_like(sums)
     nvalid = np.empty(flat.shape[0])
     exponents = np.zeros(flat.shape[0])
@@ -28,7 +32,7 @@ def fft_kernel(h: np.ndarray, *, plan: Plan, workers: int, progress) -> np.ndarr
     try:
         for b in range(flat.shape[0]):
             scaled, exponents[b] = scaled_map(flat[b], b, batch)
-            sums[b], counts[b], nvalid[b] = _map_sums(scaled, plan, workers)
+            sums[b], counts[b], nvalid[b] = _map_sums(scaled, plan, workers, directional)
             if nvalid[b] < 2:
                 raise ValueError(few_points_message(b, batch))
             if bar is not None:
@@ -39,7 +43,7 @@ def fft_kernel(h: np.ndarray, *, plan: Plan, workers: int, progress) -> np.ndarr
     return packed(batch, 0.5 * sums, counts, np.zeros_like(sums), nvalid, exponents)
 
 
-def _map_sums(scaled: np.ndarray, plan: Plan, workers: int):
+def _map_sums(scaled: np.ndarray, plan: Plan, workers: int, directional: bool):
     """Return a map's sums of squares and pairs per kept bin, and its valid points."""
     idx = plan.bin_index()
     nb = len(plan.edges) - 1
@@ -54,7 +58,7 @@ def _map_sums(scaled: np.ndarray, plan: Plan, workers: int):
     sums = 0.5 * binning.binned_sum(s, idx, nb)[plan.keep]
     counts = (plan.geometric_counts if n is None else
               0.5 * binning.binned_sum(n, idx, nb)[plan.keep])
-    if plan.directional:  # lags along y (d_x = 0), then along x (d_y = 0)
+    if directional:  # lags along y (d_x = 0), then along x (d_y = 0)
         parts_s, parts_n = [sums], [counts]
         for a, (axis_idx, axis_counts) in enumerate(plan.axis_bins()):
             line = (slice(None), 0) if a == 0 else (0, slice(None))
