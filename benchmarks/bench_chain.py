@@ -67,7 +67,10 @@ import xrough
 from xrough.memo import forget
 
 ROOT = Path(__file__).resolve().parents[1]
-DATA = ROOT.parent / "shared" / "data"
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
+from _data import data_root  # noqa: E402  (where the measurement files are)
+
+DATA = data_root()
 E_STAR, P0, GAMMA = "25 MPa", "0.1 MPa", "50 mJ/m^2"
 SYNTHETIC = "synthetic-2048"
 #: The steps timed, in order; ``eq36`` comes after the chain so it cannot feed it.

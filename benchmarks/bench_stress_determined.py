@@ -17,6 +17,7 @@ Usage::
 
 from __future__ import annotations
 
+import sys
 import warnings
 from pathlib import Path
 
@@ -26,7 +27,10 @@ from scipy import fft as sfft
 import xrough
 from xrough._kernels.acf_curve import AcfCurve
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
+from _data import data_root  # noqa: E402  (where the measurement files are)
+
+DATA = data_root()
 MAPS = [("instruments", n) for n in (
     "di-1.di", "x3p-2.x3p", "sdf-1.sdf", "sur-2.sur", "spot_1-1000nm.ibw", "mi-1.mi",
     "nid-1.nid", "plu-1.plu", "al3d-1.al3d", "opd-1.opd")] + [

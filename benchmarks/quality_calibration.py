@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import sys
 import time
 import warnings
 from collections import defaultdict
@@ -63,7 +64,10 @@ E_STAR, P0, GAMMA = 25e6, 1e5, "50 mJ/m^2"
 #: A fitted H farther than this from the truth is no finding, whatever its stated error.
 H_CLOSE = 0.1
 RESULTS = ("fit", "gradient", "energy", "stress_acf", "persson", "patch")
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
+from _data import data_root  # noqa: E402  (where the measurement files are)
+
+DATA = data_root()
 
 
 # ---------------------------------------------------------------------------------------

@@ -34,7 +34,10 @@ import xarray as xr
 import xrough
 
 ROOT = Path(__file__).resolve().parents[1]
-UNCD = ROOT.parent / "shared" / "data" / "uncd"
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
+from _data import data_root  # noqa: E402  (where the measurement files are)
+
+UNCD = data_root() / "uncd"
 sys.path.insert(0, str(ROOT / "tests"))  # the measurements of tests/test_stitching_gaps.py
 from test_stitching_gaps import two_instruments, uncd_tree  # noqa: E402
 

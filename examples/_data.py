@@ -11,11 +11,26 @@ import os
 from pathlib import Path
 
 
-def data_file(*parts: str) -> Path:
-    """Return the path of a measurement file, or raise FileNotFoundError saying where to put it."""
+def data_roots() -> list[Path]:
+    """The folders searched for measurement files, first ``XROUGH_DATA``, in order.
+
+    The one definition of where the data are: the tests (``tests/conftest.py``) and the
+    benchmarks read the same folders.
+    """
     roots = [Path(os.environ["XROUGH_DATA"])] if os.environ.get("XROUGH_DATA") else []
     here = Path(__file__).resolve().parent
-    roots += [base / "shared" / "data" for base in (here, *here.parents)]
+    return roots + [base / "shared" / "data" for base in (here, *here.parents)]
+
+
+def data_root() -> Path:
+    """The first of :func:`data_roots` that exists (the first one if none does)."""
+    roots = data_roots()
+    return next((r for r in roots if r.is_dir()), roots[0])
+
+
+def data_file(*parts: str) -> Path:
+    """Return the path of a measurement file, or raise FileNotFoundError saying where to put it."""
+    roots = data_roots()
     for root in roots:
         if root.joinpath(*parts).exists():
             return root.joinpath(*parts)

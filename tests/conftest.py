@@ -1,4 +1,4 @@
-from importlib.util import find_spec
+from importlib.util import find_spec, module_from_spec, spec_from_file_location
 from pathlib import Path
 
 import matplotlib
@@ -7,7 +7,17 @@ import pytest
 matplotlib.use("Agg")
 
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+def _data_root() -> Path:
+    """Where the measurement files are: examples/_data.py's search (``XROUGH_DATA``, else
+    ``shared/data`` next to the checkout or above it), the one definition of it."""
+    spec = spec_from_file_location(
+        "_xrough_example_data", Path(__file__).resolve().parents[1] / "examples" / "_data.py")
+    module = module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.data_root()
+
+
+DATA = _data_root()
 
 
 @pytest.fixture(autouse=True)
