@@ -15,17 +15,13 @@ import pytest
 import xarray as xr
 
 import xrough
+from conftest import data_path
 from xrough import quality
 from xrough.testing import assert_netcdf_round_trip
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "instruments"
-
 
 def _needs(name: str) -> Path:
-    path = DATA / name
-    if not path.exists():
-        pytest.skip(f"{name} is not available")
-    return path
+    return data_path("instruments", name)  # skipped when the file is not there
 
 
 def _quality_warnings(caught) -> list[str]:
