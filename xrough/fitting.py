@@ -452,10 +452,13 @@ def fit_acf(
     ``G -> G_sa (dr/dr_ref)^(2H)`` for ``lambda_s << dr << lambda_r``, i.e.
     ``G_sa = C_r q_r^(2+2H) I(H) dr_ref^(2H) / 2pi`` with
     ``I(H) = 2^(-1-2H) Gamma(1-H) / (H Gamma(1+H))``; ``sigma_h^2`` and ``C_r`` follow
-    from the moments of the fitted spectrum.  G is eq. 9 evaluated by
-    :func:`xrough._kernels.hankel.acf_from_spectrum_kernel` (exact for the sharp shape,
-    to about 1e-8 for the smooth one).  The optimiser (``scipy.optimize.least_squares``,
-    trust-region reflective) works on ``ln G_sa``, ``H``, ``ln eta`` and ``ln eps`` with
+    from the moments of the fitted spectrum.  G is eq. 9 of the model spectrum in closed
+    form (:mod:`xrough._kernels.model_acf`: Bessel-function integrals of one variable,
+    to about 1e-13 for the sharp shape and 1e-10 for the smooth one; the smooth shape
+    with ``lambda_s > lambda_r / 4`` or a ``lambda_0`` falls back to the quadrature of
+    :func:`xrough._kernels.hankel.acf_from_spectrum_kernel`).  The optimiser
+    (``scipy.optimize.least_squares``, trust-region reflective) works on ``ln G_sa``,
+    ``H``, ``ln eta`` and ``ln eps`` with
     ``eta = (dr_max/lambda_r)^(2-2H)`` and ``eps = (lambda_s/dr_min)^(2H)``
     (``dr_min``, ``dr_max``: the fitted range), started from the fit of eq. 36.  To
     leading order ``eps`` (``eta``) is the relative change of G at the short (long) end

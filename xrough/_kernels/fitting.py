@@ -22,6 +22,7 @@ from scipy import optimize
 
 from .acf_curve import relative_error_problem
 from .hankel import acf_from_spectrum_kernel
+from .model_acf import sharp_acf, smooth_acf, smooth_closed_form_applies
 from .shape_factors import ROLLOFFS, rolloff_crossover, self_affine_constant
 from .spectral_models import SpectrumModel, model_gradient2
 
@@ -114,10 +115,12 @@ _LN_FLOOR = -16.0
 #: Cutoffs further than these factors beyond the lags (below for lambda_s, above for
 #: lambda_r) are moved there and corrected to leading order.
 _FAR_S, _FAR_R = 1e3, 1e5
-#: Knots per decade of the power-law representation of C in eq. 9 (sharp: exact with 0).
+#: Eq. 9 is in closed form (model_acf) except for the smooth shape with lambda_s within a
+#: factor 4 of lambda_r or with lambda_0: there the quadrature, with these knots per
+#: decade of the power-law representation of C (sharp: exact with 0) and settings:
+#: relative error <= 5e-15 (sharp) and 5e-9 (smooth, set by _KNOTS) against the defaults
+#: over 16 decades of dr, 0.02 <= H <= 0.99; half the cost.
 _KNOTS = {"sharp": 0.0, "smooth": 40.0}
-#: Quadrature of eq. 9 in the fit: relative error <= 5e-15 (sharp) and 5e-9 (smooth, set
-#: by _KNOTS) against the defaults over 16 decades of dr, 0.02 <= H <= 0.99; half the cost.
 _QUADRATURE = {"t_split": 32.0, "order": 10, "panels_per_decade": 4.0}
 #: A cutoff is resolved when its eta (eps) exceeds this many standard deviations and
 #: _MIN_EFFECT (a relative change of G below 1e-6 is no cutoff, even in exact data).
@@ -132,7 +135,7 @@ _GRID = (np.array([0.1, 0.3, 0.5, 0.7, 0.9]), np.array([-4.0, -1.0, 2.0, 5.0]),
          np.array([-4.0, -1.0, 2.0, 5.0]))
 _N_RESTARTS = 3
 _RESTART_MISFIT = 0.03
-#: Quadratures of eq. 9 a fit of one shape keeps for reuse (see :func:`_acf_shape`).
+#: Evaluations of eq. 9 a fit of one shape keeps for reuse (see :func:`_acf_shape`).
 _MEMO_SIZE = 1024
 #: A restart whose search comes this close to the end of an earlier search (see
 #: :func:`_same_end`) ends there.
@@ -394,7 +397,7 @@ def _acf_shape(x, H, lam_r, lam_s, lam_0, rolloff, memo=None):
     resp. ``q_r^(2-2H)`` (a term in ``dr^2``); the next terms are smaller by
     ``(q_s dr)^(-3/2)`` resp. ``(q_r dr)^(2H)`` or ``(q_r dr)^2``.
 
-    ``memo``: a dict that keeps the quadratures of eq. 9 by ``(H, lambda_r, lambda_s)`` as
+    ``memo``: a dict that keeps the evaluations of eq. 9 by ``(H, lambda_r, lambda_s)`` as
     evaluated (after the moves above), for calls with the same ``x``, ``lam_0`` and
     ``rolloff``: a fit asks for the same one again where a cutoff is far beyond the lags,
     or ``lambda_s`` beyond ``lambda_r`` (the step in that cutoff of a Jacobian, the point
@@ -410,10 +413,16 @@ def _acf_shape(x, H, lam_r, lam_s, lam_0, rolloff, memo=None):
     if G is None:
         q_s = 2 * np.pi / ls
         q_0 = 0.0 if np.isinf(lam_0) else 2 * np.pi / lam_0
-        model = SpectrumModel(hurst=H, q_r=q_r, q_s=q_s, q_0=q_0, rolloff=rolloff,
-                              C_r=2 * np.pi / (kernel_I * q_r ** (2 + 2 * H)))
-        G = acf_from_spectrum_kernel(x, model, model.breakpoints,
-                                     knots_per_decade=_KNOTS[rolloff], **_QUADRATURE)
+        C_r = 2 * np.pi / (kernel_I * q_r ** (2 + 2 * H))
+        if rolloff == "sharp":
+            G = sharp_acf(x, H, q_r, q_s, q_0, C_r)
+        elif smooth_closed_form_applies(q_r, q_s, q_0):
+            G = smooth_acf(x, H, q_r, q_s, C_r)
+        else:
+            model = SpectrumModel(hurst=H, q_r=q_r, q_s=q_s, q_0=q_0, rolloff=rolloff,
+                                  C_r=C_r)
+            G = acf_from_spectrum_kernel(x, model, model.breakpoints,
+                                         knots_per_decade=_KNOTS[rolloff], **_QUADRATURE)
         if memo is not None:
             if len(memo) >= _MEMO_SIZE:
                 memo.pop(next(iter(memo)))  # the oldest
@@ -633,7 +642,7 @@ class _ShapeProblem:
         self.steps = np.array([0.0, 1e-5, 1e-5, 1e-5])
         self.u = 1.0 / self.w  # the column of the amplitude in the Jacobian
         self.uu = float(self.u @ self.u)
-        self.memo = {}  # quadratures of eq. 9 (see _acf_shape)
+        self.memo = {}  # evaluations of eq. 9 (see _acf_shape)
         self.ends, self.outcomes = [], []  # of the first searches of the solves (solve)
 
     def cutoffs(self, t):
