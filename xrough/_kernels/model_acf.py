@@ -132,17 +132,24 @@ def power_tail(h, a):
     Broadcasts ``h`` against ``a``.
     """
     h, a = np.broadcast_arrays(np.asarray(h, dtype=float), np.asarray(a, dtype=float))
-    out = np.empty(h.shape)
+    out, low = _from_zero_or_tail(h, a)
+    out[low] = _tail_total(h[low]) - out[low]
+    return out
+
+
+def _from_zero_or_tail(h, a):
+    """``D_h(a)`` where ``a <= 8`` (the mask returned), ``T_h(a)`` elsewhere; ``h`` like ``a``."""
+    out = np.empty(a.shape)
     low, far = a <= _A_SERIES, a > _A_FAR
     mid = ~(low | far)
     if np.any(low):
-        out[low] = _tail_total(h[low]) - _from_zero(h[low], a[low])
+        out[low] = _from_zero(h[low], a[low])
     if np.any(far):
         hf, af = h[far], a[far]
         out[far] = af ** (-2 * hf) / (2 * hf) - _j0_tail(1 + 2 * hf, af)
     if np.any(mid):
         out[mid] = _middle(h[mid], a[mid])
-    return out
+    return out, low
 
 
 def _middle(h, a):
@@ -150,18 +157,22 @@ def _middle(h, a):
     edges, t, wt, omj, x, w = _middle_table()
     p = np.minimum(((a - _A_SERIES) // _PANEL).astype(int), edges.size - 2)
     # whole panels above a's panel: int over panel k of t^(-1-2h) (1 - J0), summed from p+1
-    hu, inverse = np.unique(h, return_inverse=True)
+    if h.min() == h.max():  # one exponent (the sharp shape)
+        hu, inverse = h[:1], np.zeros(h.shape, dtype=int)
+    else:
+        hu, inverse = np.unique(h, return_inverse=True)
     panel = (t[None] ** (-1 - 2 * hu[:, None, None]) * omj[None]) @ wt  # (n_h, panels)
+    # and beyond 48 the asymptotic series
+    far = _A_FAR ** (-2 * hu) / (2 * hu) - _j0_tail(1 + 2 * hu, np.full(hu.shape, _A_FAR))
     above = np.concatenate([np.cumsum(panel[:, ::-1], axis=1)[:, ::-1],
-                            np.zeros((hu.size, 1))], axis=1)
+                            np.zeros((hu.size, 1))], axis=1) + far[:, None]
     whole = above[inverse, p + 1]
     # the part of a's panel above a
     hi = edges[p + 1]
     half, mid = 0.5 * (hi - a), 0.5 * (hi + a)
     tn = mid[:, None] + half[:, None] * x
     part = (tn ** (-1 - 2 * h[:, None]) * one_minus_j0(tn)) @ w * half
-    far = _A_FAR ** (-2 * h) / (2 * h) - _j0_tail(1 + 2 * h, np.full(h.shape, _A_FAR))
-    return whole + part + far
+    return whole + part
 
 
 def _flat(a):
@@ -188,15 +199,13 @@ def sharp_acf(dr, hurst: float, q_r: float, q_s: float, q_0: float = 0.0, C_r: f
     H = float(hurst)
     ar, as_ = q_r * x, q_s * x
     flat = _flat(ar) - (_flat(q_0 * x) if q_0 > 0 else 0.0)
-    # F(a_s) - F(a_r) without cancellation: from zero below 8, from infinity above
-    diff = np.empty(x.shape)
-    both = as_ <= _A_SERIES
-    diff[both] = _from_zero(H, as_[both]) - _from_zero(H, ar[both])
-    rest = ~both
-    near = rest & (ar <= _A_SERIES)
-    diff[near] = (_tail_total(H) - power_tail(H, as_[near])) - _from_zero(H, ar[near])
-    far = rest & ~near
-    diff[far] = power_tail(H, ar[far]) - power_tail(H, as_[far])
+    # F(a_s) - F(a_r) without cancellation: F = D from zero below 8, I - T from infinity
+    # above, and T(a_r) - T(a_s) where both are above
+    n = x.size
+    a = np.concatenate([ar.ravel(), as_.ravel()])
+    v, low = _from_zero_or_tail(np.full(a.shape, H), a)
+    F = np.where(low, v, _tail_total(H) - v)
+    diff = np.where(low[n:] | low[:n], F[n:] - F[:n], v[:n] - v[n:]).reshape(x.shape)
     return C_r / (2 * np.pi) * (flat / (x * x) + q_r ** (2 + 2 * H) * x ** (2 * H) * diff)
 
 
