@@ -34,7 +34,7 @@ from ._kernels.spectrum_of_acf import (
     spectrum_support_kernel,
     support_grid,
 )
-from ._kernels.uncertainty import g_covariance
+from ._kernels.uncertainty import covariance_from_acf
 from .acf import mark_gaps, read_acf, result_attrs
 from .memo import by_content
 from .models import model_attrs, model_from_attrs, self_affine_model
@@ -467,13 +467,10 @@ def _error_covariance(G, spec, dr, g, valid, noise) -> tuple[np.ndarray | None, 
         geometry, pixel, size = "radial", float(dr[0]), 2.0 * float(dr[-1])
         model = ("finite-area model of a radial G over a square twice its largest lag (G "
                  "has no lag_geometry: assumed)")
-    # in units of the pixel and of G's median (the relative covariance is the same in
-    # any unit, and so is its quadrature)
-    r, g0 = dr / pixel, float(np.median(g))
-    q = np.geomspace(np.pi / (8 * size / pixel), 2 * np.pi,
-                     int(40 * np.log10(16 * size / pixel)) + 2)
-    C = spectrum_from_acf_kernel(q, r, smooth_acf_kernel(r, g / g0, 0.5))
-    cov = g_covariance(r, q, C, size=size / pixel, pixel=1.0, geometry=geometry) * g0**2
+    # (computed in units of the pixel and of G's median: the relative covariance is the
+    # same in any unit, and so is its quadrature)
+    cov = covariance_from_acf(dr, g, size=size, pixel=pixel, geometry=geometry,
+                              per_decade=40.0, estimated_over=0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         log_ratio = np.log(area_var / np.diag(cov))
     ok = np.isfinite(log_ratio)
