@@ -8,6 +8,7 @@ two of those on each side.  Measured: 0.91-1.07 (benchmarks/calibration_errors.p
 
 import numpy as np
 import pytest
+import xarray as xr
 
 import xrough
 from xrough._kernels.uncertainty import (
@@ -81,3 +82,45 @@ def test_covariance_from_acf_is_unit_free():
     a = covariance_from_acf(dr, g, size=256.0, pixel=1.0, geometry="radial")
     b = covariance_from_acf(dr * 1e-9, g * 1e-18, size=256e-9, pixel=1e-9, geometry="radial")
     np.testing.assert_allclose(b, a * 1e-36, rtol=1e-9)
+
+
+def test_a_g_that_rises_steeply_at_its_end_keeps_errors_below_g():
+    """A 16384-point stretch of a self-affine profile (H = 0.7, lambda_r = 16384 points,
+    the length of the stretch; the parent has 2^18) block-averaged to 4 nm, as the
+    medium instrument of tests/test_stitching.py: its G still rises steeply at the end,
+    the spectrum of G blows up at low q, and the covariance of that spectrum alone gives
+    errors 5000 times G; relative to the G of
+    the same modes, no bin's error up to L/2 exceeds G (the variance is a sum of squares of the
+    terms whose sum is G) and the largest is 0.73 G."""
+    n = 2**18
+    h = xrough.self_affine_surface(hurst=0.7, lambda_r=n / 16, lambda_s=4.0, size=float(n),
+                                   n=n, rms_height=1.0, profile=True, seed=11,
+                                   unit="nm").values
+    block = h[3 * n // 8:3 * n // 8 + 16384].reshape(-1, 4).mean(-1)
+    topo = xr.DataArray(block, dims=("x",), attrs={"units": "nm"},
+                        coords={"x": ("x", 4.0 * np.arange(block.size), {"units": "nm"})})
+    G = topo.rough.acf()
+    dr, g = G.dr.values, G.values
+    alone = covariance_from_acf(dr, g, size=16384.0, pixel=4.0, geometry="profile",
+                                relative=False)
+    assert np.nanmax(np.sqrt(np.diag(alone)) / g) > 100
+    var = finite_area_variance(dr, g, G.pair_count.values, area=16384.0, pixel_area=4.0,
+                               geometry="profile")
+    inside = dr <= 8192.0  # beyond L/2 the real-space variance (it can exceed G) is kept
+    assert np.all(np.sqrt(var[inside]) <= g[inside]), np.sqrt(var) / g
+
+
+def test_the_mean_of_the_modes_is_the_lattice_g():
+    """g_covariance(with_mean=True): the expected G of the map's modes equals the G of a
+    map whose every mode has its expected power (random_amplitudes=False), to the 3 %
+    of the log-log interpolation between that G's bins."""
+    C = xrough.model_spectrum(hurst=0.8, lambda_r=64.0, lambda_s=4.0, lambda_0=256.0,
+                              rms_gradient=0.1, unit="nm")
+    dr = np.geomspace(1, 128, 15)
+    _, mean = g_covariance(dr, C.q.values, C.values, size=256.0, pixel=1.0,
+                           geometry="radial", with_mean=True)
+    G = xrough.self_affine_surface(hurst=0.8, lambda_r=64.0, lambda_s=4.0, size=256.0,
+                                   n=256, rms_gradient=0.1, unit="nm", seed=0,
+                                   random_amplitudes=False).rough.acf()
+    lattice = np.exp(np.interp(np.log(dr), np.log(G.dr.values), np.log(G.values)))
+    np.testing.assert_allclose(mean, lattice, rtol=0.03)

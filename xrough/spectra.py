@@ -470,7 +470,7 @@ def _error_covariance(G, spec, dr, g, valid, noise) -> tuple[np.ndarray | None, 
     # (computed in units of the pixel and of G's median: the relative covariance is the
     # same in any unit, and so is its quadrature)
     cov = covariance_from_acf(dr, g, size=size, pixel=pixel, geometry=geometry,
-                              per_decade=40.0, estimated_over=0.0)
+                              per_decade=40.0, estimated_over=0.0, relative=False)
     with np.errstate(divide="ignore", invalid="ignore"):
         log_ratio = np.log(area_var / np.diag(cov))
     ok = np.isfinite(log_ratio)
