@@ -306,6 +306,28 @@ def _nan_where(result, mask: xr.DataArray):
 # ---------------------------------------------------------------------------------------
 # full contact: elastic energy (eq. 16, 44)
 # ---------------------------------------------------------------------------------------
+#: What a ``_std`` of a contact prediction is the error of.
+ERROR_OF_SURFACE = (
+    "the surface: the scatter between maps of the same size of a Gaussian surface with "
+    "the spectrum of G (finite-area errors of G with their covariance between bins, "
+    "propagated linearly); the theory's own error (Persson's against the solver) is not "
+    "included")
+
+
+def error_model(G: xr.DataArray, spec) -> dict | None:
+    """Return the geometry the finite-area errors of G need (SI lengths), or None.
+
+    From G's attrs: ``lag_geometry``, ``scan_size`` and ``pixel_size`` (in the unit of
+    ``dr``) and ``pooled_count`` (maps pooled into G).
+    """
+    geometry = G.attrs.get("lag_geometry")
+    size, pixel = G.attrs.get("scan_size"), G.attrs.get("pixel_size")
+    if geometry not in ("radial", "axis", "profile") or not size or not pixel:
+        return None
+    return {"size": float(size) * spec.to_m, "pixel": float(pixel) * spec.to_m,
+            "geometry": geometry, "n_maps": int(G.attrs.get("pooled_count", 1))}
+
+
 @_own_attrs
 def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Dataset:
     r"""Areal elastic energy of full contact (eq. 16) and of patches of radius a_c (eq. 44).
@@ -332,7 +354,10 @@ def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Datas
     Returns
     -------
     xarray.Dataset
-        ``v_el`` (J m-2), ``v_el_patch`` on ``a_c`` (J m-2), ``extrapolated_below`` and
+        ``v_el`` (J m-2), ``v_el_std`` (its statistical standard deviation, J m-2: the
+        finite-area errors of G with their full covariance between bins, from the
+        spectrum of G for the map's geometry; NaN for a G without one),
+        ``v_el_patch`` on ``a_c`` (J m-2), ``extrapolated_below`` and
         ``extrapolated_above`` (fractions of ``v_el`` from the continuations).
 
     Raises
@@ -365,11 +390,19 @@ def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Datas
     quarter = E / 4
     part = {"v_el": quarter * res.isel(k=0), "below": res.isel(k=1), "above": res.isel(k=2),
             "patch": quarter * res.isel(k=slice(3, None)).rename(k="a_c")}
+    model = error_model(G, spec)
+    std = (quarter * _per_curve(k.energy_std_curve, G_si, out={"one": 1},
+                                dr=spec.dr * spec.to_m, **model).isel(one=0)
+           if model else xr.full_like(part["v_el"], np.nan))
     ds = xr.Dataset(
         {
             "v_el": part["v_el"].assign_attrs(
                 units="J m-2", long_name="areal elastic energy of full contact",
                 equation="eq. 16: v_el = E*/4 int_0^inf G(r) / r^2 dr"),
+            "v_el_std": std.assign_attrs(
+                units="J m-2", long_name="statistical standard deviation of v_el",
+                error_of=ERROR_OF_SURFACE if model else "none: G states no map geometry "
+                "(lag_geometry, scan_size, pixel_size), e.g. a stitched or model G"),
             "v_el_patch": part["patch"].assign_attrs(
                 units="J m-2", long_name="areal elastic energy to flatten patches of radius "
                 "a_c", equation="eq. 44: v_el(a_c) = E*/4 int_0^a_c G/r^2 dr"),

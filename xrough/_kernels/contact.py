@@ -13,6 +13,7 @@ from scipy import optimize, special
 
 from .acf_curve import AcfCurve, require_acf
 from .shape_factors import rolloff_factor, self_affine_factor
+from .uncertainty import propagated_std, relative_covariance
 
 __all__ = ["KAPPA_PERSSON", "STEEP_DECAY", "WEIGHTINGS", "EQ51_PRINTED", "contact_area",
            "improved_area", "weighting", "asymptote_weight", "nonincreasing",
@@ -152,6 +153,23 @@ def energy_curve(g, *, dr, a_c) -> np.ndarray:
     cum, below, above = curve.cumulative_g_over_r2(a_c)
     total = curve.cumulative_g_over_r2(np.array([np.inf]))[0][0]
     return np.concatenate([[total, below / total, above / total], cum])
+
+
+def energy_std_curve(g, *, dr, size, pixel, geometry, n_maps) -> np.ndarray:
+    """Statistical standard deviation of ``int G / r^2 dr`` (per unit ``E*/4``).
+
+    The finite-area errors of G's bins with their full covariance
+    (:func:`~xrough._kernels.uncertainty.relative_covariance`, from the spectrum of G for
+    a map of ``size`` with pixels ``pixel``), propagated linearly; shape ``(1,)``.
+    """
+    def total(values):
+        return AcfCurve(dr, values, None).cumulative_g_over_r2(np.array([np.inf]))[0]
+
+    if not np.all(np.isfinite(g)):
+        return np.array([np.nan])
+    cov = relative_covariance(dr, g, size=size, pixel=pixel, geometry=geometry,
+                              n_maps=n_maps)
+    return propagated_std(total, g, cov)
 
 
 def first_decade_slope(g, error=None, *, dr) -> float:

@@ -39,7 +39,8 @@ from scipy import special
 from .hankel import PowerLawInterpolant, profile_spectrum_kernel
 from .spectrum_of_acf import smooth_acf_kernel, spectrum_from_acf_kernel
 
-__all__ = ["g_covariance", "g_variance", "covariance_from_acf", "finite_area_variance"]
+__all__ = ["g_covariance", "g_variance", "covariance_from_acf", "finite_area_variance",
+           "relative_covariance", "propagated_std"]
 
 
 def _interpolator(dr: np.ndarray, g: np.ndarray):
@@ -362,3 +363,47 @@ def finite_area_variance(dr: np.ndarray, g: np.ndarray, pairs: np.ndarray, *, ar
         var[beyond] = np.fmax(var[beyond], real[beyond])
     floor = np.where(pairs > 0, 2.0 * g**2 / np.maximum(pairs, 1), np.nan)
     return np.fmax(var, floor)
+
+
+def relative_covariance(dr: np.ndarray, g: np.ndarray, *, size: float, pixel: float,
+                        geometry: str, n_maps: int = 1) -> np.ndarray:
+    """Covariance of ``ln G`` bin by bin: :func:`covariance_from_acf` over ``g_i g_j``.
+
+    ``n_maps``: independent maps pooled into ``g`` (the covariance of one over their
+    number).  Bins that are not finite and positive get zero rows; a G with fewer than
+    four usable bins, or whose spectrum cannot be formed, gives NaN.
+    """
+    dr, g = np.asarray(dr, dtype=float), np.asarray(g, dtype=float)
+    ok = np.isfinite(g) & (g > 0) & (dr > 0)
+    out = np.zeros((dr.size, dr.size))
+    if np.count_nonzero(ok) < 4 or not (size > 0 and pixel > 0):
+        return np.full_like(out, np.nan)
+    try:
+        with np.errstate(all="ignore"):
+            cov = covariance_from_acf(dr[ok], g[ok], size=size, pixel=pixel,
+                                      geometry=geometry)
+    except (ValueError, np.linalg.LinAlgError):
+        return np.full_like(out, np.nan)
+    out[np.ix_(ok, ok)] = cov / np.outer(g[ok], g[ok]) / max(int(n_maps), 1)
+    return out
+
+
+def propagated_std(f, g: np.ndarray, rel_cov: np.ndarray, step: float = 1e-6) -> np.ndarray:
+    """Return the standard deviation of ``f(g)`` for errors of ``g`` (relative covariance).
+
+    Linearised: ``Var f = J S J^T`` with ``J = d f / d ln g`` by forward differences of
+    ``step`` in each ``ln g_i`` (``f`` returns an array, one value per output).  NaN where
+    ``f`` or the covariance is not finite.
+    """
+    g = np.asarray(g, dtype=float)
+    f0 = np.atleast_1d(np.asarray(f(g), dtype=float))
+    if not np.all(np.isfinite(rel_cov)):
+        return np.full(f0.shape, np.nan)
+    used = np.flatnonzero(np.diag(rel_cov) > 0)
+    J = np.zeros((f0.size, g.size))
+    for i in used:
+        gi = g.copy()
+        gi[i] *= np.exp(step)
+        J[:, i] = (np.atleast_1d(f(gi)) - f0) / step
+    with np.errstate(invalid="ignore"):
+        return np.sqrt(np.maximum(np.einsum("ki,ij,kj->k", J, rel_cov, J), 0.0))

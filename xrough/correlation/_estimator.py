@@ -278,6 +278,7 @@ def _in_memory(da: xr.DataArray, grid: Grid, estimator: str, *, n_pairs, seed, o
     extra = {"n_pairs": n_pairs, "seed": -1 if seed is None else int(seed)} if random else {}
     if pool_dims:
         extra["pooled_over"] = " ".join(pool_dims)
+        extra["pooled_count"] = int(np.prod([da.sizes[d] for d in pool_dims]))
     found = None
     if len(parts) == 3 and G.chunks is None:  # G along y and x: the verdict (eager only)
         axis = replace(p, lag_axes=1)
