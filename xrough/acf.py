@@ -295,6 +295,22 @@ def gap_note(spec, depends: str) -> str:
     return f"G is not measured over dr = {', '.join(parts)}: {depends}"
 
 
+def error_model(G: xr.DataArray) -> dict | None:
+    """Return the map geometry the finite-area errors of G need, or None when G has none.
+
+    From G's attrs: ``lag_geometry``, ``scan_size`` and ``pixel_size`` (in the unit of
+    ``dr``, as the estimator wrote them) and ``pooled_count`` (maps pooled into G); the
+    keywords of :func:`xrough._kernels.uncertainty.relative_covariance`.  A stitched or
+    model G states none.
+    """
+    geometry = G.attrs.get("lag_geometry")
+    size, pixel = G.attrs.get("scan_size"), G.attrs.get("pixel_size")
+    if geometry not in ("radial", "axis", "profile") or not size or not pixel:
+        return None
+    return {"size": float(size), "pixel": float(pixel), "geometry": geometry,
+            "n_maps": int(G.attrs.get("pooled_count", 1))}
+
+
 def lag_coord(values: np.ndarray, unit: str, *, name: str = "dr",
               long_name: str = "lag distance") -> dict:
     """Build the coordinate of lags (or patch radii) in ``unit``, ready for ``coords=``."""

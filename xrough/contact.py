@@ -26,7 +26,7 @@ from ._kernels.acf_curve import DETERMINED, FLAT_SLOPE
 from ._kernels.contact import KAPPA_PERSSON
 from ._kernels.gaps import bridge_energy
 from ._kernels.hankel import acf_from_spectrum_kernel
-from .acf import AcfSpec, gap_note, lag_coord, mark_gaps, read_acf, result_attrs
+from .acf import AcfSpec, error_model, gap_note, lag_coord, mark_gaps, read_acf, result_attrs
 from .fit_result import read_fit, rolloff_shapes
 from .fitting import fit_acf
 from .gradient import rms_gradient
@@ -314,20 +314,6 @@ ERROR_OF_SURFACE = (
     "included")
 
 
-def error_model(G: xr.DataArray, spec) -> dict | None:
-    """Return the geometry the finite-area errors of G need (SI lengths), or None.
-
-    From G's attrs: ``lag_geometry``, ``scan_size`` and ``pixel_size`` (in the unit of
-    ``dr``) and ``pooled_count`` (maps pooled into G).
-    """
-    geometry = G.attrs.get("lag_geometry")
-    size, pixel = G.attrs.get("scan_size"), G.attrs.get("pixel_size")
-    if geometry not in ("radial", "axis", "profile") or not size or not pixel:
-        return None
-    return {"size": float(size) * spec.to_m, "pixel": float(pixel) * spec.to_m,
-            "geometry": geometry, "n_maps": int(G.attrs.get("pooled_count", 1))}
-
-
 @_own_attrs
 def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Dataset:
     r"""Areal elastic energy of full contact (eq. 16) and of patches of radius a_c (eq. 44).
@@ -390,7 +376,9 @@ def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Datas
     quarter = E / 4
     part = {"v_el": quarter * res.isel(k=0), "below": res.isel(k=1), "above": res.isel(k=2),
             "patch": quarter * res.isel(k=slice(3, None)).rename(k="a_c")}
-    model = error_model(G, spec)
+    model = error_model(G)
+    if model:  # lengths in m, as G_si
+        model.update(size=model["size"] * spec.to_m, pixel=model["pixel"] * spec.to_m)
     std = (quarter * _per_curve(k.energy_std_curve, G_si, out={"one": 1},
                                 dr=spec.dr * spec.to_m, **model).isel(one=0)
            if model else xr.full_like(part["v_el"], np.nan))

@@ -76,7 +76,7 @@ from ._kernels.fitting import (
     fit_spectrum_kernel,
 )
 from ._kernels.shape_factors import ROLLOFFS
-from .acf import AcfSpec, mark_gaps, read_acf, result_attrs
+from .acf import AcfSpec, error_model, mark_gaps, read_acf, result_attrs
 from .fit_result import model_acf, rolloff_shapes  # noqa: F401  (read a fit; public here)
 from .memo import by_content
 
@@ -255,6 +255,10 @@ def _problem_text(name: str, v: dict) -> str:
         return (f"the standard deviation of H exceeds {HURST_STD_MAX:g}: the data do not "
                 "determine H (too few bins or lags, or a short self-affine range); fit a "
                 "larger map or fix H")
+    if name == "cutoff_undetermined":
+        return ("a cutoff the fit resolves has a standard deviation beyond its value "
+                "(zero within one error, with the covariance of G's bins): its position "
+                "is not determined; fit a larger map or fix lambda_r / lambda_s")
     return "the fit gave no finite H, chi^2 or sigma_h: its parameters are NaN"
 
 
@@ -610,7 +614,8 @@ class FitSetup:
     @property
     def options(self) -> dict:
         """Keyword arguments of :attr:`kernel` for every curve (all but G and its errors)."""
-        extra = {} if self.model == "eq36" else {"lambda_0": self.lambda_0}
+        extra = {} if self.model == "eq36" else {"lambda_0": self.lambda_0,
+                                                 "errors": error_model(self.G)}
         return {"dr": self.acf.dr, "use": self.use, "dr_ref": self.dr_ref,
                 "weighted": self.weighted, "fixed": self.fixed, "rolloff": self.rolloff,
                 "unit": self.acf.unit_str, **extra}

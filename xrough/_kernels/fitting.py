@@ -25,6 +25,7 @@ from .hankel import acf_from_spectrum_kernel
 from .model_acf import sharp_acf, smooth_acf, smooth_closed_form_applies
 from .shape_factors import ROLLOFFS, rolloff_crossover, self_affine_constant
 from .spectral_models import SpectrumModel, model_gradient2
+from .uncertainty import relative_covariance
 
 __all__ = [
     "MODELS",
@@ -68,6 +69,7 @@ PROBLEM_LEVELS = {
     "hurst_undetermined": 1,    # std of H above HURST_STD_MAX
     "misses_data": 1,           # model and G differ by more than MISS_FACTOR in a bin
     "sigma_h_below_data": 1,    # 2 sigma_h^2 below G (G <= 2 sigma_h^2 on any surface)
+    "cutoff_undetermined": 1,   # a resolved cutoff's standard deviation exceeds its value
 }
 PROBLEMS = tuple(PROBLEM_LEVELS)
 #: A fit is poor (questionable) when its rms misfit of ln G exceeds MISFIT_QUESTIONABLE
@@ -543,25 +545,34 @@ def information_criterion(chi2: float, n: int, p: int, weighted: bool) -> float:
     return float(total + 2 * p)
 
 
-def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lambda_0, unit):
+def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lambda_0, unit,
+                        errors=None):
     """Fit the model spectrum to one G (one length unit); the values of ``SPECTRUM_OUTPUTS``.
 
     ``rolloff``: one of :data:`ROLLOFFS`, or ``"auto"``: both are fitted and the sharp one
     is kept unless the smooth one has an AIC lower by more than :data:`AIC_MARGIN`
     (``rolloff_shape`` is the index of the shape kept in :data:`ROLLOFFS`,
     ``reduced_chi2_other_rolloff`` the reduced chi^2 of the other; NaN for one shape).
+
+    ``errors``: the map geometry of G (:func:`xrough.acf.error_model`); the standard
+    deviations of the parameters then carry the covariance of G's bins
+    (:meth:`_ShapeProblem.sandwich`), otherwise they take the bins as independent.
     """
     kw = {"dr": dr, "use": use, "dr_ref": dr_ref, "weighted": weighted, "fixed": fixed,
           "lambda_0": lambda_0, "unit": unit}
+    rel_cov = None if not errors else relative_covariance(dr, np.asarray(G, dtype=float),
+                                                          **errors)
     if rolloff != "auto":
-        out = _fit_spectrum_shape(G, se, rolloff=rolloff, **kw)
+        out = _fit_spectrum_shape(G, se, rolloff=rolloff, rel_cov=rel_cov, **kw)
         return _with_shape(out, ROLLOFFS.index(rolloff), np.nan)
     kw["eq36"] = _eq36_fit(G, se, **kw)  # the start of both shapes
     # the second shape starts where the first ended (its roll-off converted) and from eq. 36,
     # without a grid: the first shape's restarts have searched the same landscape
-    sharp_fit, theta = _fit_spectrum_shape(G, se, rolloff=ROLLOFFS[0], theta_out=True, **kw)
+    sharp_fit, theta = _fit_spectrum_shape(G, se, rolloff=ROLLOFFS[0], theta_out=True,
+                                           rel_cov=rel_cov, **kw)
     seed = _converted(theta, ROLLOFFS[0], ROLLOFFS[1])
-    fits = [sharp_fit, _fit_spectrum_shape(G, se, rolloff=ROLLOFFS[1], seed=seed, **kw)]
+    fits = [sharp_fit, _fit_spectrum_shape(G, se, rolloff=ROLLOFFS[1], seed=seed,
+                                           rel_cov=rel_cov, **kw)]
     at = {name: k for k, name in enumerate(SPECTRUM_OUTPUTS)}
 
     def aic(out):
@@ -779,6 +790,28 @@ class _ShapeProblem:
         # errors do, inflated when the model does not describe the data within them
         return np.linalg.pinv(J.T @ J) * (max(1.0, chi2) if self.weighted else chi2), chi2
 
+    def sandwich(self, theta, rel_cov, chi2):
+        """Covariance of the free parameters for errors of ``ln G`` of covariance ``rel_cov``.
+
+        The least-squares estimate moves by ``A^-1 J^T d`` for a change ``d`` of the
+        residuals (``A = J^T J``), and the residuals ``(ln G_model - ln G) / w`` carry
+        ``rel_cov / (w w^T)``: ``A^-1 J^T (D rel_cov D) J A^-1`` with ``D = 1/w``
+        (:meth:`covariance` takes the bins as independent: G's are nearly rigidly
+        correlated).  Inflated by the ratio of the squared residuals to what G's errors
+        leave after the fit, where the model misses G beyond them.
+        """
+        J, r = self.linear_jacobian(theta)
+        A = np.linalg.pinv(J.T @ J)
+        d = 1.0 / self.w
+        noise = d[:, None] * rel_cov * d[None, :]
+        # the residuals the errors of G leave after the fit: (I - H) noise (I - H), H the
+        # hat matrix; the misfit beyond them inflates (with G's errors mis-scaled, both
+        # scale alike)
+        left = np.eye(r.size) - J @ A @ J.T
+        expected = float(np.trace(left @ noise @ left))
+        misfit = float(r @ r) / expected if expected > 0 else np.inf
+        return A @ (J.T @ noise @ J) @ A * max(1.0, misfit)
+
     def drop_unresolved(self, theta, active, cov_free) -> bool:
         """Set the cutoffs the data do not resolve to none; whether one moved."""
         lr, ls = self.cutoffs(theta)
@@ -934,7 +967,7 @@ def _shape_parameters(problem: _ShapeProblem, theta, active, cov_free) -> tuple:
     return out, std, resolved_r, resolved_s
 
 
-def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, **kw):
+def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, rel_cov=None, **kw):
     """Fit the model spectrum of one roll-off shape to one G (see :func:`fit_spectrum_kernel`).
 
     Optimiser parameters ``theta = [ln(G_sa/G_ref), H, ln eta, ln eps]`` with
@@ -947,6 +980,10 @@ def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, **kw):
     problem = _ShapeProblem(G, se, **{k: v for k, v in kw.items() if k != "eq36"})
     theta, chi2_eq36 = _shape_start(problem, G, se, **start_kw)
     theta, active, cov_free, chi2 = _best_solution(problem, theta, chi2_eq36, seed)
+    if rel_cov is not None and np.all(np.isfinite(rel_cov)):
+        sel = _select(np.asarray(G, dtype=float), np.asarray(se, dtype=float), kw["use"],
+                      kw["weighted"], kw["dr"], kw["unit"], "the model spectrum")
+        cov_free = problem.sandwich(theta, rel_cov[np.ix_(sel, sel)], chi2)
     r = problem.residuals(theta)
     rms_misfit, max_factor = _rms_misfit(r, problem.w), _max_factor(r, problem.w)
     out, std, resolved_r, resolved_s = _shape_parameters(problem, theta, active, cov_free)
@@ -958,7 +995,7 @@ def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, **kw):
                               r_ok=resolved_r and free[2], s_ok=resolved_s and free[3],
                               hurst_free=bool(free[1]), chi2_other=chi2_eq36,
                               hurst_std=std[2], max_factor=max_factor,
-                              g_max=problem.g_max)
+                              g_max=problem.g_max, cutoff_std=(std[3], std[4]))
     if code == 2:  # the numbers mean nothing (but a fixed value stays what it was)
         keep = np.array([False, False, not free[1], not free[2], not free[3], False])
         out[~keep], std[~keep] = np.nan, np.nan
@@ -972,7 +1009,8 @@ def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, **kw):
 # --------------------------------------------------------------------------------------
 def fit_problems(chi2, rms_misfit, hurst, *, weighted, dr_min, dr_max, sigma_h, lambda_r,
                  lambda_s, r_ok, s_ok, hurst_free, chi2_other=np.inf,
-                 hurst_std=np.nan, max_factor=1.0, g_max=0.0) -> tuple[int, int]:
+                 hurst_std=np.nan, max_factor=1.0, g_max=0.0,
+                 cutoff_std=(np.nan, np.nan)) -> tuple[int, int]:
     """Return the problems of one fit (bits of :data:`PROBLEMS`) and its quality code.
 
     Code 0 good, 1 questionable, 2 failed (see :mod:`xrough.quality`).  ``dr_min``,
@@ -982,7 +1020,9 @@ def fit_problems(chi2, rms_misfit, hurst, *, weighted, dr_min, dr_max, sigma_h, 
     ``max_factor``: the largest factor between model and G over the fitted bins;
     ``g_max``: the largest G of the fitted bins less two standard errors (unit of
     ``sigma_h^2``), which no surface exceeds by ``2 sigma_h^2`` (``G = sigma_h^2 - C(dr)``,
-    ``|C| <= sigma_h^2``).  Thresholds: :data:`CHI2_QUESTIONABLE`, :data:`CHI2_ALONE`,
+    ``|C| <= sigma_h^2``); ``cutoff_std``: the standard deviations of ``lambda_r`` and
+    ``lambda_s`` (a resolved cutoff with one beyond its value is not determined: zero
+    lies within one error).  Thresholds: :data:`CHI2_QUESTIONABLE`, :data:`CHI2_ALONE`,
     :data:`MISFIT_QUESTIONABLE`, :data:`MISFIT_FAILED`, :data:`MISS_FACTOR`,
     :data:`HURST_MARGIN`, :data:`OTHER_BETTER`, :data:`OUTSIDE`, :data:`HURST_STD_MAX`.
     """
@@ -1009,6 +1049,10 @@ def fit_problems(chi2, rms_misfit, hurst, *, weighted, dr_min, dr_max, sigma_h, 
         found.add("hurst_undetermined")
     if np.isfinite(sigma_h) and g_max > 2.0 * sigma_h**2:
         found.add("sigma_h_below_data")
+    std_r, std_s = cutoff_std
+    if (r_ok and np.isfinite(std_r) and std_r >= lambda_r) or (
+            s_ok and np.isfinite(std_s) and std_s >= lambda_s):
+        found.add("cutoff_undetermined")
     bits = sum(1 << k for k, name in enumerate(PROBLEMS) if name in found)
     code = max((PROBLEM_LEVELS[name] for name in found), default=0)
     return bits, code

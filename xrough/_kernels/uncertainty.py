@@ -249,8 +249,10 @@ def g_covariance(dr: np.ndarray, q: np.ndarray, C: np.ndarray, *, size: float,
         else:  # the cosine averaged over each band (1 for single modes)
             band = (width[blk:blk + 4096, None] - 1.0).clip(0.0) * step
             w = 1.0 - np.cos(kb * d[None, :]) * np.sinc(band * d[None, :] / (2 * np.pi))
-        cov += (w * wb).T @ w
-        mean += mean_weight[blk:blk + 4096] @ w
+        # einsum, not BLAS: the products are small, and a threaded BLAS spends more CPU
+        # time starting its threads than on them (twice the fit of a profile)
+        cov += np.einsum("ki,kj->ij", w * wb, w)
+        mean += np.einsum("k,ki->i", mean_weight[blk:blk + 4096], w)
     out = np.zeros((nb, nb))
     idx = np.flatnonzero(ok)
     out[np.ix_(idx, idx)] = 0.5 * (cov + cov.T)
@@ -386,11 +388,13 @@ def relative_covariance(dr: np.ndarray, g: np.ndarray, *, size: float, pixel: fl
         return np.full_like(out, np.nan)
     try:
         with np.errstate(all="ignore"):
-            cov = covariance_from_acf(dr[ok], g[ok], size=size, pixel=pixel,
+            unit = float(np.median(g[ok]))  # relative: G in units of its median
+            cov = covariance_from_acf(dr[ok], g[ok] / unit, size=size, pixel=pixel,
                                       geometry=geometry, per_decade=PREDICTION_PER_DECADE)
     except (ValueError, np.linalg.LinAlgError):
         return np.full_like(out, np.nan)
-    out[np.ix_(ok, ok)] = cov / np.outer(g[ok], g[ok]) / max(int(n_maps), 1)
+    rel = g[ok] / unit
+    out[np.ix_(ok, ok)] = cov / np.outer(rel, rel) / max(int(n_maps), 1)
     return out
 
 
