@@ -568,11 +568,12 @@ def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lam
     kw["eq36"] = _eq36_fit(G, se, **kw)  # the start of both shapes
     # the second shape starts where the first ended (its roll-off converted) and from eq. 36,
     # without a grid: the first shape's restarts have searched the same landscape
-    sharp_fit, theta = _fit_spectrum_shape(G, se, rolloff=ROLLOFFS[0], theta_out=True,
-                                           rel_cov=rel_cov, **kw)
+    sharp_fit, theta, power_law = _fit_spectrum_shape(G, se, rolloff=ROLLOFFS[0],
+                                                      theta_out=True, rel_cov=rel_cov, **kw)
     seed = _converted(theta, ROLLOFFS[0], ROLLOFFS[1])
     fits = [sharp_fit, _fit_spectrum_shape(G, se, rolloff=ROLLOFFS[1], seed=seed,
-                                           rel_cov=rel_cov, **kw)]
+                                           rel_cov=rel_cov, power_law_from_start=power_law,
+                                           **kw)]
     at = {name: k for k, name in enumerate(SPECTRUM_OUTPUTS)}
 
     def aic(out):
@@ -881,7 +882,8 @@ def _shape_start(problem: _ShapeProblem, G, se, **kw) -> tuple[np.ndarray, float
     return np.clip(theta, problem.lower + 1e-3, problem.upper - 1e-3), chi2_eq36
 
 
-def _best_solution(problem: _ShapeProblem, theta, chi2_eq36: float, seed=None) -> tuple:
+def _best_solution(problem: _ShapeProblem, theta, chi2_eq36: float, seed=None,
+                   power_law_from_start: bool = False) -> tuple:
     """Solve from ``theta`` and, if that fit is poor, from the best points of a grid.
 
     ``seed``: the end of the fit of the other roll-off shape (``rolloff="auto"``), the
@@ -893,6 +895,9 @@ def _best_solution(problem: _ShapeProblem, theta, chi2_eq36: float, seed=None) -
     every restart ends at the same power law.  Unless it is poor by itself (as a local
     minimum that lost its cutoffs is, e.g. chi^2 = 807 in the case of :data:`_GRID`), such
     a fit restarts only from the grid points that already fit better than it does.
+    ``power_law_from_start``: the other shape's search from eq. 36's start ended at that
+    power law; a seeded search that ends at it too does not repeat that start (the power
+    law is the same in both shapes).
     """
     def poor_alone(theta, chi2):
         return (chi2 > CHI2_QUESTIONABLE if problem.weighted
@@ -903,7 +908,9 @@ def _best_solution(problem: _ShapeProblem, theta, chi2_eq36: float, seed=None) -
 
     if seed is not None:
         best = problem.solve(np.clip(seed, problem.lower + 1e-3, problem.upper - 1e-3))
-        if poor(best[0], best[3]):
+        known = (power_law_from_start and problem.free[2] and problem.free[3]
+                 and not (best[1][2] or best[1][3]))
+        if poor(best[0], best[3]) and not known:
             candidate = problem.solve(theta)
             if candidate[3] < best[3] * (1 - 1e-6):
                 best = candidate
@@ -967,7 +974,8 @@ def _shape_parameters(problem: _ShapeProblem, theta, active, cov_free) -> tuple:
     return out, std, resolved_r, resolved_s
 
 
-def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, rel_cov=None, **kw):
+def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, rel_cov=None,
+                        power_law_from_start=False, **kw):
     """Fit the model spectrum of one roll-off shape to one G (see :func:`fit_spectrum_kernel`).
 
     Optimiser parameters ``theta = [ln(G_sa/G_ref), H, ln eta, ln eps]`` with
@@ -979,7 +987,8 @@ def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, rel_cov=None, **kw
     start_kw = {k: v for k, v in kw.items() if k != "lambda_0"}
     problem = _ShapeProblem(G, se, **{k: v for k, v in kw.items() if k != "eq36"})
     theta, chi2_eq36 = _shape_start(problem, G, se, **start_kw)
-    theta, active, cov_free, chi2 = _best_solution(problem, theta, chi2_eq36, seed)
+    theta, active, cov_free, chi2 = _best_solution(problem, theta, chi2_eq36, seed,
+                                                   power_law_from_start)
     if rel_cov is not None and np.all(np.isfinite(rel_cov)):
         sel = _select(np.asarray(G, dtype=float), np.asarray(se, dtype=float), kw["use"],
                       kw["weighted"], kw["dr"], kw["unit"], "the model spectrum")
@@ -1001,7 +1010,11 @@ def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, rel_cov=None, **kw
         out[~keep], std[~keep] = np.nan, np.nan
     values = np.array([*out, *std, chi2, problem.n, resolved_r, resolved_s, rms_misfit,
                        max_factor, chi2_eq36, np.nan, np.nan, bits, code], dtype=float)
-    return (values, theta) if theta_out else values
+    if not theta_out:
+        return values
+    # whether the first search (from eq. 36's start) ended at the pure power law
+    first = problem.outcomes[0][1] if problem.outcomes else None
+    return values, theta, first is not None and not (first[2] or first[3])
 
 
 # --------------------------------------------------------------------------------------
