@@ -179,3 +179,15 @@ def test_v_el_std_is_nan_without_a_map_geometry():
                      coords={"dr": ("dr", dr, {"units": "nm"})})
     e = xrough.elastic_energy(G, E_star="25 MPa")
     assert np.isnan(float(e.v_el_std)) and e.v_el_std.attrs["error_of"].startswith("none")
+
+
+def test_the_fit_says_what_its_errors_are_of():
+    """A G with its map geometry: the fit's _std carry the covariance of its bins (the
+    surface's error); a G without (here a model G): the bins taken as independent."""
+    G = _maps([1])[0].rough.acf()
+    fit = G.rough.fit()
+    assert fit.sigma_h_std.attrs["error_of"].startswith("the surface")
+    C = xrough.model_spectrum(hurst=0.8, lambda_r=128.0, lambda_s=4.0, rms_gradient=0.1,
+                              unit="nm")
+    model = xrough.acf_from_spectrum(C, G.dr.values)
+    assert xrough.fit_acf(model).hurst_std.attrs["error_of"].startswith("G's bins")

@@ -295,6 +295,18 @@ def gap_note(spec, depends: str) -> str:
     return f"G is not measured over dr = {', '.join(parts)}: {depends}"
 
 
+#: What a ``_std`` of a result (a fit's parameters, a contact prediction) is the error of,
+#: where G states its map geometry (:func:`error_model`).
+ERROR_OF_SURFACE = (
+    "the surface: the scatter between maps of the same size of a Gaussian surface with "
+    "the spectrum of G (finite-area errors of G with their covariance between bins, "
+    "propagated linearly); the theory's own error (Persson's against the solver) is not "
+    "included")
+#: ... and where it does not (a stitched or model G).
+ERROR_OF_BINS = ("G's bins taken as independent, with their standard_error: G states no "
+                 "map geometry (lag_geometry, scan_size, pixel_size) for their covariance")
+
+
 def error_model(G: xr.DataArray) -> dict | None:
     """Return the map geometry the finite-area errors of G need, or None when G has none.
 

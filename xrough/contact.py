@@ -26,7 +26,16 @@ from ._kernels.acf_curve import DETERMINED, FLAT_SLOPE
 from ._kernels.contact import KAPPA_PERSSON
 from ._kernels.gaps import bridge_energy
 from ._kernels.hankel import acf_from_spectrum_kernel
-from .acf import AcfSpec, error_model, gap_note, lag_coord, mark_gaps, read_acf, result_attrs
+from .acf import (
+    ERROR_OF_SURFACE,
+    AcfSpec,
+    error_model,
+    gap_note,
+    lag_coord,
+    mark_gaps,
+    read_acf,
+    result_attrs,
+)
 from .fit_result import read_fit, rolloff_shapes
 from .fitting import fit_acf
 from .gradient import rms_gradient
@@ -306,14 +315,6 @@ def _nan_where(result, mask: xr.DataArray):
 # ---------------------------------------------------------------------------------------
 # full contact: elastic energy (eq. 16, 44)
 # ---------------------------------------------------------------------------------------
-#: What a ``_std`` of a contact prediction is the error of.
-ERROR_OF_SURFACE = (
-    "the surface: the scatter between maps of the same size of a Gaussian surface with "
-    "the spectrum of G (finite-area errors of G with their covariance between bins, "
-    "propagated linearly); the theory's own error (Persson's against the solver) is not "
-    "included")
-
-
 @_own_attrs
 def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Dataset:
     r"""Areal elastic energy of full contact (eq. 16) and of patches of radius a_c (eq. 44).

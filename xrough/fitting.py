@@ -76,7 +76,15 @@ from ._kernels.fitting import (
     fit_spectrum_kernel,
 )
 from ._kernels.shape_factors import ROLLOFFS
-from .acf import AcfSpec, error_model, mark_gaps, read_acf, result_attrs
+from .acf import (
+    ERROR_OF_BINS,
+    ERROR_OF_SURFACE,
+    AcfSpec,
+    error_model,
+    mark_gaps,
+    read_acf,
+    result_attrs,
+)
 from .fit_result import model_acf, rolloff_shapes  # noqa: F401  (read a fit; public here)
 from .memo import by_content
 
@@ -745,10 +753,13 @@ def _flag(da: xr.DataArray, dtype, long_name: str, **attrs) -> xr.DataArray:
 def _fit_variables(setup: FitSetup, part: dict) -> dict:
     """Build the data variables of the fit Dataset from the kernel's outputs ``part``."""
     data = {}
+    error_of = (ERROR_OF_SURFACE if setup.model == "spectrum" and error_model(setup.G)
+                else ERROR_OF_BINS)
     for name, (factor, units, long_name) in _parameter_table(setup).items():
         data[name] = _variable(part[name] * factor, units, long_name)
         data[f"{name}_std"] = _variable(part[f"{name}_std"] * factor, units,
-                                        f"standard deviation of {name}")
+                                        f"standard deviation of {name}").assign_attrs(
+                                            error_of=error_of)
     data["reduced_chi2"] = _variable(part["reduced_chi2"], "1",
                                      "reduced chi^2 of the fit (log residuals)")
     data["n_bins"] = _variable(part["n_bins"].astype(np.int64), "1", "number of bins fitted")
