@@ -199,7 +199,7 @@ def _check_count(n, p, what):
 
 
 def _fit_data(G, se, *, dr, use, dr_ref, weighted, fixed, unit, what):
-    """Select and scale the bins of one G to fit: ``(free, n, p, x, G_sel, G_ref, w)``.
+    """Select and scale the bins of one G to fit: ``(free, n, p, x, G_sel, G_ref, w, sel)``.
 
     ``free`` flags the fitted parameters (the amplitude, and those of ``fixed`` that are
     NaN), ``n`` and ``p`` count bins and free parameters, ``x = dr / dr_ref``, ``G_ref`` is
@@ -218,7 +218,7 @@ def _fit_data(G, se, *, dr, use, dr_ref, weighted, fixed, unit, what):
     x = dr[sel] / dr_ref
     G_ref = float(2.0 ** np.round(np.mean(np.log2(G[sel]))))
     w = se[sel] / G[sel] if weighted else np.ones(n)  # standard error of ln G
-    return free, n, p, x, G[sel], G_ref, w
+    return free, n, p, x, G[sel], G_ref, w, sel
 
 
 # --------------------------------------------------------------------------------------
@@ -299,7 +299,7 @@ def fit_eq36_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, unit, c
 
     ``check=False`` keeps the parameters of a failed fit (a starting point needs them).
     """
-    free, n, p, x, G_sel, G_ref, w = _fit_data(G, se, dr=dr, use=use, dr_ref=dr_ref,
+    free, n, p, x, G_sel, G_ref, w, _ = _fit_data(G, se, dr=dr, use=use, dr_ref=dr_ref,
                                                weighted=weighted, fixed=fixed, unit=unit,
                                                what="eq. 36")
     y = G_ref / G_sel  # 1/g with g = G/G_ref
@@ -637,7 +637,7 @@ class _ShapeProblem:
     """
 
     def __init__(self, G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lambda_0, unit):
-        self.free, self.n, p, self.x, G_sel, self.G_ref, self.w = _fit_data(
+        self.free, self.n, p, self.x, G_sel, self.G_ref, self.w, self.sel = _fit_data(
             G, se, dr=dr, use=use, dr_ref=dr_ref, weighted=weighted, fixed=fixed, unit=unit,
             what="the model spectrum")
         self.dof = self.n - p
@@ -990,8 +990,7 @@ def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, rel_cov=None,
     theta, active, cov_free, chi2 = _best_solution(problem, theta, chi2_eq36, seed,
                                                    power_law_from_start)
     if rel_cov is not None and np.all(np.isfinite(rel_cov)):
-        sel = _select(np.asarray(G, dtype=float), np.asarray(se, dtype=float), kw["use"],
-                      kw["weighted"], kw["dr"], kw["unit"], "the model spectrum")
+        sel = problem.sel
         cov_free = problem.sandwich(theta, rel_cov[np.ix_(sel, sel)], chi2)
     r = problem.residuals(theta)
     rms_misfit, max_factor = _rms_misfit(r, problem.w), _max_factor(r, problem.w)
