@@ -170,29 +170,57 @@ def warning_key(w) -> str:
 # ---------------------------------------------------------------------------------------
 # truth of the model spectrum
 # ---------------------------------------------------------------------------------------
+def lattice_moments(topo, dr: np.ndarray) -> dict:
+    """The exact expectations of the map's own lattice of modes (fixed-amplitude map).
+
+    ``sigma_h^2 = sum |h_q|^2``, ``int G / r^2 dr = sum |q| |h_q|^2`` (eq. 16 over the
+    modes) and ``gbar^2(dr) = sum_{|q| < 2 pi / dr} q^2 |h_q|^2`` (eq. 26), the mean (q = 0)
+    left out; in the map's unit (nm).
+    """
+    h = topo.values
+    power = np.abs(np.fft.fft2(h) / h.size) ** 2
+    power[0, 0] = 0.0
+    q1 = [2 * np.pi * np.fft.fftfreq(k, d=float(abs(topo[d][1] - topo[d][0])))
+          for k, d in zip(h.shape, topo.dims)]
+    q = np.hypot(q1[0][:, None], q1[1][None, :])
+    order = np.argsort(q, axis=None)
+    qs, cum = q.ravel()[order], np.cumsum((q**2 * power).ravel()[order])
+    below = np.searchsorted(qs, 2 * np.pi / dr, side="left")  # modes with |q| < 2 pi / dr
+    gbar = np.sqrt(np.where(below > 0, cum[np.maximum(below - 1, 0)], 0.0))
+    return {"sigma_h": float(np.sqrt(power.sum())), "energy": float((q * power).sum()),
+            "gbar": gbar}
+
+
 def truth(cfg: dict, topo, G, lags: dict, e_star_pa: float, p0: str) -> dict:
-    """The model spectrum's exact value of each quantity (NaN where there is none)."""
+    """Each quantity's exact value (NaN where there is none): of the map's lattice of modes
+    (``values``), and of the continuum model spectrum (``continuum``)."""
     n = cfg["n"]
     model = model_from_attrs(topo.attrs)
     C = xrough.model_spectrum(hurst=cfg["hurst"], lambda_r=n / cfg["ratio"],
                               lambda_s=cfg["lambda_s"], lambda_0=float(n),
                               rms_gradient=cfg["rms_gradient"], unit="nm")
     dr = G.dr.values
-    gbar = xrough.gradient_from_spectrum(C, dr)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        Gm = xrough.acf_from_spectrum(C, dr)
-        pers = xrough.persson(Gm, E_star=e_star_pa, p0=p0, gradient=gbar,
-                              variables=("a_r", "sigma_c"))
+    lattice = lattice_moments(topo, dr)
     nm = xrough.units.conversion_factor("nm", "m")
-    out = {"sigma_h": float(np.sqrt(model.moment(0))), "hurst": model.hurst,
-           "lambda_r": 2 * np.pi / model.q_r,
-           "v_el": e_star_pa / 4 * model.moment(1) * nm}
-    for name, _, var, lag in QUANTITIES:
-        if lag is not None:
-            source = gbar if var == "gbar" else pers[var]
-            out[name] = float(source.isel(dr=lags[lag]))
-    return {"values": out, "G_model": Gm.values}
+    out, continuum = {}, {}
+    for kind, sigma_h, energy, gbar_values in (
+            ("lattice", lattice["sigma_h"], lattice["energy"], lattice["gbar"]),
+            ("continuum", float(np.sqrt(model.moment(0))), model.moment(1),
+             xrough.gradient_from_spectrum(C, dr).values)):
+        gbar = xrough.gradient_from_spectrum(C, dr).copy(data=gbar_values)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            Gm = xrough.acf_from_spectrum(C, dr)
+            pers = xrough.persson(Gm, E_star=e_star_pa, p0=p0, gradient=gbar,
+                                  variables=("a_r", "sigma_c"))
+        values = {"sigma_h": sigma_h, "hurst": model.hurst, "lambda_r": 2 * np.pi / model.q_r,
+                  "v_el": e_star_pa / 4 * energy * nm}
+        for name, _, var, lag in QUANTITIES:
+            if lag is not None:
+                source = gbar if var == "gbar" else pers[var]
+                values[name] = float(source.isel(dr=lags[lag]))
+        (out if kind == "lattice" else continuum).update(values)
+    return {"values": out, "continuum": continuum, "G_model": Gm.values}
 
 
 # ---------------------------------------------------------------------------------------
@@ -256,7 +284,7 @@ def run_config(cfg: dict, args) -> dict:
         dr=dr0[keep], G=np.array(G_vals), se=np.array(se_vals),
         fourier=np.array(fourier_vals),
         G_exact=fixed["G"].values[keep], G_model=t["G_model"][keep],
-        x=np.array(xs), std=np.array(stds), truth=t["values"],
+        x=np.array(xs), std=np.array(stds), truth=t["values"], continuum=t["continuum"],
         on_mean={k: v[0] for k, v in on_mean.items()},
         lag_px={k: float(dr0[i]) for k, i in lags.items()},
         fixed_warnings=sorted({warning_key(w) for w in caught}),
@@ -365,7 +393,7 @@ def quantity_table(res: dict, markdown: bool) -> None:
         else:
             zcols = ["-"] * 4
         label = name if lag is None else f"{name} [{res['lag_px'][lag]:.3g}]"
-        rows.append([label, f"{ok.sum()}/{x.size}",
+        rows.append([label, f"{ok.sum()}/{x.size}", fmt(res["continuum"].get(name, np.nan)),
                      fmt(true) if np.isfinite(true) else "- (seed mean)",
                      fmt(res["on_mean"][name]), fmt(mean), fmt(sd / abs(mean), 3),
                      f"{(mean - ref) / sd:+.2f}" if sd > 0 else "-", *zcols])
@@ -374,7 +402,7 @@ def quantity_table(res: dict, markdown: bool) -> None:
           f"v_el in J/m^2; sigma_c in Pa; [dr of the bin used, px]); noise of bias ~ "
           f"{1 / np.sqrt(res['ok']):.2f}, of std/sd ~ "
           f"{1 / np.sqrt(2 * (res['ok'] - 1)):.2f}",
-          ["quantity", "n", "truth", "on E[G]", "mean", "sd/mean", "bias", "std/sd",
+          ["quantity", "n", "continuum", "truth", "on E[G]", "mean", "sd/mean", "bias", "std/sd",
            "z mean", "z sd", "|z|>2"], rows, markdown)
 
 

@@ -80,9 +80,23 @@ def table(text):
     return rows
 
 
-def agrees(printed, value, unit):
-    """Does the printed ``"12.34 nm"`` equal ``value unit`` within its last printed digit?"""
-    number, _, printed_unit = printed.partition(" ")
+CELL = re.compile(r"^(?P<value>\S+)(?: \+-(?P<stat>\S+) \(stat\))?"
+                  r"(?: \+-(?P<model>\S+) \(model\))?(?: (?P<unit>.+))?$")
+
+
+def cell(printed):
+    """The parts of a printed ``"17.8 +-3 (stat) +-0.5 (model) mJ/m²"``: value, stat,
+    model (None if not printed) and unit ("" for dimensionless)."""
+    parts = CELL.match(printed).groupdict()
+    parts["unit"] = parts["unit"] or ""
+    return parts
+
+
+def agrees(printed, value, unit, part="value"):
+    """Does the printed ``"12.34 nm"`` (or one of its errors: ``part``) equal ``value unit``
+    within its last printed digit?"""
+    parts = cell(printed)
+    number, printed_unit = parts[part], parts["unit"]
     q = u.ureg.Quantity(float(number), printed_unit or "dimensionless")
     half_digit = 0.5 * 10.0 ** decimal.Decimal(number).as_tuple().exponent
     tolerance = u.ureg.Quantity(half_digit, printed_unit or "dimensionless")
@@ -141,6 +155,25 @@ def test_report_numbers_agree_with_the_api_in_their_printed_units(files, report)
         assert agrees(printed, value, value.attrs.get("units", "1")), (column, printed)
         checked += 1
     assert checked >= 7
+    # the errors beside them: one standard deviation (stat) and the model error
+    errors = api_errors(files / "afm.nc")
+    for (column, part), value in errors.items():
+        assert agrees(rows["afm"][column], abs(float(value)), value.attrs.get("units", "1"),
+                      part), (column, part, rows["afm"][column], float(value))
+
+
+def api_errors(path):
+    """The errors the report prints beside its numbers, through the API."""
+    topo = xrough.detrend(xrough.open_topography(path), mode="plane")
+    G = topo.rough.acf(direction="radial", points_per_decade=10)
+    contact = G.rough.persson(E_star=E_STAR, p0=P0)
+    k = int(np.flatnonzero(np.isfinite(contact.a_r) & np.isfinite(contact.sigma_c))[0])
+    at = contact.isel(dr=k)
+    gbar = G.rough.gradient()
+    return {("v_el", "stat"): G.rough.energy(E_star=E_STAR).v_el_std,
+            ("rms grad", "stat"): gbar.gbar_std.sel(dr=float(at.dr)).assign_attrs(units="1"),
+            ("a_r", "stat"): at.a_r_std, ("a_r", "model"): at.a_r_model_error,
+            ("sigma_c", "stat"): at.sigma_c_std, ("sigma_c", "model"): at.sigma_c_model_error}
 
 
 def test_sigma_h_is_printed_in_the_height_unit(report):

@@ -401,11 +401,33 @@ def test_questionable_curves_are_drawn_as_such():
     good = G.rough.persson(E_star="25 MPa", p0="0.1 MPa")
     assert good.attrs["quality"] == "good"
     ax = good.rough.plot(variables=["a_r"])[0]
-    assert ax.lines[0].get_linestyle() == "-" and ax.get_legend() is None
+    assert ax.lines[0].get_linestyle() == "-"
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["model error"]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", xrough.QualityWarning)
         bad = xrough.quality.mark(good, "a test of the marks", what="persson")
     ax = bad.rough.plot(variables=["a_r"])[0]
     assert ax.lines[0].get_linestyle() == "--"
     assert ax.lines[0].get_markerfacecolor() == "none"
-    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["questionable"]
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["questionable",
+                                                                   "model error"]
+
+
+def test_persson_plots_its_errors_as_bands_not_panels():
+    """a_r_std is a filled band of one standard deviation around a_r, a_r_model_error a
+    hatched one from a_r to the exact area it implies; neither gets a panel."""
+    topo = xrough.self_affine_surface(hurst=0.8, lambda_r=32.0, lambda_s=4.0, size=128.0,
+                                      n=128, rms_gradient=0.1, unit="nm", seed=0)
+    ds = topo.rough.acf().rough.persson(E_star="25 MPa", p0="0.15 MPa")
+    axes = ds.rough.plot()
+    assert [ax.get_title() for ax in axes] == [n for n in ds.data_vars
+                                               if not n.endswith(("_std", "_model_error"))]
+    ax = axes[[a.get_title() for a in axes].index("a_r")]
+    filled, hatched = ax.collections[0], ax.collections[1]
+    assert hatched.get_hatch() == "///" and not filled.get_hatch()
+    y, std, model = ds.a_r.values, ds.a_r_std.values, ds.a_r_model_error.values
+    k = int(np.flatnonzero(np.isfinite(std) & np.isfinite(model))[0])
+    top = filled.get_paths()[0].vertices[:, 1]
+    assert np.isclose(top, y[k] + std[k]).any()
+    edges = hatched.get_paths()[0].vertices[:, 1]
+    assert np.isclose(edges, y[k] - model[k]).any()  # the exact area: above a_r

@@ -303,6 +303,9 @@ ERROR_OF_SURFACE = (
     "propagated linearly); the theory's own error (Persson's against the solver) is not "
     "included")
 #: ... and where it does not (a stitched or model G).
+#: ... and where none is computed: G states no map geometry.
+ERROR_OF_NONE = ("none: G states no map geometry (lag_geometry, scan_size, pixel_size) for "
+                 "the covariance of its bins, e.g. a stitched or model G")
 ERROR_OF_BINS = ("G's bins taken as independent, with their standard_error: G states no "
                  "map geometry (lag_geometry, scan_size, pixel_size) for their covariance")
 

@@ -26,7 +26,9 @@ from ._kernels.acf_curve import DETERMINED, FLAT_SLOPE
 from ._kernels.contact import KAPPA_PERSSON
 from ._kernels.gaps import bridge_energy
 from ._kernels.hankel import acf_from_spectrum_kernel
+from ._kernels.model_error import AREA_ERROR_PRESSURES, AREA_ERROR_RANGE, area_model_error
 from .acf import (
+    ERROR_OF_NONE,
     ERROR_OF_SURFACE,
     AcfSpec,
     error_model,
@@ -390,8 +392,7 @@ def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Datas
                 equation="eq. 16: v_el = E*/4 int_0^inf G(r) / r^2 dr"),
             "v_el_std": std.assign_attrs(
                 units="J m-2", long_name="statistical standard deviation of v_el",
-                error_of=ERROR_OF_SURFACE if model else "none: G states no map geometry "
-                "(lag_geometry, scan_size, pixel_size), e.g. a stitched or model G"),
+                error_of=ERROR_OF_SURFACE if model else ERROR_OF_NONE),
             "v_el_patch": part["patch"].assign_attrs(
                 units="J m-2", long_name="areal elastic energy to flatten patches of radius "
                 "a_c", equation="eq. 44: v_el(a_c) = E*/4 int_0^a_c G/r^2 dr"),
@@ -851,6 +852,9 @@ class _ContactArea:
     a_ri: xr.DataArray | None
     weight: xr.DataArray
     check: tuple
+    #: ``gbar_std / gbar`` of the given gradient on G's lags, and what it is the error of
+    rel_std: xr.DataArray
+    error_of: str
 
     @functools.cached_property
     def gbar0(self) -> xr.DataArray:
@@ -889,8 +893,31 @@ def _contact_area(run: _PerssonRun, gradient: xr.DataArray) -> _ContactArea:
     a_r = k.contact_area(p_star, run.kappa)
     need_ai = run.theory != "persson" or "a_ri" in run.wanted
     a_ri = k.improved_area(p_star, a_r) if need_ai else None
+    rel_std, error_of = _gradient_error(gradient, run)
     return _ContactArea(gbar=gbar, p_star=p_star, a_r=a_r, a_ri=a_ri,
-                        weight=k.weighting(run.theory, a_r, a_ri), check=check)
+                        weight=k.weighting(run.theory, a_r, a_ri), check=check,
+                        rel_std=rel_std, error_of=error_of)
+
+
+def _gradient_error(gradient: xr.DataArray, run: _PerssonRun) -> tuple[xr.DataArray, str]:
+    """``gbar_std / gbar`` of a gradient on G's lags (NaN: none) and what it is the error of."""
+    if "gbar_std" not in gradient.coords:
+        return (xr.full_like(_gradient_on(gradient, run.G, run.spec), np.nan),
+                "none: the given gradient has no coordinate gbar_std")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = gradient["gbar_std"].reset_coords(drop=True) / gradient.reset_coords(drop=True)
+    rel["dr"].attrs = gradient["dr"].attrs
+    return (_gradient_on(rel, run.G, run.spec),
+            str(gradient["gbar_std"].attrs.get("error_of", "")))
+
+
+def _std_of(value: xr.DataArray, of_p_star, area: _ContactArea, step: float = 1e-6):
+    """Return the standard deviation of ``of_p_star(p*)`` from the error of gbar.
+
+    ``p* = p0 / (E* gbar)``: a relative error ``e`` of gbar is one of ``-e`` of ``p*``.
+    """
+    moved = of_p_star(area.p_star * np.exp(step))
+    return abs((moved - value) / step) * area.rel_std
 
 
 def _area_vars(run: _PerssonRun, area: _ContactArea) -> dict[str, xr.DataArray]:
@@ -907,7 +934,68 @@ def _area_vars(run: _PerssonRun, area: _ContactArea) -> dict[str, xr.DataArray]:
             units="Pa", long_name="mean contact stress at resolution dr",
             equation="eq. 39/40: p0 / a_r"),
     }
-    return {name: make() for name, make in made.items() if name in run.wanted}
+    out = {name: make() for name, make in made.items() if name in run.wanted}
+
+    def a_r_of(p_star):
+        return k.contact_area(p_star, run.kappa)
+
+    of_p_star = {"p_star": lambda p: p, "a_r": a_r_of,
+                 "a_ri": lambda p: k.improved_area(p, a_r_of(p)),
+                 "sigma_c": lambda p: run.p0 / a_r_of(p)}
+    for name in list(out):
+        std = _std_of(out[name], of_p_star[name], area)
+        out[f"{name}_std"] = std.assign_attrs(
+            units=out[name].attrs["units"],
+            long_name=f"statistical standard deviation of {name}",
+            error_of=area.error_of + (" (propagated from gbar_std, linearised)"
+                                      if area.error_of.startswith("the surface") else ""))
+    out.update(_model_errors(run, area, out))
+    return out
+
+
+#: What the ``_model_error`` of an area or stress is, in words.
+_MODEL_ERROR = (
+    "the theory's own error: the expected difference theory - exact solution, from the "
+    "boundary-element validation of docs/validation.md (xrough/data/persson_area_error.csv: "
+    "mean over H = 0.5, 0.8 and bandwidths lambda_r / lambda_s = 16-256 at this p*, "
+    "interpolated in ln p*); spread between those configurations: attr model_error_spread "
+    "(relative); not statistical, it does not shrink with the map size")
+
+
+def _model_errors(run: _PerssonRun, area: _ContactArea, out: dict) -> dict:
+    """``a_r``, ``a_ri`` and ``sigma_c``'s ``_model_error`` (theory - solver), those asked for."""
+    wanted = [name for name in ("a_r", "a_ri", "sigma_c") if name in out]
+    if not wanted:
+        return {}
+    persson_kappa = bool(np.isclose(run.kappa, KAPPA_PERSSON, rtol=1e-9))
+    lo, hi = AREA_ERROR_RANGE
+    made = {}
+    for name in wanted:
+        which = "a_ri" if name == "a_ri" else "a_r"
+        rel = xr.apply_ufunc(lambda p, a=which: area_model_error(p, a)[0], area.p_star,
+                             dask="parallelized", output_dtypes=[float])
+        # a / a_exact - 1 = rel: theory - exact = a rel / (1 + rel); sigma_c = p0 / a_r
+        error = (out[name] * rel / (1 + rel) if name != "sigma_c" else -out[name] * rel)
+        if not persson_kappa:
+            error = xr.full_like(error, np.nan)
+        note = (_MODEL_ERROR + f"; beyond p* = {lo:g}-{hi:g} held or falling to 0 at full "
+                "contact" if persson_kappa else
+                f"none: the validation table is for Persson's kappa = {KAPPA_PERSSON:.4f}, "
+                f"not {run.kappa:.4g}")
+        made[f"{name}_model_error"] = error.where(np.isfinite(out[name])).assign_attrs(
+            units=out[name].attrs["units"],
+            long_name=f"model error of {name} (theory - exact, expected)",
+            error_of=note, model_error_spread=_spread_text(which) if persson_kappa else "none")
+    return made
+
+
+def _spread_text(which: str) -> str:
+    """Say the spread of the model error between the table's configurations."""
+    p, spread = AREA_ERROR_PRESSURES, area_model_error(AREA_ERROR_PRESSURES, which)[1]
+    return (f"{spread.max():.2f} (p* = {p[np.argmax(spread)]:g}) to {spread.min():.2f} "
+            f"(p* = {p[np.argmin(spread)]:g}) of the exact value's relative difference, "
+            "between the table's configurations (xrough._kernels.model_error."
+            "area_model_error gives it at any p*)")
 
 
 def _sigma_quick(run: _PerssonRun, fit: xr.Dataset) -> xr.DataArray:

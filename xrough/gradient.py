@@ -32,7 +32,15 @@ from ._kernels import gradient as kernels
 from ._kernels.binning import log_range
 from ._kernels.hankel import power_law_moment_kernel
 from ._kernels.spectral_models import model_gradient2
-from .acf import lag_coord, mark_gaps, read_acf, result_attrs
+from .acf import (
+    ERROR_OF_NONE,
+    ERROR_OF_SURFACE,
+    error_model,
+    lag_coord,
+    mark_gaps,
+    read_acf,
+    result_attrs,
+)
 from .fit_result import gradient_from_fit
 from .fitting import describe_problems, fit_acf, prepare_fit
 from .memo import by_content
@@ -160,6 +168,7 @@ def _rms_gradient(G: xr.DataArray, method: str, fit: xr.Dataset | None) -> xr.Da
     extra = [d for d in Gl.dims if d != "dr"]
     level = xr.DataArray(np.zeros([Gl.sizes[d] for d in extra], dtype=np.int8), dims=extra)
     notes = ""  # 'simple' and 'exact' are what they say: good
+    errors = error_model(G)  # lengths in dr's unit, as Gl
     if method == "simple":
         out = xr.apply_ufunc(kernels.simple_gradient, xr.DataArray(dr, dims="dr"), Gl,
                              dask="parallelized", output_dtypes=[float], keep_attrs=False)
@@ -181,6 +190,7 @@ def _rms_gradient(G: xr.DataArray, method: str, fit: xr.Dataset | None) -> xr.Da
     out = out.transpose(..., "dr").assign_coords(G["dr"].coords)
     out = out.drop_vars([c for c in out.coords if c not in out.dims and c != "dr"
                          and c != "gradient_method"], errors="ignore")
+    out = out.assign_coords(gbar_std=_gradient_std(out, Gl, errors, method))
     level = level.reset_coords(drop=True)
     out.name = "gbar"
     attrs = {"units": "1", "long_name": "scale-dependent rms gradient",
@@ -194,6 +204,28 @@ def _rms_gradient(G: xr.DataArray, method: str, fit: xr.Dataset | None) -> xr.Da
     return mark_gaps(out, spec, what=f"rms_gradient (method {method!r})", depends=_GAP,
                      level="good" if out.attrs["method"] in ("simple", "fit") else
                      "questionable")
+
+
+def _gradient_std(gbar: xr.DataArray, Gl: xr.DataArray, errors: dict | None,
+                  method: str) -> xr.Variable:
+    """Build the coordinate ``gbar_std``, the statistical error of gbar (NaN where gbar is)."""
+    if errors is None:
+        std, error_of = xr.full_like(gbar, np.nan), ERROR_OF_NONE
+    else:
+        std = xr.apply_ufunc(
+            kernels.gradient_std, Gl, input_core_dims=[["dr"]], output_core_dims=[["dr"]],
+            kwargs={"dr": Gl["dr"].values, "errors": errors, "ballistic": method == "simple",
+                    "smooth": _EXACT_DEFAULTS["smooth"],
+                    "interpolation": _EXACT_DEFAULTS["interpolation"]},
+            vectorize=True, dask="parallelized", output_dtypes=[float], keep_attrs=False)
+        std = std * gbar.reset_coords(drop=True)  # relative to absolute (NaN where gbar is)
+        error_of = ERROR_OF_SURFACE + (
+            "; the relative linear response of eq. 26 of eq. 10/11 to G's errors, also where "
+            "the fitted model gives gbar (the ballistic sqrt(4 G) / dr where eq. 26 has no "
+            "value)" if method != "simple" else "")
+    return xr.Variable(gbar.dims, std.transpose(*gbar.dims).data, attrs={
+        "units": "1", "long_name": "statistical standard deviation of gbar",
+        "error_of": error_of})
 
 
 def _fitted_on_lags(params: xr.Dataset, G: xr.DataArray) -> xr.DataArray:

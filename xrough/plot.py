@@ -229,7 +229,11 @@ def plot_topography(topography: xr.DataArray, *, ax=None, cmap: str = "viridis")
 
 
 def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
-    """Log-log plot of a function of ``dr`` or ``q``, with the standard error as a band.
+    """Log-log plot of a function of ``dr`` or ``q``, with its errors as bands.
+
+    The statistical error (coordinate ``standard_error`` or ``<name>_std``) is a filled
+    band of one standard deviation, a model error (coordinate ``<name>_model_error``,
+    theory - exact) a hatched one from the value to where the exact solution is expected.
 
     Extra dims (e.g. ``scan``) give one line each. Lines and bands break at NaN bins and
     at the uncovered bins of a stitched G. A curve whose ``quality_flag`` is questionable
@@ -260,10 +264,9 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
         line = stacked.isel(_line=k)
         x = np.asarray(line[dim].values, dtype=float)
         y = np.asarray(line.values, dtype=float)
-        se = (np.asarray(line["standard_error"].values, dtype=float)
-              if error and "standard_error" in line.coords else None)
+        se, model = (_error_of(line, kind) if error else None for kind in ("std", "model"))
         breaks = _gap_breaks(da, dim, x)
-        x, (y, *rest) = _with_gaps(x, [y] + ([se] if se is not None else []), breaks)
+        x, (y, *rest) = _with_gaps(x, [y] + [e for e in (se, model) if e is not None], breaks)
         label = user_label if k == 0 else None
         if extra:
             index = ", ".join(_coord_text(d, line[d].item(), _coord_units(da, d))
@@ -281,9 +284,15 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
             marked = True
         (ln,) = ax.plot(x, y, label=label, **style)
         if se is not None:
-            se = rest[0]
+            se = rest.pop(0)
             lo = np.maximum(y - se, BAND_FLOOR * y) if log_y else y - se
             ax.fill_between(x, lo, y + se, color=ln.get_color(), alpha=0.25, linewidth=0)
+        if model is not None:  # theory - exact: the exact solution lies at y - model
+            exact = y - rest.pop(0)
+            ax.fill_between(x, np.minimum(y, exact), np.maximum(y, exact), facecolor="none",
+                            edgecolor=ln.get_color(), hatch="///", alpha=0.35, linewidth=0,
+                            label="model error" if k == 0 else None)
+            marked = True
     log_axis(ax.xaxis)
     if log_y:
         log_axis(ax.yaxis)
@@ -295,12 +304,34 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
     return ax
 
 
+#: Coordinates (or Dataset variables) that hold a result's errors, by kind.
+_ERRORS = {"std": ("standard_error", "{name}_std"), "model": ("{name}_model_error",)}
+
+
+def _error_of(da: xr.DataArray, kind: str) -> np.ndarray | None:
+    """Return the statistical (``"std"``) or model error of ``da`` (None: none)."""
+    for pattern in _ERRORS[kind]:
+        name = pattern.format(name=da.name)
+        if name in da.coords and da.coords[name].dims == da.dims:
+            values = np.asarray(da.coords[name].values, dtype=float)
+            return values if np.isfinite(values).any() else None
+    return None
+
+
+def _is_error(name: str) -> bool:
+    """Whether a Dataset variable is the error of another (drawn as its band)."""
+    return name.endswith(("_std", "_model_error"))
+
+
 def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None, ax=None,
                  G: xr.DataArray | None = None):
     """One panel per variable of a result Dataset (Persson theory, energy, ...).
 
     Variables on ``dr``, ``q`` or ``a_c`` are drawn against it (log axes, see
-    :func:`plot_loglog`); scalars are skipped. A fit (:func:`xrough.fit_acf`) goes to
+    :func:`plot_loglog`); scalars are skipped. A variable's errors are drawn as bands in
+    its panel, not as panels of their own: ``<name>_std`` (one standard deviation, filled)
+    and ``<name>_model_error`` (theory - exact: hatched from the value to where the exact
+    solution is expected). A fit (:func:`xrough.fit_acf`) goes to
     :func:`plot_fit` (with ``G``: the data under the model) and a patch radius
     (:func:`xrough.patch_radius`) to :func:`plot_patch_radius`, each in one panel.
 
@@ -356,7 +387,7 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None, ax=None,
     if variables is None and _is_patch_radius(ds):
         return np.array([plot_patch_radius(ds, ax=None if axes is None
                                            else np.ravel(axes)[0])])
-    names = [n for n in (variables or ds.data_vars)
+    names = [n for n in (variables or [v for v in ds.data_vars if not _is_error(v)])
              if any(d in ds[n].dims for d in ("dr", "q", "a_c"))]
     if not names:
         raise ValueError("nothing to plot: no variable depends on dr, q or a_c, and the "
@@ -372,7 +403,10 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None, ax=None,
         raise ValueError(f"{flat.size} Axes given for {len(names)} panels ({', '.join(names)}): "
                          "pass one per variable, or choose them with variables=[...]")
     for name, ax in zip(names, flat):
-        plot_loglog(ds[name], ax=ax)
+        da = ds[name]
+        bands = {e: ds[e] for e in (f"{name}_std", f"{name}_model_error")
+                 if e in ds.data_vars and ds[e].dims == da.dims}
+        plot_loglog(da.assign_coords(bands), ax=ax)
         ax.set_title(name)
     for ax in flat[len(names):]:
         ax.set_visible(False)

@@ -520,7 +520,7 @@ def spectrum_error_kernel(q, dr, G, covariance, *, smooth: float | None = None,
     """
     r, g = _check_acf(dr, G)
     q = np.asarray(q, dtype=float)
-    scale, axes = _principal_axes(covariance, g.size, captured)
+    scale, axes = principal_axes(covariance, g.size, captured)
     if scale.size == 0:
         return np.zeros(q.shape)
     base = _smoothed_spectrum(q, r, g, smooth, interpolation=interpolation)
@@ -531,7 +531,7 @@ def spectrum_error_kernel(q, dr, G, covariance, *, smooth: float | None = None,
     return np.sqrt(var)
 
 
-def _principal_axes(covariance, size: int, captured: float) -> tuple[np.ndarray, np.ndarray]:
+def principal_axes(covariance, size: int, captured: float) -> tuple[np.ndarray, np.ndarray]:
     """Return the standard deviations and eigenvectors that hold ``captured`` of ``covariance``.
 
     In decreasing order of eigenvalue, until ``captured`` of the trace is reached, leaving

@@ -146,6 +146,28 @@ def show(da: xr.DataArray, *, none: str = "inf", digits: int = 4) -> str:
     return text(float(da), units_of(da), none=none, digits=digits)
 
 
+def show_errors(value: xr.DataArray, std: xr.DataArray | None = None,
+                model: xr.DataArray | None = None, *, digits: int = 3) -> str:
+    """Format a 0-d result with its statistical and model errors, in the value's prefix.
+
+    ``0.213 +-0.002 (stat) +-0.05 (model)``: each error that is given and finite (the model
+    error as its magnitude: its sign is in the archive and the JSON).
+    """
+    x = float(value)
+    if not np.isfinite(x):
+        return show(value, digits=digits)
+    q = _compact(x, units_of(value))
+    scale = q.magnitude / x if x else 1.0
+    unit = "" if q.dimensionless else f" {q.units:~P}"
+    if q.dimensionless:
+        scale = q.to("dimensionless").magnitude / x if x else 1.0
+    parts = [f"{x * scale:.{digits}g}"]
+    for err, label in ((std, "stat"), (model, "model")):
+        if err is not None and np.isfinite(float(err)):
+            parts.append(f"+-{abs(float(err)) * scale:.2g} ({label})")
+    return " ".join(parts) + unit
+
+
 def finite(value: float) -> float | None:
     value = float(value)
     return value if np.isfinite(value) else None

@@ -18,7 +18,17 @@ from .._version import __version__
 from ..io.archive import save_analysis
 from ..plot import display_unit, pyplot
 from ..quality import notes_of, warn, worst
-from ._common import EXIT_OK, emit_json, finest, finite, number, output, show, write_atomic
+from ._common import (
+    EXIT_OK,
+    emit_json,
+    finest,
+    finite,
+    number,
+    output,
+    show,
+    show_errors,
+    write_atomic,
+)
 from ._files import add_acf_options, add_file_options, measure_all
 
 #: The physical options: dimension and an example with its unit.
@@ -128,9 +138,12 @@ def _cells(m: dict, at: xr.Dataset, gbar_there: xr.DataArray) -> tuple[str, ...]
     return (m["name"], _rated(show(fit.sigma_h, none="no plateau"), lf),
             _rated(f"{float(fit.hurst):.3f}+-{float(fit.hurst_std):.3f}", lf),
             _rated(show(fit.lambda_r, none="no roll-off"), lf),
-            _rated(show(gbar_there, digits=3), levels["gradient"]),
-            _rated(show(energy.v_el, digits=3), levels["energy"]),
-            _rated(show(at.a_r, digits=3), lp), _rated(show(at.sigma_c, digits=3), lp),
+            _rated(show_errors(gbar_there, _coord(gbar_there, "gbar_std")),
+                   levels["gradient"]),
+            _rated(show_errors(energy.v_el, energy.get("v_el_std")), levels["energy"]),
+            _rated(show_errors(at.a_r, at.get("a_r_std"), at.get("a_r_model_error")), lp),
+            _rated(show_errors(at.sigma_c, at.get("sigma_c_std"),
+                               at.get("sigma_c_model_error")), lp),
             show(at.dr), patch)
 
 
@@ -146,13 +159,26 @@ def _record(m: dict, at: xr.Dataset, gbar_there: xr.DataArray) -> dict:
         "sigma_h": {**number(fit.sigma_h), "std": finite(fit.sigma_h_std)},
         "hurst": {**number(fit.hurst), "std": finite(fit.hurst_std)},
         "lambda_r": {**number(fit.lambda_r), "std": finite(fit.lambda_r_std)},
-        "rms_gradient": number(gbar_there),
-        "v_el": number(r["energy"].v_el),
-        "a_r": number(at.a_r),
-        "sigma_c": number(at.sigma_c),
+        "rms_gradient": {**number(gbar_there),
+                         "std": _finite_of(_coord(gbar_there, "gbar_std"))},
+        "v_el": {**number(r["energy"].v_el), "std": _finite_of(r["energy"].get("v_el_std"))},
+        "a_r": {**number(at.a_r), "std": _finite_of(at.get("a_r_std")),
+                "model_error": _finite_of(at.get("a_r_model_error"))},
+        "sigma_c": {**number(at.sigma_c), "std": _finite_of(at.get("sigma_c_std")),
+                    "model_error": _finite_of(at.get("sigma_c_model_error"))},
         "at_dr": number(at.dr),
         "patch_radius": number(r["patch"].a_c) if "patch" in r else None,
     }
+
+
+def _coord(da: xr.DataArray, name: str) -> xr.DataArray | None:
+    """Return a coordinate of ``da`` (None if it has none)."""
+    return da.coords[name] if name in da.coords else None
+
+
+def _finite_of(da: xr.DataArray | None) -> float | None:
+    """Return a 0-d variable as a JSON number (None: absent or not finite)."""
+    return None if da is None else finite(da)
 
 
 def _row(m: dict) -> tuple[tuple[str, ...], dict]:
@@ -257,6 +283,9 @@ def _print_table(measured: list[dict], rows: list[tuple[str, ...]], parameters: 
     print(f"detrend before G: {', '.join(modes)} (--detrend to change); sigma_h from the "
           "fit of G (info gives the rms height of the heights); rms grad, a_r and sigma_c "
           "at the finest resolution where Persson theory is determined (column 'at dr'); "
+          "+-: one standard deviation of a map of this size (stat) and the theory's own "
+          "error against the contact solver (model: Persson's a_r is below the exact area "
+          "by about this much, sigma_c above); "
           f"{parameters}")
 
 

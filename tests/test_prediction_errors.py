@@ -1,0 +1,182 @@
+"""Error bars of the contact predictions: gbar_std, a_r_std, sigma_c_std and the model error.
+
+Statistical tests use fixed seeds of periodic self-affine maps (256^2, one pixel 1 nm,
+lambda_s = 4 px, rms gradient 0.1). With N seeds the ratio of the mean stated error to the
+scatter has a noise of about 1/sqrt(2 (N - 1)): 13 % for 30, so 0.75-1.3 is two of those
+each side; benchmarks/calibration_errors.py measures 0.83-1.03 over 100 seeds.
+"""
+
+import csv
+from importlib import resources
+
+import numpy as np
+import pytest
+
+import xrough
+from xrough._kernels.contact import KAPPA_PERSSON
+from xrough._kernels.model_error import (
+    AREA_ERROR_RANGE,
+    FULL_CONTACT_P_STAR,
+    area_model_error,
+)
+from xrough._kernels.uncertainty import relative_covariance
+from xrough.acf import error_model
+
+N, SEEDS = 256, 30
+E_STAR, P0 = "25 MPa", "0.15 MPa"
+
+
+def surface(seed, hurst=0.8, ratio=8.0, n=N, **kw):
+    return xrough.self_affine_surface(hurst=hurst, lambda_r=n / ratio, lambda_s=4.0,
+                                      size=float(n), n=n, rms_gradient=0.1, unit="nm",
+                                      seed=seed, **kw)
+
+
+@pytest.fixture(scope="module")
+def seeds():
+    """G, gbar and Persson theory of 30 seeds (H = 0.5, L = 2 lambda_r: the exact route
+    covers the small lags, the fit the rest)."""
+    out = []
+    for seed in range(SEEDS):
+        G = surface(seed, hurst=0.5, ratio=2.0).rough.acf()
+        out.append((G, G.rough.gradient(), G.rough.persson(E_star=E_STAR, p0=P0)))
+    return out
+
+
+@pytest.mark.parametrize("lag", [1.0, 16.0])
+def test_gbar_std_matches_the_scatter_over_seeds(seeds, lag):
+    k = int(np.argmin(np.abs(np.log(seeds[0][0].dr.values / lag))))
+    gbar = np.array([float(g[k]) for _, g, _ in seeds])
+    std = np.array([float(g.gbar_std[k]) for _, g, _ in seeds])
+    ratio = std.mean() / gbar.std(ddof=1)
+    assert 0.75 < ratio < 1.3, ratio
+
+
+@pytest.mark.parametrize("name", ["a_r", "sigma_c"])
+def test_area_and_stress_std_match_the_scatter_over_seeds(seeds, name):
+    k = 0  # one pixel
+    x = np.array([float(p[name][k]) for _, _, p in seeds])
+    std = np.array([float(p[f"{name}_std"][k]) for _, _, p in seeds])
+    ratio = std.mean() / x.std(ddof=1)
+    assert 0.75 < ratio < 1.3, ratio
+
+
+def test_area_std_is_the_derivative_of_eq29_times_the_gradient_error(seeds):
+    """Independent: d erf(c p*) / d ln p* = 2 c p* exp(-(c p*)^2) / sqrt(pi), c = kappa
+    sqrt(pi) / 2; the relative error of p* is that of gbar."""
+    _, g, p = seeds[0]
+    c = KAPPA_PERSSON * np.sqrt(np.pi) / 2
+    ps = p.p_star.values
+    rel = (g.gbar_std / g).values
+    expected = 2 * c * ps * np.exp(-(c * ps) ** 2) / np.sqrt(np.pi) * rel
+    ok = np.isfinite(expected)
+    np.testing.assert_allclose(p.a_r_std.values[ok], expected[ok], rtol=1e-5)
+    np.testing.assert_allclose(p.sigma_c_std.values[ok],
+                               (p.sigma_c * p.a_r_std / p.a_r).values[ok], rtol=1e-5)
+    np.testing.assert_allclose(p.p_star_std.values[ok], (ps * rel)[ok], rtol=1e-5)
+
+
+def test_ballistic_gradient_error_is_half_the_relative_error_of_g():
+    G = surface(0).rough.acf()
+    g = xrough.rms_gradient(G, method="simple")
+    cov = relative_covariance(G.dr.values, G.values, **error_model(G))
+    np.testing.assert_allclose(g.gbar_std.values, 0.5 * np.sqrt(np.diag(cov)) * g.values,
+                               rtol=1e-12)
+
+
+def test_gbar_std_is_the_same_in_every_unit_and_for_dask():
+    topo = surface(3)
+    G = topo.rough.acf()
+    g = G.rough.gradient()
+    in_um = xrough.convert_units(topo, "um").rough.acf().rough.gradient()
+    np.testing.assert_allclose(in_um.gbar_std.values, g.gbar_std.values, rtol=1e-6)
+    stack = G.expand_dims(scan=2).chunk({"scan": 1})
+    lazy = xrough.rms_gradient(stack)
+    assert lazy.chunks is not None
+    np.testing.assert_allclose(lazy.gbar_std.isel(scan=1).values, g.gbar_std.values,
+                               rtol=1e-12)
+    p = G.rough.persson(E_star=E_STAR, p0=P0)
+    lazy_p = stack.rough.persson(E_star=E_STAR, p0=P0).compute()
+    for name in ("a_r_std", "sigma_c_std", "a_r_model_error"):
+        np.testing.assert_allclose(lazy_p[name].isel(scan=0).values, p[name].values,
+                                   rtol=1e-12)
+
+
+def test_no_map_geometry_no_statistical_error():
+    C = xrough.model_spectrum(hurst=0.8, lambda_r="1 um", lambda_s="10 nm",
+                              rms_gradient=0.5, unit="nm")
+    G = xrough.acf_from_spectrum(C, dr_min="1 nm", dr_max="10 um")
+    g = G.rough.gradient()
+    assert np.all(np.isnan(g.gbar_std.values))
+    assert g.gbar_std.attrs["error_of"].startswith("none")
+    p = G.rough.persson(E_star=E_STAR, p0=P0)
+    assert np.all(np.isnan(p.a_r_std.values))
+    assert p.a_r_std.attrs["error_of"].startswith("none")
+    assert np.isfinite(p.a_r_model_error.values).any()  # the theory's error stays
+
+
+# ------------------------------------------------------------------- the model error
+def _table():
+    text = resources.files("xrough").joinpath("data/persson_area_error.csv").read_text()
+    rows = [r for r in text.splitlines() if r and not r.startswith("#")]
+    return list(csv.DictReader(rows))
+
+
+@pytest.mark.parametrize("area", ["a_r", "a_ri"])
+def test_model_error_is_the_mean_of_the_table_at_its_pressures(area):
+    rows = _table()
+    for p in sorted({float(r["p_star"]) for r in rows}):
+        errs = [float(r[f"{area}_error"]) for r in rows if float(r["p_star"]) == p]
+        err, spread = area_model_error(p, area)
+        assert float(err) == pytest.approx(np.mean(errs), abs=1e-12)
+        assert float(spread) >= np.max(np.abs(np.array(errs) - np.mean(errs))) - 1e-12
+
+
+def test_model_error_is_held_below_and_vanishes_at_full_contact():
+    lo, hi = AREA_ERROR_RANGE
+    err, _ = area_model_error([1e-6, lo, hi, FULL_CONTACT_P_STAR, 10.0])
+    assert err[0] == err[1] < err[2] < 0
+    assert err[3] == err[4] == 0
+    assert np.isnan(area_model_error(np.nan)[0])
+    with pytest.raises(ValueError, match="area"):
+        area_model_error(0.1, "a_x")
+
+
+def test_persson_model_errors_follow_the_table():
+    G = surface(1).rough.acf()
+    p = G.rough.persson(E_star=E_STAR, p0=P0)
+    rel, _ = area_model_error(p.p_star.values)
+    ok = np.isfinite(p.a_r.values)
+    # theory - exact with a / a_exact = 1 + rel
+    np.testing.assert_allclose(p.a_r_model_error.values[ok],
+                               (p.a_r - p.a_r / (1 + rel)).values[ok], rtol=1e-12)
+    np.testing.assert_allclose(p.sigma_c_model_error.values[ok],
+                               (p.sigma_c - P0_PA * (1 + rel) / p.a_r).values[ok], rtol=1e-12)
+    assert np.all(p.a_r_model_error.values[ok] <= 0)  # Persson's area is low
+    assert "model_error_spread" in p.a_r_model_error.attrs
+    other = G.rough.persson(E_star=E_STAR, p0=P0, kappa=2.0)
+    assert np.all(np.isnan(other.a_r_model_error.values))
+    assert "kappa" in other.a_r_model_error.attrs["error_of"]
+
+
+P0_PA = 0.15e6
+
+
+def test_model_error_holds_on_a_held_out_solver_run():
+    """A surface outside the table (H = 0.65, 256^2, lambda_r / lambda_s = 16 at
+    lambda_s = 4 px): the solver's area error lies within twice the table's spread
+    (benchmarks/model_error_heldout.py: within one spread in 78-81 % of 36 held-out
+    cases, within two in 94 %; the misses are at H = 0.3, outside the table's H)."""
+    topo = xrough.self_affine_surface(hurst=0.65, lambda_r=64.0, lambda_s=4.0, size=256.0,
+                                      n=256, rms_gradient=0.1, unit="nm", seed=7)
+    h = topo.values
+    q = 2 * np.pi * np.fft.fftfreq(h.shape[0])
+    gbar0 = np.sqrt(((q[:, None] ** 2 + q[None, :] ** 2) * np.abs(np.fft.fft2(h)) ** 2).sum()
+                    ) / h.size  # the map's rms gradient: p* = p0 / (E* gbar0)
+    loads = np.array([0.01, 0.1])
+    cmp = xrough.compare_with_simulation(topo, E_star=1e6, p0=loads * 1e6 * gbar0,
+                                         full_contact=False)
+    for area, theory in (("a_r", "persson"), ("a_ri", "modified")):
+        observed = cmp.area_error.sel(theory=theory).values
+        predicted, spread = area_model_error(loads, area)
+        assert np.all(np.abs(observed - predicted) < 2 * spread), (area, observed, predicted)
