@@ -34,6 +34,11 @@ __all__ = ["AUTO_METHODS", "exact_gradient", "exact_support", "exact_on_lags", "
 #: leaves 5-10 % of the scatter at one pixel out (which lives in the smallest axes), all
 #: of them cost twice the time for 1-2 % more (256^2 maps, 100 seeds).
 GRADIENT_ERROR_CAPTURED = 0.999
+#: At most this many axes are propagated through eq. 26 (5-10 on maps, whose bins are
+#: nearly rigidly correlated; up to 26 on long profiles, 4 ms each); the variance left
+#: over, mostly of single bins, enters as the ballistic response (half the relative
+#: error of G at the lag).
+GRADIENT_ERROR_AXES = 8
 
 #: Codes of the route :func:`auto_gradient` took, per curve.
 AUTO_METHODS = ("exact", "fit", "simple", "exact+fit", "exact+simple")
@@ -101,8 +106,9 @@ def gradient_std(g, *, dr, errors: dict, ballistic: bool = False, smooth=None,
     principal axes of the covariance (:data:`GRADIENT_ERROR_CAPTURED` of its trace), ``g``
     moved by one standard deviation along each, the changes of gbar added in quadrature,
     on the grid of :data:`~xrough._kernels.uncertainty.PREDICTION_PER_DECADE` (the error
-    of an error: 2-5 % against 40 per decade, at a quarter of the cost); the ballistic
-    value where the exact gradient has none.  The fitted model's gbar follows G's errors
+    of an error: 2-5 % against 40 per decade, at a quarter of the cost), at most
+    :data:`GRADIENT_ERROR_AXES` of them, the variance of the rest as the ballistic
+    response; the ballistic value where the exact gradient has none.  The fitted model's gbar follows G's errors
     as the exact one does where the model describes G, so the same relative error stands
     for it.  NaN at invalid lags and where the covariance cannot be formed.
     """
@@ -112,7 +118,7 @@ def gradient_std(g, *, dr, errors: dict, ballistic: bool = False, smooth=None,
     if ok.sum() < 4:
         return out
     r, v = dr[ok], g[ok]
-    cov = relative_covariance(r, v, **errors)
+    cov = relative_covariance(dr, g, **errors)[np.ix_(ok, ok)]  # as the fit and energy
     if not np.all(np.isfinite(cov)):
         return out
     out[ok] = 0.5 * np.sqrt(np.diag(cov))  # ballistic: gbar ~ sqrt(G)
@@ -125,12 +131,14 @@ def gradient_std(g, *, dr, errors: dict, ballistic: bool = False, smooth=None,
     except ValueError:
         return out
     scale, axes = principal_axes(cov, v.size, GRADIENT_ERROR_CAPTURED)
+    scale, axes = scale[:GRADIENT_ERROR_AXES], axes[:, :GRADIENT_ERROR_AXES]
     var = np.zeros(r.shape)
     for k in range(scale.size):
         var += (exact_gradient(r, v * np.exp(scale[k] * axes[:, k]), r, **options)
                 - base) ** 2
+    left = np.diag(cov) - np.einsum("ik,k->i", axes**2, scale**2)  # not propagated
     with np.errstate(invalid="ignore", divide="ignore"):
-        rel = np.sqrt(var) / base
+        rel = np.sqrt(var / base**2 + 0.25 * np.maximum(left, 0.0))
     out[ok] = np.where(np.isfinite(rel) & (base > 0), rel, out[ok])
     return out
 

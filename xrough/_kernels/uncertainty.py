@@ -33,6 +33,8 @@ AFM map the error at one pixel is 0.6 % instead of 3.9 %).
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from scipy import special
 
@@ -379,9 +381,38 @@ def relative_covariance(dr: np.ndarray, g: np.ndarray, *, size: float, pixel: fl
 
     ``n_maps``: independent maps pooled into ``g`` (the covariance of one over their
     number).  Bins that are not finite and positive get zero rows; a G with fewer than
-    four usable bins, or whose spectrum cannot be formed, gives NaN.
+    four usable bins, or whose spectrum cannot be formed, gives NaN.  The fit, the energy
+    and the gradient of one G ask for the same covariance: the last few are kept (a
+    copy is returned).
     """
     dr, g = np.asarray(dr, dtype=float), np.asarray(g, dtype=float)
+    if not (np.isfinite(pixel) and pixel > 0):
+        return np.full((dr.size, dr.size), np.nan)
+    # unit-free key (lags in pixels, G over its median, rounded to 12 digits): the same G
+    # in nm (the fit, the gradient) and in m (the energy) is one entry
+    with np.errstate(all="ignore"):
+        ok = np.isfinite(g) & (g > 0)
+        scale = float(np.median(g[ok])) if ok.any() else 1.0
+        key_dr, key_g = (float_key(dr / pixel), float_key(g / scale))
+    return _relative_covariance(key_dr.tobytes(), key_g.tobytes(), float_key(size / pixel),
+                                str(geometry), int(n_maps)).copy()
+
+
+def float_key(x):
+    """``x`` rounded to 12 significant digits: equal for equal values in other units."""
+    x = np.asarray(x, dtype=float)
+    with np.errstate(all="ignore"):
+        digits = 11 - np.floor(np.log10(np.abs(np.where((x != 0) & np.isfinite(x), x, 1.0))))
+        out = np.round(x * 10.0**digits) / 10.0**digits
+    return float(out) if out.ndim == 0 else out
+
+
+@functools.lru_cache(maxsize=16)
+def _relative_covariance(dr_bytes: bytes, g_bytes: bytes, size: float, geometry: str,
+                         n_maps: int) -> np.ndarray:
+    """:func:`relative_covariance` of G given by the bytes of its arrays, lags in pixels."""
+    dr, g = np.frombuffer(dr_bytes), np.frombuffer(g_bytes)
+    pixel = 1.0
     ok = np.isfinite(g) & (g > 0) & (dr > 0)
     out = np.zeros((dr.size, dr.size))
     if np.count_nonzero(ok) < 4 or not (size > 0 and pixel > 0):
