@@ -750,7 +750,14 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     Returns
     -------
     xarray.Dataset
-        On ``dr`` (and ``p0``); units 1, Pa, Pa^2 and length^2.
+        On ``dr`` (and ``p0``); units 1, Pa, Pa^2 and length^2. With ``p_star``,
+        ``a_r``, ``a_ri`` and ``sigma_c`` come their errors (docs/quality.md, "Error
+        bars"): ``<name>_std``, the statistical standard deviation, from the gradient's
+        ``gbar_std`` through eq. 29/50 (NaN where G states no map geometry; attr
+        ``error_of``), and for the areas and ``sigma_c`` ``<name>_model_error``, the
+        theory's expected difference from the exact solution (theory - exact; negative
+        for the areas) from the solver validation in ``xrough/data/persson_area_error.csv``
+        at this ``p*`` (NaN for a ``kappa`` other than Persson's).
 
     Raises
     ------

@@ -124,7 +124,10 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto",
         and the quality marks of docs/quality.md: the coordinate ``quality_flag`` and,
         for one computed curve, ``attrs["quality"]``/``["quality_notes"]`` (``'auto'``:
         questionable where the fit was questionable or the ballistic form was used;
-        ``'fit'``: the fit's flag; ``'exact'``, ``'simple'``: good).
+        ``'fit'``: the fit's flag; ``'exact'``, ``'simple'``: good). The coordinate
+        ``gbar_std`` is its statistical standard deviation (the linear response of eq. 26
+        to the covariance of G's bins; NaN where G states no map geometry, attr
+        ``error_of``).
 
     Raises
     ------
