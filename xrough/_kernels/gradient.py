@@ -110,7 +110,8 @@ def gradient_std(g, *, dr, errors: dict, ballistic: bool = False, smooth=None,
     :data:`GRADIENT_ERROR_AXES` of them, the variance of the rest as the ballistic
     response; the ballistic value where the exact gradient has none.  The fitted
     model's gbar follows G's errors as the exact one does where the model describes G,
-    so the same relative error stands for it.  NaN at invalid lags and where the covariance cannot be formed.
+    so the same relative error stands for it.  NaN at invalid lags and where the
+    covariance cannot be formed.
     """
     g = np.asarray(g, dtype=float)
     out = np.full(dr.shape, np.nan)
