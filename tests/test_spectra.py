@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import xarray as xr
 
+import xrough
+from conftest import DATA
 from xrough import units
 from xrough._kernels.hankel import spectral_moment_kernel
 from xrough._kernels.spectral_models import SpectrumModel
@@ -322,3 +326,68 @@ def test_model_gradient_is_never_negative_below_the_rolloff():
     below = q < 0.006313766691069956  # only the flat part: C_r q^4 / 4 / (2 pi)
     c_r = 0.08767418290355335 / 0.006313766691069956 ** (2 + 2 * 0.950244120871398)
     np.testing.assert_allclose(g2[below], c_r * q[below] ** 4 / 4 / (2 * np.pi), rtol=1e-12)
+
+
+# ---------------------------------------------------------------- G that fixes C nowhere
+def _spectrum_quietly(G):
+    with pytest.warns(xrough.QualityWarning, match="determines C nowhere|max_error"):
+        return G.rough.spectrum()
+
+
+@pytest.mark.parametrize("case", ["power law 512x256", "white noise 16x16",
+                                  "periodic profile 256"])
+def test_spectrum_returns_where_g_fixes_c_nowhere(case):
+    """A G still self-affine at its first lag and still rising (or noisy) at its last fixes
+    C nowhere to 1 %: C comes back on the data's range, nothing supported, questionable,
+    with the way out in its notes (these raised before)."""
+    rng = np.random.default_rng(0)
+    if case == "power law 512x256":
+        topo = xrough.self_affine_surface(hurst=0.7, lambda_r=512.0, lambda_s=2.0,
+                                          size=(256.0, 512.0), n=(256, 512),
+                                          rms_gradient=0.1, unit="nm", seed=0)
+    elif case == "white noise 16x16":
+        topo = xrough.topography(rng.normal(size=(16, 16)), spacing="1 nm", unit="nm")
+    else:
+        topo = xrough.topography(np.cumsum(rng.normal(size=256)), spacing="1 nm", unit="nm",
+                                 periodic=True)
+    G = topo.rough.acf()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        C = G.rough.spectrum()
+    assert C.sizes["q"] > 0 and np.all(np.isfinite(C.values))
+    q = C.q.values
+    assert q[0] <= 2 * np.pi / G.dr.values[-1] and q[-1] >= 2 * np.pi / G.dr.values[0]
+    if not C.supported.any():
+        assert C.attrs["quality"] == "questionable"
+        assert "psd()" in C.attrs["quality_notes"] or "max_error" in C.attrs["quality_notes"]
+        assert np.isnan(C.attrs["q_min_supported"])
+
+
+def test_spectrum_of_the_shared_afm_map_with_defaults():
+    path = DATA / "instruments" / "di-1.di"
+    if not path.exists():
+        pytest.skip("shared data not present")
+    with warnings.catch_warnings():  # G's own notes (anisotropy): not what is tested
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        G = xrough.detrend(xrough.open_topography(path), mode="plane").rough.acf()
+    C = _spectrum_quietly(G)
+    assert C.attrs["quality"] == "questionable" and not C.supported.any()
+    assert "determines C nowhere" in C.attrs["quality_notes"]
+
+
+def test_sigma_h2_does_not_follow_a_falling_end():
+    """A periodic profile's G falls near L/2; that fall is not continued into the plateau:
+    sigma_h2 is the last level, not a decade further down (0.02 against a variance of
+    1.25 before)."""
+    rng = np.random.default_rng(0)
+    n = 256
+    q = np.fft.rfftfreq(n) * 2 * np.pi
+    amp = np.where(q > 0, np.maximum(q, 2 * np.pi / 64) ** -1.8, 0.0)
+    h = np.fft.irfft(np.fft.rfft(rng.normal(size=n)) * amp, n)
+    h *= np.sqrt(1.25) / h.std()
+    G = xrough.topography(h, spacing="1 nm", unit="nm", periodic=True).rough.acf()
+    assert G.values[-1] < G.values[-2]  # this G falls at its end
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        C = G.rough.spectrum()
+    assert C.attrs["sigma_h2"] == pytest.approx(float(G[-1]), rel=0.02)

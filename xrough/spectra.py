@@ -501,6 +501,7 @@ def _support(acf: _AcfInput, *, smooth, support_rtol, interpolation,
     """Return ``(q_lo, q_hi)``, the error of C on the support grid, and the bound's fate.
 
     The last is whether the statistical bound was met; if not, the range is that without it.
+    ``(q_lo, q_hi)`` is NaN where G determines C nowhere to ``support_rtol``.
     """
     statistical = acf.covariance is not None and np.isfinite(max_error)
     error = (spectrum_error_kernel(support_grid(acf.dr), acf.dr, acf.G, acf.covariance,
@@ -513,11 +514,6 @@ def _support(acf: _AcfInput, *, smooth, support_rtol, interpolation,
     met = bool(np.isfinite(q_lo))
     if not met and statistical:
         q_lo, q_hi = spectrum_support_kernel(acf.dr, acf.G, **options)
-    if not np.isfinite(q_lo):
-        raise ValueError(
-            f"G does not determine C anywhere to within support_rtol={support_rtol:g}: the "
-            f"extrapolation beyond dr = {acf.dr[0]:g}..{acf.dr[-1]:g} {acf.unit_str} "
-            "dominates; pass a larger support_rtol, or measure G over a wider range")
     return q_lo, q_hi, error, met or not statistical
 
 
@@ -626,7 +622,10 @@ def spectrum(
         Where ``G`` determines ``C`` but nowhere within ``max_error``: nothing is marked
         supported, ``q_min_supported`` and ``q_max_supported`` are NaN, the default grid
         covers what ``G`` determines, and the result is questionable (attrs ``quality``,
-        ``quality_notes`` and a :class:`~xrough.QualityWarning`).
+        ``quality_notes`` and a :class:`~xrough.QualityWarning`). Where ``G`` determines
+        ``C`` nowhere even to ``support_rtol`` (a ``G`` still self-affine at its first lag
+        and still rising at its last): the same, on a default grid over the data's range
+        ``[2 pi / dr_max, 2 pi / dr_min]``.
 
     Raises
     ------
@@ -634,7 +633,7 @@ def spectrum(
         ``G`` not 1-D, missing units, ``G`` not in length^2, a coordinate that is not a
         length, fewer than 4 valid bins, non-increasing lags, negative or zero ``G``,
         ``G(0) != 0``, a ``G`` that decreases overall (not a height-difference ACF), bad
-        options or ``q``, or a ``G`` that determines ``C`` nowhere to ``support_rtol``.
+        options or ``q``.
 
     See Also
     --------
@@ -727,6 +726,10 @@ def spectrum(
     q_lo, q_hi, grid_error, bounded = _support(
         acf, smooth=smooth, support_rtol=support_rtol, interpolation=interpolation,
         max_error=max_error)
+    determined = bool(np.isfinite(q_lo))
+    if not determined:  # nothing supported: C over the data's range, said so
+        bounded = False
+        q_lo, q_hi = 2 * np.pi / acf.dr[-1], 2 * np.pi / acf.dr[0]
     q_arr = (decade_aligned_grid(0.5 * q_lo, 2.0 * q_hi, points_per_decade) if q is None
              else _units.array_in(q, acf.length_unit**-1, what="q", noun="wavenumbers"))
     g = acf.G if smooth is None else smooth_acf_kernel(acf.dr, acf.G, smooth)
@@ -769,7 +772,15 @@ def spectrum(
         name="C",
         attrs=attrs,
     )
-    if not bounded:
+    if not determined:
+        C = quality.mark(C, (
+            f"G determines C nowhere to support_rtol={support_rtol:g}: the continuation "
+            f"of G beyond dr = {acf.dr[0]:.4g} to {acf.dr[-1]:.4g} {acf.unit_str} (still "
+            "self-affine at its first lag, or still rising at its last) changes C by more "
+            "than that at every q, so nothing is marked supported and the values are those "
+            "of the continuation; the power spectrum of the heights (psd()) needs no "
+            "continuation, or pass a larger support_rtol"), what="spectrum")
+    elif not bounded:
         C = quality.mark(C, (
             f"the standard error of C exceeds max_error={max_error:g} at every q that G "
             f"determines to support_rtol={support_rtol:g} (q = {q_lo:.4g} to {q_hi:.4g} "

@@ -149,12 +149,13 @@ def _hermite_factor(rho, d, s0, s1, k0, k1) -> np.ndarray:
 
 
 def _acf_pieces(dr: np.ndarray, G: np.ndarray, *, interpolation: str, low_delay: float,
-                high_delay: float, low_transition: float,
-                high_transition: float) -> _RadialPieces:
+                high_delay: float, low_transition: float, high_transition: float,
+                flat_falling_end: bool = False) -> _RadialPieces:
     """Representation of ``G`` through the samples ``(dr_j, G_j)``, extended smoothly.
 
     Beyond the data, virtual samples continue ``G``: its log-log slope (from a cubic spline
-    through the samples) keeps its end value for ``low_delay`` / ``high_delay`` decades,
+    through the samples; at the last sample not below 0 with ``flat_falling_end``) keeps
+    its end value for ``low_delay`` / ``high_delay`` decades,
     then turns smoothly (C2) within ``low_transition`` / ``high_transition`` decades to 2
     below the data (ballistic, ``G ~ dr^2`` below the first virtual sample) and to 0
     beyond it (``G`` flat beyond the last one).  Between samples: the power law through
@@ -172,6 +173,8 @@ def _acf_pieces(dr: np.ndarray, G: np.ndarray, *, interpolation: str, low_delay:
     else:
         s_lo, s_hi = np.gradient(v, u)[[0, -1]]
     ln10 = np.log(10.0)
+    if flat_falling_end:
+        s_hi = max(float(s_hi), 0.0)
     # below the data u runs downwards, so the slopes change sign
     du_lo, dv_lo = _extension(-s_lo, -2.0, step, low_delay * ln10, low_transition * ln10)
     du_hi, dv_hi = _extension(s_hi, 0.0, step, high_delay * ln10, high_transition * ln10)
@@ -380,6 +383,12 @@ def spectrum_from_acf_kernel(
 def acf_plateau_kernel(dr, G, *, high_transition: float = 1.0) -> float:
     """``sigma_h^2``: the level at large ``dr`` of ``G`` as extended by the spectrum kernel.
 
+    A ``G`` that falls at its last lag (a periodic map near ``L/2``, an oscillation) is
+    held at its last level instead: the spectrum kernel continues the fall for the
+    extrapolation check of ``C`` at the smallest ``q``, which no ``G`` measured up to
+    there determines, but a decade of that fall is no plateau (it put ``sigma_h^2`` at
+    a sixth of the variance of a periodic profile).
+
     Examples
     --------
     >>> import numpy as np
@@ -389,7 +398,8 @@ def acf_plateau_kernel(dr, G, *, high_transition: float = 1.0) -> float:
     """
     r, g = _check_acf(dr, G)
     pieces = _acf_pieces(r, g, interpolation="power law", low_delay=0.0, high_delay=0.0,
-                         low_transition=1.0, high_transition=high_transition)
+                         low_transition=1.0, high_transition=high_transition,
+                         flat_falling_end=True)
     return float(pieces.coef[0, -1])
 
 
