@@ -168,14 +168,18 @@ def test_sur_file_spectrum_fit_is_not_stuck():
 @pytest.mark.data
 def test_real_files_with_meaningless_cutoffs():
     """plu-1.plu as read (tilted): lambda_s = 1.1 m for a 1.3 mm scan was reported as
-    resolved; sdf-1.sdf (plane removed): an 'upper bound' lambda_s = 191 m for 6 um."""
+    resolved (now: no cutoff resolved, H at its bound and undetermined, the note naming a
+    tilt); sdf-1.sdf (plane removed): an 'upper bound' lambda_s = 191 m for 6 um."""
     pytest.importorskip("SurfaceTopography")  # reads .plu (the formats extra)
     with pytest.warns(xrough.QualityWarning, match="anisotropic"):  # stripes: G_x / G_y 3-8
         G = xrough.open_topography(_needs("plu-1.plu")).rough.acf()
     assert G.attrs["quality"] == "questionable" and G.attrs["anisotropy_ratio_min"] > 2
-    with pytest.warns(xrough.QualityWarning, match="no self-affine range"):
+    # G ~ dr^2 of a tilt: H at its bound, undetermined (std 1.0), no cutoff resolved
+    with pytest.warns(xrough.QualityWarning, match="a tilt or a curvature"):
         fit = xrough.fit_acf(G)
-    assert fit.attrs["quality"] == "failed" and np.isnan(float(fit.lambda_s))
+    assert fit.attrs["quality"] != "good" and "do not determine H" in fit.attrs[
+        "quality_notes"]
+    assert int(fit.lambda_s_resolved) == 0 and int(fit.lambda_r_resolved) == 0
     sdf = xrough.open_topography(_needs("sdf-1.sdf")).rough.detrend()
     with pytest.warns(xrough.QualityWarning, match="do not determine H"):  # 4 x 7 points
         fit = xrough.fit_acf(sdf.rough.acf())

@@ -312,7 +312,7 @@ def test_uncd_gap_is_recorded_warned_and_marked():
     # true calibration: levelling by about 1.11 (TEM) and 0.97 (AFM), within the errors
     assert not [w for w in caught if issubclass(w.category, LevelFactorWarning)]
     f, err = G.attrs["level_factors"], G.attrs["level_factor_errors"]
-    np.testing.assert_allclose(f, [1.107, 0.973, 1.0], atol=1e-3)
+    np.testing.assert_allclose(f, [1.106, 0.970, 1.0], atol=1e-3)
     assert np.all(np.abs(np.log(f[:2])) < err[:2])
     assert G.attrs["quality"] == "good" and int(G.quality_flag) == 0
     names = G.coverage.attrs["flag_meanings"].split()
@@ -333,9 +333,10 @@ def test_uncd_gap_is_recorded_warned_and_marked():
 @pytest.mark.data
 @pytest.mark.parametrize("scale", [2.0, 0.5])
 def test_uncd_miscalibrated_afm_warns(scale):
-    """AFM heights x 2 (G x 4): the mismatch test gives z = -2.8, below its threshold
-    (the TEM's one profile gives its G a level error of ~50 % at those lags), but
-    levelling would rescale the TEM's G by 3.3: beyond the bound, it warns."""
+    """AFM heights x 2 (G x 4): the mismatch test gives z = -3.2, beyond its threshold of
+    3; x 0.5: z = +2.6, within it (the TEM's one profile gives its G a level error of
+    ~50 % at those lags). Levelling would rescale the TEM's G by 3.2 and 0.38: beyond
+    the bound, it warns either way."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         G = _uncd(scale).rough.acf(unit="nm")
@@ -347,6 +348,7 @@ def test_uncd_miscalibrated_afm_warns(scale):
     assert f"'TEM' x {f[0]:.3g}" in level[0]
     assert G.attrs["quality"] == "questionable"
     assert "height calibrations" in G.attrs["quality_notes"]
-    # the mismatch warning itself does not fire (|z| < 3), as documented
-    assert not [w for w in caught if w.category is StitchingMismatchWarning]
-    assert abs(G.attrs["mismatch_z"][0]) < 3
+    # the mismatch warning fires where |z| > 3 (docs/stitching.md: x 2 only)
+    z = G.attrs["mismatch_z"][0]
+    fired = bool([w for w in caught if w.category is StitchingMismatchWarning])
+    assert fired == (abs(z) > 3) and fired == (scale == 2.0), z

@@ -39,6 +39,14 @@ __all__ = ["AcfCurve", "DETERMINED", "FLAT_SLOPE", "G_RANGE", "RELATIVE_ERROR_RA
 #: scatter of lattice distances in bins finer than 20 per decade is not read as curvature.
 SMOOTHING_DECADES = 0.05
 
+#: Relative scatter of G between neighbouring bins of a lattice that its statistical error
+#: does not hold (at the smallest lags a bin holds a few lattice vectors of different
+#: directions; pixel noise and a scan that differs along its fast and slow axes make G
+#: zig-zag between them). Added in quadrature to the relative errors that weight the
+#: smoothing spline: a G whose finite-area error at one pixel is 0.6 % (the UNCD AFM map)
+#: would otherwise pin the spline to that zig-zag and flip the sign of its Laplacian.
+LATTICE_JITTER = 0.02
+
 #: Largest difference between the Laplacians of G from all samples, the even and the odd
 #: samples, relative to a lower bound of the Laplacian at dr = 0 (the largest value all
 #: three agree on, or 4 G(dr_1) / dr_1^2), at which the Laplacian still counts as
@@ -270,7 +278,7 @@ class AcfCurve:
         if self._spline is None and self.x.size >= 5:
             w = None
             if self.error is not None:
-                rel = np.maximum(self.error / self.g, 1e-12)
+                rel = np.hypot(self.error / self.g, LATTICE_JITTER)
                 w = 1.0 / rel**2
                 w = w / w.mean()
             span = self.x[-1] - self.x[0]

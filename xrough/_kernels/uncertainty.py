@@ -24,11 +24,10 @@ interpolated G are kinked at its bins, and the disk of the map's area leaves out
 separations of lags near ``L/2``.  :func:`finite_area_variance` is the same variance in
 Fourier space (:func:`g_covariance`), from the spectrum of the estimate itself (eq.
 10/11), relative to the G of the same modes: within 0.86-1.08 of the scatter at every
-lag up to ``L/2`` on periodic and open maps, 0.74-1.28 on profiles (against 0.93-1.7 for
-:func:`g_variance`; ``benchmarks/calibration_errors.py``, column ``Fourier``).  G's
-``standard_error`` still comes from :func:`g_variance`: the fits, stitching and the
-smoothing of G weight by it, and their results on real files move with it (on the UNCD
-AFM map the error at one pixel is 0.6 % instead of 3.9 %).
+lag up to ``L/2`` on periodic and open maps, 0.74-1.28 on profiles (against 0.61-1.7 for
+:func:`g_variance`; ``benchmarks/calibration_errors.py``). It is G's
+``standard_error`` (:func:`~xrough._kernels.pairs.area_variance`); :func:`g_variance`
+remains for lags beyond half an open map and for G with fewer than four usable bins.
 """
 
 from __future__ import annotations
@@ -300,8 +299,8 @@ def covariance_from_acf(dr: np.ndarray, g: np.ndarray, *, size: float, pixel: fl
 
 
 def finite_area_variance(dr: np.ndarray, g: np.ndarray, pairs: np.ndarray, *, area: float,
-                         pixel_area: float, geometry: str,
-                         map_area: float | None = None) -> np.ndarray:
+                         pixel_area: float, geometry: str, map_area: float | None = None,
+                         smooth: float | None = None) -> np.ndarray:
     """Variance of the all-pairs G estimate per bin (Gaussian surface, finite area).
 
     The diagonal of :func:`covariance_from_acf` for a map of ``area`` (the valid area in
@@ -323,6 +322,11 @@ def finite_area_variance(dr: np.ndarray, g: np.ndarray, pairs: np.ndarray, *, ar
     geometry : {'radial', 'axis', 'profile'}
     map_area : float, optional
         Area of one map of a pooled stack (default: ``area``).
+    smooth : float, optional
+        Smooth G over this many decades first (``smooth_acf_kernel``): the spectrum of a
+        G with scatter of its own (random pairs) would carry that scatter into the
+        variance (0.5 for random pairs: their 2.5 % per bin made the variance of the last
+        bins of white noise 1.7 times too large).
 
     Returns
     -------
@@ -353,7 +357,8 @@ def finite_area_variance(dr: np.ndarray, g: np.ndarray, pairs: np.ndarray, *, ar
     pixel = pixel_area if profile else np.sqrt(pixel_area)
     try:
         with np.errstate(all="ignore"):
-            cov = covariance_from_acf(dr[ok], g[ok], size=size, pixel=pixel,
+            g_ok = g[ok] if smooth is None else smooth_acf_kernel(dr[ok], g[ok], smooth)
+            cov = covariance_from_acf(dr[ok], g_ok, size=size, pixel=pixel,
                                       geometry=geometry)
     except (ValueError, np.linalg.LinAlgError):
         cov = None

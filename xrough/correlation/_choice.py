@@ -11,7 +11,7 @@ import xarray as xr
 
 from .. import quality
 from .. import units as u
-from .._kernels.uncertainty import g_variance
+from .._kernels.uncertainty import finite_area_variance
 from ..topography import Grid
 from ._plan import lag_geometry, open_map_bins, plan
 
@@ -83,8 +83,8 @@ def _error_floor(dr: tuple, pairs: tuple, area: float, pixel_area: float,
     Cached per grid and bins: the quadrature is worth computing once per geometry.
     """
     dr = np.asarray(dr)
-    out = np.sqrt(g_variance(dr, np.ones_like(dr), np.asarray(pairs), area=area,
-                             pixel_area=pixel_area, geometry=geometry))
+    out = np.sqrt(finite_area_variance(dr, np.ones_like(dr), np.asarray(pairs), area=area,
+                                       pixel_area=pixel_area, geometry=geometry))
     out.setflags(write=False)
     return out
 
@@ -129,7 +129,7 @@ def choose_for_target(da: xr.DataArray, grid: Grid, target: float, *, direction:
     """Pick the estimator and budget that reach ``target`` at the least modelled cost.
 
     Shapes, bins and chunks only (no data): the same for numpy and dask. Error model:
-    the finite-area error of :func:`~xrough._kernels.uncertainty.g_variance` (the model
+    the finite-area error of :func:`~xrough._kernels.uncertainty.finite_area_variance` (the model
     of ``standard_error``) for a G flat over the bins asked for (uncorrelated heights
     when the bins start at a pixel; the model takes G as ballistic below the first bin)
     on a map of this size bounds what any estimator can reach (a G that still rises over
