@@ -86,7 +86,7 @@ import warnings
 import numpy as np
 
 import xrough
-from xrough._kernels.uncertainty import finite_area_variance
+from xrough._kernels.uncertainty import g_variance
 from xrough.memo import forget
 from xrough.models import model_from_attrs
 
@@ -229,7 +229,7 @@ def truth(cfg: dict, topo, G, lags: dict, e_star_pa: float, p0: str) -> dict:
 def run_config(cfg: dict, args) -> dict:
     t0 = time.perf_counter()
     n = cfg["n"]
-    G_vals, se_vals, fourier_vals, xs, stds = [], [], [], [], []
+    G_vals, se_vals, real_vals, xs, stds = [], [], [], [], []
     failed: list[str] = []
     warned: dict[str, list[int]] = collections.defaultdict(list)  # warning -> seeds
     marks: collections.Counter = collections.Counter()
@@ -254,7 +254,7 @@ def run_config(cfg: dict, args) -> dict:
                 marks[r, quality_of(res[r])] += 1
             G_vals.append(res["G"].values[keep])
             se_vals.append(res["G"].standard_error.values[keep])
-            fourier_vals.append(fourier_se(res["G"], n)[keep])
+            real_vals.append(real_space_se(res["G"], n)[keep])
             xs.append([v[q[0]][0] for q in QUANTITIES])
             stds.append([v[q[0]][1] for q in QUANTITIES])
         except Exception as err:  # noqa: BLE001 - a failing seed is reported, not fatal
@@ -282,7 +282,7 @@ def run_config(cfg: dict, args) -> dict:
     forget()
     out.update(
         dr=dr0[keep], G=np.array(G_vals), se=np.array(se_vals),
-        fourier=np.array(fourier_vals),
+        real_space=np.array(real_vals),
         G_exact=fixed["G"].values[keep], G_model=t["G_model"][keep],
         x=np.array(xs), std=np.array(stds), truth=t["values"], continuum=t["continuum"],
         on_mean={k: v[0] for k, v in on_mean.items()},
@@ -322,11 +322,11 @@ def table(title: str, cols: list[str], rows: list[list[str]], markdown: bool) ->
                         for k, (c, w) in enumerate(zip(row, widths))))
 
 
-def fourier_se(G, n: int) -> np.ndarray:
-    """The finite-area standard error in Fourier space from G's own spectrum
-    (:func:`xrough._kernels.uncertainty.finite_area_variance`; G's ``standard_error`` is
-    the real-space :func:`~xrough._kernels.uncertainty.g_variance`)."""
-    return np.sqrt(finite_area_variance(
+def real_space_se(G, n: int) -> np.ndarray:
+    """The finite-area standard error of the real-space closure
+    (:func:`xrough._kernels.uncertainty.g_variance`, what ``standard_error`` was before it
+    became :func:`~xrough._kernels.uncertainty.finite_area_variance`), for comparison."""
+    return np.sqrt(g_variance(
         G.dr.values, G.values, G.pair_count.values, area=float(n * n), pixel_area=1.0,
         geometry=G.attrs["lag_geometry"]))
 
@@ -338,7 +338,7 @@ def g_stats(res: dict) -> dict:
     ratio = se.mean(axis=0) / sd
     t = (G.mean(axis=0) - res["G_exact"]) / (sd / np.sqrt(N))
     return {"sd": sd, "ratio": ratio, "t": t, "N": N,
-            "fourier": res["fourier"].mean(axis=0) / sd}
+            "real_space": res["real_space"].mean(axis=0) / sd}
 
 
 def g_table(results: list[dict], markdown: bool) -> None:
@@ -352,14 +352,14 @@ def g_table(results: list[dict], markdown: bool) -> None:
         rows.append([res["cfg"]["label"], str(s["N"]), str(r.size), f"{r.min():.3f}",
                      f"{np.median(r):.3f}", f"{r.max():.3f}",
                      ", ".join(f"{res['dr'][k]:.3g}: {r[k]:.2f}" for k in worst),
-                     f"{s['fourier'].min():.3f}", f"{s['fourier'].max():.3f}",
+                     f"{s['real_space'].min():.3f}", f"{s['real_space'].max():.3f}",
                      f"{np.abs(s['t']).max():.2f}"])
     noise = 1 / np.sqrt(2 * (max(r["ok"] for r in results) - 1)) if rows else np.nan
     table("G: mean(standard_error) / sd(G) over the seeds, per lag bin up to L/2 (sd about "
           f"the seed mean; noise of the ratio ~ {noise:.2f}); t max = max |mean - E[G]| / "
           "(sd / sqrt(N)), E[G] exact (fixed-amplitude map)",
           ["configuration", "seeds", "bins", "min", "median", "max",
-           "worst bins (dr px: ratio)", "Fourier min", "Fourier max", "t max"], rows,
+           "worst bins (dr px: ratio)", "real-space min", "real-space max", "t max"], rows,
           markdown)
 
 
