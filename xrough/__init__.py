@@ -37,6 +37,17 @@ from .gradient import (
 from .io import open_topography
 from .io.archive import open_analysis, save_analysis
 from .models import self_affine_model
+from .parameters import (
+    bearing_area_curve,
+    curvature_distribution,
+    height_distribution,
+    material_ratio,
+    roughness_parameters,
+    scale_dependent_curvature,
+    scale_dependent_slope,
+    slope_distribution,
+    tip_check,
+)
 from .preprocess import (
     detrend,
     fit_trend,
@@ -44,6 +55,7 @@ from .preprocess import (
     reliability_window,
     reliable,
 )
+from .psd import power_spectrum
 from .quality import QualityWarning
 from .solver import ConvergenceWarning, solve_contact
 from .spectra import (
@@ -65,6 +77,15 @@ from .validation import compare_with_simulation
 
 __all__ = [
     "__version__",
+    "bearing_area_curve",
+    "curvature_distribution",
+    "height_distribution",
+    "material_ratio",
+    "roughness_parameters",
+    "scale_dependent_curvature",
+    "scale_dependent_slope",
+    "slope_distribution",
+    "tip_check",
     "acf_from_spectrum",
     "compare_with_simulation",
     "ConvergenceWarning",
@@ -90,6 +111,7 @@ __all__ = [
     "save_analysis",
     "solve_contact",
     "plot",
+    "power_spectrum",
     "reliability_window",
     "reliable",
     "self_affine_model",

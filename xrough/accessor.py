@@ -24,8 +24,10 @@ from . import (
     correlation,
     fitting,
     gradient,
+    parameters,
     plot,
     preprocess,
+    psd,
     solver,
     spectra,
     stitching,
@@ -116,12 +118,22 @@ class RoughDataArrayAccessor:
     solve_contact = _forward(solver.solve_contact)
     compare_with_simulation = _forward(validation.compare_with_simulation)
     spectrum = _forward(spectra.spectrum)
+    psd = _forward(psd.power_spectrum)
     fit = _forward(fitting.fit_acf)
     energy = _forward(contact.elastic_energy)
     gradient = _forward(gradient.rms_gradient)
     stress_acf = _forward(contact.stress_acf)
     persson = _forward(contact.persson)
     patch_radius = _forward(contact.patch_radius)
+    height_distribution = _forward(parameters.height_distribution)
+    slope_distribution = _forward(parameters.slope_distribution)
+    curvature_distribution = _forward(parameters.curvature_distribution)
+    bearing_area_curve = _forward(parameters.bearing_area_curve)
+    material_ratio = _forward(parameters.material_ratio)
+    scale_dependent_slope = _forward(parameters.scale_dependent_slope)
+    scale_dependent_curvature = _forward(parameters.scale_dependent_curvature)
+    tip_check = _forward(parameters.tip_check)
+    parameters = _forward(parameters.roughness_parameters)  # last: it hides the module
     plot = _forward(plot.plot)
 
 

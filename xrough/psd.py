@@ -1,0 +1,361 @@
+"""The power spectral density of a topography: ``C(q)`` from the heights (eq. 4).
+
+:func:`power_spectrum` is the periodogram of the heights, the estimate of
+``C(q) = A <|h~(q)|^2>`` that SurfaceTopography (contact.engineering), Gwyddion and xrft
+compute: radially averaged over the modes of a map (the isotropic ``C(q)`` of the paper,
+in length^4, directly comparable with :func:`xrough.spectrum` of G and with
+:func:`xrough.model_spectrum`), or the 1D spectrum of a profile or of the lines of a map
+(length^3). The numerics are in :mod:`xrough._kernels.psd`; the method, the windows, the
+missing points and a comparison with ``spectrum(G)`` are in docs/psd.md.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from . import quality
+from . import units as u
+from ._kernels.binning import check_points_per_decade, linear_bin_edges, log_bins
+from ._kernels.checks import require_increasing
+from ._kernels.psd import WINDOWS, error_factors, mode_bins, mode_range, psd_kernel
+from .acf import result_attrs
+from .topography import Grid, check_valid_points, grid_of, require_whole_maps
+
+__all__ = ["power_spectrum", "MIN_VALID_FRACTION", "WINDOWS"]
+
+#: A map with fewer valid points than this fraction gives a questionable spectrum.
+MIN_VALID_FRACTION = 0.9
+
+#: ``(spectrum_kind, long_name, estimator)`` per geometry.
+_KINDS = {
+    "radial": ("isotropic 2D", "isotropic height spectrum",
+               "FFT periodogram, averaged over the modes of each |q| bin"),
+    "x": ("1D along x", "height spectrum of the lines along x",
+          "FFT periodogram of each line along x, pooled over the lines"),
+    "y": ("1D along y", "height spectrum of the lines along y",
+          "FFT periodogram of each line along y, pooled over the lines"),
+    "profile": ("1D", "height spectrum of the profile", "FFT periodogram of the profile"),
+}
+
+
+def power_spectrum(
+    topography: xr.DataArray,
+    *,
+    direction: str = "radial",
+    window: str | None = "auto",
+    bins: Any = "log",
+    points_per_decade: float = 20,
+    bin_width: Any = None,
+    workers: int | None = None,
+) -> xr.DataArray:
+    r"""Power spectral density ``C(q)`` of the heights of a topography (eq. 4).
+
+    The periodogram of ``C(q) = A <|h~(q)|^2>``, ``h~(q) = (1/A) int d^2r h(r) e^{-i q.r}``:
+    per Fourier mode ``q`` (angular wavenumber ``2 pi k / L``) of a grid of ``N`` points
+    with pixel area ``dA`` (a pixel's length for lines),
+
+    .. math::
+
+        C(\mathbf q) = \frac{dA \left|\sum_{\mathbf r} w\, m\, (h - \mu)\,
+        e^{-i \mathbf q \cdot \mathbf r}\right|^2}{\sum_{\mathbf r} w^2 m}
+
+    with ``m`` 1 at valid points and 0 at missing ones, ``w`` the window and ``mu`` the
+    window-weighted mean of the valid heights. Bins average ``C`` over the modes with
+    ``|q|`` in them (``+q`` and ``-q`` both counted). Same definition and factors as
+    SurfaceTopography's ``power_spectrum_from_area`` and ``power_spectrum_from_profile``
+    (docs/psd.md).
+
+    Parameters
+    ----------
+    topography : xarray.DataArray with dims (..., "y", "x") or (..., "x")
+        Heights with length units on data and coordinates (:func:`xrough.topography`);
+        NaN marks missing points; ``attrs["periodic"]`` says whether the map is one
+        period. Extra dims (``scan``) give one spectrum each; with dask, each map is one
+        task (``y`` and ``x`` must be one chunk each).
+    direction : {'radial', 'x', 'y'}
+        ``'radial'``: the 2D modes of a map, averaged over rings of ``|q|`` (the isotropic
+        ``C(q)``, length^4). ``'x'``, ``'y'``: the 1D spectrum of each line of the map
+        along that axis, pooled over the lines (length^3). A profile has only its own 1D
+        spectrum (``'radial'`` and ``'x'`` both give it; ``'y'`` is refused).
+    window : {'auto', 'hann', 'hamming', 'blackman', 'blackmanharris', None}
+        Window against the leakage of the edges of an open map: ``'auto'`` (default) is
+        None for a periodic topography and ``'hann'`` otherwise. The window of a map is
+        the product of the 1D windows along y and x (separable); lines are windowed along
+        their axis. Its power is normalised away (the division by ``sum w^2 m``), so the
+        variance is kept.
+    bins : {'log', 'linear'} or array_like
+        Log-spaced bins centred on ``10**(k / points_per_decade)`` (in the inverse lateral
+        unit, so maps in nm and um give the same bins, converted); linear bins of width
+        ``bin_width`` centred on its multiples; or explicit edges (angular wavenumbers,
+        plain numbers in the inverse lateral unit). The default bins hold every mode
+        but ``q = 0``, up to the corner of the grid; bins without a mode are dropped.
+    points_per_decade : float
+        Bins per decade for ``bins='log'`` (the rule of every log grid in xrough: a
+        finite number above 0 and at most 1000, checked whatever ``bins``). The default,
+        20, centres the bins on the default grid of :func:`xrough.spectrum` and keeps the
+        bias of bin averaging below 1 % (Notes).
+    bin_width : float, str or pint.Quantity, optional
+        Width of linear bins, an angular wavenumber (plain numbers in the inverse lateral
+        unit); default the spacing of the modes, ``2 pi / L`` of the longest side.
+    workers : int, optional
+        FFT threads (default: all cores).
+
+    Returns
+    -------
+    xarray.DataArray
+        ``C`` on dim ``"q"`` (the mean ``|q|`` of the modes in each bin, in the inverse
+        lateral unit, e.g. ``"nm-1"``), in the lateral unit to the power 4 for
+        ``'radial'`` (``"nm4"``), 3 for lines and profiles: the heights are converted to
+        the lateral unit, as :func:`xrough.spectrum` does. Coordinates:
+
+        - ``n_modes`` (int): modes in the bin (``+q`` and ``-q`` apart);
+        - ``bin_measure`` (inverse lateral unit squared for maps, to the power 1 for
+          lines): ``n_modes / A`` with ``A`` the area of the map (the length of a line),
+          the discrete form of ``q dq / 2 pi`` (radial) or ``dq / pi`` (1D), such that
+          ``(C * C.bin_measure).sum("q")`` is the variance of the heights (see Notes);
+        - ``standard_error`` (``'radial'`` and profiles; units of ``C``): the
+          statistical error of ``C`` as an estimate of the surface's spectrum, for
+          Gaussian heights: ``C sqrt(2 f / n_modes)``, ``f >= 1`` counting how strongly
+          the window correlates the modes of the bin (1 without a window, up to 3.8
+          for a Hann window of a map in wide bins), times the loss of independent modes
+          to missing points. Not given for the lines of a map, whose spectra are
+          correlated;
+        - ``valid_fraction`` (on the extra dims, 0-d for one map): the fraction of valid
+          points; ``quality_flag``: questionable where it is below
+          :data:`MIN_VALID_FRACTION` (then also ``attrs["quality"]`` and a
+          :class:`~xrough.QualityWarning` for one map).
+
+        Attrs: ``equation``, ``estimator``, ``spectrum_kind`` (``"isotropic 2D"``,
+        ``"1D along x"``, ``"1D along y"``, ``"1D"``), ``direction``, ``window``
+        (``"none"`` or its name), ``periodic``, ``bins``, ``points_per_decade`` (log)
+        or ``bin_width`` (linear), ``pixel_size``, ``scan_size`` (lateral unit),
+        ``q_nyquist`` (the largest ``|q|`` along each axis, the smaller of the two for a
+        map: above it a bin holds only the corners of the grid of modes), and the
+        topography's provenance (:func:`xrough.acf.result_attrs`).
+
+    Raises
+    ------
+    TypeError
+        ``topography`` is not a DataArray.
+    ValueError
+        Invalid topography (dims, non-uniform or unit-less coordinates, fewer than 2
+        valid points: at compute time for dask), ``y`` or ``x`` split into several dask
+        chunks, an unknown ``direction`` or ``window``, a bad ``points_per_decade``,
+        ``bin_width`` without ``bins='linear'``, bin edges that are not increasing
+        wavenumbers or hold no mode.
+
+    See Also
+    --------
+    xrough.spectrum : ``C(q)`` from G by eq. 10/11 (plot both on one axes: docs/psd.md).
+    xrough.model_spectrum : the model spectrum of eq. 35.
+
+    Notes
+    -----
+    **Parseval.** The default bins hold every mode but ``q = 0`` (up to the corner of the
+    grid of modes, beyond ``q_nyquist``), so that, exactly (to round-off),
+
+    .. math::
+
+        \sum_q C(q)\, \mathrm{bin\_measure}(q) = \frac{1}{A} \sum_{\mathbf q \ne 0}
+        C(\mathbf q) = \frac{\sum w^2 m (h - \mu)^2}{\sum w^2 m}
+
+    the variance of the heights for a map without window and missing points (in the
+    lateral unit squared); with a window, the ``w^2``-weighted variance, which equals the
+    variance on average. For lines it is the pooled variance of the lines about their
+    own means. Explicit bins hold only the modes inside them.
+
+    **Missing points** are set to the (weighted) mean, and the normalisation divides by
+    the valid points (``sum w^2 m``): the mask is part of the window. So ``C`` is the
+    spectrum seen through the spectral window of ``w m``, whose weights add up to one.
+    One compact hole (a missing region) narrows the data but leaves ``C`` nearly
+    unchanged; scattered missing points spread a fraction ``f`` (the missing fraction) of
+    every mode over all ``q``: ``C`` drops by about ``f`` where it is large and gets a
+    floor of about ``f sigma_h^2 dA`` where it is small (docs/psd.md).
+
+    **Bin averages.** ``C`` of a bin is the average over its modes, ``q`` their mean
+    ``|q|`` (as in SurfaceTopography): exact where a bin holds one ``|q|`` (the lowest
+    bins), and for a spectrum curved in log-log a little above ``C(q)``: by about
+    ``alpha (alpha + 1) s^2 / 2`` for ``C ~ q^-alpha``, ``s^2`` the variance of ``ln |q|``
+    over the modes of a bin (``s^2 = 0.0044`` for a full ring at 10 bins per decade).
+    For ``alpha = 3.6`` (``H = 0.8``) that is 3.7 % at 10 and 0.9 % at 20 bins per decade.
+
+    **Windows.** An open map is not periodic: without a window its edges act as steps
+    whose leakage (``~ q^-2`` in 1D) hides a spectrum that falls faster. Remove a plane
+    first (:func:`xrough.detrend`); the default Hann window then keeps the leakage below
+    a ``q^-6`` tail.
+
+    Examples
+    --------
+    A periodic map: Parseval holds exactly.
+
+    >>> import numpy as np, xrough
+    >>> h = np.random.default_rng(0).normal(size=(128, 128))
+    >>> topo = xrough.topography(h, spacing="2 nm", unit="nm", periodic=True)
+    >>> C = topo.rough.psd()
+    >>> C.attrs["units"], C.q.attrs["units"], C.attrs["window"]
+    ('nm4', 'nm-1', 'none')
+    >>> variance = float((C * C.bin_measure).sum("q"))
+    >>> print(f"{variance:.12f} nm2 = variance {float(h.var()):.12f} nm2")
+    0.992257930562 nm2 = variance 0.992257930562 nm2
+
+    One sine along x: the spectrum of the lines along x has one peak, at its wavevector,
+    which holds its variance 1/2.
+
+    >>> x = np.arange(256) * 2.0
+    >>> wave = xrough.topography(np.sin(2 * np.pi * x / 64) * np.ones((32, 1)),
+    ...                          spacing="2 nm", unit="nm", periodic=True)
+    >>> C = wave.rough.psd(direction="x", bins="linear")
+    >>> C.attrs["units"], C.attrs["spectrum_kind"]
+    ('nm3', '1D along x')
+    >>> peak = C.idxmax("q")
+    >>> print(f"q = {float(peak):.6f} nm-1 (2 pi / 64 nm = {2 * np.pi / 64:.6f} nm-1), "
+    ...       f"power {float((C * C.bin_measure).sel(q=peak)):.6f} nm2")
+    q = 0.098175 nm-1 (2 pi / 64 nm = 0.098175 nm-1), power 0.500000 nm2
+    """
+    grid = grid_of(topography)
+    kind = _kind(direction, grid)
+    name = _window(window, grid)
+    ppd = check_points_per_decade(points_per_decade)
+    if bin_width is not None and not (isinstance(bins, str) and bins == "linear"):
+        raise ValueError("bin_width applies to bins='linear' only")
+    require_whole_maps(topography, grid, purpose="the power spectrum")
+    if topography.chunks is None:
+        check_valid_points(np.asarray(topography.transpose(..., *grid.dims).values),
+                           ndim=len(grid.dims))
+    shape, spacing = _transformed(grid, kind)
+    edges = _edges(shape, spacing, grid, bins, ppd, bin_width)
+    _, n_modes, q_mean, _ = mode_bins(shape, spacing, tuple(edges))
+    if n_modes.size == 0:
+        raise ValueError(f"no Fourier mode of the topography lies in the bins (its modes "
+                         f"run from {mode_range(shape, spacing)[0]:.4g} to "
+                         f"{mode_range(shape, spacing)[1]:.4g} "
+                         f"{u.power_units(grid.lateral_unit, -1)})")
+    nb = n_modes.size
+    packed = xr.apply_ufunc(
+        psd_kernel, topography, input_core_dims=[list(grid.dims)],
+        output_core_dims=[["packed"]], dask="parallelized", output_dtypes=[float],
+        dask_gufunc_kwargs={"output_sizes": {"packed": nb + 2}}, keep_attrs=False,
+        kwargs={"direction": kind, "spacing": grid.spacing, "window": name,
+                "edges": tuple(edges), "workers": workers or os.cpu_count() or 1})
+    factors = (error_factors(shape, spacing, tuple(edges), name)
+               if kind in ("radial", "profile") else None)
+    return _result(topography, grid, packed, kind=kind, window=name, n_modes=n_modes,
+                   q=q_mean, area=float(np.prod(np.multiply(shape, spacing))),
+                   bins=bins, ppd=ppd, edges=edges, factors=factors)
+
+
+def _kind(direction: str, grid: Grid) -> str:
+    """Return the geometry of the transform: ``'radial'``, ``'x'``, ``'y'`` or ``'profile'``."""
+    if direction not in ("radial", "x", "y"):
+        raise ValueError(f"direction must be 'radial', 'x' or 'y', got {direction!r}")
+    if len(grid.dims) == 1:
+        if direction == "y":
+            raise ValueError("a profile (dims ('x',)) has no direction 'y'")
+        return "profile"
+    return direction
+
+
+def _window(window, grid: Grid) -> str | None:
+    """Return the window (None: none): for 'auto', none if periodic, else Hann."""
+    if isinstance(window, str) and window == "auto":
+        return None if grid.periodic else "hann"
+    if window is None or (isinstance(window, str) and window in WINDOWS):
+        return window
+    raise ValueError(f"window must be 'auto', None or one of {WINDOWS}, got {window!r}")
+
+
+def _transformed(grid: Grid, kind: str) -> tuple[tuple[int, ...], tuple[float, ...]]:
+    """Shape and spacing of the transformed axes (both of a map, or one axis)."""
+    if kind == "radial":
+        return grid.shape, grid.spacing
+    axis = grid.dims.index("y" if kind == "y" else "x")
+    return (grid.shape[axis],), (grid.spacing[axis],)
+
+
+def _edges(shape, spacing, grid: Grid, bins, ppd: float, bin_width) -> np.ndarray:
+    """Bin edges in ``|q|`` (inverse lateral unit); the defaults hold every mode but 0."""
+    q_unit = u.power_units(grid.lateral_unit, -1)
+    q_lo, q_hi = mode_range(shape, spacing)
+    if isinstance(bins, str) and bins == "log":  # 1e-9 keeps the extreme modes inside
+        return log_bins(q_lo * (1 - 1e-9), q_hi * (1 + 1e-9), ppd)[1]
+    if isinstance(bins, str) and bins == "linear":
+        width = q_lo
+        if bin_width is not None:
+            given = u.array_in(bin_width, q_unit, what="bin_width", noun="wavenumbers",
+                               positive=True)
+            if given.size != 1:
+                raise ValueError(f"bin_width must be one wavenumber, got {bin_width!r}")
+            width = float(given[0])
+        return linear_bin_edges(0.5 * width, q_hi + width, width)
+    if isinstance(bins, str):
+        raise ValueError(f"bins must be 'log', 'linear' or an array of edges, got {bins!r}")
+    edges = u.array_in(bins, q_unit, what="bins", noun="bin edges")
+    return require_increasing(edges, "bins", allow_zero=True, min_size=2,
+                              noun="bin edges (angular wavenumbers)")
+
+
+def _result(topography, grid: Grid, packed: xr.DataArray, *, kind, window, n_modes, q,
+            area, bins, ppd, edges, factors) -> xr.DataArray:
+    """Label the packed output of the kernel: ``C`` on ``q`` with its coords and attrs."""
+    nb = n_modes.size
+    lateral = grid.lateral_unit
+    power = 4 if kind == "radial" else 3
+    c_unit = u.power_units(lateral, power)
+    factor = u.conversion_factor(grid.height_unit, lateral) ** 2  # heights in lateral unit
+    C = packed.isel(packed=slice(0, nb)).rename(packed="q") * factor
+    along = "" if kind in ("radial", "profile") else f" along {kind}"
+    coords: dict[str, Any] = {
+        "q": ("q", q, {"units": u.power_units(lateral, -1),
+                       "long_name": f"angular wavenumber{along}"}),
+        "n_modes": ("q", n_modes, {"units": "1", "long_name":
+                                   "number of Fourier modes in the bin (+q and -q apart)"}),
+        "bin_measure": ("q", n_modes / area, {
+            "units": u.power_units(lateral, -(power - 2)),
+            "long_name": "q-space measure of the bin (n_modes / area, or / length for "
+                         "lines): sum(C * bin_measure) is the variance"}),
+    }
+    if factors is not None:  # Gaussian modes: sqrt(2 f g / n) (error_factors, psd_kernel)
+        rel = (xr.DataArray(np.sqrt(2.0 * factors / n_modes), dims="q")
+               * np.sqrt(packed.isel(packed=nb, drop=True)))
+        coords["standard_error"] = (C * rel).assign_attrs(
+            units=c_unit, long_name="standard error of C")
+    valid = packed.isel(packed=-1, drop=True).assign_attrs(
+        units="1", long_name="fraction of valid (non-NaN) points")
+    coords["valid_fraction"] = valid
+    C = C.assign_coords(coords)
+    C.name = "C"
+    kind_name, long_name, estimator = _KINDS[kind]
+    q_axes = [mode_range((n,), (d,))[1] for n, d in zip(grid.shape, grid.spacing)]
+    log = isinstance(bins, str) and bins == "log"
+    linear = isinstance(bins, str) and bins == "linear"
+    C.attrs = result_attrs(
+        topography,
+        units=c_unit,
+        long_name=long_name,
+        symbol="C",
+        equation="eq. 4: C(q) = A <|h~(q)|^2>",
+        estimator=estimator,
+        spectrum_kind=kind_name,
+        direction="x" if kind == "profile" else kind,
+        window="none" if window is None else window,
+        periodic=int(grid.periodic),
+        bins=bins if isinstance(bins, str) else "explicit",
+        **({"points_per_decade": float(ppd)} if log else {}),
+        **({"bin_width": float(edges[1] - edges[0])} if linear else {}),
+        pixel_size=float(min(grid.spacing)),
+        scan_size=float(max(grid.size)),
+        q_nyquist=float(min(q_axes) if kind == "radial" else
+                        q_axes[grid.dims.index("y" if kind == "y" else "x")]),
+        source=str(topography.attrs.get("source", topography.name or "")),
+    )
+    codes = xr.where(valid < MIN_VALID_FRACTION, 1, 0)
+    note = (f"fewer than {MIN_VALID_FRACTION:.0%} of the points are valid "
+            "(coordinate valid_fraction): the missing points are part of the spectral "
+            "window; if they are scattered, C is low by about the missing fraction where "
+            "it is large and has a floor of about (missing fraction) sigma_h^2 dA where "
+            "it is small (docs/psd.md)")
+    return quality.mark_curves(C, codes, what="power_spectrum", notes=note)
