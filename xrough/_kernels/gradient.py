@@ -13,6 +13,7 @@ All lengths in one unit; G in its square.
 from __future__ import annotations
 
 import numpy as np
+from scipy.optimize import isotonic_regression
 
 from .acf_curve import require_acf
 from .binning import log_range
@@ -81,16 +82,38 @@ def exact_support(dr, g, noise, *, smooth, support_rtol, interpolation) -> tuple
 def exact_gradient(dr, g, dr_out, *, smooth, interpolation, points_per_decade) -> np.ndarray:
     """``gbar`` (eq. 26 of the spectrum of G, eq. 10/11) at ``dr_out``; NaN where gbar^2 <= 0.
 
-    ``dr``, ``g``: the valid bins of G (``dr > 0``, G > 0).
+    ``dr``, ``g``: the valid bins of G (``dr > 0``, G > 0).  ``gbar^2`` integrates
+    ``q^3 C >= 0`` up to ``2 pi / dr``, so it cannot rise with ``dr``; where the spectrum
+    of G rings around a sharp cutoff (negative lobes beyond ``q_s``, which ten bins per
+    decade cannot resolve), it would rise by up to 1-1.5 %.  ``gbar^2`` over ``dr_out`` is
+    therefore the non-increasing curve nearest to it in least squares (isotonic
+    regression, :func:`scipy.optimize.isotonic_regression`): a projection onto what eq. 26
+    allows, which averages the ringing and leaves a curve that already falls unchanged.
     """
     lo, hi = 0.02 * np.pi / dr[-1], 2 * np.pi / dr[0]
     q = log_range(lo, hi, points_per_decade)
     gs = g if smooth is None else smooth_acf_kernel(dr, g, smooth)
     values = spectrum_from_acf_kernel(q, dr, gs, interpolation=interpolation)
+    dr_out = np.asarray(dr_out, dtype=float)
     gbar2 = values[0] * q[0] ** 4 / (8.0 * np.pi) + power_law_moment_kernel(
-        2 * np.pi / np.asarray(dr_out, dtype=float), q, values, 2, nonpositive="linear")
+        2 * np.pi / dr_out, q, values, 2, nonpositive="linear")
+    gbar2 = nonincreasing_in_lag(dr_out, gbar2)
     with np.errstate(invalid="ignore"):
         return np.where(gbar2 > 0, np.sqrt(np.abs(gbar2)), np.nan)
+
+
+def nonincreasing_in_lag(dr, values) -> np.ndarray:
+    """Return the curve nearest to ``values`` (least squares) that does not rise with dr.
+
+    Isotonic regression over the finite, positive values, in the order of ``dr``; the
+    others are returned as they are.
+    """
+    values = np.array(values, dtype=float)
+    use = np.flatnonzero(np.isfinite(values) & (values > 0))
+    if use.size > 1:
+        order = use[np.argsort(np.asarray(dr, dtype=float)[use], kind="stable")]
+        values[order] = isotonic_regression(values[order], increasing=False).x
+    return values
 
 
 def gradient_std(g, *, dr, errors: dict, ballistic: bool = False, smooth=None,
