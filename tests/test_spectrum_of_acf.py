@@ -644,3 +644,16 @@ def test_exact_gradient_does_not_ring_below_a_sharp_cutoff(kind):
     else:
         np.testing.assert_allclose(gbar[1:below], gbar[1], rtol=1e-3)
     np.testing.assert_allclose(gbar[:below], truth, rtol=0.011)
+
+
+def test_exact_gradient_determined_nowhere_is_nan_and_failed():
+    """A 4 x 7 map (sdf-1.sdf's size): its G of a few lags determines gbar nowhere. The
+    exact route raised; it gives NaN on G's lags, rated failed with the way out, as a
+    failed result is."""
+    rng = np.random.default_rng(1)
+    G = xrough.topography(rng.normal(size=(4, 7)), spacing="1 um", unit="nm").rough.acf()
+    with pytest.warns(xrough.QualityWarning, match="determines gbar nowhere"):
+        gbar = rms_gradient_exact(G)
+    assert gbar.sizes["dr"] == G.sizes["dr"] and np.all(np.isnan(gbar.values))
+    assert gbar.attrs["quality"] == "failed" and "rms_gradient(G)" in gbar.attrs[
+        "quality_notes"]

@@ -381,7 +381,9 @@ def rms_gradient_exact(
     xarray.DataArray
         ``gbar`` on dim ``"dr"`` (units of ``G``'s coordinate), dimensionless, attrs
         ``equation="eq. 26"``, ``dr_min_supported``, ``dr_max_supported``,
-        ``support_rtol``, ``smooth_decades``, ``interpolation``.
+        ``support_rtol``, ``smooth_decades``, ``interpolation``. Where G determines gbar
+        nowhere (a few lags, none ballistic and none at a plateau: a 4 x 7 map), NaN on
+        the lags of G (or ``dr``), rated failed with the reason (docs/quality.md).
 
     Raises
     ------
@@ -413,7 +415,25 @@ def rms_gradient_exact(
     """
     check_spectrum_options(smooth, support_rtol, interpolation, points_per_decade)
     acf = acf_samples(G, noise)
-    dr_lo, dr_hi = _exact_support(acf, smooth, support_rtol, interpolation)
+    dr_lo, dr_hi = kernels.exact_support(acf.dr, acf.G, acf.noise, smooth=smooth,
+                                         support_rtol=support_rtol,
+                                         interpolation=interpolation)
+    if not np.isfinite(dr_lo):  # determined nowhere: NaN on the lags, failed, said why
+        lags = (acf.dr if dr is None else
+                u.array_in(dr, acf.length_unit, what="dr", noun="distances"))
+        attrs = result_attrs(G, estimator="eq. 26 with C from G by eq. 10/11",
+                             dr_min_supported=np.nan, dr_max_supported=np.nan,
+                             support_rtol=float(support_rtol),
+                             smooth_decades=0.0 if smooth is None else float(smooth),
+                             interpolation=interpolation)
+        out = _gradient_da(np.full(lags.shape, np.nan), lags, acf.unit_str, attrs)
+        return quality.mark(out, (
+            f"G determines gbar nowhere to support_rtol={support_rtol:g}: the "
+            f"extrapolation beyond dr = {acf.dr[0]:.4g} to {acf.dr[-1]:.4g} "
+            f"{acf.unit_str} or noise dominates (too few lags, or none ballistic and none "
+            "at a plateau); pass a larger support_rtol or smooth=<decades>, use "
+            "rms_gradient(G), or measure G over a wider range"),
+            what="rms_gradient_exact", level="failed")
     dr_arr = _supported_lags(acf, dr, dr_lo, dr_hi, support_rtol)
     gbar = kernels.exact_gradient(acf.dr, acf.G, dr_arr, smooth=smooth,
                                   interpolation=interpolation,
@@ -429,20 +449,6 @@ def rms_gradient_exact(
     })
     return mark_gaps(_gradient_da(gbar, dr_arr, acf.unit_str, attrs), acf,
                      what="rms_gradient_exact", depends=_GAP)
-
-
-def _exact_support(acf, smooth, support_rtol: float, interpolation: str) -> tuple:
-    """Lags ``(dr_lo, dr_hi)`` where G determines gbar; raise where it does nowhere."""
-    dr_lo, dr_hi = kernels.exact_support(acf.dr, acf.G, acf.noise, smooth=smooth,
-                                         support_rtol=support_rtol,
-                                         interpolation=interpolation)
-    if not np.isfinite(dr_lo):
-        raise ValueError(
-            f"G does not determine gbar anywhere to within support_rtol={support_rtol:g}: "
-            f"the extrapolation beyond dr = {acf.dr[0]:g}..{acf.dr[-1]:g} {acf.unit_str} or "
-            "noise dominates; pass a larger support_rtol or smooth=<decades>, or measure G "
-            "over a wider range")
-    return dr_lo, dr_hi
 
 
 def _supported_lags(acf, dr: Any, dr_lo: float, dr_hi: float,
