@@ -132,7 +132,7 @@ def _polar_grid(area, pixel_area, n_s, n_angle):
 def g_covariance(dr: np.ndarray, q: np.ndarray, C: np.ndarray, *, size: float,
                  pixel: float, geometry: str, exact_modes: int = 65536,
                  bands_per_decade: float = 200, estimated_over: float = 0.0,
-                 with_mean: bool = False):
+                 with_mean: bool = False, diagonal: bool = False):
     """Covariance of the finite-area errors of G between bins, from the surface's spectrum.
 
     A Gaussian surface is a sum of independent Fourier modes whose powers ``P_k`` scatter
@@ -181,6 +181,9 @@ def g_covariance(dr: np.ndarray, q: np.ndarray, C: np.ndarray, *, size: float,
     with_mean : bool
         Also return the expected G of the same modes, ``sum_k <P_k> w_k(d)`` (the mean
         the covariance belongs to: its lattice sum, not the continuum eq. 9).
+    diagonal : bool
+        Only the variances (the diagonal, ``(nbins,)``): a sum over the modes per bin
+        instead of per pair of bins (G's ``standard_error``).
 
     Returns
     -------
@@ -242,7 +245,8 @@ def g_covariance(dr: np.ndarray, q: np.ndarray, C: np.ndarray, *, size: float,
         spread = 10 ** (estimated_over / 2) - 10 ** (-estimated_over / 2)
         n_window = spread * m if geometry == "profile" else np.pi * m * m * spread
         weight = weight / (1.0 + 1.0 / np.maximum(n_window, 1.0))
-    cov, mean = np.zeros((d.size, d.size)), np.zeros(d.size)
+    cov = np.zeros(d.size) if diagonal else np.zeros((d.size, d.size))
+    mean = np.zeros(d.size)
     for blk in range(0, k.size, 4096):  # bounded memory
         kb, wb = k[blk:blk + 4096, None], weight[blk:blk + 4096, None]
         if geometry == "radial":
@@ -252,11 +256,16 @@ def g_covariance(dr: np.ndarray, q: np.ndarray, C: np.ndarray, *, size: float,
             w = 1.0 - np.cos(kb * d[None, :]) * np.sinc(band * d[None, :] / (2 * np.pi))
         # einsum, not BLAS: the products are small, and a threaded BLAS spends more CPU
         # time starting its threads than on them (twice the fit of a profile)
-        cov += np.einsum("ki,kj->ij", w * wb, w)
+        cov += (np.einsum("ki,ki->i", w * wb, w) if diagonal
+                else np.einsum("ki,kj->ij", w * wb, w))
         mean += np.einsum("k,ki->i", mean_weight[blk:blk + 4096], w)
-    out = np.zeros((nb, nb))
     idx = np.flatnonzero(ok)
-    out[np.ix_(idx, idx)] = 0.5 * (cov + cov.T)
+    if diagonal:
+        out = np.zeros(nb)
+        out[idx] = cov
+    else:
+        out = np.zeros((nb, nb))
+        out[np.ix_(idx, idx)] = 0.5 * (cov + cov.T)
     if not with_mean:
         return out
     expected = np.zeros(nb)
@@ -266,7 +275,8 @@ def g_covariance(dr: np.ndarray, q: np.ndarray, C: np.ndarray, *, size: float,
 
 def covariance_from_acf(dr: np.ndarray, g: np.ndarray, *, size: float, pixel: float,
                         geometry: str, per_decade: float = 20.0,
-                        estimated_over: float = 0.5, relative: bool = True) -> np.ndarray:
+                        estimated_over: float = 0.5, relative: bool = True,
+                        diagonal: bool = False) -> np.ndarray:
     """Covariance of the finite-area errors of G's bins, from the spectrum of G itself.
 
     The spectrum of G (eq. 10/11, :func:`spectrum_from_acf_kernel` of G smoothed over
@@ -279,14 +289,15 @@ def covariance_from_acf(dr: np.ndarray, g: np.ndarray, *, size: float, pixel: fl
     half a decade; 0 takes it as the surface's own).  ``relative``: the covariance
     relative to the expected G of the same modes, times ``g``, bin by bin (the modes'
     own G is their lattice sum, which G's spectrum reproduces where it is right;
-    otherwise the covariance as computed).
+    otherwise the covariance as computed).  ``diagonal``: the variances only.
     """
     r, g0 = dr / pixel, float(np.median(g))
     q = np.geomspace(np.pi / (8 * size / pixel), 2 * np.pi,
                      int(per_decade * np.log10(16 * size / pixel)) + 2)
     C = spectrum_from_acf_kernel(q, r, smooth_acf_kernel(r, g / g0, 0.5))
     cov, mean = g_covariance(r, q, C, size=size / pixel, pixel=1.0, geometry=geometry,
-                             estimated_over=estimated_over, with_mean=True)
+                             estimated_over=estimated_over, with_mean=True,
+                             diagonal=diagonal)
     if not relative:
         return cov * g0**2
     # relative to the G these modes make: a spectrum of the right shape gives the same;
@@ -295,7 +306,7 @@ def covariance_from_acf(dr: np.ndarray, g: np.ndarray, *, size: float, pixel: fl
     # of the terms whose sum is G)
     with np.errstate(divide="ignore", invalid="ignore"):
         scale = g / (g0 * mean)
-    return cov * np.outer(scale, scale) * g0**2
+    return cov * (scale**2 if diagonal else np.outer(scale, scale)) * g0**2
 
 
 def finite_area_variance(dr: np.ndarray, g: np.ndarray, pairs: np.ndarray, *, area: float,
@@ -358,14 +369,14 @@ def finite_area_variance(dr: np.ndarray, g: np.ndarray, pairs: np.ndarray, *, ar
     try:
         with np.errstate(all="ignore"):
             g_ok = g[ok] if smooth is None else smooth_acf_kernel(dr[ok], g[ok], smooth)
-            cov = covariance_from_acf(dr[ok], g_ok, size=size, pixel=pixel,
-                                      geometry=geometry)
+            var_ok = covariance_from_acf(dr[ok], g_ok, size=size, pixel=pixel,
+                                         geometry=geometry, diagonal=True)
     except (ValueError, np.linalg.LinAlgError):
-        cov = None
-    if cov is None or not np.all(np.isfinite(np.diag(cov))):
+        var_ok = None
+    if var_ok is None or not np.all(np.isfinite(var_ok)):
         return g_variance(dr, g, pairs, area=area, pixel_area=pixel_area, geometry=geometry)
     var = np.full(dr.shape, np.nan)
-    var[ok] = np.diag(cov) * (one / area)  # n independent maps: 1/n
+    var[ok] = var_ok * (one / area)  # n independent maps: 1/n
     beyond = dr > 0.5 * size
     if np.any(beyond):  # an open map's lags beyond L/2: the periodic model does not hold
         real = g_variance(dr, g, pairs, area=area, pixel_area=pixel_area, geometry=geometry)
