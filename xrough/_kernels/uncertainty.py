@@ -129,6 +129,25 @@ def _polar_grid(area, pixel_area, n_s, n_angle):
     return rho0, sx, sy, ws
 
 
+#: Modes of the other axis summed one by one for G along one axis of a map (the rest in
+#: bands): the sum is smooth in them beyond the first few (the variances move by < 1e-3).
+CROSS_EXACT_MODES = 256
+
+
+def _mode_bands(n_max: int, exact: int, per_decade: float) -> tuple[np.ndarray, np.ndarray]:
+    """Mode numbers ``1..n_max``: the first ``exact`` one by one, then log bands.
+
+    Returns the band centres and their widths (modes per band; 1 for single modes).
+    """
+    m_exact = np.arange(1, min(exact, n_max) + 1, dtype=float)
+    edges = (np.geomspace(m_exact[-1] + 0.5, n_max + 0.5,
+                          max(2, int(per_decade * np.log10((n_max + 0.5)
+                                                           / (m_exact[-1] + 0.5))) + 1))
+             if n_max > m_exact[-1] else np.empty(0))
+    return (np.r_[m_exact, 0.5 * (edges[1:] + edges[:-1])],
+            np.r_[np.ones(m_exact.size), np.diff(edges)])
+
+
 def g_covariance(dr: np.ndarray, q: np.ndarray, C: np.ndarray, *, size: float,
                  pixel: float, geometry: str, exact_modes: int = 65536,
                  bands_per_decade: float = 200, estimated_over: float = 0.0,
@@ -217,13 +236,7 @@ def g_covariance(dr: np.ndarray, q: np.ndarray, C: np.ndarray, *, size: float,
     n_max = max(1, int(np.ceil(0.5 * size / pixel * (np.sqrt(2) if geometry == "radial"
                                                          else 1.0))))
     step = 2 * np.pi / size
-    m_exact = np.arange(1, min(exact_modes, n_max) + 1, dtype=float)
-    edges = (np.geomspace(m_exact[-1] + 0.5, n_max + 0.5,
-                          max(2, int(bands_per_decade * np.log10((n_max + 0.5)
-                                                                 / (m_exact[-1] + 0.5))) + 1))
-             if n_max > m_exact[-1] else np.empty(0))
-    m = np.r_[m_exact, 0.5 * (edges[1:] + edges[:-1])]
-    width = np.r_[np.ones(m_exact.size), np.diff(edges)]  # modes per band along k
+    m, width = _mode_bands(n_max, exact_modes, bands_per_decade)  # modes per band along k
     k = m * step
     if geometry == "profile":
         kk = np.geomspace(k[0], k[-1], max(2, int(50 * np.log10(k[-1] / k[0])) + 2))
@@ -232,8 +245,11 @@ def g_covariance(dr: np.ndarray, q: np.ndarray, C: np.ndarray, *, size: float,
         power = 2.0 * c1 / size
         weight, mean_weight = width * power**2, width * power
     elif geometry == "axis":
-        n = np.r_[-m_exact[::-1], 0.0, m_exact, m[m_exact.size:], -m[m_exact.size:]]
-        wn = np.r_[np.ones(2 * m_exact.size + 1), width[m_exact.size:], width[m_exact.size:]]
+        # the sum over the other axis is smooth in it beyond its first modes: bands there
+        # (a 2048^2 map summed 4 million modes one by one, 0.1 s per G)
+        ny, wy = _mode_bands(n_max, min(exact_modes, CROSS_EXACT_MODES), bands_per_decade)
+        n = np.r_[-ny[::-1], 0.0, ny]
+        wn = np.r_[wy[::-1], 1.0, wy]
         ky = n * step
         power = 2.0 * spectrum(np.hypot(k[:, None], ky[None, :])) / size**2
         weight, mean_weight = width * (power**2 @ wn), width * (power @ wn)
