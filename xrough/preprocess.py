@@ -44,6 +44,7 @@ import xarray as xr
 from . import quality
 from . import units as u
 from ._kernels import detrend as k
+from ._kernels.checks import require_flag
 from .topography import Grid, check_finite, grid_of, require_whole_maps
 
 __all__ = [
@@ -94,8 +95,7 @@ def _coords(topography: xr.DataArray, grid: Grid) -> tuple[np.ndarray, ...]:
 def _check_mode(mode: str, per_line: Any, grid: Grid) -> int:
     if mode not in DETREND_MODES:
         raise ValueError(f"mode must be one of {DETREND_MODES}, got {mode!r}")
-    if not isinstance(per_line, (bool, np.bool_)):
-        raise ValueError(f"per_line must be True or False, got {per_line!r}")
+    require_flag(per_line, "per_line")
     if per_line and len(grid.dims) != 2:
         raise ValueError("per_line=True detrends each scan line (row along 'x') of a map "
                          "with dims ('y', 'x'); this topography is a profile: use "

@@ -19,6 +19,7 @@ from tqdm.auto import tqdm
 
 from . import quality
 from . import units as u
+from ._kernels.checks import require_flag
 from ._kernels.solver import (
     ElasticOperator,
     coarse_start,
@@ -314,8 +315,7 @@ def _options(tol, max_iter, precision, precondition, coarse_to_fine) -> _Options
         raise ValueError(f"max_iter must be a positive integer, got {max_iter!r}")
     if precision not in ("mixed", "float64"):
         raise ValueError(f"precision must be 'mixed' or 'float64', got {precision!r}")
-    if precondition not in (True, False):
-        raise ValueError(f"precondition must be True or False, got {precondition!r}")
+    require_flag(precondition, "precondition")
     if int(coarse_to_fine) < 0:
         raise ValueError(f"coarse_to_fine must be a non-negative integer, got "
                          f"{coarse_to_fine!r}")

@@ -48,6 +48,7 @@ import xarray as xr
 from . import quality
 from . import units as u
 from ._kernels.binning import check_points_per_decade, log_bin_edges, log_bins
+from ._kernels.checks import require_positive
 from .acf import result_attrs
 from .correlation import height_difference_acf
 from .preprocess import reliability_window
@@ -149,6 +150,27 @@ def _height_unit(da: xr.DataArray) -> str:
     return u.format_units(u.as_length_unit(unit, what="heights"))
 
 
+def _require_curve(name: str, da: xr.DataArray) -> None:
+    """Refuse a G that has nothing to stitch (it was dropped without a word).
+
+    Fewer than two lags, or (computed) fewer than two finite, positive values at positive
+    lags.
+    """
+    if da.sizes["dr"] < 2:
+        raise ValueError(f"measurement {name!r}: its G has {da.sizes['dr']} lag(s); "
+                         "stitching needs at least two")
+    if _is_lazy(da):
+        return
+    values, dr = np.asarray(da.values, dtype=float), np.asarray(da["dr"].values, dtype=float)
+    usable = np.isfinite(values) & (values > 0) & (dr > 0)
+    if np.count_nonzero(usable) < 2:
+        what = ("all NaN" if np.all(np.isnan(values)) else
+                "not positive" if np.all(values[np.isfinite(values)] <= 0) else
+                "one usable lag")
+        raise ValueError(f"measurement {name!r}: its G is {what} (fewer than two finite, "
+                         "positive values at positive lags): nothing to stitch")
+
+
 def _window_of(name: str, da: xr.DataArray, override, lunit: str, min_pixels: float,
                long_fraction: float) -> tuple[float, float, str]:
     """Window of one measurement in its own lateral unit, with the rule that set it."""
@@ -156,6 +178,7 @@ def _window_of(name: str, da: xr.DataArray, override, lunit: str, min_pixels: fl
                                                                                     None)
     rule_lo = rule_hi = "reliable_dr (recorded)"
     if _is_acf(da):
+        _require_curve(name, da)
         pixel = da.attrs.get("pixel_size", float(da.dr.min()))
         scan = da.attrs.get("scan_size")
     else:
@@ -493,6 +516,12 @@ def stitch_mismatch(curves: xr.Dataset, *, threshold: float = 3.0,
     ``ratio`` and ``z``; a changing ratio (tip convolution at the short end, detrending
     at the long end) also raises ``chi2``.
     """
+    if not (isinstance(curves, xr.Dataset) and "measurement" in curves.dims):
+        raise TypeError("curves must be the Dataset of xrough.stitch_curves (dim "
+                        f"'measurement'), got {type(curves).__name__}"
+                        + (f" with dims {curves.dims}" if hasattr(curves, "dims") else ""))
+    threshold = require_positive(threshold, "threshold",
+                                 meaning=" (|z| beyond which a mismatch is significant)")
     names = [str(n) for n in curves.measurement.values]
     g = curves.G.values
     rel = curves.standard_error.values / g
@@ -524,7 +553,7 @@ def stitch_mismatch(curves: xr.Dataset, *, threshold: float = 3.0,
          "dr_hi": ("pair", np.asarray(cols[9], dtype=float), {"units": lunit})},
         coords={"pair": ("pair", list(cols[0])), "first": ("pair", list(cols[1])),
                 "second": ("pair", list(cols[2]))},
-        attrs={"threshold": float(threshold)})
+        attrs={"threshold": threshold})
     ds["ratio"] = np.exp(ds.log_ratio).assign_attrs(long_name="G_first / G_second")
     ds["significant"] = abs(ds.z) > threshold
     if warn:

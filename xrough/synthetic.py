@@ -17,6 +17,7 @@ import numpy as np
 from scipy import fft as sfft
 
 from . import units as u
+from ._kernels.checks import require_count
 from ._kernels.hankel import profile_spectrum_kernel
 from .models import model_attrs, self_affine_model
 from .topography import topography
@@ -111,9 +112,7 @@ def self_affine_surface(
     """
     nd = 1 if profile else 2
     sizes = _as_tuple(size, nd, "size")
-    ns = tuple(int(k) for k in _as_tuple(n, nd, "n"))
-    if any(k < 2 for k in ns):
-        raise ValueError(f"n must be at least 2 per dim, got {n}")
+    ns = tuple(require_count(k, "n (points per dim)", minimum=2) for k in _as_tuple(n, nd, "n"))
     lengths = tuple(u.length_in(s, unit, what="size") for s in sizes)
     if lambda_0 is None:
         lambda_0 = f"{max(lengths)!r} {unit}"

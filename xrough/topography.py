@@ -17,6 +17,7 @@ import pint
 import xarray as xr
 
 from . import units as u
+from ._kernels.checks import require_flag
 from ._kernels.pairs import require_no_inf
 from .models import MODEL_ATTR_POWERS
 
@@ -294,7 +295,7 @@ def topography(
     if name is not None or da.name is None:
         da.name = name or "height"
     if periodic is not None:
-        da.attrs["periodic"] = int(bool(periodic))
+        da.attrs["periodic"] = int(require_flag(periodic, "periodic"))
     else:
         da.attrs["periodic"] = int(bool(int(da.attrs.get("periodic", 0))))
     da.attrs.setdefault("long_name", "height")

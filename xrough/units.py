@@ -80,8 +80,11 @@ def _did_you_mean(text: str) -> str:
     """``" (did you mean 'MPa'?)"`` when a symbol of ``text`` is a unit in another case."""
     hints = []
     for word in re.findall(r"[A-Za-zµμ_]+", text):
-        if word in ureg:
-            continue
+        try:
+            if word in ureg:
+                continue
+        except ValueError:  # a number in words ("nan", "inf"): pint parses, then refuses
+            return f" ({word!r} is a number, not a unit)"
         for prefix in ("", "n", "u", "µ", "m", "c", "k", "M", "G", "T", "p", "f"):
             for base in ("Pa", "N", "J", "W", "m", "g", "s", "K", "Hz", "V", "A", "rad"):
                 if (prefix + base).lower() == word.lower() and prefix + base in ureg:

@@ -3,14 +3,45 @@
 One rule, one place: every grid of lags or wavenumbers that a calculation walks along
 (``dr`` of a G, ``q`` of a spectrum) must be finite, start at or above 0 and increase
 strictly; :func:`require_increasing` says so, naming the argument and the first value
-that breaks the rule.
+that breaks the rule.  A switch is True or False (:func:`require_flag`: not the string
+``"no"``, which is true), a count a whole number (:func:`require_count`: not 64.5 cut to
+64, nor the string ``"64"``), a threshold or factor a finite number above 0
+(:func:`require_positive`: NaN, inf, 0 and negative values would turn a check off).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["require_increasing"]
+__all__ = ["require_increasing", "require_flag", "require_count", "require_positive"]
+
+
+def require_flag(value, name: str) -> bool:
+    """Return ``value`` as a bool if it is True or False (numpy bools, 0 and 1 too)."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)) and value in (0, 1):
+        return bool(value)
+    raise ValueError(f"{name} must be True or False, got {value!r}")
+
+
+def require_count(value, name: str, *, minimum: int = 0) -> int:
+    """Return ``value`` as an int if it is a whole number ``>= minimum`` (no bool, str)."""
+    whole = (isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_)))
+    if not whole and isinstance(value, (float, np.floating)) and float(value).is_integer():
+        whole = True
+    if not whole or value < minimum:
+        raise ValueError(f"{name} must be a whole number of at least {minimum}, got {value!r}")
+    return int(value)
+
+
+def require_positive(value, name: str, *, meaning: str = "") -> float:
+    """Return ``value`` as a float if it is a finite real number above 0."""
+    ok = (isinstance(value, (int, float, np.integer, np.floating))
+          and not isinstance(value, (bool, np.bool_)))
+    if not ok or not (np.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be a finite number above 0{meaning}, got {value!r}")
+    return float(value)
 
 
 def _increasing_problem(x: np.ndarray, allow_zero: bool, min_size: int) -> str:

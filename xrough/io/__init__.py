@@ -20,11 +20,14 @@ import hashlib
 import importlib
 import importlib.util
 import inspect
+import math
+import os
 import struct
 from dataclasses import dataclass
 from pathlib import Path
 
 from .. import units as u
+from .._kernels.checks import require_flag
 from ..topography import topography
 from ._common import MissingOptionError
 from .container import container_attrs
@@ -194,6 +197,9 @@ def list_channels(path: str | Path, *, format: str | None = None) -> list[dict]:
     1: ZSensor [nm] height, Main Trace
     2: Phase [deg]
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"path must be a file name (str or os.PathLike), got "
+                        f"{type(path).__name__} {path!r}")
     path = Path(path)
     name = format or detect_format(path)
     if name not in FORMATS and name != BRIDGE:
@@ -283,6 +289,9 @@ def open_topography(
     FileNotFoundError, ValueError
         Missing, unknown or corrupted file (the message names the file and the problem).
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"path must be a file name (str or os.PathLike), got "
+                        f"{type(path).__name__} {path!r}")
     path = Path(path)
     name = format or detect_format(path)
     if name not in FORMATS and name != BRIDGE:
@@ -375,18 +384,26 @@ def _overrides(da, *, size, unit, height_unit, height_scale, periodic):
                                                                               what="unit"))
         applied.append(f"unit={lat!r}, height_unit={hu!r}")
     if height_scale is not None:
+        try:
+            scale = float(height_scale)
+        except (TypeError, ValueError):
+            scale = math.nan
+        if isinstance(height_scale, (str, bool)) or not (math.isfinite(scale) and scale):
+            raise ValueError(f"height_scale must be a finite nonzero factor, got "
+                             f"{height_scale!r} (0 would erase every height)")
         attrs = dict(da.attrs)
-        da = da * float(height_scale)
+        da = da * scale
         da.attrs = attrs
-        applied.append(f"height_scale={float(height_scale)!r}")
+        applied.append(f"height_scale={scale!r}")
     if size is not None:
         dims = tuple(d for d in ("y", "x") if d in da.dims)
         da = topography(da.drop_vars(list(dims)), size=size,
                         unit=unit or da["x"].attrs["units"], height_unit=da.attrs["units"])
         applied.append(f"size={size!r}")
     if periodic is not None:
-        da = da.assign_attrs(periodic=int(bool(periodic)))
-        applied.append(f"periodic={bool(periodic)}")
+        periodic = require_flag(periodic, "periodic")
+        da = da.assign_attrs(periodic=int(periodic))
+        applied.append(f"periodic={periodic}")
     return da, applied
 
 

@@ -713,6 +713,10 @@ def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = 
     >>> _ = xrough.save_analysis(store, {"(1).sur": {"topography": topo, "G": G}})
     >>> xr.testing.assert_identical(xrough.open_analysis(store)["(1).sur"]["G"], G)
     """
+    if not isinstance(analysis, Mapping):
+        raise TypeError("analysis must be a mapping of names to results ({'G': G}, or "
+                        "{'scan 1': {'G': G, 'fit': fit}}), got "
+                        f"{type(analysis).__name__}")
     path = Path(path)
     fmt = _format(path, format)
     tree = _tree(analysis)
@@ -859,6 +863,12 @@ def open_analysis(path: str | Path, *, format: str | None = None, chunks=None) -
 def _read_tree(dt: xr.DataTree, path: Path, lazy: bool) -> dict:
     """Return the nested mapping of an opened archive, comparing every checksum on the way."""
     name = str(path)
+    if not any(_KIND in node.attrs for node in dt.subtree) and (
+            "xrough_version" not in dt.attrs):
+        raise ValueError(
+            f"{path}: not an analysis archive of xrough.save_analysis (no group says what "
+            "it holds): open a topography with xrough.open_topography, any other NetCDF "
+            "with xarray.open_dataset")
     checked = any(_checksum.has_checksums(node.attrs, node.to_dataset(inherit=False).variables)
                   for node in dt.subtree)
     if not checked:
