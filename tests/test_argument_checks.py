@@ -128,3 +128,17 @@ def test_a_number_is_not_a_unit():
     topo = xrough.topography(np.zeros((4, 4)), spacing="1 nm", unit="nm")
     with pytest.raises(ValueError, match="'nan' is a number, not a unit"):
         xrough.convert_units(topo, "nan nm")
+
+
+def test_a_spectrum_whose_moments_overflow_is_refused_at_once():
+    """lambda_r = 1e300 nm raised an OverflowError from deep in the moments."""
+    with pytest.raises(ValueError, match="overflow float64"):
+        xrough.model_spectrum(hurst=0.8, lambda_r="1e300 nm", lambda_s="1 nm",
+                              rms_gradient=0.1, unit="nm")
+
+
+def test_a_synthetic_surface_beyond_memory_is_refused_before_allocating():
+    """n = 10**6 ran into a MemoryError for 7.3 TiB."""
+    with pytest.raises(ValueError, match="GiB to synthesise, more than this machine"):
+        xrough.self_affine_surface(hurst=0.8, lambda_r=16.0, lambda_s=4.0, size=64.0,
+                                   n=10**6, rms_gradient=0.1, unit="nm")

@@ -109,12 +109,20 @@ def self_affine_model(
     if name != "C_r":  # the range where the square of an rms (C_r) fits in a float
         u.positive_si(f"{amplitude!r} {unit}" if name == "rms_height" else amplitude,
                       "[length]" if name == "rms_height" else "[]", what=name)
-    with np.errstate(over="ignore", under="ignore"):
-        c_r = {"C_r": amplitude, "rms_height": np.square(amplitude) / shape.shape_moment(0),
-               "rms_gradient": np.square(amplitude) / shape.shape_moment(2)}[name]
-        model = SpectrumModel(hurst=float(hurst), q_r=q_r, q_s=q_s, q_0=q_0,
-                              C_r=float(c_r), rolloff=rolloff)
-        moments = (model.C_r, model.moment(0), model.moment(2))
+    try:
+        with np.errstate(over="ignore", under="ignore"):
+            c_r = {"C_r": amplitude,
+                   "rms_height": np.square(amplitude) / shape.shape_moment(0),
+                   "rms_gradient": np.square(amplitude) / shape.shape_moment(2)}[name]
+            model = SpectrumModel(hurst=float(hurst), q_r=q_r, q_s=q_s, q_0=q_0,
+                                  C_r=float(c_r), rolloff=rolloff)
+            moments = (model.C_r, model.moment(0), model.moment(2))
+    except OverflowError as err:
+        raise ValueError(
+            f"the moments of this spectrum overflow float64: lambda_r = {lambda_r!r}, "
+            f"lambda_s = {lambda_s!r}, lambda_0 = {lambda_0!r} span "
+            f"{np.log10(q_s / max(q_r, q_0)):.3g} decades of wavenumber with H = {hurst}; "
+            "give lengths within about 100 decades of each other") from err
     if not all(np.isfinite(m) and m >= np.finfo(float).tiny for m in moments):
         raise ValueError(
             f"{name} = {value!r} gives C_r = {moments[0]:g} {unit}^4, rms height^2 = "

@@ -11,6 +11,7 @@ profile has the same G(dr) as the surface.
 from __future__ import annotations
 
 import dataclasses
+import os
 from typing import Any
 
 import numpy as np
@@ -23,6 +24,24 @@ from .models import model_attrs, self_affine_model
 from .topography import topography
 
 __all__ = ["self_affine_surface"]
+
+
+#: float64 arrays of the map's size that synthesis holds at once (white noise, its
+#: transform, the spectrum and the heights).
+_ARRAYS_AT_ONCE = 4
+
+
+def _require_memory(ns: tuple) -> None:
+    """Refuse a size whose synthesis needs more memory than the machine has."""
+    need = float(np.prod(ns, dtype=float)) * 8 * _ARRAYS_AT_ONCE
+    try:
+        have = float(os.sysconf("SC_PAGE_SIZE")) * float(os.sysconf("SC_PHYS_PAGES"))
+    except (AttributeError, ValueError, OSError):  # not a POSIX system: no bound known
+        return
+    if need > have:
+        raise ValueError(f"n = {ns}: {np.prod(ns, dtype=float):.3g} points need about "
+                         f"{need / 2**30:.3g} GiB to synthesise, more than this machine's "
+                         f"{have / 2**30:.3g} GiB; use fewer points")
 
 
 def _as_tuple(value: Any, nd: int, what: str) -> tuple:
@@ -113,6 +132,7 @@ def self_affine_surface(
     nd = 1 if profile else 2
     sizes = _as_tuple(size, nd, "size")
     ns = tuple(require_count(k, "n (points per dim)", minimum=2) for k in _as_tuple(n, nd, "n"))
+    _require_memory(ns)
     lengths = tuple(u.length_in(s, unit, what="size") for s in sizes)
     if lambda_0 is None:
         lambda_0 = f"{max(lengths)!r} {unit}"
