@@ -222,7 +222,10 @@ def assert_same_attrs(a, b, unit_a: str, unit_b: str, *, rtol: float = 1e-10,
             continue
         ka = {k: v for k, v in var.attrs.items() if k != "units"}
         kb = {k: v for k, v in vb[name].attrs.items() if k != "units"}
-        assert ka == kb, f"attrs of {name!r} differ: {ka} != {kb}"
+        # flag values are arrays (CF): compare them as arrays, the rest as they are
+        assert set(ka) == set(kb) and all(
+            np.array_equal(ka[k], kb[k]) if isinstance(ka[k], np.ndarray) else ka[k] == kb[k]
+            for k in ka), f"attrs of {name!r} differ: {ka} != {kb}"
 
 
 def assert_attrs_close(got: dict, ref: dict, *, rtol: float, what: str = "attrs") -> None:

@@ -85,7 +85,7 @@ def test_gap_recorded_and_warned(gapped):
     assert f"no bin between {below:.4g} and {above:.4g} nm" in message
     # coverage: bit 1 the fine instrument, bit 2 the coarse one, each in its window
     cov = G.coverage.values
-    assert G.coverage.attrs["flag_masks"] == "1 2"
+    assert G.coverage.attrs["flag_masks"].tolist() == [1, 2]
     assert G.coverage.attrs["flag_meanings"] == "fine coarse"
     np.testing.assert_array_equal(cov, np.where(dr <= GAP[0], 1, 2))
     np.testing.assert_array_equal(G.n_measurements.values, 1)

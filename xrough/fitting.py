@@ -776,16 +776,14 @@ def _fit_variables(setup: FitSetup, part: dict) -> dict:
             "reduced chi^2 of eq. 36 on the same bins (the fit's starting point)")
         data["rolloff_shape"] = _flag(
             part["rolloff_shape"], np.int8, "roll-off shape of the fitted model spectrum",
-            flag_values=" ".join(str(k) for k in range(len(ROLLOFFS))),
-            flag_meanings=" ".join(ROLLOFFS))
+            **quality.cf_flags(ROLLOFFS, np.int8))
         data["reduced_chi2_other_rolloff"] = _variable(
             part["reduced_chi2_other_rolloff"], "1",
             "reduced chi^2 of the other roll-off shape on the same bins (NaN: not fitted)")
     data["fit_problems"] = _flag(
         part["fit_problems"], np.int16,
         "checks of the fit that failed (bit per check; see docs/quality.md)",
-        flag_masks=" ".join(str(1 << k) for k in range(len(PROBLEMS))),
-        flag_meanings=" ".join(PROBLEMS))
+        **quality.cf_flags(PROBLEMS, np.int16, masks=True))
     if setup.model == "spectrum":
         data["lambda_r_resolved"] = _variable(
             part["lambda_r_resolved"].astype(np.int8), "1",

@@ -270,8 +270,7 @@ def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec,
         output_dtypes=[float, np.int8, np.int64, np.int16, np.int8], keep_attrs=False)
     code = code.assign_attrs(
         long_name="route of the rms gradient per curve", units="1",
-        flag_values=" ".join(str(k) for k in range(len(kernels.AUTO_METHODS))),
-        flag_meanings=" ".join(kernels.AUTO_METHODS))
+        **quality.cf_flags(kernels.AUTO_METHODS, np.int8))
     out = out.assign_coords(gradient_method=code)
     if params is not None and quality.FLAG in params.coords:  # the given fit's own rating
         uses_fit = (code == 1) | (code == 3)

@@ -912,7 +912,7 @@ def tip_check(curvature: xr.DataArray, *, tip_radius: Any,
     flag = xr.where(rms > 1.0 / radius, 2, xr.where(lowest < -safety_factor / radius, 1, 0))
     flag = xr.DataArray(flag.data.astype(np.int8), dims=flag.dims).assign_attrs(
         units="1", long_name=f"curvature beyond a tip of radius {radius:g} {lunit}",
-        flag_values="0 1 2", flag_meanings=" ".join(_TIP_FLAGS))
+        **quality.cf_flags(_TIP_FLAGS, np.int8))
     rule = (f"beyond_tip = 2 where the rms curvature exceeds 1/R, 1 where only the most "
             f"negative curvature is below -{safety_factor:g}/R (R = {radius:g} {lunit})")
     out = curvature.assign_coords(beyond_tip=flag)

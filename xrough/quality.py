@@ -298,9 +298,8 @@ def flag_coord(codes, *, what: str) -> xr.DataArray:
     Returns
     -------
     xarray.DataArray
-        ``int8``, with ``flag_values`` (``"0 1 2"``, spelled as a string like every
-        flag attribute of xrough, so that attrs compare with ``==``), ``flag_meanings``
-        and ``units = "1"``.
+        ``int8``, with ``flag_values`` (``[0, 1, 2]``, an array of the flag's dtype as
+        CF asks: :func:`cf_flags`), ``flag_meanings`` and ``units = "1"``.
 
     Examples
     --------
@@ -311,10 +310,34 @@ def flag_coord(codes, *, what: str) -> xr.DataArray:
     da = codes if isinstance(codes, xr.DataArray) else xr.DataArray(np.asarray(codes))
     da = da.astype(np.int8)
     da.attrs = {"long_name": f"quality of {what} per curve", "units": "1",
-                "flag_values": " ".join(str(k) for k in range(len(LEVELS))),
-                "flag_meanings": " ".join(LEVELS)}
+                **cf_flags(LEVELS, np.int8)}
     da.name = FLAG
     return da
+
+
+def cf_flags(meanings, dtype, *, masks: bool = False) -> dict:
+    """CF flag attributes of a flag variable: the values (or bit masks) and their meanings.
+
+    ``flag_values`` ``0, 1, ...`` (or ``flag_masks`` ``1, 2, 4, ...``) as an array of the
+    variable's own ``dtype`` (CF 1.10, sec. 3.5: the same type as the variable, which
+    cf-xarray's flag decoding reads), ``flag_meanings`` the words joined by spaces (a
+    meaning holds no blank).
+
+    Examples
+    --------
+    >>> attrs = cf_flags(["good", "questionable", "failed"], np.int8)
+    >>> attrs["flag_values"], attrs["flag_meanings"]
+    (array([0, 1, 2], dtype=int8), 'good questionable failed')
+    >>> cf_flags(["a", "b"], np.int16, masks=True)["flag_masks"]
+    array([1, 2], dtype=int16)
+    """
+    words = [str(m) for m in meanings]
+    if any(not w or any(c.isspace() for c in w) for w in words):
+        raise ValueError(f"flag meanings must be single words, got {words}")
+    n = len(words)
+    key, values = (("flag_masks", [1 << k for k in range(n)]) if masks else
+                   ("flag_values", list(range(n))))
+    return {key: np.asarray(values, dtype=dtype), "flag_meanings": " ".join(words)}
 
 
 def _join(old: str, new: str) -> str:

@@ -1001,6 +1001,5 @@ def _coverage_attrs(names: list[str]) -> dict:
     return {
         "units": "1", "long_name": "measurements whose G the bin holds (bit 2**i: the i-th "
         "of stitched_from)",
-        "flag_masks": " ".join(str(2**i) for i in range(len(names))),
-        "flag_meanings": " ".join("_".join(n.split()) or f"measurement_{i}"
-                                  for i, n in enumerate(names))}
+        **quality.cf_flags(["_".join(n.split()) or f"measurement_{i}"
+                            for i, n in enumerate(names)], np.int64, masks=True)}
