@@ -56,3 +56,14 @@ def test_reopened_flags_decode_with_cf_xarray(reopened):
     assert route.attrs["flag_values"].dtype == np.int8
     meanings = route.attrs["flag_meanings"].split()
     assert bool(route.cf == meanings[int(route)])
+
+
+def test_a_written_topography_says_its_conventions(tmp_path):
+    """io.netcdf.write left the file without a global Conventions (the archives had it)."""
+    from xrough.io import netcdf
+
+    topo = xrough.topography(np.arange(12.0).reshape(3, 4), spacing="2 nm", unit="nm")
+    netcdf.write(topo, tmp_path / "t.nc")
+    with xr.open_dataset(tmp_path / "t.nc") as ds:
+        assert ds.attrs["Conventions"] == "CF-1.10"
+    assert netcdf.read(tmp_path / "t.nc").identical(topo)

@@ -16,7 +16,8 @@ import xarray as xr
 from .. import units as u
 from ..topography import topography
 
-__all__ = ["fail", "MissingOptionError", "reader_errors", "check_file", "check_points",
+__all__ = ["CONVENTIONS",
+           "fail", "MissingOptionError", "reader_errors", "check_file", "check_points",
            "MAX_POINTS",
            "micro_as_u", "describe_channel", "channel_listing", "select_channel",
            "default_channel_reader", "nonuniform_profile"]
@@ -24,6 +25,9 @@ __all__ = ["fail", "MissingOptionError", "reader_errors", "check_file", "check_p
 #: Largest number of points a reader of this package's native formats (X3P, SUR, SDF)
 #: accepts unless the caller passes ``max_points=``: a larger header is taken as corrupted.
 MAX_POINTS = 2**31
+
+#: The conventions every NetCDF file xrough writes follows (its global ``Conventions``).
+CONVENTIONS = "CF-1.10"
 
 #: Third-party exceptions and what they mean in a file reader, in words.
 _ERROR_WORDS = (

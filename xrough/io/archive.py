@@ -92,6 +92,7 @@ import xarray as xr
 
 from .._version import __version__
 from . import _checksum
+from ._common import CONVENTIONS
 
 __all__ = ["save_analysis", "open_analysis", "safe_name", "PROVENANCE_KEY"]
 
@@ -722,7 +723,7 @@ def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = 
     tree = _tree(analysis)
     now = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
     root = xr.Dataset(attrs={
-        "Conventions": "CF-1.10",
+        "Conventions": CONVENTIONS,
         "title": "xrough analysis",
         "xrough_version": __version__,
         "created": now,

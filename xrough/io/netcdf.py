@@ -27,13 +27,20 @@ from __future__ import annotations
 import mmap
 from pathlib import Path
 
+import netCDF4
 import numpy as np
 import xarray as xr
 
 from .. import units as u
 from ..topography import topography
 from . import _checksum
-from ._common import MissingOptionError, check_file, micro_as_u, reader_errors
+from ._common import (
+    CONVENTIONS,
+    MissingOptionError,
+    check_file,
+    micro_as_u,
+    reader_errors,
+)
 
 __all__ = ["sniff", "read", "write"]
 
@@ -478,6 +485,8 @@ def write(topo: xr.DataArray, path, *, format: str = "NETCDF4") -> None:
     topography(topo)  # validate before writing
     path = Path(path)
     topo.to_netcdf(path, engine="netcdf4", format=format)
+    with netCDF4.Dataset(path, "a") as nc:  # what the file follows, as the archives say
+        nc.setncattr("Conventions", CONVENTIONS)
     with _open(path) as ds:
         sums = _checksum.dataset_checksums(ds.attrs, ds.variables)
     _checksum.stamp(path, {"/": sums}, "netcdf")
