@@ -699,3 +699,18 @@ def test_report_uses_the_stylus_the_file_states(monkeypatch, capsys, tmp_path):
     status, out, _ = run("report", path, "--E-star", E_STAR, "--p0", P0, "--all-lags",
                          "-o", "b.nc", cwd=tmp_path, monkeypatch=monkeypatch, capsys=capsys)
     assert status == 0 and table(out)[0]["at dr"] == "156.2 nm"
+
+
+@pytest.mark.parametrize("argv, what", [
+    (["frobnicate"], "invalid choice: 'frobnicate'"),
+    (["report", "x.nc"], "the following arguments are required: --E-star, --p0"),
+    (["acf", "x.nc", "--points-per-decade"], "expected one argument"),
+])
+def test_usage_errors_take_two_lines(capsys, argv, what):
+    """A usage error printed the whole usage (7-11 lines); now what is wrong and where the
+    usage is."""
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and what in err[0] and err[1].endswith("--help)"), err

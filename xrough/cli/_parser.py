@@ -21,16 +21,24 @@ Every printed number carries its unit; --json prints machine-readable output ins
 COMMANDS = (demo, info, acf, report)
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors take two lines, not the whole usage."""
+
+    def error(self, message: str):
+        """Print what is wrong and where the usage is, and exit with status 2."""
+        self.exit(2, f"{self.prog}: error: {message}\n(usage: {self.prog} --help)\n")
+
+
 def parser() -> argparse.ArgumentParser:
     """Build the parser of ``xrough`` and its commands."""
     common = {"epilog": _EPILOG, "formatter_class": argparse.RawDescriptionHelpFormatter}
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="xrough", description="Contact mechanics of rough surfaces from the "
         "height-difference autocorrelation function G(dr).", **common)
     p.add_argument("--version", action="version", version=f"xrough {__version__}")
     p.add_argument("--traceback", action="store_true",
                    help="on an error, show the full traceback (for bug reports)")
-    sub = p.add_subparsers(dest="command", required=True)
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for command in COMMANDS:
         command.add_parser(sub, **common)
     return p
