@@ -382,8 +382,8 @@ def test_dataset_plots_take_ax_like_dataarrays():
     assert drawn is ax
     persson = G.rough.persson(E_star="25 MPa", p0="0.1 MPa")
     (drawn,) = persson.rough.plot(ax=ax, variables=["a_r"])
-    assert drawn is ax and ax.get_title() == "a_r"
-    with pytest.raises(ValueError, match="1 Axes given for 10 panels"):
+    assert drawn is ax and ax.get_title() == "contact area a_r (eq. 29)"
+    with pytest.raises(ValueError, match="1 Axes given for 2 panels"):
         persson.rough.plot(ax=ax)
     with pytest.raises(ValueError, match="not both"):
         persson.rough.plot(ax=ax, axes=[ax])
@@ -419,10 +419,17 @@ def test_persson_plots_its_errors_as_bands_not_panels():
     topo = xrough.self_affine_surface(hurst=0.8, lambda_r=32.0, lambda_s=4.0, size=128.0,
                                       n=128, rms_gradient=0.1, unit="nm", seed=0)
     ds = topo.rough.acf().rough.persson(E_star="25 MPa", p0="0.15 MPa")
-    axes = ds.rough.plot()
-    assert [ax.get_title() for ax in axes] == [n for n in ds.data_vars
-                                               if not n.endswith(("_std", "_model_error"))]
-    ax = axes[[a.get_title() for a in axes].index("a_r")]
+    everything = ds.rough.plot(variables=[n for n in ds.data_vars
+                                          if not n.endswith(("_std", "_model_error"))])
+    assert len(everything) == 10  # errors are bands, not panels
+    axes = ds.rough.plot()  # by default the area and the stress, readably titled
+    assert [ax.get_title() for ax in axes] == ["contact area a_r (eq. 29)",
+                                               "mean contact stress sigma_c (eq. 39/40)"]
+    a = ds.a_r.values[np.isfinite(ds.a_r.values)]
+    assert axes[0].get_yscale() == ("linear" if a.max() < 10 * a.min() else "log")
+    narrow = ds.isel(dr=slice(0, 4))  # a_r within a decade: a linear axis reads better
+    assert narrow.rough.plot()[0].get_yscale() == "linear"
+    ax = axes[0]
     filled, hatched = ax.collections[0], ax.collections[1]
     assert hatched.get_hatch() == "///" and not filled.get_hatch()
     y, std, model = ds.a_r.values, ds.a_r_std.values, ds.a_r_model_error.values

@@ -228,7 +228,8 @@ def plot_topography(topography: xr.DataArray, *, ax=None, cmap: str = "viridis")
     return ax
 
 
-def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
+def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True,
+                short_range_linear: bool = False, **kwargs):
     """Log-log plot of a function of ``dr`` or ``q``, with its errors as bands.
 
     The statistical error (coordinate ``standard_error`` or ``<name>_std``) is a filled
@@ -241,7 +242,8 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
     log axis the band's lower edge is
     ``max(G - s, BAND_FLOOR * G)``: where the standard error ``s`` reaches G, the band
     stays visible down to G / 10 instead of vanishing. The y axis is linear when the data
-    cross zero (stress ACFs).
+    cross zero (stress ACFs), or with ``short_range_linear`` when they span less than a
+    decade (Persson theory's panels).
 
     Examples
     --------
@@ -258,7 +260,10 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True, **kwargs):
     stacked = da.stack(_line=extra) if extra else da.expand_dims("_line")
     user_label = kwargs.pop("label", None)
     values = np.asarray(da.values, dtype=float)
-    log_y = bool(np.all(values[np.isfinite(values)] > 0))  # stress ACFs cross zero
+    finite = values[np.isfinite(values)]
+    log_y = bool(np.all(finite > 0))  # stress ACFs cross zero
+    if short_range_linear and finite.size and finite.max() < 10 * finite.min():
+        log_y = False  # an area between 0.1 and 0.3 reads better on a linear axis
     marked = False
     for k in range(stacked.sizes["_line"]):
         line = stacked.isel(_line=k)
@@ -328,7 +333,10 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None, ax=None,
     """One panel per variable of a result Dataset (Persson theory, energy, ...).
 
     Variables on ``dr``, ``q`` or ``a_c`` are drawn against it (log axes, see
-    :func:`plot_loglog`); scalars are skipped. A variable's errors are drawn as bands in
+    :func:`plot_loglog`), one panel each titled by its name; scalars are skipped. Persson
+    theory shows :data:`PERSSON_PANELS` (the contact area and stress, titled by
+    :data:`PANEL_TITLES`, linear where they span less than a decade) unless ``variables``
+    names others. A variable's errors are drawn as bands in
     its panel, not as panels of their own: ``<name>_std`` (one standard deviation, filled)
     and ``<name>_model_error`` (theory - exact: hatched from the value to where the exact
     solution is expected). A fit (:func:`xrough.fit_acf`) goes to
@@ -367,8 +375,8 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None, ax=None,
     ...                           rms_gradient=0.5, unit="nm")
     >>> G = xrough.acf_from_spectrum(C, dr_min="1 nm", dr_max="100 um")
     >>> axes = G.rough.persson(E_star="25 MPa", p0="0.1 MPa").rough.plot()
-    >>> len(axes)
-    10
+    >>> [ax.get_title() for ax in axes]  # by default the area and the stress
+    ['contact area a_r (eq. 29)', 'mean contact stress sigma_c (eq. 39/40)']
 
     A fit with the data it was fitted to:
 
@@ -387,6 +395,8 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None, ax=None,
     if variables is None and _is_patch_radius(ds):
         return np.array([plot_patch_radius(ds, ax=None if axes is None
                                            else np.ravel(axes)[0])])
+    if variables is None and _is_persson(ds):
+        variables = [v for v in PERSSON_PANELS if v in ds.data_vars]
     names = [n for n in (variables or [v for v in ds.data_vars if not _is_error(v)])
              if any(d in ds[n].dims for d in ("dr", "q", "a_c"))]
     if not names:
@@ -406,13 +416,26 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None, ax=None,
         da = ds[name]
         bands = {e: ds[e] for e in (f"{name}_std", f"{name}_model_error")
                  if e in ds.data_vars and ds[e].dims == da.dims}
-        plot_loglog(da.assign_coords(bands), ax=ax)
-        ax.set_title(name)
+        plot_loglog(da.assign_coords(bands), ax=ax, short_range_linear=_is_persson(ds))
+        ax.set_title(PANEL_TITLES.get(name, name) if _is_persson(ds) else name)
     for ax in flat[len(names):]:
         ax.set_visible(False)
     if ax.figure.get_layout_engine() is None:  # the caller's figure: fit it now
         ax.figure.tight_layout()
     return flat[: len(names)]
+
+
+#: What a Persson result shows by default: the contact area and the mean contact stress
+#: against resolution (``variables=`` draws any others).
+PERSSON_PANELS = ("a_r", "sigma_c")
+#: Titles of Persson theory's panels (the y axis carries the long name and unit).
+PANEL_TITLES = {"a_r": "contact area a_r (eq. 29)", "a_ri": "contact area a_ri (eq. 50)",
+                "sigma_c": "mean contact stress sigma_c (eq. 39/40)",
+                "p_star": "reduced pressure p*", "G_sigma": "stress ACF G_sigma (eq. 48)"}
+
+
+def _is_persson(ds: xr.Dataset) -> bool:
+    return "theory" in ds.attrs and all(v in ds.data_vars for v in PERSSON_PANELS)
 
 
 def _is_fit(ds: xr.Dataset) -> bool:
