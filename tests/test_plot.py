@@ -438,3 +438,33 @@ def test_persson_plots_its_errors_as_bands_not_panels():
     assert np.isclose(top, y[k] + std[k]).any()
     edges = hatched.get_paths()[0].vertices[:, 1]
     assert np.isclose(edges, y[k] - model[k]).any()  # the exact area: above a_r
+
+
+@pytest.mark.parametrize("name", ["x3p-2.x3p", "spot_1-1000nm.ibw", "nid-1.nid",
+                                  "al3d-1.al3d", "sdf-1.sdf"])
+def test_maps_in_metres_plot_in_readable_units(name):
+    """Maps in m were drawn in m, with 1e-5 offsets on the axes and labels overlapping;
+    now each axis in the unit where its values are 1 to 1000, without offsets."""
+    from conftest import DATA
+
+    path = DATA / "instruments" / name
+    if not path.exists():
+        pytest.skip("shared data not present")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        topo = xrough.open_topography(path)
+    ax = topo.rough.plot()
+    ax.figure.canvas.draw()
+    for axis in (ax.xaxis, ax.yaxis, ax.figure.axes[-1].yaxis):
+        assert axis.get_offset_text().get_text() == "", (name, axis.get_label_text())
+        ticks = [abs(t) for t in axis.get_majorticklocs() if t]
+        assert 0.1 <= max(ticks) <= 1000, (name, ticks)
+    assert "(m)" not in ax.get_xlabel()
+
+
+def test_readable_units_convert_not_relabel():
+    topo = xrough.topography(1e-8 * np.arange(12.0).reshape(3, 4), spacing=5e-6, unit="m")
+    shown = xrough.plot.readable_units(topo)
+    assert shown.attrs["units"] == "nm" and shown.x.attrs["units"] == "um"
+    np.testing.assert_allclose(shown.values, topo.values * 1e9)
+    np.testing.assert_allclose(shown.x.values, topo.x.values * 1e6)

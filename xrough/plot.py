@@ -35,6 +35,7 @@ import xarray as xr
 
 from . import fitting, stitching
 from . import units as _units
+from .topography import convert_units
 
 __all__ = ["plot", "plot_topography", "plot_loglog", "plot_dataset", "plot_stitched",
            "plot_fit", "plot_patch_radius", "display_unit", "log_axis", "BAND_FLOOR"]
@@ -195,8 +196,76 @@ def _axes(ax):
     return ax
 
 
+#: Length units a figure may choose from (:func:`readable_units`).
+_LENGTH_PREFIXES = ("pm", "nm", "um", "mm", "m", "km")
+
+
+def _readable_length(span: float, unit: str) -> str:
+    """Return the unit of ``_LENGTH_PREFIXES`` in which ``span`` (in ``unit``) is 1-1000."""
+    if not (np.isfinite(span) and span > 0):
+        return unit
+    metres = span * _units.conversion_factor(unit, "m")
+    for prefix in _LENGTH_PREFIXES:
+        if metres * _units.conversion_factor("m", prefix) < 1000:
+            return prefix
+    return _LENGTH_PREFIXES[-1]
+
+
+def readable_units(topography: xr.DataArray) -> xr.DataArray:
+    """Return the topography in length units that its figure reads without exponents.
+
+    The lateral coordinates in the unit where the scan's extent is 1 to 1000, the heights
+    where their range is (a map in m of a 20 um scan with 1e-8 m heights is drawn in um
+    and nm, not with a 1e-5 offset). Only for display: the data are converted, not
+    relabelled.
+
+    Examples
+    --------
+    >>> import numpy as np, xrough
+    >>> topo = xrough.topography(1e-8 * np.arange(12.0).reshape(3, 4), spacing=5e-6,
+    ...                          unit="m")
+    >>> shown = readable_units(topo)
+    >>> shown.attrs["units"], shown.x.attrs["units"]
+    ('nm', 'um')
+    """
+    dims = [d for d in ("y", "x") if d in topography.dims]
+    lateral = str(topography[dims[-1]].attrs.get("units", ""))
+    height = str(topography.attrs.get("units", ""))
+    if not (_units.is_length(lateral) and _units.is_length(height)):
+        return topography
+    extent = max(float(np.ptp(topography[d].values)) for d in dims)
+    with np.errstate(all="ignore"):
+        values = np.asarray(topography.values, dtype=float)
+        finite = values[np.isfinite(values)]
+    heights = float(np.ptp(finite)) if finite.size else np.nan
+    return convert_units(topography, _readable_length(heights, height),
+                         lateral=_readable_length(extent, lateral))
+
+
+def _offset_removed(t: xr.DataArray) -> tuple[np.ndarray, str]:
+    """Return heights for a colour scale and its label.
+
+    The heights less their median where it is more than 100 times their range (a map
+    76 um above its instrument's zero with 40 nm of roughness), which the label states.
+    """
+    values = np.asarray(t.values, dtype=float)
+    finite = values[np.isfinite(values)]
+    label = _label(t, "height")
+    if not finite.size:
+        return values, label
+    middle, spread = float(np.median(finite)), float(np.ptp(finite))
+    if abs(middle) <= 100 * spread:
+        return values, label
+    unit = display_unit(str(t.attrs.get("units", "")))
+    name = label.rsplit(" (", 1)[0] if label.endswith(")") else label
+    return values - middle, f"{name} - {middle:.6g} {unit} ({unit})"
+
+
 def plot_topography(topography: xr.DataArray, *, ax=None, cmap: str = "viridis"):
-    """Image of a height map or line of a profile, axes in physical units.
+    """Image of a height map or line of a profile, axes in readable physical units.
+
+    Lengths are shown in the unit where the scan's extent and the heights' range are 1 to
+    1000 (:func:`readable_units`): no exponent offsets on the axes.
 
     Examples
     --------
@@ -207,6 +276,7 @@ def plot_topography(topography: xr.DataArray, *, ax=None, cmap: str = "viridis")
     'x position (nm)'
     """
     ax = _axes(ax)
+    topography = readable_units(topography)
     if "y" not in topography.dims:  # profiles: one line each
         lines = topography.transpose(..., "x")
         flat = lines.values.reshape(-1, lines.sizes["x"])
@@ -221,9 +291,10 @@ def plot_topography(topography: xr.DataArray, *, ax=None, cmap: str = "viridis")
     x, y = t["x"].values, t["y"].values
     dx = (x[-1] - x[0]) / (x.size - 1)
     dy = (y[-1] - y[0]) / (y.size - 1)
-    img = ax.imshow(t.values, origin="lower", cmap=cmap, aspect="equal",  # pixel centres
+    values, label = _offset_removed(t)
+    img = ax.imshow(values, origin="lower", cmap=cmap, aspect="equal",  # pixel centres
                     extent=(x[0] - dx / 2, x[-1] + dx / 2, y[0] - dy / 2, y[-1] + dy / 2))
-    ax.figure.colorbar(img, ax=ax, label=_label(t, "height"))
+    ax.figure.colorbar(img, ax=ax, label=label)
     _set_labels(ax, _label(t["x"], "x"), _label(t["y"], "y"))
     return ax
 
