@@ -468,3 +468,21 @@ def test_readable_units_convert_not_relabel():
     assert shown.attrs["units"] == "nm" and shown.x.attrs["units"] == "um"
     np.testing.assert_allclose(shown.values, topo.values * 1e9)
     np.testing.assert_allclose(shown.x.values, topo.x.values * 1e6)
+
+
+def test_a_result_of_a_stitched_g_breaks_at_its_gap():
+    """The stress ACF of a stitched G was drawn across the lags no measurement covers:
+    results now carry the uncovered ranges (provenance) and their lines break there."""
+    rng = np.random.default_rng(0)
+    fine = xrough.self_affine_surface(hurst=0.7, lambda_r=32.0, lambda_s=4.0, size=128.0,
+                                      n=128, rms_gradient=0.1, unit="nm", seed=1)
+    coarse = xrough.topography(rng.normal(size=(64, 64)), spacing="40 nm", unit="nm")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        G = xrough.stitch({"fine": fine, "coarse": coarse}, windows={
+            "fine": (None, "30 nm"), "coarse": ("500 nm", None)}, warn=False)
+        S = G.rough.stress_acf(E_star="25 MPa")
+    assert "uncovered_dr_min" in S.attrs
+    ax = S.rough.plot()
+    y = ax.lines[0].get_ydata()
+    assert np.isnan(y).sum() == 1  # one break, at the gap

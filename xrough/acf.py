@@ -56,7 +56,8 @@ __all__ = ["AcfSpec", "check_acf", "read_acf", "PROVENANCE", "result_attrs", "la
 #: Attributes that say where data came from; every estimator and result carries them on.
 PROVENANCE = ("source", "source_file", "source_sha256", "format", "overrides", "channel",
               "instrument", "detrend", "reliable_dr_min", "reliable_dr_max",
-              "reliable_dr_units", "reliable_rule")
+              "reliable_dr_units", "reliable_rule", "uncovered_dr_min", "uncovered_dr_max",
+              "uncovered_dr_units")
 
 
 @dataclass(frozen=True)

@@ -119,14 +119,28 @@ def _set_labels(ax, xlabel: str, ylabel: str) -> None:
 
 
 def _gap_breaks(da: xr.DataArray, dim: str, x: np.ndarray) -> np.ndarray:
-    """Find the indices before which a stitched curve misses bins of its log grid."""
-    ppd = da.attrs.get("points_per_decade")
-    if not da.attrs.get("stitched") or ppd is None or not np.isfinite(ppd) or x.size < 2:
+    """Find the indices before which a curve crosses lags no measurement covers.
+
+    A stitched G misses bins of its log grid there; a result of it (a stress ACF, Persson
+    theory) keeps its lags but carries the ranges (``uncovered_dr_min/max``) in attrs.
+    """
+    if x.size < 2:
         return np.array([], dtype=int)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        k = np.log10(x) * float(ppd)
-    steps = np.diff(k)
-    return np.flatnonzero(steps > 1.5) + 1
+    breaks: set[int] = set()
+    ppd = da.attrs.get("points_per_decade")
+    if da.attrs.get("stitched") and ppd is not None and np.isfinite(ppd):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            steps = np.diff(np.log10(x) * float(ppd))
+        breaks.update(int(i) + 1 for i in np.flatnonzero(steps > 1.5))
+    lows, highs = da.attrs.get("uncovered_dr_min"), da.attrs.get("uncovered_dr_max")
+    unit, own = da.attrs.get("uncovered_dr_units"), _coord_units(da, dim)
+    if dim == "dr" and lows is not None and highs is not None and unit and own:
+        factor = _units.conversion_factor(str(unit), str(own))
+        for lo, hi in zip(np.atleast_1d(lows), np.atleast_1d(highs)):
+            i = int(np.searchsorted(x, lo * factor, side="right"))
+            if 0 < i < x.size and x[i] >= hi * factor * (1 - 1e-9):
+                breaks.add(i)
+    return np.array(sorted(breaks), dtype=int)
 
 
 def _with_gaps(x: np.ndarray, arrays: list[np.ndarray], breaks: np.ndarray):
