@@ -382,3 +382,15 @@ def test_utf16_csv_agrees_with_surfacetopography(tmp_path):
     assert grid_of(ours).size[0] == pytest.approx(st.physical_sizes[0], rel=1e-5)
     np.testing.assert_allclose(ours.values, st.heights(), rtol=1e-5)
     assert float(ours.std()) == pytest.approx(st_rms(st), rel=1e-5)
+
+
+@pytest.mark.parametrize("suffix", [".txt", ".dat"])
+def test_a_text_file_with_a_nul_byte_is_refused_not_bridged(tmp_path, suffix):
+    """A NUL byte in a text profile made it look binary: the bridge read it and stopped at
+    the NUL (a 40-point profile read as 19). Now the text reader refuses it, naming the
+    byte."""
+    lines = "\n".join(f"{i * 0.1:.3f} {np.sin(i / 5):.5f}" for i in range(40)).encode()
+    path = tmp_path / f"profile{suffix}"
+    path.write_bytes(lines[:200] + b"\x00" + lines[200:])
+    with pytest.raises(ValueError, match="a NUL byte at offset 200 .line 15.: a damaged text"):
+        xrough.open_topography(path, unit="um")
