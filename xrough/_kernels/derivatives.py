@@ -151,10 +151,11 @@ def second_difference(h, *, nd: int, axis: int, step: int, periodic: bool) -> np
         out = h[_cut(h.ndim, ax, 2 * k, None)] + h[_cut(h.ndim, ax, None, n - 2 * k)]
         out -= 2.0 * h[_cut(h.ndim, ax, k, n - k)]
         return out
-    wrapped = np.concatenate([h[_cut(h.ndim, ax, n - k, None)], h,
-                              h[_cut(h.ndim, ax, None, k)]], axis=ax)
-    out = wrapped[_cut(h.ndim, ax, 2 * k, None)] + wrapped[_cut(h.ndim, ax, None, n)]
-    out -= 2.0 * h
+    out = -2.0 * h  # + h(x + k) and + h(x - k), wrapped, in place (no padded copy)
+    out[_cut(h.ndim, ax, None, n - k)] += h[_cut(h.ndim, ax, k, None)]
+    out[_cut(h.ndim, ax, n - k, None)] += h[_cut(h.ndim, ax, None, k)]
+    out[_cut(h.ndim, ax, k, None)] += h[_cut(h.ndim, ax, None, n - k)]
+    out[_cut(h.ndim, ax, None, k)] += h[_cut(h.ndim, ax, n - k, None)]
     return out
 
 

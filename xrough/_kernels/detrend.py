@@ -26,6 +26,8 @@ import warnings
 import numpy as np
 from scipy import ndimage
 
+from .derivatives import second_difference
+
 __all__ = [
     "DEGREES",
     "polynomial_terms",
@@ -555,38 +557,24 @@ def min_curvature(h: np.ndarray, *, nd: int, axis: int, steps: np.ndarray, spaci
     array([-1., -1.])
     """
     h = np.asarray(h, dtype=float)
-    ax = h.ndim - nd + axis  # the stencil axis, sliced in place (no transposed copy)
     batch = h.shape[: h.ndim - nd]
     grid_axes = tuple(range(h.ndim - nd, h.ndim))
+    n = h.shape[h.ndim - nd + axis]
     out = np.empty(batch + (len(steps),))
-    n = h.shape[ax]
-
-    def cut(a, b):
-        return tuple(slice(a, b) if i == ax else slice(None) for i in range(h.ndim))
-
-    buffer, twice = np.empty_like(h), 2.0 * h
-    missing = bool(np.isnan(h).any())  # else the plain (vectorised) minimum
-    steps = np.asarray(steps, dtype=int)
-    if periodic:  # wrapped once, then sliced like an open map (no copy per step)
-        wrap = int(min(steps.max(initial=0), n))
-        padded = np.concatenate([h[cut(n - wrap, None)], h, h[cut(None, wrap)]], axis=ax)
+    least = np.fmin.reduce if np.isnan(h).any() else np.minimum.reduce  # fmin is slower
     with np.errstate(invalid="ignore"):
-        for j, k in enumerate(steps):
-            if periodic:
-                k_mod = k % n
-                kappa = np.add(padded[cut(wrap + k_mod, wrap + k_mod + n)],
-                               padded[cut(wrap - k_mod, wrap - k_mod + n)], out=buffer)
-                kappa -= twice
-            elif 2 * k < n:
-                kappa = np.add(h[cut(2 * k, None)], h[cut(None, n - 2 * k)],
-                               out=buffer[cut(None, n - 2 * k)])
-                kappa -= twice[cut(k, n - k)]
-            else:
+        for j, k in enumerate(np.asarray(steps, dtype=int)):
+            k_mod = k % n if periodic else k
+            if periodic and k_mod == 0:  # a whole period: h - 2 h + h
+                out[..., j] = 0.0
+                continue
+            if not periodic and 2 * k >= n:
                 out[..., j] = np.nan
                 continue
-            # the least over the map, NaN (a missing point) ignored; NaN if all are
-            reduce = np.fmin.reduce if missing else np.minimum.reduce
-            low = reduce(kappa, axis=grid_axes if batch else None)
-            out[..., j] = low / (k * spacing) ** 2
+            # the one stencil of xrough (_kernels.derivatives); NaN (a missing point)
+            # ignored in the least over the map, NaN if all are
+            kappa = second_difference(h, nd=nd, axis=axis, step=int(k_mod),
+                                      periodic=periodic)
+            out[..., j] = least(kappa, axis=grid_axes) / (k * spacing) ** 2
     out[~np.isfinite(out)] = np.nan
     return out
