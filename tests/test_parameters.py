@@ -219,7 +219,7 @@ def _bad_calls():
         (lambda: par.roughness_parameters(line, sampling_lengths=6), ValueError,
          "fewer than 2 points per section"),
         (lambda: par.roughness_parameters(line, sampling_lengths=0), ValueError,
-         "whole number >= 1"),
+         "whole number of at least 1"),
         (lambda: par.height_distribution(topo, bins=[1.0, 0.0]), ValueError,
          "strictly increasing"),
         (lambda: par.height_distribution(topo, bins=0), ValueError, "at least 1"),

@@ -35,7 +35,7 @@ from . import units as u
 from ._kernels import derivatives as fd
 from ._kernels import parameters as k
 from ._kernels.binning import check_points_per_decade, log_range
-from ._kernels.checks import require_increasing
+from ._kernels.checks import require_count, require_increasing
 from .acf import lag_coord, result_attrs
 from .preprocess import TIP_SAFETY_FACTOR, stated_tip_radius
 from .topography import SPACING_RTOL, Grid, check_valid_points, grid_of, require_whole_maps
@@ -227,10 +227,7 @@ def roughness_parameters(topography: xr.DataArray, *,
     """
     grid = _validated(topography, "roughness parameters")
     areal = len(grid.dims) == 2
-    if isinstance(sampling_lengths, (bool, np.bool_)) or not isinstance(
-            sampling_lengths, (int, np.integer)) or sampling_lengths < 1:
-        raise ValueError(f"sampling_lengths must be a whole number >= 1, got "
-                         f"{sampling_lengths!r}")
+    sampling_lengths = require_count(sampling_lengths, "sampling_lengths", minimum=1)
     if areal and sampling_lengths != 1:
         raise ValueError("sampling_lengths divides a profile into sections (ISO 21920-2); "
                          "ISO 25178-2 defines no sections of a map: leave it at 1")

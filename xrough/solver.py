@@ -19,7 +19,7 @@ from tqdm.auto import tqdm
 
 from . import quality
 from . import units as u
-from ._kernels.checks import require_flag
+from ._kernels.checks import require_count, require_flag
 from ._kernels.solver import (
     ElasticOperator,
     coarse_start,
@@ -311,14 +311,11 @@ def _options(tol, max_iter, precision, precondition, coarse_to_fine) -> _Options
     """Check the solver's parameters (ValueError naming the bad one)."""
     if not (np.isfinite(tol) and 0 < tol < 1):
         raise ValueError(f"tol must be between 0 and 1, got {tol!r}")
-    if int(max_iter) < 1:
-        raise ValueError(f"max_iter must be a positive integer, got {max_iter!r}")
+    max_iter = require_count(max_iter, "max_iter", minimum=1)
     if precision not in ("mixed", "float64"):
         raise ValueError(f"precision must be 'mixed' or 'float64', got {precision!r}")
     require_flag(precondition, "precondition")
-    if int(coarse_to_fine) < 0:
-        raise ValueError(f"coarse_to_fine must be a non-negative integer, got "
-                         f"{coarse_to_fine!r}")
+    coarse_to_fine = require_count(coarse_to_fine, "coarse_to_fine")
     return _Options(float(tol), int(max_iter), precision, bool(precondition),
                     int(coarse_to_fine))
 

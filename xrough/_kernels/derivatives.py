@@ -30,6 +30,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .checks import require_count
+
 __all__ = ["check_step", "difference", "second_difference", "slope", "curvature",
            "gradient", "mean_curvature", "mean_of_axis_curvatures"]
 
@@ -69,10 +71,7 @@ def check_step(step, n: int, *, periodic: bool, width: int = 1) -> int:
     ...
     ValueError: a stencil of 2 x 5 pixels does not fit an open grid of 10 points
     """
-    k = int(step)
-    if k != step or k < 1:
-        raise ValueError(f"the step of a finite difference must be a whole number of "
-                         f"pixels >= 1, got {step!r}")
+    k = require_count(step, "the step of a finite difference (pixels)", minimum=1)
     if periodic and k >= n:
         raise ValueError(f"a step of {k} pixels wraps once around a periodic grid of {n} "
                          "points or more")

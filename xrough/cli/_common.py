@@ -156,11 +156,9 @@ def show_errors(value: xr.DataArray, std: xr.DataArray | None = None,
     x = float(value)
     if not np.isfinite(x):
         return show(value, digits=digits)
-    q = _compact(x, units_of(value))
+    q = _compact(x, units_of(value))  # dimensionless ones already as plain numbers
     scale = q.magnitude / x if x else 1.0
     unit = "" if q.dimensionless else f" {q.units:~P}"
-    if q.dimensionless:
-        scale = q.to("dimensionless").magnitude / x if x else 1.0
     parts = [f"{x * scale:.{digits}g}"]
     for err, label in ((std, "stat"), (model, "model")):
         if err is not None and np.isfinite(float(err)):

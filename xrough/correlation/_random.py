@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
+from .._kernels.checks import require_count
 from .._kernels.pairs import few_points_message, packed
 from .._kernels.random_pairs import random_pair_sums, sampled_exponent, valid_points
 from ._plan import Plan, progress_bar
@@ -47,9 +48,7 @@ def random_kernel(h: np.ndarray, seeds: np.ndarray, *, plan: Plan, n_per_bin: in
 
 def check_n_pairs(n_pairs) -> int:
     """Return the random-pair budget, a positive integer."""
-    if not (isinstance(n_pairs, (int, np.integer)) and n_pairs > 0):
-        raise ValueError(f"n_pairs must be a positive integer, got {n_pairs!r}")
-    return int(n_pairs)
+    return require_count(n_pairs, "n_pairs", minimum=1)
 
 
 def map_seeds(da: xr.DataArray, extra: list[str], seed: int | None) -> xr.DataArray:
