@@ -390,3 +390,21 @@ def test_unexplained_level_factor_warns():
         warnings.simplefilter("ignore", StitchingMismatchWarning)
         raw = stitch(_levelled_pair([0.05, 0.05], [0.0, 0.4]), level=False)
     np.testing.assert_array_equal(raw.attrs["level_factor_errors"], [0.0, 0.0])
+
+
+def test_window_of_a_map_with_y_and_x_in_other_units():
+    # the same 2 um map with x in nm and y in um: one lateral unit (the Grid's, y's) for the
+    # default window, and for the window recorded by reliable(); before, the pixel and scan
+    # size of one axis were read in the other's unit and the window came out 1000x wrong
+    t = xrough.self_affine_surface(hurst=0.8, lambda_r="0.5 um", lambda_s="40 nm",
+                                   size="2 um", n=128, rms_height="1 nm", unit="nm", seed=1)
+    mixed = t.assign_coords(y=("y", t.y.values / 1000, dict(t.y.attrs, units="um")))
+    c = stitch_curves({"nm": t, "mixed": mixed}, parallel=False)
+    f = xrough.units.conversion_factor(c.attrs.get("lateral_unit", c.dr.attrs["units"]), "nm")
+    np.testing.assert_allclose(c.dr_min.values * f, [62.5, 62.5], rtol=1e-12)  # 4 px of 15.6 nm
+    np.testing.assert_allclose(c.dr_max.values * f, [500.0, 500.0], rtol=1e-12)
+    kept = xrough.reliable(mixed, short_cutoff="40 nm", long_cutoff="0.4 um")
+    assert xrough.reliability_window(kept) == pytest.approx((0.04, 0.4))  # um, as y
+    c = stitch_curves({"nm": t, "mixed": kept}, parallel=False)
+    np.testing.assert_allclose(c.dr_min.values * f, [62.5, 40.0], rtol=1e-12)
+    np.testing.assert_allclose(c.dr_max.values * f, [500.0, 400.0], rtol=1e-12)

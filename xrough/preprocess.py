@@ -804,8 +804,9 @@ def reliability_window(obj: xr.DataArray) -> tuple[float | None, float | None]:
     lo = obj.attrs.get("reliable_dr_min")
     hi = obj.attrs.get("reliable_dr_max")
     stored = obj.attrs.get("reliable_dr_units")
-    current = next((obj.coords[c].attrs["units"] for c in ("x", "dr")
-                    if c in obj.coords and "units" in obj.coords[c].attrs), None)
+    # the lateral unit is that of the first core dim (Grid.lateral_unit): y before x on maps
+    current = next((obj.coords[c].attrs["units"] for c in ("dr", "y", "x")
+                    if c in obj.dims and "units" in obj.coords[c].attrs), None)
     factor = 1.0
     if stored is not None and current is not None:
         factor = u.conversion_factor(stored, current)

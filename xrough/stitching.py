@@ -138,9 +138,11 @@ def _is_acf(da: xr.DataArray) -> bool:
 
 
 def _lateral_unit(da: xr.DataArray) -> str:
-    dim = "dr" if _is_acf(da) else da.dims[-1]
-    return u.format_units(u.as_length_unit(u.units_of(da.coords[dim], what=f"coordinate {dim!r}"),
-                                           what=f"coordinate {dim!r}"))
+    """Unit of the lags of a G, or the lateral unit of a topography (its Grid's)."""
+    if not _is_acf(da):
+        return grid_of(da, what="measurement").lateral_unit
+    return u.format_units(u.as_length_unit(u.units_of(da.coords["dr"], what="coordinate 'dr'"),
+                                           what="coordinate 'dr'"))
 
 
 def _height_unit(da: xr.DataArray) -> str:
