@@ -59,17 +59,86 @@ def test_quantified_topography_enters_once(results):
     xr.testing.assert_identical(clean.rough.acf(), results["G"])
 
 
-def test_quantified_input_elsewhere_says_what_to_do(results):
+def test_quantified_input_is_taken_by_every_public_function(results):
+    # every public function whose first argument is data takes it quantified, as the
+    # accessor does: one rule (units.accepts_quantified), the same numbers
     quantified = results["topography"].pint.quantify(unit_registry=REGISTRY)
-    # the accessor dequantifies; the functions say what to do
     xr.testing.assert_identical(quantified.rough.acf(), results["G"])
-    with pytest.raises(ValueError, match="dequantify"):
-        xrough.height_difference_acf(quantified)
+    xr.testing.assert_identical(xrough.height_difference_acf(quantified), results["G"])
     G = results["G"].pint.quantify(unit_registry=REGISTRY)
+    xr.testing.assert_identical(xrough.fit_acf(G), results["fit"])
+    xr.testing.assert_identical(xrough.persson(G, E_star="25 MPa", p0=["0.1 MPa", "1 MPa"]),
+                                results["persson"])
+    xr.testing.assert_identical(xrough.stitch_curves({"a": quantified}),
+                                xrough.stitch_curves({"a": results["topography"]}))
     xr.testing.assert_identical(G.rough.fit(), results["fit"])
-    with pytest.raises(ValueError, match="dequantify"):
-        xrough.fit_acf(G)
-    xr.testing.assert_identical(dequantify(G).rough.fit(), results["fit"])
+
+
+def test_every_data_first_public_function_is_wrapped():
+    import inspect
+
+    takes_path = {"open_topography", "open_analysis", "save_analysis", "model_spectrum",
+                  "topography"}  # a path, plain lags, or the constructor (reads Quantities)
+    for name in xrough.__all__:
+        func = getattr(xrough, name)
+        if not inspect.isfunction(func) or name in takes_path:
+            continue
+        first = next(iter(inspect.signature(func).parameters.values()), None)
+        if first is not None and first.kind in (first.POSITIONAL_ONLY,
+                                                first.POSITIONAL_OR_KEYWORD):
+            assert getattr(func, "__wrapped__", None) is not None, name
+
+
+def test_one_registry_for_xrough_cf_xarray_and_pint_xarray(results):
+    import pint
+
+    assert xrough.units.ureg is REGISTRY
+    assert pint.get_application_registry().get() is REGISTRY
+    for name, obj in results.items():
+        ds = obj.to_dataset(name="v") if isinstance(obj, xr.DataArray) else obj
+        for key, var in ds.variables.items():
+            if "units" in var.attrs:
+                REGISTRY.Unit(var.attrs["units"])  # cf-xarray reads it as written
+                assert xrough.units.parse_units(var.attrs["units"]) == REGISTRY.Unit(
+                    var.attrs["units"]), (name, key)
+
+
+def test_pint_xarray_default_registry_after_import_xrough(tmp_path):
+    # the documented order: import xrough (or cf_xarray.units) before pint_xarray, and
+    # .pint.quantify() needs no unit_registry to read "nm2" or "J m-2"
+    import subprocess
+    import sys
+
+    code = (
+        "import xrough, pint_xarray\n"
+        "G = xrough.self_affine_surface(hurst=0.8, lambda_r=64.0, lambda_s=16.0, size=256.0,"
+        " n=64, rms_height=1.0, seed=1, unit='nm').rough.acf()\n"
+        "q = G.pint.quantify()\n"
+        "e = G.rough.energy(E_star='1 MPa').pint.quantify()\n"
+        "U = xrough.units.ureg\n"
+        "print(q.pint.units == U.Unit('nm**2'), q.pint.registry is U,"
+        " e.v_el.pint.units == U.Unit('J/m**2'))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == "True True True", out
+
+
+def test_angstrom_maps_chain_through(results):
+    # a map in angstrom: G is labelled "angstrom2" (read by cf-xarray too), and fit,
+    # energy and persson take it; the physics is that of the same map in nm
+    topo = results["topography"]
+    in_a = xrough.convert_units(topo, "angstrom", lateral="angstrom")
+    G = in_a.rough.acf()
+    assert G.attrs["units"] == "angstrom2" and G.dr.attrs["units"] == "angstrom"
+    REGISTRY.Unit(G.attrs["units"])
+    np.testing.assert_allclose(G.values, results["G"].values * 100, rtol=1e-12)
+    fit = G.rough.fit()
+    np.testing.assert_allclose(float(fit.hurst), float(results["fit"].hurst), rtol=1e-6)
+    e = G.rough.energy(E_star="25 MPa")
+    np.testing.assert_allclose(e.v_el.values, results["energy"].v_el.values, rtol=1e-9)
+    p = G.rough.persson(E_star="25 MPa", p0=["0.1 MPa", "1 MPa"])
+    np.testing.assert_allclose(p.a_r.values, results["persson"].a_r.values, rtol=1e-9)
+    assert xrough.units.parse_units("Å2") == REGISTRY.Unit("angstrom2")
 
 
 def test_pint_xarray_dequantify_is_read_too(results):

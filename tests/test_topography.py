@@ -109,7 +109,7 @@ def test_units_parsing_and_formatting():
     with pytest.raises(ValueError, match="E_star.*not a pressure"):
         u.to_si("25 nm", "[pressure]", what="E_star")
     with pytest.raises(ValueError, match="cannot understand"):
-        u.parse_units("furlongs per fortnight squared")
+        u.parse_units("furlongs per blorg squared")
     # quantities from another registry are accepted
     other = pint.UnitRegistry()
     assert u.to_si(other.Quantity(2, "nm"), "[length]", what="dx") == pytest.approx(2e-9)

@@ -31,7 +31,6 @@ from . import (
     solver,
     spectra,
     stitching,
-    units,
     validation,
 )
 from .topography import convert_units
@@ -44,8 +43,9 @@ _POSITIONAL = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_O
 class _forward:
     """Accessor method that calls ``func(accessor._obj, *args, **kwargs)``.
 
-    A pint-xarray quantified object is dequantified first (:func:`xrough.units.dequantify`),
-    so ``quantified.rough.acf()`` works as on the CF ``units`` attributes.
+    ``func`` takes pint-xarray quantified objects itself
+    (:func:`xrough.units.accepts_quantified`), so ``quantified.rough.acf()`` works as on
+    the CF ``units`` attributes.
 
     The class attribute is a plain function ``method(self, ...)`` whose signature is
     ``func``'s with its first (data) parameter renamed ``self``, so that the bound method
@@ -75,8 +75,8 @@ class _forward:
                             "positionally; it cannot be an accessor method")
         data = params[0]
 
-        def method(self, /, *args, **kwargs):  # pint-xarray Quantities become units attrs
-            return func(units.dequantify(self._obj), *args, **kwargs)
+        def method(self, /, *args, **kwargs):
+            return func(self._obj, *args, **kwargs)
 
         this = data.replace(name="self", annotation=inspect.Parameter.empty)
         method.__signature__ = sig.replace(parameters=[this, *params[1:]])

@@ -318,6 +318,7 @@ def _nan_where(result, mask: xr.DataArray):
 # full contact: elastic energy (eq. 16, 44)
 # ---------------------------------------------------------------------------------------
 @_own_attrs
+@u.accepts_quantified
 def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Dataset:
     r"""Areal elastic energy of full contact (eq. 16) and of patches of radius a_c (eq. 44).
 
@@ -449,6 +450,7 @@ def _bridged_energy(ds: xr.Dataset, G_si: xr.DataArray, spec: AcfSpec) -> tuple:
 # stress ACF and Persson theory (eq. 24, 29-30, 34, 39-42, 47-50)
 # ---------------------------------------------------------------------------------------
 @_own_attrs
+@u.accepts_quantified
 def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "persson",
                gradient: xr.DataArray | None = None, kappa: float = KAPPA_PERSSON,
                gradient_method: str = "auto", smooth_full: bool = True) -> xr.DataArray:
@@ -563,6 +565,7 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
                        unresolved], what="stress_acf", G=G)
 
 
+@u.accepts_quantified
 def stress_acf_from_spectrum(C: xr.DataArray, dr: Any, *, E_star: Any) -> xr.DataArray:
     r"""Full-contact stress ACF of a model spectrum by the spectral route (eq. 22-24).
 
@@ -658,6 +661,7 @@ def _first_finite(values: np.ndarray) -> np.ndarray:
 
 
 @_own_attrs
+@u.accepts_quantified
 def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
             kappa: float = KAPPA_PERSSON, gradient: xr.DataArray | None = None,
             gradient_method: str = "auto", variables: tuple[str, ...] | None = None,
@@ -1098,6 +1102,7 @@ def _persson_dataset(run: _PerssonRun, out: dict, p0s, method: str) -> xr.Datase
 # adhesion: patch radius (eq. 43-46)
 # ---------------------------------------------------------------------------------------
 @_own_attrs
+@u.accepts_quantified
 def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
     r"""Radius of spontaneously adhering patches (Dahlquist-type criterion, eq. 43-46).
 

@@ -194,6 +194,7 @@ def _eq36_gradient(fit: FitReading, values: np.ndarray, rolloff: str) -> xr.Data
         return np.sqrt(1.0 / inv)
 
 
+@u.accepts_quantified
 def model_acf(params: xr.Dataset, dr: Any = None) -> xr.DataArray:
     r"""Evaluate the fitted height-difference ACF ``G(dr)`` (plots, checks).
 
@@ -268,6 +269,7 @@ def _gradient_rolloff(fit: FitReading, rolloff: str | None) -> str:
     return rolloff
 
 
+@u.accepts_quantified
 def gradient_from_fit(params: xr.Dataset, dr: Any = None, *,
                       rolloff: str | None = None) -> xr.DataArray:
     r"""Scale-dependent rms gradient ``gbar(dr)`` from a fit of G.

@@ -321,6 +321,7 @@ def _fit_notes(ds: xr.Dataset, bits: np.ndarray, model: str, weighted: bool) -> 
 # public functions
 # --------------------------------------------------------------------------------------
 @by_content()
+@u.accepts_quantified
 def fit_acf(
     G: xr.DataArray,
     *,

@@ -92,6 +92,7 @@ def _strip(da: xr.DataArray) -> xr.DataArray:
     return da.drop_vars([c for c in da.coords if c != "dr" and "dr" in da[c].dims])
 
 
+@u.accepts_quantified
 def rms_gradient(G: xr.DataArray, *, method: str = "auto",
                  fit: xr.Dataset | None = None) -> xr.DataArray:
     r"""Scale-dependent rms gradient ``gbar(dr)`` (eq. 26 or its approximations).
@@ -333,6 +334,7 @@ def _curve_notes(reasons: np.ndarray, level: np.ndarray) -> str:
                                   for text, k in counts.items())
 
 
+@u.accepts_quantified
 def rms_gradient_exact(
     G: xr.DataArray,
     dr: Any = None,
@@ -480,6 +482,7 @@ def _positive_only(acf, dr_arr: np.ndarray, gbar: np.ndarray, *, given: bool) ->
     return dr_arr[positive], gbar[positive]
 
 
+@u.accepts_quantified
 def gradient_from_spectrum(
     C: xr.DataArray,
     dr: Any = None,

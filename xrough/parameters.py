@@ -146,6 +146,7 @@ def _parameter_attrs(grid: Grid, sections: int) -> dict[str, dict]:
     return out
 
 
+@u.accepts_quantified
 def roughness_parameters(topography: xr.DataArray, *,
                          sampling_lengths: int = 1) -> xr.Dataset:
     r"""ISO roughness parameters of a map (``S``) or profile (``R``), and the rms curvature.
@@ -315,6 +316,7 @@ def _distribution(topography: xr.DataArray, grid: Grid, *, quantity: str, direct
     return out
 
 
+@u.accepts_quantified
 def height_distribution(topography: xr.DataArray, *, bins: Any = 100) -> xr.DataArray:
     """Probability density of the heights, relative to the mean of each map.
 
@@ -367,6 +369,7 @@ def _direction(direction: str | None, grid: Grid, allowed: tuple[str, ...],
     return direction
 
 
+@u.accepts_quantified
 def slope_distribution(topography: xr.DataArray, *, direction: str | None = None,
                        bins: Any = 100) -> xr.DataArray:
     """Probability density of the slopes between neighbouring points.
@@ -414,6 +417,7 @@ def slope_distribution(topography: xr.DataArray, *, direction: str | None = None
                          attrs={"direction": direction, "stencil": SLOPE_STENCIL})
 
 
+@u.accepts_quantified
 def curvature_distribution(topography: xr.DataArray, *, direction: str | None = None,
                            bins: Any = 100) -> xr.DataArray:
     """Probability density of the curvatures at one pixel.
@@ -463,6 +467,7 @@ def curvature_distribution(topography: xr.DataArray, *, direction: str | None = 
 # ---------------------------------------------------------------------------- bearing area
 
 
+@u.accepts_quantified
 def bearing_area_curve(topography: xr.DataArray, *,
                        material_ratio: Any = None) -> xr.DataArray:
     """Abbott-Firestone curve: the height at each material ratio, ``Smc(mr)``.
@@ -522,6 +527,7 @@ def bearing_area_curve(topography: xr.DataArray, *,
     return out
 
 
+@u.accepts_quantified
 def material_ratio(topography: xr.DataArray, *, height: Any = None) -> xr.DataArray:
     """Fraction of the surface at or above each height, ``Smr(c)`` (ISO 25178-2).
 
@@ -632,6 +638,7 @@ def _step_coords(grid: Grid, steps: np.ndarray, dr: np.ndarray, what: str) -> di
     return coords
 
 
+@u.accepts_quantified
 def scale_dependent_slope(topography: xr.DataArray, *, dr: Any = None,
                           points_per_decade: float = 10,
                           dr_max: Any = None) -> xr.DataArray:
@@ -717,6 +724,7 @@ def scale_dependent_slope(topography: xr.DataArray, *, dr: Any = None,
     return out
 
 
+@u.accepts_quantified
 def scale_dependent_curvature(topography: xr.DataArray, *, dr: Any = None,
                               points_per_decade: float = 10, dr_max: Any = None,
                               tip_radius: Any = None, stated_tip: bool = True,
@@ -828,6 +836,7 @@ def _runs(dr: np.ndarray, hit: np.ndarray) -> str:
     return ", ".join(parts)
 
 
+@u.accepts_quantified
 def tip_check(curvature: xr.DataArray, *, tip_radius: Any,
               safety_factor: float = TIP_SAFETY_FACTOR, source: str = "given") -> xr.DataArray:
     """Mark the scales at which a topography is curved beyond what its tip can image.

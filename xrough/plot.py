@@ -87,7 +87,7 @@ def _coord_text(name: str, value, units: str | None) -> str:
     if isinstance(value, (str, np.str_)):
         return str(value)
     try:
-        q = _units.ureg.Quantity(float(value), _units.parse_units(units)).to_compact()
+        q = _units.compact(_units.ureg.Quantity(float(value), _units.parse_units(units)))
         return f"{name} = {q.magnitude:.3g} {display_unit(format(q.units, '~'))}".rstrip()
     except (ValueError, TypeError):
         return f"{name} = {value}"
@@ -413,6 +413,7 @@ def _is_error(name: str) -> bool:
     return name.endswith(("_std", "_model_error"))
 
 
+@_units.accepts_quantified
 def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None, ax=None,
                  G: xr.DataArray | None = None):
     """One panel per variable of a result Dataset (Persson theory, energy, ...).
@@ -675,6 +676,7 @@ def plot_patch_radius(patch: xr.Dataset, *, ax=None, **kwargs):
     return ax
 
 
+@_units.accepts_quantified
 def plot_stitched(measurements, *, ax=None, error: bool = True, threshold: float = 3.0,
                   warn: bool = True, **kwargs):
     """G(dr) of each instrument in its reliable window, and their stitched G on top.
@@ -730,6 +732,7 @@ def plot_stitched(measurements, *, ax=None, error: bool = True, threshold: float
                        zorder=3)
 
 
+@_units.accepts_quantified
 def plot(da: xr.DataArray, *, ax=None, **kwargs):
     """Plot any xrough DataArray (topography, G(dr), C(q), ...).
 

@@ -124,6 +124,7 @@ def _detrend_kernel(h, *, coords, degree, per_line):
     return k.detrend(h, coords, degree, strict=True)
 
 
+@u.accepts_quantified
 def detrend(topography: xr.DataArray, *, mode: str = "plane",
             per_line: bool = False) -> xr.DataArray:
     r"""Remove a least-squares polynomial trend: mean, plane (tilt) or curvature.
@@ -225,6 +226,7 @@ def _term_name(e: tuple[int, ...]) -> tuple[str, float, int, str]:
     return name, factor, ey + ex, long_name
 
 
+@u.accepts_quantified
 def fit_trend(topography: xr.DataArray, *, mode: str = "plane",
               per_line: bool = False) -> xr.Dataset:
     """Coefficients of the least-squares trend that :func:`detrend` removes.
@@ -317,6 +319,7 @@ def _mask_kernel(h, *, nd, threshold, method, size, periodic):
     return np.where(bad, np.nan, h)
 
 
+@u.accepts_quantified
 def mask_outliers(topography: xr.DataArray, *, threshold: float = 5.0, method: str = "mad",
                   window: Any = None) -> xr.DataArray:
     r"""Mark spikes and dimples as missing (NaN) by robust z-scores.
@@ -513,6 +516,7 @@ def _tip_cutoff(topography: xr.DataArray, grid: Grid, tip_radius: float,
                           f"curvature above -{safety_factor:g}/R)")
 
 
+@u.accepts_quantified
 def reliable(
     topography: xr.DataArray,
     *,
@@ -773,6 +777,7 @@ def tip_window(topography: xr.DataArray) -> tuple[xr.DataArray, str | None]:
     return out, None
 
 
+@u.accepts_quantified
 def reliability_window(obj: xr.DataArray) -> tuple[float | None, float | None]:
     """Reliable lag range ``(dr_min, dr_max)`` recorded by :func:`reliable`.
 

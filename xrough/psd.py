@@ -42,6 +42,7 @@ _KINDS = {
 }
 
 
+@u.accepts_quantified
 def power_spectrum(
     topography: xr.DataArray,
     *,

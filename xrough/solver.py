@@ -96,6 +96,7 @@ def _scaled_targets(targets: np.ndarray, e: int, load_dim: str) -> np.ndarray:
         "common scale)")
 
 
+@u.accepts_quantified
 def solve_contact(
     topography: xr.DataArray,
     *,

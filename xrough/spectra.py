@@ -279,6 +279,7 @@ def spectrum_lags(spec: _SpectrumInput, dr: Any, points_per_decade: float, dr_mi
     return log_range(lo, hi, points_per_decade)
 
 
+@_units.accepts_quantified
 def acf_from_spectrum(
     spectrum: xr.DataArray,
     dr: Any = None,
@@ -537,6 +538,7 @@ def _error_at(q: np.ndarray, acf: _AcfInput, grid_error, *, smooth, interpolatio
 
 
 @by_content()
+@_units.accepts_quantified
 def spectrum(
     G: xr.DataArray,
     q: Any = None,

@@ -290,6 +290,7 @@ def _curve(name: str, da: xr.DataArray, own_edges: np.ndarray, *, chunk: bool,
             G.pair_count.data, dict(G.attrs))
 
 
+@u.accepts_quantified
 def stitch_curves(
     measurements: Any,
     *,
@@ -485,6 +486,7 @@ def _curves_dataset(packed, centres: np.ndarray, plans: dict, meta: list[dict], 
 # ---------------------------------------------------------------------------- mismatch
 
 
+@u.accepts_quantified
 def stitch_mismatch(curves: xr.Dataset, *, threshold: float = 3.0,
                     warn: bool = True) -> xr.Dataset:
     r"""Ratio of G between every pair of overlapping measurements, and its significance.
@@ -733,6 +735,7 @@ def _unexplained_factors(names: list[str], factors: np.ndarray, errors: np.ndarr
             "stitch with level=False to see the curves as measured"]
 
 
+@u.accepts_quantified
 def stitch(
     measurements: Any,
     *,

@@ -307,6 +307,7 @@ def topography(
     return da
 
 
+@u.accepts_quantified
 def convert_units(topography: xr.DataArray, height: Any = None, *,
                   lateral: Any = None) -> xr.DataArray:
     """Convert a topography's heights and/or lateral coordinates to other units.

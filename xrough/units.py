@@ -14,9 +14,12 @@ are in that unit (``dr_max=100`` on a map in nm is 100 nm).
 
 from __future__ import annotations
 
+import functools
 import re
+from collections.abc import Callable, Mapping
 from typing import Any
 
+import cf_xarray.units as _cf_units
 import numpy as np
 import pint
 import xarray as xr
@@ -40,40 +43,26 @@ __all__ = [
     "power_units",
     "is_quantified",
     "dequantify",
+    "accepts_quantified",
+    "compact",
 ]
 
-# CF/UDUNITS writes "m2", "m-2", "J m-2"; pint wants "m**2", "m**-2", "J*m**-2".
+#: A number, then a unit: ``"25 MPa"``, ``"2 um4"``, ``"-3e-9 m"``.
 _NUMBER_UNIT = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*)$")
-_CF_TOKEN = re.compile(r"^([A-Za-zµμ_%]+)(\^|\*\*)?(-?\d+)?$")
+#: A power glued to a symbol that is not ASCII (``"Å2"``, ``"μm2"``), which the registry's
+#: CF rule (ASCII letters only) does not see.
+_GLUED_NON_ASCII = re.compile(r"(?<=[Åµμ])(?=-?\d)")
 
-#: The registry xrough uses everywhere.  Quantities from another registry are converted
-#: through their string representation.
-try:  # the parsed definitions are cached on disk: a tenth of the start-up time
-    ureg = pint.UnitRegistry(cache_folder=":auto:")
-except OSError:  # pragma: no cover - read-only home
-    ureg = pint.UnitRegistry()
-ureg.formatter.default_format = "~"
-
-
-#: A unit symbol with its power glued on ("m2", "mm2", "s-1") inside pint's grammar.
-_GLUED_POWER = re.compile(r"(?<![\w*^.])([A-Za-zµμ_]+)(-?\d+)(?![\w.])")
+#: The one unit registry: cf-xarray's, which reads CF/UDUNITS strings (``"m2"``,
+#: ``"J m-2"``) and is pint's application registry once cf-xarray's units are imported,
+#: so that pint-xarray's ``.pint.quantify()``, cf-xarray and xrough share it. Quantities
+#: of another registry are converted through their string representation.
+ureg: pint.UnitRegistry = _cf_units.units
 
 
 def _cf_to_pint(text: str) -> str:
-    """Rewrite CF/UDUNITS powers for pint; leave anything else alone.
-
-    A CF product ("J m-2", "um4"), and powers glued to a symbol inside pint's grammar
-    ("mJ/m2", "N/mm2").
-    """
-    text = text.strip()
-    tokens = text.replace("·", " ").split()
-    matches = [_CF_TOKEN.match(tok) for tok in tokens]
-    if not tokens or not all(m and m.group(2) is None for m in matches):
-        # pint's own grammar ("mJ/m^2", "meter ** 2"), with CF powers ("mJ/m2")
-        return _GLUED_POWER.sub(r"\1**\2", text)
-    out = [f"{m.group(1)}**{m.group(3)}" if m.group(3) is not None else m.group(1)
-           for m in matches]
-    return "*".join(out)
+    """Spell a unit for the registry: CF's middle dot and non-ASCII glued powers."""
+    return _GLUED_NON_ASCII.sub("**", text.replace("·", " ").strip())
 
 
 def _did_you_mean(text: str) -> str:
@@ -149,18 +138,21 @@ def format_units(unit: pint.Unit | str) -> str:
     'mJ m-2'
     >>> format_units(parse_units("nm") ** 2)
     'nm2'
+    >>> format_units("Å2"), format_units("µm")
+    ('angstrom2', 'um')
     """
     if isinstance(unit, str):
         unit = parse_units(unit)
+    elif unit._REGISTRY is not ureg:  # noqa: SLF001 - another registry's unit
+        unit = parse_units(str(unit))
     parts = []
     for name, exp in unit._units.items():  # noqa: SLF001 - pint's documented container
-        sym = ureg.get_symbol(name).replace("µ", "u")  # UDUNITS spells micro "u"
-        if exp == 1:
-            parts.append(sym)
-        else:
-            e = int(exp) if float(exp).is_integer() else exp
-            parts.append(f"{sym}{e}")
-    # positive exponents first, as CF does ("J m-2", not "m-2 J")
+        # symbols in ASCII, as UDUNITS spells them: micro "u", and "angstrom" (cf-xarray's
+        # registry reads "angstrom2" but not "Å2")
+        sym = ureg.get_symbol(name).replace("µ", "u").replace("Å", "angstrom")
+        e = int(exp) if float(exp).is_integer() else exp
+        parts.append(sym if exp == 1 else f"{sym}{e}")
+    # positive exponents first, as CF does ("J m-2", not "m-2 J"); else in product order
     parts.sort(key=lambda p: bool(re.search(r"-\d", p)))
     return " ".join(parts) if parts else "1"
 
@@ -606,3 +598,71 @@ def dequantify(obj: Any) -> Any:
         out.name = obj.name
         return out
     raise TypeError(f"dequantify: expected an xarray object, got {type(obj).__name__}")
+
+
+def _holds_quantities(obj: Any) -> bool:
+    return isinstance(obj, (xr.DataArray, xr.Dataset, xr.DataTree)) and dequantify(obj) is not obj
+
+
+def accepts_quantified(func: Callable[..., Any]) -> Callable[..., Any]:
+    """Let a public function take pint-quantified data (pint-xarray's ``.pint.quantify()``).
+
+    The first argument (a DataArray, Dataset or DataTree, or a mapping of them) is passed
+    through :func:`dequantify`, so that its Quantities become CF ``units`` attributes
+    before the function reads them; everything else is unchanged (physical parameters
+    read Quantities through :func:`quantity`). The wrapped function keeps its name,
+    docstring and signature.
+
+    Examples
+    --------
+    >>> import xarray as xr
+    >>> @accepts_quantified
+    ... def unit_of(da):
+    ...     return da.attrs["units"]
+    >>> unit_of(xr.DataArray(ureg.Quantity([1.0], "nm"), dims="x"))
+    'nm'
+    """
+
+    @functools.wraps(func)
+    def wrapper(data, /, *args, **kwargs):
+        if isinstance(data, (xr.DataArray, xr.Dataset, xr.DataTree)):
+            data = dequantify(data)
+        elif isinstance(data, Mapping) and any(map(_holds_quantities, data.values())):
+            data = {k: dequantify(v) if _holds_quantities(v) else v for k, v in data.items()}
+        return func(data, *args, **kwargs)
+
+    return wrapper
+
+
+#: SI prefixes by power of ten, for :func:`compact`.
+_SI_PREFIXES = {-18: "a", -15: "f", -12: "p", -9: "n", -6: "u", -3: "m", 0: "", 3: "k",
+                6: "M", 9: "G", 12: "T", 15: "P"}
+
+
+def compact(q: pint.Quantity) -> pint.Quantity:
+    """One value with the SI prefix that puts it between 1 and 1000 (pint's ``to_compact``).
+
+    The prefix goes on the first unit of the numerator, by its root for a power
+    (``3e5 nm2`` is ``0.3 um2``). pint's own ``to_compact`` leaves array magnitudes alone,
+    and this registry (cf-xarray's, ``force_ndarray_like``) makes every magnitude one.
+
+    Examples
+    --------
+    >>> f"{compact(ureg.Quantity(1200.0, 'nm')):~}"
+    '1.2 µm'
+    >>> f"{compact(ureg.Quantity(0.05, 'J/m**2')):~}"
+    '50.0 mJ / m ** 2'
+    """
+    if np.size(q.magnitude) != 1:
+        raise ValueError(f"compact: one value is needed, got {np.size(q.magnitude)}")
+    items = list(q.units._units.items())  # noqa: SLF001 - pint's documented container
+    value = float(np.reshape(q.magnitude, -1)[0])
+    if not items or value == 0 or not np.isfinite(value):
+        return q
+    name, power = next(((n, e) for n, e in items if e > 0), items[0])
+    prefixed = ureg.Unit(name) ** power
+    base = ureg.Unit(ureg.parse_unit_name(name)[0][1]) ** power
+    in_base = abs(value * conversion_factor(prefixed, base))
+    exp = int(np.clip(np.floor(np.log10(in_base) / power / 3) * 3, -18, 15))
+    new = ureg.Unit(_SI_PREFIXES[exp] + ureg.parse_unit_name(name)[0][1]) ** power
+    return q.to(q.units / prefixed * new)

@@ -123,6 +123,7 @@ def _errors(diff: xr.DataArray, scale: xr.DataArray | float, sel: np.ndarray):
     return rel.max("dr", skipna=True), np.sqrt((rel**2).mean("dr", skipna=True))
 
 
+@u.accepts_quantified
 def compare_with_simulation(
     topography: xr.DataArray,
     *,

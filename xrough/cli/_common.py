@@ -110,9 +110,9 @@ def _compact(value: float, unit: str):
     items = list(q.units._units.items())  # noqa: SLF001 - pint's documented container
     if len(items) == 1 and items[0][1] not in (1, 1.0) and float(items[0][1]).is_integer():
         n = int(items[0][1])
-        root = u.ureg.Quantity(abs(value) ** (1 / n), u.ureg.Unit(items[0][0])).to_compact()
+        root = u.compact(u.ureg.Quantity(abs(value) ** (1 / n), u.ureg.Unit(items[0][0])))
         return q.to(root.units**n)
-    return q.to_compact()
+    return u.compact(q)
 
 
 def text(value: float, unit: str, *, digits: int = 4, none: str = "inf") -> str:

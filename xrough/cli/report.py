@@ -216,7 +216,7 @@ def _common_units(curves: list[xr.DataArray]) -> tuple[str, str]:
     def typical(values):
         values = [v for v in values if np.isfinite(v) and v > 0]
         middle = float(np.exp(np.mean(np.log(values)))) if values else 1.0
-        return u.ureg.Quantity(middle, "m").to_compact().units
+        return u.compact(u.ureg.Quantity(middle, "m")).units
 
     return u.format_units(typical(lags)), u.format_units(typical(heights) ** 2)
 

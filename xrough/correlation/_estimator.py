@@ -11,6 +11,7 @@ import numpy as np
 import xarray as xr
 
 from .. import quality
+from .. import units as u
 from .._kernels.pairs import g_from_packed, pool
 from ..preprocess import tip_window
 from ..topography import Grid, grid_of, require_whole_maps
@@ -26,6 +27,7 @@ ESTIMATORS = ("auto", "fft", "random", "tiled")
 DEFAULT_PAIRS = 1_000_000
 
 
+@u.accepts_quantified
 def height_difference_acf(
     topography: xr.DataArray,
     *,
