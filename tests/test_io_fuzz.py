@@ -1,5 +1,5 @@
 """Untrusted files: the native readers (X3P, SUR, SDF, Gwyddion, NetCDF, Nanoscope, Igor,
-text, npy) under mutation.
+text, npy) and the SurfaceTopography bridge under mutation.
 
 Each format has a regression test per defect found by fuzzing (truncated NetCDF read as
 zeros, a corrupted ``.gwy`` that hangs the third-party parser, allocation bombs, two bytes
@@ -218,8 +218,10 @@ def classify(da: xr.DataArray, original: xr.DataArray) -> str:
 
 
 def fuzz_loop(tmp_path, fmt: str, seeds, read, mutator=mutate, n=MUTATIONS,
-              suffix=None, max_bytes=256 << 20, sniff=None, traced_every=5):
-    """``n`` seeded mutations of the seed files; count the outcomes (see :func:`classify`).
+              suffix=None, max_bytes=256 << 20, sniff=None, traced_every=5,
+              judge=None):
+    """``n`` seeded mutations of the seed files; count the outcomes (see :func:`classify`;
+    ``judge`` replaces it, e.g. :func:`classify_text`).
 
     Every ``traced_every``-th read runs under :mod:`tracemalloc` (which slows reading
     tenfold) and must stay below ``max_bytes``; the others are bounded by the readers'
@@ -251,7 +253,7 @@ def fuzz_loop(tmp_path, fmt: str, seeds, read, mutator=mutate, n=MUTATIONS,
         assert peak < max(10 * len(seed), max_bytes), (
             f"{path.name}: {peak} bytes allocated for a {len(content)}-byte file")
         if not isinstance(result, str):
-            result = classify(result, originals[i % len(seeds)])
+            result = (judge or classify)(result, originals[i % len(seeds)])
         counts[result] += 1
         path.unlink()
     OUTCOMES[fmt] = counts
@@ -955,3 +957,104 @@ def test_fuzz_real_files(tmp_path, name):
                            mutator=lambda raw, rng: mutate(raw, rng, header=header),
                            n=REAL_MUTATIONS, traced_every=0)
     assert counts["clean error"] > 0
+
+
+# --------------------------------------- the SurfaceTopography bridge and text exports
+
+
+def read_bridge(path):
+    """Read through SurfaceTopography (the bridge), its warnings silenced."""
+    from xrough.io import bridge
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return bridge.read(path)
+
+
+#: Bridged real files: (length of the header where 70 % of the mutations fall).
+BRIDGED = {"al3d-1.al3d": 1261, "nid-1.nid": 30748, "mi-1.mi": 5073,
+           "opd-1.opd": 4000, "plu-1.plu": 1000}
+
+
+@pytest.mark.data
+def test_fuzz_bridge_al3d(tmp_path):
+    """Before the layout checks 103 of 330 damaged .al3d read with 14-100 % of the heights
+    changed; now a read gives the original's heights but for undetectable flipped data
+    bytes (plausible)."""
+    pytest.importorskip("SurfaceTopography")
+    seed = data_path("instruments", "al3d-1.al3d").read_bytes()
+    counts = fuzz_loop(tmp_path, "al3d", [seed], read_bridge, suffix=".al3d", n=150,
+                       mutator=lambda raw, rng: mutate(raw, rng, header=1261),
+                       traced_every=0)
+    assert counts["garbage"] == 0 and counts["clean error"] > 0
+
+
+@pytest.mark.slow
+@pytest.mark.data
+@pytest.mark.parametrize("name", sorted(BRIDGED))
+def test_fuzz_bridge_real_files(tmp_path, name):
+    """500 mutations of each bridged file. Sensofar .plu states no end of its data: data
+    shifted by whole floats stays undetected (the count of garbage is printed)."""
+    pytest.importorskip("SurfaceTopography")
+    seed = data_path("instruments", name).read_bytes()
+    counts = fuzz_loop(tmp_path, name, [seed], read_bridge, suffix=name, n=REAL_MUTATIONS,
+                       mutator=lambda raw, rng: mutate(raw, rng, header=BRIDGED[name]),
+                       traced_every=0)
+    assert counts["clean error"] > 0
+    if name != "plu-1.plu":
+        assert counts["garbage"] == 0
+
+
+def text_seeds():
+    """A Gwyddion text export (fixed ``%.4e``) and an x-y profile with a title line."""
+    values = np.round(np.random.default_rng(2).normal(size=(6, 5)), 4)
+    gwyddion = ("# Channel: Height\n# Width: 10.00 µm\n# Height: 12.00 µm\n"
+                "# Value units: nm\n" + "\n".join("\t".join(f"{v:.4e}" for v in row)
+                                                 for row in values) + "\n")
+    profile = "x [um]\th [nm]\n" + "".join(f"{0.5 * i:.3f}\t{v:.4f}\n"
+                                           for i, v in enumerate(values.ravel()[:20]))
+    return [gwyddion.encode("utf-8"), profile.encode("utf-8")]
+
+
+def mutate_text(raw: bytes, rng: np.random.Generator) -> bytes:
+    """Damage a text export where it cannot be told from an intact one only at a line
+    boundary: truncation (a number or line cut off), flipped bytes, garbage at the end.
+
+    Whole lines cut from or repeated inside a matrix without stated point counts cannot
+    be detected (:mod:`xrough.io.text`), so chunks are not cut or repeated here.
+    """
+    kind = rng.integers(3)
+    if kind == 0:
+        return raw[:int(rng.integers(1, len(raw)))]
+    if kind == 1:
+        data = bytearray(raw)
+        for _ in range(int(rng.integers(1, 4))):
+            data[int(rng.integers(len(raw)))] ^= int(rng.integers(1, 256))
+        return bytes(data)
+    return raw[:int(rng.integers(1, len(raw)))] + bytes(
+        rng.integers(0, 256, int(rng.integers(1, 16)), dtype=np.uint8))
+
+
+def classify_text(da: xr.DataArray, original: xr.DataArray) -> str:
+    """:func:`classify`, and ``lines lost``: the original's leading lines read intact, the
+    file cut at a line boundary (undetectable without stated point counts)."""
+    kind = classify(da, original)
+    if kind != "garbage" or da.ndim != original.ndim:
+        return kind
+    lines, whole = (da.values[::-1], original.values[::-1]) if da.ndim == 2 else (
+        da.values, original.values)
+    if da.ndim == 2 and lines.shape[1] != whole.shape[1]:
+        return kind
+    k = lines.shape[0]
+    same = 0 < k < whole.shape[0] and np.array_equal(lines, whole[:k], equal_nan=True)
+    return "lines lost" if same else kind
+
+
+def test_fuzz_text_exports(tmp_path):
+    """A damaged first or last line of numbers is refused, never read as a lost row."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        counts = fuzz_loop(tmp_path, "text export", text_seeds(), text.read,
+                           mutator=mutate_text, suffix=".txt", n=600, sniff=text.sniff,
+                           judge=classify_text)
+    assert counts["garbage"] == 0 and counts["clean error"] > 0

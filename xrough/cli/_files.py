@@ -9,9 +9,14 @@ names the options of the command line that set them.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import inspect
 import re
+import shutil
+import stat
+import sys
+import tempfile
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -167,18 +172,60 @@ def _as_options(err: MissingOptionError) -> CLIError | None:
                     + (" or " if err.either else " and ").join(flags))
 
 
+#: File arguments that name standard input.
+STDIN = ("-", "/dev/stdin")
+
+
+def _is_stream(path: str) -> bool:
+    """Whether ``path`` is standard input or another pipe (not a file to reopen)."""
+    if path in STDIN:
+        return True
+    try:
+        mode = Path(path).stat().st_mode
+    except OSError:
+        return False
+    return stat.S_ISFIFO(mode) or stat.S_ISCHR(mode)
+
+
+@contextlib.contextmanager
+def readable(path: str):
+    """Give the file to read for the argument ``path``.
+
+    Standard input (``-``, ``/dev/stdin``) and other pipes cannot be read twice (format
+    detection reads the start of a file, the reader the whole of it): their bytes are
+    copied to a temporary file named ``stdin`` (or the pipe's name), whose format is then
+    detected from the content, and which is removed after use.
+    """
+    if not _is_stream(path):
+        yield path
+        return
+    name = "stdin" if path in STDIN else Path(path).name
+    with tempfile.TemporaryDirectory(prefix="xrough-") as folder:
+        copy = Path(folder) / name
+        with open(copy, "wb") as out:
+            if path == "-":
+                shutil.copyfileobj(sys.stdin.buffer, out)
+            else:
+                with open(path, "rb") as stream:
+                    shutil.copyfileobj(stream, out)
+        yield str(copy)
+
+
 def open_file(path: str, args: argparse.Namespace) -> xr.DataArray:
     """Read a topography with the command's options.
 
-    A file that lacks a unit, a size or resampling names the option to give.
+    ``-`` (or ``/dev/stdin``) reads standard input (:func:`readable`). A file that lacks a
+    unit, a size or resampling names the option to give.
     """
     options = _checked(args)
-    name = args.format or detect_format(path)
-    _refuse_foreign_options(path, name, options)
-    try:
-        return open_topography(path, format=name, **options)
-    except MissingOptionError as err:
-        raise (_as_options(err) or err) from err
+    with readable(path) as readable_path:
+        name = args.format or detect_format(readable_path)
+        _refuse_foreign_options(path, name, options)
+        try:
+            topo = open_topography(readable_path, format=name, **options)
+        except MissingOptionError as err:
+            raise (_as_options(err) or err) from err
+        return topo.load() if readable_path != path else topo
 
 
 # ------------------------------------------------------------------ measuring

@@ -16,15 +16,23 @@ import xarray as xr
 from .. import units as u
 from ..topography import topography
 
-__all__ = ["CONVENTIONS",
+__all__ = ["CONVENTIONS", "CorruptedFileError",
            "fail", "MissingOptionError", "reader_errors", "check_file", "check_points",
-           "MAX_POINTS",
+           "check_height_scale", "MAX_POINTS", "MAX_HEIGHT_TO_SIZE",
            "micro_as_u", "describe_channel", "channel_listing", "select_channel",
            "default_channel_reader", "nonuniform_profile"]
 
 #: Largest number of points a reader of this package's native formats (X3P, SUR, SDF)
 #: accepts unless the caller passes ``max_points=``: a larger header is taken as corrupted.
 MAX_POINTS = 2**31
+
+#: Largest height (in absolute value) a map or profile may have, as a multiple of its
+#: lateral extent, before :func:`check_height_scale` takes the values as damaged binary
+#: data (float bytes read at a shifted offset give heights of ``1e15`` to ``3.4e38``); an
+#: absolute stage position of a few centimetres on a 100 um scan is about ``1e3`` times its
+#: extent, and a height scale mistaken by a factor of 1e6 (metres for micrometres) still
+#: reads.
+MAX_HEIGHT_TO_SIZE = 1e9
 
 #: The conventions every NetCDF file xrough writes follows (its global ``Conventions``).
 CONVENTIONS = "CF-1.10"
@@ -56,6 +64,15 @@ def fail(path: Path, message: str) -> ValueError:
     ValueError('scan.spm: truncated file')
     """
     return ValueError(f"{path.name}: {message}")
+
+
+class CorruptedFileError(ValueError):
+    """A file or store xrough wrote whose contents fail their checksums (a corrupted file).
+
+    Raised when it is opened, or for a lazy open when a chunk is computed; the message
+    starts with the file's name and names the group or variable. A ``ValueError``, as every
+    other refusal of a damaged file.
+    """
 
 
 class MissingOptionError(ValueError):
@@ -146,6 +163,45 @@ def check_points(path: Path, n: int, max_points: int | None, what: str) -> None:
         raise ValueError(f"{path.name}: {what} declares {n} points, more than the limit of "
                          f"{limit} (a corrupted header? pass max_points= to read a larger "
                          "file)")
+
+
+def check_height_scale(path: Path, heights: np.ndarray, extent: float, unit: str) -> None:
+    """Refuse heights absurdly large for the lateral size: binary data read out of step.
+
+    Parameters
+    ----------
+    path : Path
+        The file, named in the message.
+    heights : numpy.ndarray
+        The heights (NaN for missing points).
+    extent : float
+        The largest lateral extent of the map or profile, in the unit of the heights.
+    unit : str
+        That unit, for the message.
+
+    Raises
+    ------
+    ValueError
+        A finite height larger in absolute value than :data:`MAX_HEIGHT_TO_SIZE` times
+        ``extent``.
+
+    Examples
+    --------
+    >>> check_height_scale(Path("a.al3d"), np.array([0.0763, 0.0764]), 8.7e-5, "m")
+    >>> check_height_scale(Path("a.al3d"), np.array([0.0763, 2.5e38]), 8.7e-5, "m")
+    Traceback (most recent call last):
+    ...
+    ValueError: a.al3d: a height of 2.5e+38 m on a scan 8.7e-05 m across: ...
+    """
+    if not (np.isfinite(extent) and extent > 0) or heights.size == 0:
+        return
+    finite = np.abs(heights[np.isfinite(heights)])
+    largest = float(finite.max()) if finite.size else 0.0
+    if largest > MAX_HEIGHT_TO_SIZE * extent:
+        raise fail(path, f"a height of {largest:.3g} {unit} on a scan {extent:.3g} {unit} "
+                         f"across: more than {MAX_HEIGHT_TO_SIZE:g} times the lateral size, "
+                         "the values of a damaged file (data read out of step with its "
+                         "header?)")
 
 
 @contextlib.contextmanager

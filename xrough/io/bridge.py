@@ -17,6 +17,17 @@ every program.
 
 :func:`xrough.io.open_topography` falls back to this bridge when no native reader
 recognises a file and SurfaceTopography is installed.
+
+SurfaceTopography reads the data where a header says it is, without comparing the header
+with the file. The bridge checks what it can: the sizes and offsets stated by the headers
+of Alicona ``.al3d``, Nanosurf ``.nid``/``.ezd`` and Molecular Imaging ``.mi`` files
+against the file's size (:func:`xrough.io._layout.check_layout`), and, for every format,
+that no height is more than a billion times the lateral size of the scan
+(:func:`xrough.io._common.check_height_scale`: float bytes read out of step give heights
+up to ``3.4e38``). A file that fails is refused with a ``ValueError`` naming it. A file
+SurfaceTopography would take for an SRTM ``.hgt`` elevation tile (which has no magic
+bytes: any file of ``2 n**2`` bytes) is one only when its name and size are an SRTM
+tile's (:func:`srtm_tile`).
 """
 
 from __future__ import annotations
@@ -32,10 +43,18 @@ import xarray as xr
 
 from .. import units as u
 from ..topography import topography
-from ._common import MissingOptionError, micro_as_u, nonuniform_profile, select_channel
+from ._common import (
+    MissingOptionError,
+    check_height_scale,
+    fail,
+    micro_as_u,
+    nonuniform_profile,
+    select_channel,
+)
+from ._layout import check_layout
 
 __all__ = ["available", "sniff", "read", "read_with_surfacetopography", "channels",
-           "default_channel", "info_attrs"]
+           "default_channel", "info_attrs", "srtm_tile"]
 
 _INSTALL_HINT = ("reading this format needs SurfaceTopography: pip install xrough[formats] "
                  "(or pip install SurfaceTopography)")
@@ -43,6 +62,10 @@ _RESERVED = {"units", "long_name", "periodic", "sampling", "source", "source_fil
              "source_sha256", "format", "overrides", "name"}
 _MAX_RAW_ITEMS = 500
 _MAX_TEXT = 2000
+#: SRTM tiles: ``N47E008.hgt`` (latitude and longitude of the south-west corner) of 1201**2
+#: (3 arc-seconds) or 3601**2 (1 arc-second) big-endian 16-bit samples.
+_SRTM_NAME = re.compile(r"^[NS]\d{2}[EW]\d{3}\.hgt$", re.IGNORECASE)
+_SRTM_SIZES = (2 * 1201**2, 2 * 3601**2)
 
 
 def _import():
@@ -97,10 +120,39 @@ def sniff(head: bytes, path: Path | None = None) -> bool:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            st.IO.detect_format(str(path))
+            found = st.IO.detect_format(str(path))
     except Exception:  # noqa: BLE001 - any failure means "not recognised"
         return False
-    return True
+    return found != "hgt" or srtm_tile(path)
+
+
+def srtm_tile(path: Path) -> bool:
+    """Whether ``path`` is named and sized as an SRTM ``.hgt`` elevation tile.
+
+    The format has no magic bytes (SurfaceTopography takes any file of ``2 n**2`` bytes
+    for one); a tile is named after its south-west corner (``N47E008.hgt``) and holds
+    1201 x 1201 or 3601 x 3601 big-endian 16-bit samples.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The file.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> srtm_tile(Path("scan.bin"))
+    False
+    """
+    path = Path(path)
+    try:
+        size = path.stat().st_size
+    except OSError:
+        return False
+    return bool(_SRTM_NAME.match(path.name)) and size in _SRTM_SIZES
 
 
 def _attr_key(key: str) -> str:
@@ -331,6 +383,7 @@ def read_with_surfacetopography(path, *, channel: int | str | None = None, size=
             raise ValueError(f"{path.name}: SurfaceTopography cannot read the file "
                              f"({type(err).__name__}: {str(err).strip()[:300]})") from None
         try:
+            _check_file(path, type(reader).__name__)
             with _data_errors(path.name):
                 data = _channel_data(reader, channel, path, size, unit)
         finally:
@@ -341,7 +394,18 @@ def read_with_surfacetopography(path, *, channel: int | str | None = None, size=
         data["attrs"]["reader_warnings"] = " | ".join(notes)[:_MAX_TEXT]
     data["attrs"].update(reader=type(reader).__name__, channel=str(data["channel"].name),
                          channel_index=int(data["channel"].index))
-    return _as_topography(data, path.name, size, unit, height_unit, resample)
+    with _data_errors(path.name):  # sizes of zero, say
+        return _as_topography(data, path.name, size, unit, height_unit, resample)
+
+
+def _check_file(path: Path, reader: str) -> None:
+    """Refuse what SurfaceTopography would read as garbage: a damaged layout, a non-tile."""
+    if reader == "HGTReader" and not srtm_tile(path):
+        raise fail(path, f"not an SRTM elevation tile: a .hgt tile is named after its "
+                         f"corner (such as N47E008.hgt) and holds 1201 x 1201 or 3601 x "
+                         f"3601 16-bit samples; this file has {path.stat().st_size} bytes "
+                         "(SurfaceTopography takes any file of 2 n**2 bytes for one)")
+    check_layout(path, reader)
 
 
 @contextlib.contextmanager
@@ -379,8 +443,12 @@ def _channel_data(reader, channel, path: Path, size, unit) -> dict:
                                      advice=" (e.g. unit='um')")
         kwargs["unit"] = "m"  # placeholder label; relabelled below
     topo = reader.topography(**kwargs)
+    heights = np.ma.filled(np.ma.asarray(topo.heights(), dtype=float), np.nan)
+    if "physical_sizes" not in kwargs:  # sizes as the file states them: compare
+        check_height_scale(path, heights, max(float(s) for s in topo.physical_sizes),
+                           _unit_text(topo.unit) or "(file unit)")
     return {"channel": chan, "attrs": info_attrs(topo.info),
-            "heights": np.ma.filled(np.ma.asarray(topo.heights(), dtype=float), np.nan),
+            "heights": heights,
             "positions": topo.positions() if topo.dim == 1 and not topo.is_uniform else None,
             "unit": topo.unit, "nb": nb, "periodic": bool(topo.is_periodic),
             "sizes": tuple(float(s) for s in topo.physical_sizes)}

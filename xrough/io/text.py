@@ -468,16 +468,73 @@ def _data_block(name: str, lines: list[str]):
                      if bad is not None else "several blocks of numbers")
             raise ValueError(f"{name}: {where} (the block of numbers is interrupted; "
                              "the file looks corrupted)")
+    _damaged_edges(name, lines, runs[main], ncols)
     return runs[main]
+
+
+def _shape(token: str) -> tuple[int, int] | None:
+    """How a number is printed: ``(digits of its exponent, number of decimals)``."""
+    m = _TOKEN_PARTS.match(token)
+    if m is None:
+        return None
+    return len((m.group(3) or "").lstrip("+-")), len(m.group(2) or "")
+
+
+def _cut_last_number(name: str, rows: list[int], tokens: list[list[str]]) -> None:
+    """Refuse a file cut inside its last number (it ends without a line break).
+
+    The last number of such a file still reads as a number (``-1.0`` of ``-1.0108e+00``);
+    when the numbers of its column on the lines before are all printed alike (a fixed
+    format, such as ``%.4e``) and the last one is not, the file was cut inside it.
+    """
+    if len(tokens) < 2 or not tokens[-1]:
+        return
+    col = len(tokens[-1]) - 1
+    before = {_shape(t[col]) for t in tokens[-21:-1] if len(t) > col}
+    last = _shape(tokens[-1][col])
+    if len(before) == 1 and None not in before and last != next(iter(before)):
+        raise ValueError(f"{name}: line {rows[-1] + 1} ends the file inside a number "
+                         f"({tokens[-1][col]!r}, printed unlike the numbers above it, "
+                         "without a line break after it): a truncated file")
+
+
+def _damaged_edges(name: str, lines: list[str], rows: list[int], ncols: int) -> None:
+    """Refuse a damaged line of numbers just before or after the block of numbers.
+
+    A first or last data line with a number cut off or garbage in it is no longer a line
+    of numbers: read as a header line or ignored as a trailer, it would silently drop a
+    row, and a map's stated ``Width``/``Height`` would be spread over fewer rows. The line
+    next to the block (blank lines skipped, comments not) is refused when it starts with a
+    number and at least half of its fields are numbers, or when it has the block's number
+    of fields, some of them numbers, and is not a ``key: value`` line.
+    """
+    for step, start in ((-1, rows[0] - 1), (1, rows[-1] + 1)):
+        i = start
+        while 0 <= i < len(lines) and not lines[i].strip():
+            i += step
+        if not 0 <= i < len(lines) or _is_comment(lines[i]):
+            continue
+        fields = [f for f in re.split(r"\s*[,;]\s*|\s+", lines[i].strip()) if f]
+        numeric = [bool(_NUM_RE.match(f)) for f in fields]
+        key_value = re.search(r"[:=：]", lines[i]) is not None
+        if (numeric[0] and 2 * sum(numeric) >= len(fields)) or (
+                len(fields) == ncols and any(numeric) and not key_value):
+            where = "first" if step < 0 else "last"
+            raise ValueError(
+                f"{name}: line {i + 1} ({lines[i].strip()[:60]!r}), next to the {where} "
+                f"line of numbers, is a damaged line of numbers: refused rather than read "
+                f"without that row (a truncated or damaged file)")
 
 
 def _parse(path: Path, encoding: str | None):
     """Return the numbers, their printed tokens, the column names and the header."""
     name = path.name
-    lines = _lines(path, encoding)
+    lines, complete = _lines(path, encoding)
     rows = _data_block(name, lines)
     delimiter, decimal_comma = _delimiter([lines[i] for i in rows[:50]])
     tokens = [_tokens(lines[i], delimiter, decimal_comma) for i in rows]
+    if not complete and rows[-1] == len(lines) - 1:
+        _cut_last_number(name, rows, tokens)
     header = _Header()
     rows, tokens = _point_count_line(name, lines, rows, tokens, header)
     values = _numbers(name, rows, tokens)
@@ -488,8 +545,11 @@ def _parse(path: Path, encoding: str | None):
     return values, tokens, names, header
 
 
-def _lines(path: Path, encoding: str | None) -> list[str]:
-    """Return the lines of the file, refusing an empty, binary or undecodable one."""
+def _lines(path: Path, encoding: str | None) -> tuple[list[str], bool]:
+    """Return the lines of the file and whether its last line ends with a line break.
+
+    An empty, binary or undecodable file is refused.
+    """
     name = path.name
     if path.is_dir():
         raise IsADirectoryError(f"{name}: is a directory, not a file")
@@ -507,7 +567,7 @@ def _lines(path: Path, encoding: str | None) -> list[str]:
     except (UnicodeError, LookupError) as err:
         raise ValueError(f"{name}: cannot decode the file as {encoding!r} text "
                          f"({err})") from None
-    return text.splitlines()
+    return text.splitlines(), text.endswith(("\n", "\r"))
 
 
 def _delimiter(sample: list[str]) -> tuple[str | None, bool]:
