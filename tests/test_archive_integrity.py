@@ -1,11 +1,14 @@
 """Archives and NetCDF topographies never reopen with changed numbers; killed saves leave nothing.
 
-Every group and variable carries a SHA-256 checksum (attribute ``xrough_sha256``) taken
-from the file read back after writing; a byte flipped anywhere in the file either makes
-the reader refuse it with a message naming the file, or leaves the values identical.
+Every chunk of every numeric variable carries the storage library's checksum (HDF5's
+Fletcher-32, Zarr's CRC-32C), checked whenever it is read, lazily too; what those do not
+cover has SHA-256 digests in the one global attribute ``xrough``. A byte flipped anywhere
+in the file either makes the reader refuse it with a message naming the file (for a lazy
+open: when the chunk is computed), or leaves the values identical.
 """
 
 import importlib.util
+import json
 import os
 import subprocess
 import sys
@@ -20,7 +23,8 @@ import xarray as xr
 import xrough
 import xrough.cli._common
 from xrough.io import archive, netcdf
-from xrough.io._checksum import CHECKSUM
+from xrough.io._checksum import KEY, LEGACY
+from xrough.io._common import CorruptedFileError
 
 needs_zarr = pytest.mark.skipif(importlib.util.find_spec("zarr") is None,
                                 reason="zarr not installed (xrough[zarr])")
@@ -52,22 +56,29 @@ def _positions(size: int, n: int, seed: int) -> np.ndarray:
     return np.array([rng.integers(lo, hi) for lo, hi in zip(edges[:-1], edges[1:])])
 
 
-def test_flipped_bytes_never_reopen_with_changed_numbers(tmp_path):
+def _computed(back):
+    return {"m": {key: value.compute() for key, value in back["m"].items()}}
+
+
+@pytest.mark.parametrize("chunks", [None, {}], ids=["eager", "lazy"])
+def test_flipped_bytes_never_reopen_with_changed_numbers(tmp_path, chunks):
     """60 single flipped bytes: each one refused naming the file, or values identical.
 
-    Without checksums, 10 of these 60 flips reopened with changed heights, G values or
-    coordinates, without any error.
+    Opened eagerly, or lazily (``chunks={}``) and then computed: a corrupted chunk is
+    refused when a dask task reads it. Without checksums, 10 of these 60 flips reopened
+    with changed heights, G values or coordinates, without any error; opened lazily with
+    the SHA-256 digests of earlier versions (values not read at open), 16 of 60.
     """
     analysis = _small()
     raw = xrough.save_analysis(tmp_path / "a.nc", analysis).read_bytes()
     refused = identical = 0
     for position in _positions(len(raw), 60, seed=0):
-        path = tmp_path / f"flip{position}.nc"
+        path = tmp_path / f"flip{position}.nc"  # a new name each: the library caches files
         path.write_bytes(_flip(raw, position))
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                back = xrough.open_analysis(path)
+                back = _computed(xrough.open_analysis(path, chunks=chunks))
         except Exception as err:  # noqa: BLE001 - any refusal must name the file
             assert path.name in str(err), (position, err)
             refused += 1
@@ -78,10 +89,12 @@ def test_flipped_bytes_never_reopen_with_changed_numbers(tmp_path):
 
 
 @needs_zarr
-def test_flipped_bytes_in_a_zarr_store_never_change_numbers(tmp_path):
+@pytest.mark.parametrize("chunks", [None, {}], ids=["eager", "lazy"])
+def test_flipped_bytes_in_a_zarr_store_never_change_numbers(tmp_path, chunks):
     """60 single flipped bytes, each in a file of the store drawn at random (metadata and
     compressed chunks alike), restored after each trial: refused naming the store, or
-    values identical. Without checksums, 11 of these 60 reopened with changed numbers."""
+    values identical, eagerly or lazily once computed. Without checksums, 11 of these 60
+    reopened with changed numbers."""
     analysis = _small()
     store = xrough.save_analysis(tmp_path / "a.zarr", analysis)
     files = sorted(p for p in store.rglob("*") if p.is_file())
@@ -94,7 +107,7 @@ def test_flipped_bytes_in_a_zarr_store_never_change_numbers(tmp_path):
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                back = xrough.open_analysis(store)
+                back = _computed(xrough.open_analysis(store, chunks=chunks))
         except Exception as err:  # noqa: BLE001 - any refusal must name the store
             assert "a.zarr" in str(err), (file, err)
             refused += 1
@@ -105,15 +118,20 @@ def test_flipped_bytes_in_a_zarr_store_never_change_numbers(tmp_path):
 
 
 def test_changed_data_is_refused_naming_file_and_variable(tmp_path):
+    """HDF5 checks the chunk's Fletcher-32 checksum on every read, at open or computed."""
     analysis = _small()
     path = xrough.save_analysis(tmp_path / "a.nc", analysis)
     raw = path.read_bytes()
     heights = analysis["m"]["topography"].values.astype("<f8").tobytes()
-    start = raw.index(heights)  # stored contiguous and uncompressed
+    start = raw.index(heights)  # one chunk, uncompressed
     path.write_bytes(_flip(raw, start + 8 * 37 + 3))  # one height, bit pattern changed
-    with pytest.raises(ValueError, match=r"a\.nc: checksum mismatch in variable "
-                                         r"'height' of group '/m/topography'"):
+    message = r"a\.nc: corrupted data in (a chunk of )?variable 'height' of group '/m/topography'"
+    with pytest.raises(CorruptedFileError, match=message):
         xrough.open_analysis(path)
+    lazy = xrough.open_analysis(path, chunks={})["m"]  # only metadata read: opens
+    xr.testing.assert_identical(lazy["G"].compute(), analysis["m"]["G"])
+    with pytest.raises(CorruptedFileError, match=message.replace("(a chunk of )?", "a chunk of ")):
+        lazy["topography"].compute()  # the chunk, read by a dask task, fails its checksum
 
 
 def _edit(path, edit):
@@ -121,41 +139,49 @@ def _edit(path, edit):
         edit(nc)
 
 
+def _edit_record(nc, edit):
+    record = json.loads(nc.getncattr(KEY))
+    edit(record["groups"])
+    nc.setncattr(KEY, json.dumps(record))
+
+
 def test_changed_attribute_or_missing_checksum_is_refused(tmp_path):
     analysis = _small()
     units = xrough.save_analysis(tmp_path / "units.nc", analysis)
     _edit(units, lambda nc: nc["m/G/G"].setncattr("units", "km2"))
-    with pytest.raises(ValueError, match=r"units\.nc: checksum mismatch in variable 'G'"):
+    message = r"units\.nc: checksum mismatch in variable 'G' of group '/m/G'"
+    with pytest.raises(CorruptedFileError, match=message):
         xrough.open_analysis(units)
-    # a lazy open reads no values, but compares the attributes (the group's checksum)
-    with pytest.raises(ValueError, match=r"units\.nc: checksum mismatch in group '/m/G'"):
+    with pytest.raises(CorruptedFileError, match=message):  # lazily: no values read
         xrough.open_analysis(units, chunks={})
     lost = xrough.save_analysis(tmp_path / "lost.nc", analysis)
-    _edit(lost, lambda nc: nc["m/G/G"].delncattr(CHECKSUM))
-    with pytest.raises(ValueError, match=r"lost\.nc: variable 'G' of group '/m/G' has no "
-                                         "checksum"):
+    _edit(lost, lambda nc: _edit_record(nc, lambda g: g["/m/G"]["sha256"].pop("G")))
+    with pytest.raises(CorruptedFileError, match=r"lost\.nc: checksum mismatch in variable "
+                                                 "'G' of group '/m/G'"):
         xrough.open_analysis(lost)
+    gone = xrough.save_analysis(tmp_path / "gone.nc", analysis)
+    _edit(gone, lambda nc: _edit_record(nc, lambda g: g.pop("/m/G")))
+    with pytest.raises(CorruptedFileError, match=r"gone\.nc: group '/m/G' has no checksum"):
+        xrough.open_analysis(gone)
+    _edit(gone, lambda nc: nc.setncattr(KEY, "{not json"))
+    with pytest.raises(CorruptedFileError, match=r"gone\.nc: corrupted file: its attribute "):
+        xrough.open_analysis(gone)
+    _edit(gone, lambda nc: nc.delncattr(KEY))
+    with pytest.raises(ValueError, match=r"gone\.nc: not an analysis archive"):
+        xrough.open_analysis(gone)
 
 
-def _strip_all(nc):
-    for group in [nc, *nc.groups.values()] + [g for sub in nc.groups.values()
-                                              for g in sub.groups.values()]:
-        if CHECKSUM in group.ncattrs():
-            group.delncattr(CHECKSUM)
-        for var in group.variables.values():
-            if CHECKSUM in var.ncattrs():
-                var.delncattr(CHECKSUM)
-
-
-def test_archive_without_checksums_opens_with_one_warning(tmp_path):
-    """Archives written before checksums open as before, with one warning per open."""
+def test_archive_of_an_earlier_version_opens_with_one_warning(tmp_path):
+    """Archives with xrough's attributes in their groups (and SHA-256 checksums per
+    variable, or none) open as before, unverified, with one warning per open."""
     analysis = _small()
-    path = xrough.save_analysis(tmp_path / "old.nc", analysis)
-    _edit(path, _strip_all)
-    with pytest.warns(UserWarning, match=r"old\.nc: .*written before xrough stored "
-                                         "checksums") as caught:
+    path = tmp_path / "old.nc"
+    tree = {"/": xr.Dataset(attrs={"xrough_version": "0.1"}), **archive._tree(analysis)}
+    tree["/m/G"]["G"].attrs[LEGACY] = "0" * 64
+    xr.DataTree.from_dict(tree).to_netcdf(path)
+    with pytest.warns(UserWarning, match=r"old\.nc: .*earlier version of xrough") as caught:
         back = xrough.open_analysis(path)
-    assert len([w for w in caught if "checksums" in str(w.message)]) == 1
+    assert len([w for w in caught if "earlier version" in str(w.message)]) == 1
     _assert_same(back, analysis)
 
 
@@ -165,23 +191,43 @@ def test_checksums_are_not_in_the_returned_objects(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a checked archive opens without warning
         back = xrough.open_analysis(path)
-    assert CHECKSUM not in back["_provenance"]
-    assert all(CHECKSUM not in v.attrs for v in back["m"]["G"].coords.values())
+    assert KEY not in back["_provenance"]
     _assert_same(back, analysis)
+
+
+@pytest.mark.parametrize("suffix", [".nc", pytest.param(".zarr", marks=needs_zarr)])
+def test_archives_are_plain_cf_for_other_tools(tmp_path, suffix):
+    """Groups and variables hold their own attributes only; xrough's record and digests
+    are the one global attribute ``xrough`` (earlier: xrough_sha256 on every variable,
+    xrough_object and xrough_dataarray_name on every group)."""
+    analysis = _small()
+    analysis["m"]["flags"] = xr.Dataset({"ok": ((), True), "names": ("k", ["a", "b"])},
+                                        attrs={"done": True, "when": None})
+    path = xrough.save_analysis(tmp_path / f"a{suffix}", analysis)
+    engine = "zarr" if suffix == ".zarr" else "netcdf4"
+    with xr.open_datatree(path, engine=engine) as tree:
+        assert KEY in tree.attrs and tree.attrs["Conventions"] == "CF-1.10"
+        own = [(node.path, name) for node in tree.subtree
+               for attrs in (node.attrs, *(v.attrs for v in node.variables.values()))
+               for name in attrs if name.startswith("xrough") and name != "xrough_version"]
+    assert own == [("/", KEY)]  # (results state the xrough_version that made them)
+    back = xrough.open_analysis(path)["m"]
+    xr.testing.assert_identical(back["flags"], analysis["m"]["flags"])
+    _assert_same({"m": back}, analysis)
 
 
 @needs_zarr
 def test_zarr_store_with_changed_values_or_attributes_is_refused(tmp_path):
-    import zarr
-
     analysis = _small()
     store = xrough.save_analysis(tmp_path / "a.zarr", analysis)
-    heights = zarr.open_group(store, mode="r+", use_consolidated=False)[
-        "m/topography/height"]
-    heights[3, 4] = heights[3, 4] + 1e-9  # a silently changed chunk: valid, other numbers
-    with pytest.raises(ValueError, match=r"a\.zarr: checksum mismatch in variable "
-                                         "'height'"):
+    chunk = store / "m" / "topography" / "height" / "0.0"
+    chunk.write_bytes(_flip(chunk.read_bytes(), 40))  # compressed: its CRC-32C fails
+    message = r"a\.zarr: corrupted data in (a chunk of )?variable 'height' of group '/m/topography'"
+    with pytest.raises(CorruptedFileError, match=message):
         xrough.open_analysis(store)
+    lazy = xrough.open_analysis(store, chunks={})["m"]["topography"]
+    with pytest.raises(CorruptedFileError, match=message.replace("(a chunk of )?", "a chunk of ")):
+        lazy.compute()
     other = xrough.save_analysis(tmp_path / "b.zarr", analysis)
     meta = other / ".zmetadata"
     text = meta.read_text()
@@ -304,3 +350,24 @@ def test_library_errors_on_an_existing_file_name_it(tmp_path, monkeypatch, error
     monkeypatch.setattr(archive, "_restore", broken)  # a failure while reading the groups
     with pytest.raises(ValueError, match=r"a\.nc: cannot read as an xrough archive"):
         xrough.open_analysis(path)
+
+
+@pytest.mark.parametrize("chunks", [None, {}], ids=["eager", "lazy"])
+def test_a_damaged_index_of_chunks_is_refused(tmp_path, chunks):
+    """HDF5's chunk index (version-1 B-tree nodes) has no checksum: a flipped byte in a
+    chunk's key makes the library skip the chunk and return fill values (NaN) without
+    reading, hence checking, it. The missing values counted when written catch it."""
+    analysis = _small()
+    raw = xrough.save_analysis(tmp_path / "a.nc", analysis).read_bytes()
+    starts = [i for i in range(len(raw)) if raw.startswith(b"TREE\x01", i)]  # chunk nodes
+    assert starts
+    for start in starts:
+        for position in range(start + 24, start + 40):  # the first chunk's key
+            path = tmp_path / f"flip{position}.nc"
+            path.write_bytes(_flip(raw, position))
+            try:
+                back = _computed(xrough.open_analysis(path, chunks=chunks))
+            except ValueError as err:
+                assert path.name in str(err), (position, err)
+            else:
+                _assert_same(back, analysis)

@@ -43,6 +43,10 @@ def test_reopened_flags_decode_with_cf_xarray(reopened):
     path, fit = reopened
     analysis = xrough.open_analysis(path)["m"]
     plain = xr.open_dataset(path, group="m/fit")
+    # plain CF for other tools: xrough's own attributes are one global attribute, no
+    # xrough_object, xrough_dataarray_name or xrough_sha256 in the groups any more
+    assert not [name for attrs in (plain.attrs, *(v.attrs for v in plain.variables.values()))
+                for name in attrs if name.startswith("xrough_") and name != "xrough_version"]
     for ds in (analysis["fit"], plain):
         shape = ds.rolloff_shape
         assert bool(shape.cf == str(fit.rolloff_shape.attrs["flag_meanings"].split()[

@@ -34,13 +34,19 @@ Nothing is lost
   save to the same path removes the temporary files (``.<name>.<pid>-<12 hex>.tmp`` or
   ``.old``) that earlier saves to that path left, once their process has ended, and
   nothing else.
-- **Checksums.** Every group and variable gets an attribute ``xrough_sha256``, the
-  SHA-256 of its contents (dims, dtype, attributes and values; a group's attributes,
-  variables and subgroups) as read back from the written file; :func:`open_analysis`
-  compares them and refuses a file or
-  store whose values or attributes changed since (a flipped byte), naming the file and
-  the variable. The attributes do not appear in the reopened objects. An archive written
-  before checksums (none anywhere) opens with one ``UserWarning`` that it is unverified.
+- **Checksums.** Every chunk of every numeric variable carries the storage library's
+  checksum (HDF5's Fletcher-32 in NetCDF4, CRC-32C in Zarr), checked whenever the chunk
+  is read: at open, or with ``chunks=`` when a dask task computes it. What those do not
+  cover (attributes, names, dims, dtypes, fill values, scalars and strings) has SHA-256
+  digests, taken from the file read back (:mod:`xrough.io._checksum`). A file or store
+  whose values or attributes changed since (a flipped byte) is refused with a
+  :class:`~xrough.io._common.CorruptedFileError` naming the file and the variable. An
+  archive of an earlier version opens with one ``UserWarning`` that it is unverified.
+- **Clean for other tools.** Groups and variables hold only their own, CF, attributes;
+  what xrough needs to reopen an object as it was (DataArray or Dataset, its name, the
+  types of attributes NetCDF cannot hold, a measurement's original name) and the digests
+  are one JSON global attribute ``xrough``, so that :func:`xarray.open_datatree`,
+  cf-xarray and other NetCDF tools see plain CF groups.
 - **Errors name the file.** Whatever the NetCDF, HDF5 or Zarr library raises on a
   corrupted file reaches the caller as a :class:`ValueError` starting with the path, the
   original exception chained.
@@ -52,8 +58,8 @@ Nothing is lost
   is checked first; what NetCDF cannot hold raises a :class:`ValueError` naming the
   object and the attribute before anything is written.
 - **Attributes keep their type.** NetCDF attributes are numbers, strings and 1-D numeric
-  arrays. Other values are stored in a NetCDF form and their Python type is recorded in
-  the attribute ``xrough_attr_types`` (a JSON object), so that they reopen as they were
+  arrays. Other values are stored in a NetCDF form and their Python type is recorded
+  (in the global attribute ``xrough``), so that they reopen as they were
   saved: ``bool`` (stored as 0/1), ``None`` (stored as ``""``), numpy scalars and arrays
   of any shape and size with their dtype (a 1-element array no longer comes back as a
   scalar; Zarr's JSON attributes have no dtypes of their own), lists and tuples of
@@ -63,8 +69,8 @@ Nothing is lost
   objects are refused: convert them to strings or numbers first.
 - **Any measurement name.** Group names are made NetCDF-safe with :func:`safe_name`
   (``(1).sur``, a leading ``-`` or ``.``, ``/``, control characters, trailing spaces,
-  names over 255 bytes, Unicode normalisation); the original name is kept in the group's
-  attribute ``xrough_name`` and restored by :func:`open_analysis`. Two names that map to
+  names over 255 bytes, Unicode normalisation); the original name is kept (in the global
+  attribute ``xrough``) and restored by :func:`open_analysis`. Two names that map to
   the same safe name are both kept (the later one gets a suffix ``_2``, ``_3``...).
 - **The provenance key is reserved.** :func:`open_analysis` returns the root's provenance
   under ``"_provenance"``; a top-level entry of that name is refused (use
@@ -92,7 +98,7 @@ import xarray as xr
 
 from .._version import __version__
 from . import _checksum
-from ._common import CONVENTIONS
+from ._common import CONVENTIONS, CorruptedFileError
 
 __all__ = ["save_analysis", "open_analysis", "safe_name", "PROVENANCE_KEY"]
 
@@ -105,6 +111,9 @@ _VARIABLE = "xrough_dataarray_variable"  # the variable that holds the DataArray
 _ORIGINAL = "xrough_name"  # the entry's name when its group name differs
 _TYPES = "xrough_attr_types"  # JSON: attr name -> how to restore its Python type
 _DATA = "xrough_data"  # variable name of a DataArray whose name cannot be one
+#: Attributes xrough adds to groups and variables to reopen them; written into the global
+#: attribute ``xrough`` (:data:`._checksum.KEY`) instead, put back in place when read.
+_LIFTED = (_KIND, _NAME, _VARIABLE, _ORIGINAL, _TYPES)
 
 #: Storage formats of an archive, for ``format=``: one NetCDF4 file, or a Zarr store.
 _FORMATS = ("netcdf", "zarr")
@@ -585,26 +594,51 @@ def _move_into_place(tmp: Path, path: Path) -> None:
     _remove(old)
 
 
-def _open_tree(path: Path, fmt: str, chunks=None) -> xr.DataTree:
+def _open_tree(path: Path, fmt: str, chunks=None, **kwargs) -> xr.DataTree:
     """Open an archive as a DataTree, the same way for checksumming and for reading."""
     if fmt == "zarr":
         return xr.open_datatree(path, chunks=chunks, engine="zarr",
-                                consolidated=(path / _ZARR_CONSOLIDATED).is_file() or None)
-    return xr.open_datatree(path, chunks=chunks, engine="netcdf4")
+                                consolidated=(path / _ZARR_CONSOLIDATED).is_file() or None,
+                                **kwargs)
+    return xr.open_datatree(path, chunks=chunks, engine="netcdf4", **kwargs)
 
 
-def _add_checksums(tmp: Path, fmt: str) -> None:
-    """Store the checksum of every group and variable of the written ``tmp``, read back."""
+def _lift(tree: Mapping[str, xr.Dataset], fmt: str) -> dict:
+    """Move xrough's own attributes of every group and variable into a record, in place.
+
+    Each variable also gets the encoding of its per-chunk checksum. Returns ``{group path:
+    {"attrs": {...}, "variables": {name: {...}}}}`` as JSON reads it back.
+    """
+    record: dict = {}
+    for group, ds in tree.items():
+        entry = {"attrs": {k: ds.attrs.pop(k) for k in _LIFTED if k in ds.attrs},
+                 "variables": {}}
+        for name, var in ds.variables.items():
+            lifted = {k: var.attrs.pop(k) for k in _LIFTED if k in var.attrs}
+            if lifted:
+                entry["variables"][str(name)] = lifted
+            var.encoding = _checksum.chunk_encoding(var, "zarr" if fmt == "zarr" else "netcdf4")
+        entry["missing"] = _checksum.missing_counts(ds.variables)
+        record[group] = {k: v for k, v in entry.items() if v}
+    return json.loads(json.dumps(record, default=_json_default))
+
+
+def _add_checksums(tmp: Path, fmt: str, record: Mapping[str, dict]) -> None:
+    """Store the record and digests of every group of the written ``tmp``, read back."""
     with _open_tree(tmp, fmt) as tree:
-        sums = _checksum.tree_checksums(tree)
-    _checksum.stamp(tmp, sums, fmt)
+        groups = {node.path: {**record.get(node.path, {}), "sha256": _checksum.digests(
+            node.to_dataset(inherit=False), node.children, record.get(node.path))}
+            for node in tree.subtree}
+    _checksum.stamp(tmp, fmt, groups)
 
 
-def _write_atomic(tree: xr.DataTree, path: Path, format: str) -> None:
+def _write_atomic(tree: xr.DataTree, record: Mapping[str, dict], path: Path,
+                  format: str) -> None:
     """Write ``tree`` to ``path`` through a temporary file or store in the same directory.
 
-    The checksums are added to the temporary file from what it holds, read back; once it
-    is in place, temporary files that earlier, killed saves to ``path`` left are removed.
+    The ``record`` (from :func:`_lift`) and the digests are added to the temporary file
+    from what it holds, read back; once it is in place, temporary files that earlier,
+    killed saves to ``path`` left are removed.
     """
     directory = path.parent
     if not directory.is_dir():
@@ -622,7 +656,7 @@ def _write_atomic(tree: xr.DataTree, path: Path, format: str) -> None:
     tmp = temporary_name(path, "tmp")
     try:
         write(tree, tmp)
-        _add_checksums(tmp, format)
+        _add_checksums(tmp, format, record)
         _move_into_place(tmp, path)
     except BaseException as err:
         _remove(tmp)
@@ -688,9 +722,11 @@ def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = 
     lists, tuples, dicts, ``bytes``) are stored with a record of their type and reopen
     identical; see the module documentation for the rules. Both formats follow them.
 
-    After writing, the file is read back once to store the SHA-256 checksum of every
-    group and variable (attribute ``xrough_sha256``), which :func:`open_analysis`
-    verifies. Temporary files that killed saves to ``path`` left are removed.
+    Every chunk of every numeric variable gets the storage library's checksum (HDF5's
+    Fletcher-32, Zarr's CRC-32C); after writing, the file's metadata (and the values of
+    scalars and strings) are read back to store their SHA-256 digests, with what xrough
+    needs to reopen the objects, in the one global attribute ``xrough``. :func:`open_analysis`
+    verifies both. Temporary files that killed saves to ``path`` left are removed.
 
     Zarr chunks follow the dask chunks of each variable (chunk a stack of scans with
     ``.chunk({"scan": 1})`` before saving to store one scan per chunk); variables in
@@ -729,8 +765,11 @@ def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = 
         "created": now,
         "history": f"{now}: {history or 'written by xrough.save_analysis'}",
     })
-    dt = xr.DataTree.from_dict({"/": root, **tree})
-    _write_atomic(dt, path, fmt)
+    if fmt == "zarr":
+        _zarr()  # says how to install it
+    tree = {"/": root, **tree}
+    record = _lift(tree, fmt)
+    _write_atomic(xr.DataTree.from_dict(tree), record, path, fmt)
     return path
 
 
@@ -775,13 +814,15 @@ def open_analysis(path: str | Path, *, format: str | None = None, chunks=None) -
         The storage format. Default: Zarr for a directory, NetCDF for a file.
     chunks : None, dict, int or "auto", optional
         ``None`` (default): every object is read into memory (NumPy) and the file closed.
-        Otherwise every object is opened lazily as dask arrays, nothing but the metadata
-        and the dimension coordinates being read (and compared with their checksums;
-        the values of the other variables are not), with ``chunks`` as in
+        Otherwise every object is opened lazily as dask arrays, nothing but the metadata,
+        the dimension coordinates, scalars and strings being read (and checked), with
+        ``chunks`` as in
         :func:`xarray.open_datatree`: ``{}`` keeps the chunks of the store (a Zarr
         store's chunks are the dask chunks the objects had when saved), a dict such as
         ``{"scan": 1}`` sets them per dimension. The data are read when computed, by the
-        dask workers from the file or store itself.
+        dask workers from the file or store itself, each chunk checked against its
+        checksum as it is read (a corrupted chunk raises
+        :class:`~xrough.io._common.CorruptedFileError` from ``compute``).
 
     Returns
     -------
@@ -794,19 +835,20 @@ def open_analysis(path: str | Path, *, format: str | None = None, chunks=None) -
     ------
     FileNotFoundError
         ``path`` does not exist.
+    CorruptedFileError
+        A group or variable whose values, attributes or layout fail their checksums (a
+        ``ValueError``; the message names ``path`` and the variable).
     ValueError
         Not an archive, or a corrupted file or store: unreadable metadata, a directory
-        that is not a Zarr store, a Zarr store with missing chunks, a group or variable
-        whose checksum does not match its contents or is missing (the message names
-        ``path``, and the variable); any error of the NetCDF, HDF5 or Zarr library on
-        the file (chained); an unknown ``format``.
+        that is not a Zarr store, a Zarr store with missing chunks; any error of the
+        NetCDF, HDF5 or Zarr library on the file (chained); an unknown ``format``.
     PermissionError
         ``path`` cannot be read (the message names it).
 
     Warns
     -----
     UserWarning
-        An archive written before checksums: its values cannot be verified.
+        An archive written by an earlier version of xrough: its values are not verified.
     ImportError
         A Zarr store without the zarr package.
 
@@ -842,7 +884,8 @@ def open_analysis(path: str | Path, *, format: str | None = None, chunks=None) -
                                 "store opens with format='zarr' or without format=)")
     lazy = chunks is not None
     try:
-        dt = _open_tree(path, fmt, chunks)
+        dt = _open_tree(path, fmt, chunks, **(
+            {"from_array_kwargs": _checksum.lazy_kwargs(str(path))} if lazy else {}))
     except ImportError:
         raise
     except PermissionError as err:
@@ -862,36 +905,47 @@ def open_analysis(path: str | Path, *, format: str | None = None, chunks=None) -
 
 
 def _read_tree(dt: xr.DataTree, path: Path, lazy: bool) -> dict:
-    """Return the nested mapping of an opened archive, comparing every checksum on the way."""
+    """Return the nested mapping of an opened archive, checking every group on the way."""
     name = str(path)
-    if not any(_KIND in node.attrs for node in dt.subtree) and (
-            "xrough_version" not in dt.attrs):
+    groups = _checksum.stored(name, dt.attrs)
+    if groups is None and not any(_KIND in node.attrs for node in dt.subtree):
         raise ValueError(
-            f"{path}: not an analysis archive of xrough.save_analysis (no group says what "
-            "it holds): open a topography with xrough.open_topography, any other NetCDF "
-            "with xarray.open_dataset")
-    checked = any(_checksum.has_checksums(node.attrs, node.to_dataset(inherit=False).variables)
-                  for node in dt.subtree)
-    if not checked:
-        warnings.warn(f"{path}: an archive written before xrough stored checksums; its "
-                      "values cannot be verified (save it again to add them)", UserWarning,
-                      stacklevel=3)
+            f"{path}: not an analysis archive of xrough.save_analysis (no record of what "
+            f"its groups hold, attribute {_checksum.KEY!r}): open a topography with "
+            "xrough.open_topography, any other NetCDF with xarray.open_dataset")
+    if groups is None:
+        warnings.warn(f"{path}: an archive written by an earlier version of xrough; its "
+                      "values cannot be verified (save it again to add checksums)",
+                      UserWarning, stacklevel=3)
+    elif lost := sorted(set(groups) - {node.path for node in dt.subtree}):
+        raise CorruptedFileError(f"{path}: corrupted file: the groups {lost} are recorded "
+                                 "but missing; refused")
 
-    def verified(node: xr.DataTree, ds: xr.Dataset) -> xr.Dataset:
-        if checked:
-            _checksum.verify_group(name, node.path, node.attrs, ds.variables, node.children)
+    def opened(node: xr.DataTree) -> xr.Dataset:
+        ds = node.to_dataset(inherit=False)
+        for var_name, var in ds.variables.items():  # lazily: dask reads and checks the rest
+            if not lazy or var.chunks is None:
+                with _checksum.reading(name, f"variable {str(var_name)!r} of group "
+                                             f"{node.path!r}"):
+                    var.load()
+        entry = {}
+        if groups is not None:
+            entry = groups.get(node.path)
+            _checksum.verify(name, node.path, ds, node.children, entry)
+            _checksum.check_missing(name, node.path, ds, entry.get("missing", {}))
         ds = ds.copy()
-        for var in ds.variables.values():
-            var.attrs = dict(var.attrs)
-        _checksum.strip_checksums(ds)
+        ds.attrs = {k: v for k, v in ds.attrs.items()
+                    if k not in (_checksum.KEY, _checksum.LEGACY)} | entry.get("attrs", {})
+        for var_name, var in ds.variables.items():
+            var.attrs = ({k: v for k, v in var.attrs.items() if k != _checksum.LEGACY}
+                         | entry.get("variables", {}).get(str(var_name), {}))
         return ds
 
-    out: dict = {PROVENANCE_KEY: verified(dt, dt.to_dataset(inherit=False)).attrs}
+    out: dict = {PROVENANCE_KEY: opened(dt).attrs}
 
     def walk(node: xr.DataTree, target: dict) -> None:
         for child in node.children.values():
-            ds = child.to_dataset(inherit=False)
-            ds = verified(child, ds if lazy else ds.load())
+            ds = opened(child)
             attrs = _decode_attrs(ds.attrs)
             key = attrs.get(_ORIGINAL, child.name)
             if attrs.get(_KIND) in ("DataArray", "Dataset"):

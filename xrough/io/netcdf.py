@@ -1,10 +1,12 @@
 """NetCDF topographies: xrough's own files and the common ``heights(x, y)`` layout.
 
 xrough writes a topography with :meth:`xarray.DataArray.to_netcdf` (CF ``units`` on the
-heights and on every coordinate) and adds the SHA-256 checksum of every variable and of
-the root group (attribute ``xrough_sha256``); :func:`read` compares them, refuses a file
-whose values changed since (naming the file and the variable) and gives back the
-identical DataArray.
+heights and on every coordinate), with HDF5's Fletcher-32 checksum on every chunk of the
+heights and coordinates (NetCDF-4) and the SHA-256 digests of what that does not cover
+(attributes, names, dims; all values in NetCDF-3, which has no checksums of its own) in
+the one global attribute ``xrough`` (:mod:`xrough.io._checksum`); :func:`read` checks both,
+refuses a file whose values or attributes changed since (naming the file and the
+variable) and gives back the identical DataArray.
 
 Files from other programs are read too when they hold one height variable (``height``,
 ``heights``, ``topography``, ``z``... or the only data variable) on dims ``x`` and ``y`` in
@@ -385,18 +387,31 @@ def _open(path: Path, group: str | None = None) -> xr.Dataset:
     return xr.open_dataset(path, engine="netcdf4", group=group, decode_times=False)
 
 
+def _root_attrs(path: Path) -> dict:
+    with netCDF4.Dataset(path) as nc:
+        return {k: nc.getncattr(k) for k in nc.ncattrs()}
+
+
 def _read(path: Path, variable, group, unit, height_unit, size) -> xr.DataArray:
     name = path.name
     check_netcdf3(path)
     check_hdf5_size(path)
     try:
         with _open(path, group) as ds:
-            ds = ds.load()
+            for var_name, var in ds.variables.items():
+                with _checksum.reading(name, f"variable {var_name!r}"):
+                    var.load()
     except OSError as err:
         raise ValueError(f"{name}: cannot read as NetCDF ({err})") from err
-    if _checksum.has_checksums(ds.attrs, ds.variables):  # written by xrough: verify
-        _checksum.verify_group(name, group or "/", ds.attrs, ds.variables)
-        _checksum.strip_checksums(ds)
+    where = "/" + (group or "").strip("/")
+    groups = _checksum.stored(name, ds.attrs if where == "/" else _root_attrs(path))
+    if groups is not None:  # written by xrough: verify
+        _checksum.verify(name, where, ds, (), groups.get(where))
+        _checksum.check_missing(name, where, ds, groups[where].get("missing", {}))
+    ds.attrs.pop(_checksum.KEY, None)
+    for var in ds.variables.values():  # files of earlier versions: their checksums
+        var.attrs.pop(_checksum.LEGACY, None)
+    ds.attrs.pop(_checksum.LEGACY, None)
     var = _choose(ds, name, variable)
     da = ds[var]
     own = "units" in da.attrs and all("units" in da[d].attrs for d in ("x", "y")
@@ -459,9 +474,10 @@ def _read(path: Path, variable, group, unit, height_unit, size) -> xr.DataArray:
 def write(topo: xr.DataArray, path, *, format: str = "NETCDF4") -> None:
     """Write a topography to NetCDF (the DataArray as it is, read back identical).
 
-    A SHA-256 checksum of every variable (values, dims and attributes, as read back) and
-    of the file's root group is stored in its attribute ``xrough_sha256``; :func:`read`
-    compares them and refuses a file whose values changed since (a corrupted file).
+    In NetCDF-4 the heights and coordinates get HDF5's Fletcher-32 checksum per chunk; the
+    SHA-256 digests of what it does not cover (attributes, dims, names, and in NetCDF-3
+    every value) go to the global attribute ``xrough``. :func:`read` checks both and
+    refuses a file whose values changed since (a corrupted file).
 
     Parameters
     ----------
@@ -484,9 +500,16 @@ def write(topo: xr.DataArray, path, *, format: str = "NETCDF4") -> None:
     """
     topography(topo)  # validate before writing
     path = Path(path)
-    topo.to_netcdf(path, engine="netcdf4", format=format)
+    fmt = "netcdf4" if format.upper().startswith("NETCDF4") else "netcdf3"
+    name = topo.name
+    if name is None or name in topo.coords or name in topo.dims:
+        name = _DATAARRAY_DEFAULT  # what DataArray.to_netcdf names it
+    variables = {name: topo.variable, **topo.coords.variables}
+    encoding = {k: _checksum.chunk_encoding(v, fmt) for k, v in variables.items()}
+    topo.to_netcdf(path, engine="netcdf4", format=format, encoding=encoding)
     with netCDF4.Dataset(path, "a") as nc:  # what the file follows, as the archives say
         nc.setncattr("Conventions", CONVENTIONS)
+    entry = {"missing": _checksum.missing_counts(variables)}
     with _open(path) as ds:
-        sums = _checksum.dataset_checksums(ds.attrs, ds.variables)
-    _checksum.stamp(path, {"/": sums}, "netcdf")
+        entry["sha256"] = _checksum.digests(ds, (), entry)  # reads values without checksums
+    _checksum.stamp(path, "netcdf", {"/": entry})
