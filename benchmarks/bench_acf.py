@@ -5,6 +5,7 @@ For each map size and case (periodic, open, open with 10 % missing points) this 
 * the time of one ``scipy.fft.rfft2`` of the array the estimator transforms (the map, or
   the map zero padded to the FFT shape used for open boundaries), measured here;
 * the time of ``height_difference_acf`` and its ratio to that baseline;
+* the estimator ``'auto'`` chose (attr ``estimator``) and the memory budget it weighed;
 * the peak memory of the call above the input, as a multiple of the input size;
 * when SurfaceTopography is installed (``pip install xrough[bench]``), the time and memory
   of its ``autocorrelation_from_area`` on the same map and the speed-up of xrough.
@@ -20,8 +21,8 @@ before the call (library and FFT library loaded), as a multiple of the input siz
 
 Usage::
 
-    python benchmarks/bench_acf.py                 # 1024, 4096, 8192
-    python benchmarks/bench_acf.py --sizes 512 1024
+    python benchmarks/bench_acf.py                 # 512, 1024, 4096, 8192
+    python benchmarks/bench_acf.py --sizes 512 1024 --cases open
 """
 
 from __future__ import annotations
@@ -48,6 +49,7 @@ periodic = case == "periodic"
 
 
 def rss():
+    # peak resident memory so far (VmHWM), in bytes
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 
 
@@ -68,8 +70,12 @@ from scipy import fft as sfft
 sfft.rfft2(h[:64, :64])
 call = xrough_call() if sys.argv[3] == "xrough" else st_call()
 base = rss()
-t0 = time.perf_counter(); call(); t_first = time.perf_counter() - t0
-print(json.dumps({"peak_extra": rss() - base, "t_first": t_first, "input": h.nbytes}))
+t0 = time.perf_counter(); G = call(); t_first = time.perf_counter() - t0
+peak = rss() - base
+estimator = str(getattr(G, "attrs", {}).get("estimator", "-"))
+reason = str(getattr(G, "attrs", {}).get("estimator_reason", ""))
+print(json.dumps({"peak_extra": peak, "t_first": t_first, "input": h.nbytes,
+                  "estimator": estimator, "reason": reason}))
 """
 
 #: Time: every library in one process, each warmed up by one call, then ``repeats``
@@ -119,10 +125,12 @@ def _child(script: str, *args) -> dict | None:
 def main(argv=None) -> None:
     """Parse the arguments and print one row per size and case."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--sizes", type=int, nargs="+", default=[1024, 4096, 8192])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[512, 1024, 4096, 8192])
     parser.add_argument("--cases", nargs="+", default=["periodic", "open", "masked"])
     parser.add_argument("--repeats", type=int, default=5, help="timed rounds after warm-up")
     parser.add_argument("--no-peer", action="store_true", help="skip SurfaceTopography")
+    parser.add_argument("--peer-max-size", type=int, default=4096,
+                        help="largest map given to SurfaceTopography (28x its size in memory)")
     args = parser.parse_args(argv)
 
     def ratio(a, b):  # best over best (worst-case range); median of the per-round ratios
@@ -133,22 +141,25 @@ def main(argv=None) -> None:
     def spread(t):
         return f"{min(t):.3g} ({max(t) / min(t):.2f})"
 
-    print("| size | case | FFT shape | rfft2 s (max/min) | acf s (max/min) | acf / rfft2 "
-          "| mem / input | ST s (max/min) | ST / xrough | ST first call s | ST mem / input |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| size | case | FFT shape | estimator | rfft2 s (max/min) | acf s (max/min) "
+          "| acf / rfft2 | mem / input | ST s (max/min) | ST / xrough | ST first call s "
+          "| ST mem / input |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for n in args.sizes:
         for case in args.cases:
-            t = _child(TIME_CHILD, n, case, args.repeats, int(not args.no_peer))
+            peer = not args.no_peer and n <= args.peer_max_size
+            t = _child(TIME_CHILD, n, case, args.repeats, int(peer))
             times = t["times"]
             mem = _child(MEMORY_CHILD, n, case, "xrough")
-            st = None if args.no_peer or "st" not in times else _child(
+            st = None if not peer or "st" not in times else _child(
                 MEMORY_CHILD, n, case, "st")
             x, f = times["xrough"], times["rfft"]
             st_cols = (f"{spread(times['st'])} | {ratio(times['st'], x)} | "
                        f"{st['t_first']:.3g} | {st['peak_extra'] / st['input']:.1f}"
                        ) if st else "- | - | - | -"
             shape = "x".join(str(k) for k in t["fshape"])
-            print(f"| {n} | {case} | {shape} | {spread(f)} | {spread(x)} | {ratio(x, f)} "
+            print(f"| {n} | {case} | {shape} | {mem['estimator']} | {spread(f)} | {spread(x)} "
+                  f"| {ratio(x, f)} "
                   f"| {mem['peak_extra'] / mem['input']:.1f} | {st_cols} |", flush=True)
     print("\nAll timings of a row come from one process: every library warmed up by one "
           "call, then interleaved rounds of one call each. acf / rfft2 and ST / xrough: "

@@ -1,6 +1,7 @@
 """G(dr) estimators against brute force, closed forms and each other."""
 
 import itertools
+import os
 import re
 
 import numpy as np
@@ -11,6 +12,7 @@ from dask_counting import computes_nothing
 import xrough
 from conftest import to_backend
 from xrough._kernels.binning import log_bin_edges
+from xrough.topography import grid_of
 
 
 def brute_force_binned(h, spacing, periodic, edges, direction="radial"):
@@ -534,3 +536,93 @@ def test_anisotropy_is_judged_per_map_of_a_stack():
         P = G.rough.persson(E_star="25 MPa", p0="0.1 MPa", gradient_method="simple")
     assert P.quality_flag.values[0] >= 1
     assert "quality_flag" not in maps[1].rough.acf().coords
+
+
+def _meminfo(tmp_path, free_kb, available_kb):
+    path = tmp_path / "meminfo"
+    path.write_text(f"MemTotal:       24683652 kB\nMemFree:        {free_kb} kB\n"
+                    f"MemAvailable:   {available_kb} kB\nCached:         1086388 kB\n")
+    return str(path)
+
+
+def test_auto_choice_reads_available_memory_not_the_page_cache(monkeypatch, tmp_path):
+    """'auto' weighs the padded FFT of an open map against the memory the system can give
+    (MemAvailable: free pages plus the page cache), not the free pages alone: with 10 MB
+    free and 16 GB available (a machine whose page cache holds the rest) a 512² map is
+    computed by FFT, and the same map and budget give the same estimator whatever the
+    free pages; the attrs say which and why."""
+    from xrough.correlation import _choice
+
+    topo = xrough.topography(np.random.default_rng(0).normal(size=(512, 512)), spacing=1.0,
+                             unit="nm")
+    monkeypatch.setattr(os, "sysconf", lambda name: 1 if name == "SC_AVPHYS_PAGES" else 4096)
+    seen = set()
+    for free in (10_000, 20_000_000):
+        monkeypatch.setattr(_choice, "MEMINFO", _meminfo(tmp_path, free, 16_000_000))
+        G = topo.rough.acf()
+        seen.add(G.attrs["estimator"])
+        assert G.attrs["estimator"].startswith("fft")
+        assert "within the memory budget" in G.attrs["estimator_reason"]
+        assert G.attrs["estimator_reason"].endswith("(0.5 of the memory available)")
+    assert len(seen) == 1
+    # 20 MB available: the padded FFT (about 16 MB with missing points) exceeds half of it
+    monkeypatch.setattr(_choice, "MEMINFO", _meminfo(tmp_path, 10_000, 20_000))
+    assert _choice.choose_estimator(topo, grid_of(topo), "radial", None)[0] == "tiled"
+
+
+def test_memory_limit_option_and_config(monkeypatch, tmp_path):
+    """memory_limit (argument, then dask config key xrough.memory_limit) overrides the
+    available memory, in bytes or as a string; the choice is recorded in attrs."""
+    import dask
+
+    from xrough.correlation import _choice
+
+    monkeypatch.setattr(_choice, "MEMINFO", _meminfo(tmp_path, 10_000, 16_000_000))
+    topo = xrough.topography(np.random.default_rng(1).normal(size=(64, 64)), spacing=1.0,
+                             unit="nm")
+    G = topo.rough.acf(memory_limit="10 kB", dr_max=8)
+    assert G.attrs["estimator"].startswith("tiled")
+    assert "memory_limit='10 kB'" in G.attrs["estimator_reason"]
+    with dask.config.set({"xrough.memory_limit": 10_000}):
+        G = topo.rough.acf(dr_max=8)
+        assert G.attrs["estimator"].startswith("tiled")
+        assert "xrough.memory_limit" in G.attrs["estimator_reason"]
+        assert topo.rough.acf(dr_max=8, memory_limit=1e9).attrs["estimator"].startswith("fft")
+    assert "estimator_reason" not in topo.rough.acf(estimator="fft").attrs  # given
+    for bad in (0, -1, "lots", True):
+        with pytest.raises(ValueError, match="memory_limit"):
+            topo.rough.acf(memory_limit=bad)
+
+
+def test_map_kernel_equals_the_lag_plane():
+    """The binned map kernel (no lag plane, no full-size temporaries) gives the sums of
+    the folded lag plane binned afterwards, to round-off: periodic, open, missing points,
+    with the sums along each axis."""
+    from xrough._kernels import pairs
+    from xrough._kernels.binning import binned_sum, folded_bin_index
+
+    rng = np.random.default_rng(3)
+    for shape, periodic, holes in [((64, 80), True, 0.0), ((61, 70), False, 0.0),
+                                   ((50, 64), False, 0.2), ((64, 64), True, 0.1)]:
+        h = rng.normal(size=shape) * 1e3
+        h[rng.random(shape) < holes] = np.nan
+        ks = tuple(n // 2 for n in shape) if periodic else (shape[0] - 3, shape[1] // 2)
+        edges = log_bin_edges(1.0, float(np.hypot(*ks)) + 1, 10)
+        idx = folded_bin_index(ks, (1.0, 1.0), edges)
+        nb = len(edges) - 1
+        lines = (folded_bin_index(ks[:1], (1.0,), edges),
+                 folded_bin_index(ks[1:], (1.0,), edges))
+        e = 10
+        s, n, nvalid = pairs.binned_map_sums(h, e, ks, periodic=periodic, index=idx,
+                                             nbins=nb, lines=lines, workers=1)
+        S, N = pairs.folded_pair_sums(np.ldexp(h, -e), ks, periodic=periodic)
+        ref_s = np.concatenate([binned_sum(S, idx, nb), binned_sum(S[:, 0], lines[0], nb),
+                                binned_sum(S[0, :], lines[1], nb)])
+        np.testing.assert_allclose(s, ref_s, rtol=1e-10, atol=1e-12 * np.abs(ref_s).max())
+        if holes:
+            ref_n = np.concatenate([binned_sum(N, idx, nb), binned_sum(N[:, 0], lines[0], nb),
+                                    binned_sum(N[0, :], lines[1], nb)])
+            np.testing.assert_array_equal(n, ref_n)
+            assert nvalid == np.isfinite(h).sum()
+        else:
+            assert n is None and nvalid == h.size

@@ -184,9 +184,26 @@ def bin_index(r2: np.ndarray, edges: np.ndarray) -> np.ndarray:
 
 def folded_bin_index(ks: tuple[int, ...], spacing: tuple[float, ...],
                      edges: np.ndarray) -> np.ndarray:
-    """:func:`bin_index` of the folded lattice ``0..k``; lag 0 (a point and itself) discarded."""
-    idx = bin_index(lag_radius2(ks, spacing), edges)
-    idx[(0,) * len(ks)] = len(edges) - 1  # a point paired with itself is no pair
+    """:func:`bin_index` of the folded lattice ``0..k``; lag 0 (a point and itself) discarded.
+
+    In the smallest unsigned integer type that holds the discard slot (one byte per lag
+    for up to 254 bins), built a block of rows at a time: the index of an open map's lags
+    is an eighth of the map's size, and no plane of radii is formed.
+    """
+    nb = len(edges) - 1
+    dtype = next(t for t in (np.uint8, np.uint16, np.uint32, np.uint64)
+                 if nb <= np.iinfo(t).max)
+    shape = tuple(k + 1 for k in ks)
+    idx = np.empty(shape, dtype=dtype)
+    if len(ks) == 1:
+        idx[...] = bin_index(lag_radius2(ks, spacing), edges)
+    else:
+        step = max(1, 2**18 // shape[-1])
+        cols = ((np.arange(shape[-1], dtype=float) * spacing[-1]) ** 2)[None, :]
+        for i0 in range(0, shape[0], step):
+            i = np.arange(i0, min(shape[0], i0 + step), dtype=float)
+            idx[i0:i0 + step] = bin_index(((i * spacing[0]) ** 2)[:, None] + cols, edges)
+    idx[(0,) * len(ks)] = nb  # a point paired with itself is no pair
     return idx
 
 

@@ -17,6 +17,12 @@ quarter spectrum (see :func:`_inverse_folded`). Without missing points cheaper e
 are used: periodic maps need one forward transform and one quarter-size DCT; non-periodic
 ones get the ``h**2`` terms from a summed-area table.
 
+A single map is summed per bin as it is transformed (:func:`binned_map_sums`): the half
+spectrum of the padded map is the one full-size array (its rows filled block by block
+from the heights, its columns transformed, squared, folded and transformed back slab by
+slab in place), and the rows of the folded lag plane are binned a block at a time, so
+that neither a padded copy of the map nor the lag plane is formed.
+
 The sums of each map travel as one *packed* array (:func:`packed`): per kept bin the sums
 of G, the pair counts and the sums of G^2, then the valid points and the exponent of the
 power of two that scaled the map's heights. :func:`pool` adds maps on their largest
@@ -33,7 +39,7 @@ from scipy import fft as sfft
 from .binning import binned_sum, folded_bin_index, lag_multiplicity, lag_radius2
 from .uncertainty import finite_area_variance
 
-__all__ = ["folded_pair_sums", "folded_geometric_counts", "padded_shape", "binned_geometry",
+__all__ = ["folded_pair_sums", "binned_map_sums", "map_kernel_applies", "folded_geometric_counts", "padded_shape", "binned_geometry",
            "require_no_inf", "few_points_message", "packed", "pool", "g_from_packed",
            "area_variance", "times_power_of_two"]
 
@@ -154,16 +160,26 @@ def _sq_terms_nonperiodic(h2: np.ndarray, ks: tuple[int, ...]) -> np.ndarray:
         i = np.arange(k + 1)
         e = cs[..., n - i] + cs[..., n:n + 1] - cs[..., i]
         return e * lag_multiplicity(n, k, False)
-    ky, kx = ks
     ny, nx = h2.shape[-2:]
     t = np.zeros(h2.shape[:-2] + (ny + 1, nx + 1))
     inner = t[..., 1:, 1:]
     np.cumsum(h2, axis=-2, out=inner)
     np.cumsum(inner, axis=-1, out=inner)
-    # Rectangle sums R(r0:r1, c0:c1) from the summed-area table t (t[0, :] = t[:, 0] = 0).
-    # For lags (+i, +j) and (+i, -j) the corners are 0, i, ny - i, ny (and likewise in j),
-    # so every term is a (reversed) slice of t: views, no gathers.
-    fi, ri = slice(0, ky + 1), slice(ny, ny - ky - 1 if ny - ky - 1 >= 0 else None, -1)
+    return _sq_rows(t, ks, 0, ks[0] + 1)
+
+
+def _sq_rows(t: np.ndarray, ks: tuple[int, int], i0: int, i1: int) -> np.ndarray:
+    """Rows ``i0:i1`` of the folded ``h(r)^2 + h(r+d)^2`` sums from the summed-area table.
+
+    ``t`` is ``(..., ny + 1, nx + 1)`` with ``t[0, :] = t[:, 0] = 0``. For lags
+    ``(+i, +j)`` and ``(+i, -j)`` the corners of the rectangles are ``0, i, ny - i, ny``
+    (and likewise in ``j``), so every term is a (reversed) slice of ``t``: views, no
+    gathers.
+    """
+    ky, kx = ks
+    ny, nx = t.shape[-2] - 1, t.shape[-1] - 1
+    fi = slice(i0, i1)
+    ri = slice(ny - i0, ny - i1 if ny - i1 >= 0 else None, -1)
     fj, rj = slice(0, kx + 1), slice(nx, nx - kx - 1 if nx - kx - 1 >= 0 else None, -1)
     total = t[..., ny:ny + 1, nx:nx + 1]
     e = t[..., ri, rj] + t[..., fi, fj]
@@ -174,8 +190,8 @@ def _sq_terms_nonperiodic(h2: np.ndarray, ks: tuple[int, ...]) -> np.ndarray:
     e -= t[..., ny:ny + 1, fj]
     e += t[..., ri, nx:nx + 1]
     e += t[..., ny:ny + 1, rj]
-    w = np.multiply.outer(lag_multiplicity(ny, ky, False), lag_multiplicity(nx, kx, False)) / 2
-    e *= w
+    e *= lag_multiplicity(ny, ky, False)[i0:i1, None] / 2
+    e *= lag_multiplicity(nx, kx, False)
     return e
 
 
@@ -298,6 +314,278 @@ def _masked(h, valid, ks, fshape, axes, workers):
 
 
 # ---------------------------------------------------------------------------------------
+# one map, binned as it is transformed: no full-size temporaries
+# ---------------------------------------------------------------------------------------
+#: Elements per block of rows (or slab of columns) that the map kernel works on at once:
+#: 2^19 complex numbers are 8 MB, small against a map and large enough for the FFT's
+#: threads.
+BLOCK_ELEMENTS = 2**19
+
+
+def binned_map_sums(h: np.ndarray, exponent: int, ks: tuple[int, int], *, periodic: bool,
+                    index: np.ndarray, nbins: int, lines=None, workers: int = -1):
+    """Binned folded sums of squared differences and pair counts of one map, by FFT.
+
+    The sums of :func:`folded_pair_sums` for a single map (the heights scaled by
+    ``2**-exponent``), added up per bin of the folded lags as they come out of the
+    transforms, so that the lag plane is never formed: the map's half spectrum (about 4x
+    the map for an open one, 1x for a periodic one) is the only full-size array (a
+    second one of half that size holds one spectrum at a time for a map with missing
+    points). Its rows are transformed block by block from the heights (zero padded, the
+    scale, the mean and the mask applied block by block), its columns slab by slab in
+    place, each slab turned at once into its power (or cross) spectrum, averaged over
+    ``k`` and ``-k`` and transformed back along the columns (type-I DCT); the rows of the
+    folded plane are then transformed back, weighted and binned a block at a time.
+
+    Parameters
+    ----------
+    h : ndarray (ny, nx)
+        Heights (any length unit), NaN for missing points; read, never copied whole.
+    exponent : int
+        The heights are taken as ``h * 2**-exponent`` (an exact scale that keeps squares
+        in range).
+    ks : tuple of int
+        Largest lag index per axis.
+    periodic : bool
+        Circular lags or open boundaries (zero padding by ``ks``).
+    index : ndarray (ks[0] + 1, ks[1] + 1) of int
+        Bin of each folded lag, ``nbins`` for lags in no bin.
+    nbins : int
+        Number of bins.
+    lines : pair of ndarray, optional
+        Bins of the lags along y (``d_x = 0``, ``ks[0] + 1``) and along x (``d_y = 0``,
+        ``ks[1] + 1``): their sums follow the radial ones as two further blocks.
+    workers : int
+        Threads for :mod:`scipy.fft`.
+
+    Returns
+    -------
+    sums, counts : ndarray ((1 or 3) nbins,)
+        Sums of ``(h(r) - h(r + d))**2`` and of pairs over the ordered pairs of each bin
+        (each unordered pair twice); ``counts`` is None without missing points.
+    nvalid : float
+        Valid points of the map.
+    """
+    fshape = padded_shape(h.shape, ks, periodic)
+    # a finite sum has no NaN (one pass, no temporary); otherwise look
+    valid_all = bool(np.isfinite(np.add.reduce(h, axis=None)) or not np.isnan(h).any())
+    if not valid_all:
+        require_no_inf(h)
+    kw = dict(ks=ks, fshape=fshape, workers=workers)
+    binner = functools.partial(_binned_rows, index=index, nbins=nbins, lines=lines)
+    if not valid_all:
+        return _masked_binned(h, exponent, binner, **kw)
+    nvalid = float(h.size)
+    if periodic:
+        return _periodic_binned(h, exponent, binner, **kw), None, nvalid
+    return _open_binned(h, exponent, binner, **kw), None, nvalid
+
+
+def map_kernel_applies(shape: tuple[int, ...], ks: tuple[int, ...], periodic: bool) -> bool:
+    """Whether :func:`binned_map_sums` takes a map: two axes, even transform lengths."""
+    return (len(shape) == 2 and len(ks) == 2
+            and all(m % 2 == 0 for m in padded_shape(shape, ks, periodic)))
+
+
+def _row_blocks(rows: int, width: int):
+    step = max(8, BLOCK_ELEMENTS // max(width, 1))
+    return ((r, min(rows, r + step)) for r in range(0, rows, step))
+
+
+def _binned_rows(block, rows: int, *, index, nbins, lines):
+    """Bin a folded plane given block by block (``block(i0, i1)``: rows ``i0:i1``)."""
+    out = np.zeros(nbins + 1)
+    line_y = np.empty(rows) if lines is not None else None
+    line_x = None
+    for i0, i1 in _row_blocks(rows, index.shape[1]):
+        b = block(i0, i1)
+        out += np.bincount(index[i0:i1].ravel(), weights=b.ravel(), minlength=nbins + 1)
+        if lines is not None:
+            line_y[i0:i1] = b[:, 0]
+            if i0 == 0:
+                line_x = b[0].copy()
+    if lines is None:
+        return out[:nbins]
+    return np.concatenate([out[:nbins]] + [np.bincount(ix, weights=v, minlength=nbins + 1)
+                                           [:nbins] for ix, v in zip(lines,
+                                                                     (line_y, line_x))])
+
+
+def _spectrum_rows(fill, n: int, fshape: tuple[int, int], out: np.ndarray, workers: int):
+    """Write the row transforms of a map (``fill(r0, r1)``: its rows) into ``out``.
+
+    Rows ``n:`` of ``out`` (the zero padding of the columns) are set to 0.
+    """
+    for r0, r1 in _row_blocks(n, fshape[1]):
+        out[r0:r1] = sfft.rfft(fill(r0, r1), n=fshape[1], axis=-1, workers=workers)
+    out[n:] = 0.0
+    return out
+
+
+def _column_slabs(width: int, rows: int):
+    return _row_blocks(width, rows)
+
+
+def _fold_columns(x: np.ndarray, m: int, workers: int) -> np.ndarray:
+    """Average rows ``k`` and ``m - k`` of a real slab in place, DCT-I of rows ``0..m/2``.
+
+    ``x`` holds a real, point-symmetric spectrum along axis 0 (length ``m``, even); the
+    result, rows ``0..m/2`` of ``x``, is the folded inverse along that axis (unnormalised).
+    """
+    half = m // 2
+    inner = x[1:half]
+    inner += x[m - 1:half:-1]
+    inner *= 0.5
+    return sfft.dct(x[:half + 1], type=1, axis=0, workers=workers, overwrite_x=True)
+
+
+def _folded_row_block(plane: np.ndarray, i0: int, i1: int, ks, fshape, workers):
+    """Rows ``i0:i1`` of the folded inverse: DCT-I along the rows, lags ``0..kx``, weighted.
+
+    ``plane`` holds rows ``0..m0/2`` of the columns' folded inverse (the real quarter);
+    the weights are the distinct signed lags per folded lag over the transformed points.
+    """
+    b = sfft.dct(plane[i0:i1], type=1, axis=-1, workers=workers)[:, :ks[1] + 1]
+    b *= (lag_multiplicity(fshape[0], ks[0], True)[i0:i1] / np.prod(fshape))[:, None]
+    b *= lag_multiplicity(fshape[1], ks[1], True)
+    return b
+
+
+def _power_slabs(spec: np.ndarray, fshape, workers, zero_mean: bool = False) -> np.ndarray:
+    """Columns of a row-transformed map in place, slab by slab, to the folded power.
+
+    Returns the real quarter (rows ``0..m0/2``, a strided view into ``spec``).
+    """
+    m0 = fshape[0]
+    v = spec.view(np.float64).reshape(spec.shape + (2,))
+    for c0, c1 in _column_slabs(spec.shape[1], m0):
+        slab = spec[:, c0:c1]
+        sfft.fft(slab, axis=0, workers=workers, overwrite_x=True)
+        if zero_mean and c0 == 0:
+            slab[0, 0] = 0.0  # remove the mean exactly
+        re, im = v[:, c0:c1, 0], v[:, c0:c1, 1]
+        np.square(re, out=re)
+        np.square(im, out=im)
+        re += im
+        _fold_columns(re, m0, workers)
+    return v[:m0 // 2 + 1, :, 0]
+
+
+def _periodic_binned(h, exponent, binner, *, ks, fshape, workers):
+    ny, nx = h.shape
+    spec = np.empty((fshape[0], fshape[1] // 2 + 1), dtype=np.complex128)
+    _spectrum_rows(lambda r0, r1: np.ldexp(h[r0:r1].astype(np.float64), -exponent), ny,
+                   fshape, spec, workers)
+    quarter = _power_slabs(spec, fshape, workers, zero_mean=True)
+    # sum of squared differences over pairs: 2 (C(0) - C(d)) per distinct signed lag
+    zero = _folded_row_block(quarter, 0, 1, ks, fshape, workers)[0, 0]
+    cy, cx = (_axis_counts(m, k, True) / m for m, k in zip(fshape, ks))
+
+    def block(i0, i1):
+        b = _folded_row_block(quarter, i0, i1, ks, fshape, workers)
+        b *= -2.0
+        b += (2.0 * zero) * np.multiply.outer(cy[i0:i1], cx)
+        return b
+
+    return binner(block, ks[0] + 1)
+
+
+def _scaled_centred(h, exponent, mean, r0, r1, square=False):
+    """Rows ``r0:r1`` of ``h 2**-exponent - mean``, 0 where missing (squared if asked)."""
+    b = np.ldexp(h[r0:r1].astype(np.float64), -exponent)  # float32 maps in double
+    b -= mean
+    np.copyto(b, 0.0, where=np.isnan(b))
+    if square:
+        np.square(b, out=b)
+    return b
+
+
+def _open_binned(h, exponent, binner, *, ks, fshape, workers):
+    ny, nx = h.shape
+    mean = np.ldexp(h.mean(dtype=np.float64), -exponent)
+    # the h(r)^2 + h(r+d)^2 terms first, from the summed-area table (the size of the map)
+    t = np.zeros((ny + 1, nx + 1))
+    for c0, c1 in _column_slabs(nx, ny):  # cumulative along y, then along x
+        np.cumsum(_scaled_centred(h[:, c0:c1], exponent, mean, 0, ny, square=True),
+                  axis=0, out=t[1:, 1 + c0:1 + c1])
+    for r0, r1 in _row_blocks(ny, nx):
+        np.cumsum(t[1 + r0:1 + r1, 1:], axis=-1, out=t[1 + r0:1 + r1, 1:])
+    sq = binner(lambda i0, i1: _sq_rows(t, ks, i0, i1), ks[0] + 1)
+    del t
+    spec = np.empty((fshape[0], fshape[1] // 2 + 1), dtype=np.complex128)
+    _spectrum_rows(lambda r0, r1: _scaled_centred(h, exponent, mean, r0, r1), ny, fshape,
+                   spec, workers)
+    quarter = _power_slabs(spec, fshape, workers)
+    corr = binner(lambda i0, i1: _folded_row_block(quarter, i0, i1, ks, fshape, workers),
+                  ks[0] + 1)
+    corr *= -2.0
+    corr += sq
+    return corr
+
+
+def _masked_binned(h, exponent, binner, *, ks, fshape, workers):
+    """Sums and counts of a map with missing points (the correlations of :func:`_masked`).
+
+    One half spectrum holds the mask's transform ``M``, then per column slab its power
+    ``|M|^2`` (counts) and ``2 Re(conj(B) M) - 2 |A|^2`` (sums) side by side in its real
+    and imaginary places, ``B`` and ``A`` the transforms of ``h^2`` and ``h``, computed
+    one at a time in a second array of the map's rows (half the padded spectrum).
+    """
+    ny, nx = h.shape
+    m0 = fshape[0]
+    valid = np.isfinite(h)
+    nvalid = float(np.count_nonzero(valid))
+    del valid
+    mean = np.ldexp(np.nansum(h, dtype=np.float64) / max(nvalid, 1.0), -exponent)
+    spec = np.empty((m0, fshape[1] // 2 + 1), dtype=np.complex128)
+    _spectrum_rows(lambda r0, r1: np.isfinite(h[r0:r1]).astype(np.float64), ny, fshape,
+                   spec, workers)
+    rows = np.empty((ny, spec.shape[1]), dtype=np.complex128)
+    v = spec.view(np.float64).reshape(spec.shape + (2,))
+    slabs = list(_column_slabs(spec.shape[1], m0))
+    for square in (True, False):  # B = F(h^2), then A = F(h)
+        _spectrum_rows(lambda r0, r1: _scaled_centred(h, exponent, mean, r0, r1, square),
+                       ny, (ny, fshape[1]), rows, workers)
+        for c0, c1 in slabs:
+            slab = np.zeros((m0, c1 - c0), dtype=np.complex128)
+            slab[:ny] = rows[:, c0:c1]
+            sfft.fft(slab, axis=0, workers=workers, overwrite_x=True)
+            a, b = v[:, c0:c1, 0], v[:, c0:c1, 1]
+            if square:
+                sfft.fft(spec[:, c0:c1], axis=0, workers=workers, overwrite_x=True)
+                w = slab.real * a
+                w += slab.imag * b
+                w *= 2.0
+                np.square(a, out=a)
+                np.square(b, out=b)
+                a += b  # |M|^2
+                b[...] = w  # 2 Re(conj(B) M)
+            else:
+                w = slab.real * slab.real
+                w += slab.imag * slab.imag
+                w *= 2.0
+                b -= w
+                _fold_columns(v[:, c0:c1], m0, workers)
+    del rows
+    quarter = v[:m0 // 2 + 1]
+    empty = np.zeros((ks[0] + 1, ks[1] + 1), dtype=bool)  # lags without pairs
+
+    def count_block(i0, i1):
+        c = np.rint(_folded_row_block(quarter[..., 0], i0, i1, ks, fshape, workers))
+        empty[i0:i1] = c == 0
+        return c
+
+    def sum_block(i0, i1):
+        s = _folded_row_block(quarter[..., 1], i0, i1, ks, fshape, workers)
+        s[empty[i0:i1]] = 0.0  # no pairs: only round-off was there
+        return s
+
+    counts = binner(count_block, ks[0] + 1)
+    sums = binner(sum_block, ks[0] + 1)
+    return sums, counts, nvalid
+
+
+# ---------------------------------------------------------------------------------------
 # binned geometry and packed sums, shared by the FFT and random-pair estimators
 # ---------------------------------------------------------------------------------------
 @functools.lru_cache(maxsize=4)
@@ -311,9 +599,22 @@ def binned_geometry(shape: tuple[int, ...], spacing: tuple[float, ...], periodic
     edges = np.asarray(edges_key)
     idx = folded_bin_index(ks, spacing, edges)
     nb = len(edges) - 1
-    geo = folded_geometric_counts(shape, ks, periodic)
-    counts = binned_sum(geo, idx, nb)
-    rsum = binned_sum(geo * np.sqrt(lag_radius2(ks, spacing)), idx, nb)
+    if len(ks) == 1:
+        geo = folded_geometric_counts(shape, ks, periodic)
+        counts = binned_sum(geo, idx, nb)
+        rsum = binned_sum(geo * np.sqrt(lag_radius2(ks, spacing)), idx, nb)
+    else:  # a block of rows at a time: no plane of the map's size
+        cy, cx = (_axis_counts(n, k, periodic) for n, k in zip(shape, ks))
+        x2 = (np.arange(ks[1] + 1) * spacing[1]) ** 2
+        counts, rsum = np.zeros(nb + 1), np.zeros(nb + 1)
+        for i0, i1 in _row_blocks(ks[0] + 1, ks[1] + 1):
+            i = np.arange(i0, i1)
+            b = idx[i0:i1].ravel()
+            geo = np.multiply.outer(cy[i0:i1], cx)
+            counts += np.bincount(b, weights=geo.ravel(), minlength=nb + 1)
+            geo *= np.sqrt(((i * spacing[0]) ** 2)[:, None] + x2)
+            rsum += np.bincount(b, weights=geo.ravel(), minlength=nb + 1)
+        counts, rsum = counts[:nb], rsum[:nb]
     idx.setflags(write=False)
     return idx, counts, rsum
 

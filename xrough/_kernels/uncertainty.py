@@ -148,6 +148,46 @@ def _mode_bands(n_max: int, exact: int, per_decade: float) -> tuple[np.ndarray, 
             np.r_[np.ones(m_exact.size), np.diff(edges)])
 
 
+@functools.lru_cache(maxsize=8)
+def _cross_modes(size: float, n_max: int, exact: int, cross_exact: int, per_decade: float,
+                 q_bytes: bytes):
+    """Where G along one axis reads the spectrum: ``|k|`` of its modes, cached per grid.
+
+    Rows: the modes ``m`` along the axis (:func:`_mode_bands`, the first ``exact`` one
+    by one); columns: the modes ``0, ny`` of the other axis (``ny`` in bands beyond the
+    first ``cross_exact``), of weight 1
+    for ``0`` and twice their width beyond (``+ny`` and ``-ny``). Returned with the
+    pieces of the sampled spectrum (``q`` its wavenumbers, as bytes) each ``|k|`` falls
+    in, so that evaluating a spectrum there is a gather and an exponential.
+    """
+    step = 2 * np.pi / size
+    m, _ = _mode_bands(n_max, exact, per_decade)
+    ny, wy = _mode_bands(n_max, cross_exact, per_decade)
+    x = np.hypot(m[:, None] * step, np.r_[0.0, ny][None, :] * step)
+    q = np.frombuffer(q_bytes)
+    j = np.clip(np.searchsorted(q, x, side="right") - 1, 0, q.size - 2)
+    with np.errstate(divide="ignore"):
+        log_ratio = np.log(x / q[j])
+    pieces = (j, log_ratio, (x >= q[0]) & (x <= q[-1]), x == q[-1])
+    for a in pieces:
+        a.setflags(write=False)
+    wn = np.r_[1.0, 2.0 * wy]
+    wn.setflags(write=False)
+    return pieces, wn
+
+
+def _power_law_at(spectrum: PowerLawInterpolant, pieces) -> np.ndarray:
+    """``spectrum`` at the points of :func:`_cross_modes` (its ``__call__``, pieces known)."""
+    j, log_ratio, inside, last = pieces
+    with np.errstate(all="ignore"):
+        val = spectrum.alpha[j] * log_ratio
+        np.exp(val, out=val)
+        val *= spectrum.coef[j]
+    val[~inside] = 0.0
+    val[last] = spectrum.values[-1] if spectrum.coef[-1] > 0 else 0.0
+    return val
+
+
 def g_covariance(dr: np.ndarray, q: np.ndarray, C: np.ndarray, *, size: float,
                  pixel: float, geometry: str, exact_modes: int = 65536,
                  bands_per_decade: float = 200, estimated_over: float = 0.0,
@@ -247,11 +287,12 @@ def g_covariance(dr: np.ndarray, q: np.ndarray, C: np.ndarray, *, size: float,
     elif geometry == "axis":
         # the sum over the other axis is smooth in it beyond its first modes: bands there
         # (a 2048^2 map summed 4 million modes one by one, 0.1 s per G)
-        ny, wy = _mode_bands(n_max, min(exact_modes, CROSS_EXACT_MODES), bands_per_decade)
-        n = np.r_[-ny[::-1], 0.0, ny]
-        wn = np.r_[wy[::-1], 1.0, wy]
-        ky = n * step
-        power = 2.0 * spectrum(np.hypot(k[:, None], ky[None, :])) / size**2
+        # the modes +ky and -ky have the same power: the half plane ky >= 0, doubled
+        kq, wn = _cross_modes(float(size), n_max, int(exact_modes),
+                              min(exact_modes, CROSS_EXACT_MODES), float(bands_per_decade),
+                              spectrum.q.tobytes())
+        power = _power_law_at(spectrum, kq)
+        power *= 2.0 / size**2
         weight, mean_weight = width * (power**2 @ wn), width * (power @ wn)
     else:
         power = 2.0 * spectrum(k) / size**2

@@ -6,11 +6,15 @@ import functools
 import os
 from dataclasses import dataclass
 
+import dask
 import numpy as np
 import xarray as xr
+from dask.utils import format_bytes, parse_bytes
 
 from .. import quality
 from .. import units as u
+from .._kernels.binning import max_lags
+from .._kernels.pairs import padded_shape
 from .._kernels.uncertainty import finite_area_variance
 from ..topography import Grid
 from ._plan import lag_geometry, open_map_bins, plan
@@ -35,31 +39,123 @@ COST = {
 SAMPLING_KAPPA = 2.0
 
 
+#: dask config key of the memory budget of ``estimator='auto'`` (bytes, or a string such
+#: as ``"4 GB"``): ``dask.config.set({"xrough.memory_limit": "4 GB"})``. The argument
+#: ``memory_limit`` takes precedence.
+MEMORY_LIMIT_KEY = "xrough.memory_limit"
+#: Share of the available memory the all-pairs FFT of one map may take when no budget is
+#: given: the rest stays for the caller's own arrays and other processes.
+AVAILABLE_SHARE = 0.5
+#: Where Linux states the memory available (``MemAvailable``).
+MEMINFO = "/proc/meminfo"
+
+
 def _available_memory() -> float:
+    """Memory the system can give without swapping, in bytes.
+
+    ``MemAvailable`` of :data:`MEMINFO` (Linux: free memory plus the page cache and
+    reclaimable caches, which the kernel gives up on demand); elsewhere the free pages.
+    Not the free pages on Linux: a machine that has read a few GB of files has little
+    free memory though all of it is available.
+    """
     try:
+        with open(MEMINFO, encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024  # kB
+    except (OSError, ValueError, IndexError):
+        pass
+    try:  # pragma: no cover - not Linux
         return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_AVPHYS_PAGES"))
     except (ValueError, OSError, AttributeError):  # pragma: no cover - not POSIX
         return 8e9
 
 
-def choose_estimator(da: xr.DataArray, grid: Grid, direction: str, pool) -> str:
-    """``'fft'`` unless one open map is chunked in y/x or too large for its padded FFT.
+def memory_budget(memory_limit=None) -> tuple[float, str]:
+    """Bytes the all-pairs FFT of one map may take, and where that number came from.
 
-    The all-pairs FFT of an open map needs about six arrays of the padded size
-    ``(2 ny)(2 nx)`` float64 at once; beyond a quarter of the available memory, or when
-    the map is split into dask chunks, the tiled estimator (exact up to its halo, block
-    levels beyond; see :func:`~xrough.correlation.height_difference_acf_tiled`) keeps
-    memory flat.
+    ``memory_limit`` (bytes, or a string such as ``"4 GB"``), else the dask config key
+    :data:`MEMORY_LIMIT_KEY`, else :data:`AVAILABLE_SHARE` of :func:`_available_memory`.
+
+    Raises
+    ------
+    ValueError
+        A limit that is not a positive number of bytes.
+    """
+    source = "memory_limit"
+    if memory_limit is None:
+        memory_limit = dask.config.get(MEMORY_LIMIT_KEY, None)
+        source = f"dask config {MEMORY_LIMIT_KEY!r}"
+    if memory_limit is None:
+        return AVAILABLE_SHARE * _available_memory(), (
+            f"{AVAILABLE_SHARE:g} of the memory available")
+    try:
+        value = float(parse_bytes(memory_limit) if isinstance(memory_limit, str)
+                      else memory_limit)
+    except (TypeError, ValueError):
+        value = float("nan")
+    if isinstance(memory_limit, bool) or not (np.isfinite(value) and value > 0):
+        raise ValueError(f"memory_limit must be a positive number of bytes or a string "
+                         f"such as '4 GB', got {memory_limit!r}")
+    return value, f"{source}={memory_limit!r}: {format_bytes(value)}"
+
+
+def fft_memory(shape: tuple[int, ...], ks: tuple[int, ...], periodic: bool) -> float:
+    """Peak bytes of the all-pairs FFT of one 2D map (:func:`~xrough._kernels.pairs.binned_map_sums`).
+
+    Its half spectrum (complex, padded shape), half as much again for the row transforms
+    of a map with missing points, and one map-sized array (float64); from the shape
+    alone, the worst case (missing points) since the heights are not read.
+    """
+    fshape = padded_shape(tuple(shape), tuple(ks), periodic)
+    spectrum = 16.0 * fshape[0] * (fshape[-1] // 2 + 1)
+    return 1.5 * spectrum + 8.0 * float(np.prod(shape))
+
+
+def choose_estimator(da: xr.DataArray, grid: Grid, direction: str, pool,
+                     memory_limit=None, dr_max=None) -> tuple[str, str | None]:
+    """``'fft'`` unless one open map is chunked in y/x or its FFT exceeds the memory budget.
+
+    The all-pairs FFT of an open map holds its padded half spectrum (about four times
+    the map) and half that again with missing points (:func:`fft_memory`); beyond the
+    budget of :func:`memory_budget`, or when the map is split into dask chunks, the tiled
+    estimator (exact up to its halo, block levels beyond; see
+    :func:`~xrough.correlation.height_difference_acf_tiled`) keeps memory flat. The
+    choice reads the shape, the chunks and the budget only: the same map and budget give
+    the same estimator whatever the machine did before.
+
+    Returns
+    -------
+    estimator : str
+        ``'fft'`` or ``'tiled'``.
+    reason : str or None
+        Why, where the memory budget decided (attr ``estimator_reason`` of G; the
+        budget is named by its source, its number only when it was given, so that the
+        text does not move with the machine's free memory); None where the input alone
+        decides (a chunked map, or anything but one open map: always the same estimator).
     """
     single_open_map = (len(grid.dims) == 2 and da.ndim == 2 and not grid.periodic
                        and direction == "radial" and not pool)
     if not single_open_map:
-        return "fft"
-    chunked = da.chunks is not None and any(len(da.chunksizes[d]) > 1 for d in grid.dims)
-    padded_bytes = 6 * 8 * (2 * grid.shape[0]) * (2 * grid.shape[1])
-    if chunked or padded_bytes > 0.25 * _available_memory():
-        return "tiled"
-    return "fft"
+        return "fft", None
+    if da.chunks is not None and any(len(da.chunksizes[d]) > 1 for d in grid.dims):
+        return "tiled", None
+    ks = _open_ks(grid, dr_max)
+    need = fft_memory(grid.shape, ks, False)
+    budget, source = memory_budget(memory_limit)
+    fits = need <= budget
+    return ("fft" if fits else "tiled"), (
+        f"{'fft' if fits else 'tiled'}: the all-pairs FFT of this map needs about "
+        f"{format_bytes(need)}, {'within' if fits else 'beyond'} the memory budget "
+        f"({source})")
+
+
+def _open_ks(grid: Grid, dr_max) -> tuple[int, ...]:
+    """Largest lags of an open map for ``dr_max`` (the scan length by default)."""
+    if dr_max is None:
+        return tuple(n - 1 for n in grid.shape)
+    hi = u.length_in(dr_max, grid.lateral_unit, what="dr_max", positive=False)
+    return max_lags(grid.shape, grid.spacing, False, float(hi))
 
 
 @dataclass(frozen=True)
@@ -125,7 +221,7 @@ def _shape(grid: Grid, exact: str, direction: str, binning_options: dict) -> _Sh
 
 
 def choose_for_target(da: xr.DataArray, grid: Grid, target: float, *, direction: str,
-                      pool, binning_options: dict) -> Choice:
+                      pool, binning_options: dict, memory_limit=None) -> Choice:
     """Pick the estimator and budget that reach ``target`` at the least modelled cost.
 
     Shapes, bins and chunks only (no data): the same for numpy and dask. Error model:
@@ -137,7 +233,8 @@ def choose_for_target(da: xr.DataArray, grid: Grid, target: float, *, direction:
     ``sqrt(SAMPLING_KAPPA / pairs per bin)`` and get at most half the target (a quarter
     of its variance) per bin. Cost model: :data:`COST`.
     """
-    exact = choose_estimator(da, grid, direction, pool)
+    exact, _ = choose_estimator(da, grid, direction, pool, memory_limit,
+                                binning_options.get("dr_max"))
     s = _shape(grid, exact, direction, binning_options)
     pool_dims = (pool,) if isinstance(pool, str) else tuple(pool or ())
     pooled = int(np.prod([da.sizes[d] for d in pool_dims if d in da.sizes]))

@@ -45,6 +45,7 @@ def height_difference_acf(
     progress: bool | None = None,
     target_error: Any = None,
     reliable: bool = True,
+    memory_limit: Any = None,
 ) -> xr.DataArray:
     r"""Height-difference autocorrelation function ``G(dr)`` of a topography (eq. 1).
 
@@ -67,7 +68,8 @@ def height_difference_acf(
         for maps larger than memory (exact up to a halo, block levels beyond; see
         :func:`height_difference_acf_tiled`). ``'auto'`` (default) takes
         ``'fft'`` unless one open map is split into dask chunks in y/x or its padded FFT
-        would not fit in a quarter of the available memory (then ``'tiled'``).
+        would exceed ``memory_limit`` (then ``'tiled'``). G's attr ``estimator`` says
+        which; where the memory budget decided, ``estimator_reason`` says why.
     bins : {'log', 'linear'} or array_like
         Log-spaced bins centred on ``10**(k/points_per_decade)`` (in the lateral unit),
         linear bins of ``bin_width`` (default: one pixel), or explicit edges in the lateral
@@ -111,6 +113,13 @@ def height_difference_acf(
         (:func:`xrough.preprocess.tip_window`): G carries ``reliable_dr_min``,
         ``reliable_dr_max`` and ``reliable_rule``, and the contact results derived from it
         are NaN at finer lags than the tip resolves. ``False``: G over all lags, no window.
+    memory_limit : int, float or str, optional
+        Bytes the all-pairs FFT of an open map may take (``4e9`` or ``"4 GB"``) before
+        ``'auto'`` takes the tiled estimator; that FFT needs its padded half spectrum,
+        about 4x the map (6x with missing points: the budget assumes them). Default: the
+        dask config key ``xrough.memory_limit`` if set, else half the memory the system
+        has available (``MemAvailable``: free memory and reclaimable caches, not the free
+        pages alone), so that the choice does not depend on what the page cache holds.
 
     Returns
     -------
@@ -198,7 +207,8 @@ def height_difference_acf(
             topography, direction=direction, estimator=estimator, bins=bins,
             points_per_decade=points_per_decade, bin_width=bin_width, dr_min=dr_min,
             dr_max=dr_max, pool=pool, n_pairs=n_pairs, seed=seed, workers=workers,
-            progress=progress, target_error=target_error, reliable=False)
+            progress=progress, target_error=target_error, reliable=False,
+            memory_limit=memory_limit)
         return quality.mark(G, note, what="height_difference_acf") if note else G
     if estimator not in ESTIMATORS:
         raise ValueError(f"estimator must be one of {ESTIMATORS}, got {estimator!r}")
@@ -207,24 +217,31 @@ def height_difference_acf(
     run = dict(direction=direction, pool=pool, workers=workers, progress=progress)
     if target_error is not None:
         return _for_target(topography, target_error, estimator=estimator, n_pairs=n_pairs,
-                           seed=seed, options=options, **run)
+                           seed=seed, options=options, memory_limit=memory_limit, **run)
     if estimator != "random" and (seed is not None or n_pairs != DEFAULT_PAIRS):
         raise ValueError("n_pairs and seed apply to estimator='random' only")
     check_bin_width(bins, bin_width)
     grid = grid_of(topography)
     if estimator == "auto":
-        estimator = choose_estimator(topography, grid, direction, pool)
+        estimator, reason = choose_estimator(topography, grid, direction, pool, memory_limit,
+                                             dr_max)
+    else:
+        reason = None
     if estimator == "tiled":
         if direction != "radial" or pool or len(grid.dims) != 2 or topography.ndim != 2:
             raise ValueError("estimator='tiled' computes the radial G of one map (no "
                              "extra dims, direction='radial')")
-        return height_difference_acf_tiled(topography, progress=progress, **options)
-    return _in_memory(topography, grid, estimator, n_pairs=n_pairs, seed=seed,
-                      options=options, **run)
+        G = height_difference_acf_tiled(topography, progress=progress, **options)
+    else:
+        G = _in_memory(topography, grid, estimator, n_pairs=n_pairs, seed=seed,
+                       options=options, **run)
+    if reason is not None:
+        G.attrs["estimator_reason"] = reason
+    return G
 
 
 def _for_target(topography, target_error, *, estimator, n_pairs, seed, options, direction,
-                pool, workers, progress) -> xr.DataArray:
+                pool, workers, progress, memory_limit) -> xr.DataArray:
     """G by the estimator and budget that :func:`choose_for_target` picks, reported."""
     target = target_value(target_error)
     if estimator != "auto":
@@ -235,12 +252,14 @@ def _for_target(topography, target_error, *, estimator, n_pairs, seed, options, 
                          "not both")
     check_bin_width(options["bins"], options["bin_width"])
     choice = choose_for_target(topography, grid_of(topography), target,
-                               direction=direction, pool=pool, binning_options=options)
+                               direction=direction, pool=pool, binning_options=options,
+                               memory_limit=memory_limit)
     random = choice.estimator == "random"
     G = height_difference_acf(
         topography, direction=direction, estimator=choice.estimator, pool=pool,
         n_pairs=choice.n_pairs if random else DEFAULT_PAIRS,
-        seed=seed if random else None, workers=workers, progress=progress, **options)
+        seed=seed if random else None, workers=workers, progress=progress,
+        memory_limit=memory_limit, **options)
     return report_choice(G, choice, target)
 
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from .._kernels import binning, tiles
-from .._kernels.pairs import few_points_message, folded_pair_sums, packed
+from .._kernels.pairs import (binned_map_sums, few_points_message, folded_pair_sums,
+                              map_kernel_applies, packed, require_no_inf)
 from ._plan import Plan, progress_bar
 
 
@@ -31,6 +32,11 @@ def fft_kernel(h: np.ndarray, *, plan: Plan, workers: int, progress,
     bar = progress_bar(flat.shape[0], progress, "G(dr) by FFT")
     try:
         for b in range(flat.shape[0]):
+            if map_kernel_applies(plan.shape, plan.ks, plan.periodic):
+                exponents[b] = map_exponent(flat[b], b, batch)
+                sums[b], counts[b], nvalid[b] = _binned_sums(flat[b], int(exponents[b]),
+                                                             plan, workers, directional)
+                continue
             scaled, exponents[b] = scaled_map(flat[b], b, batch)
             sums[b], counts[b], nvalid[b] = _map_sums(scaled, plan, workers, directional)
             if nvalid[b] < 2:
@@ -41,6 +47,31 @@ def fft_kernel(h: np.ndarray, *, plan: Plan, workers: int, progress,
         if bar is not None:
             bar.close()
     return packed(batch, 0.5 * sums, counts, np.zeros_like(sums), nvalid, exponents)
+
+
+def _binned_sums(h: np.ndarray, exponent: int, plan: Plan, workers: int,
+                 directional: bool):
+    """:func:`_map_sums` of one map by :func:`~xrough._kernels.pairs.binned_map_sums`.
+
+    The heights are read as they are (scaled block by block): no copy of the map, and no
+    lag plane.
+    """
+    nb = len(plan.edges) - 1
+    lines = tuple(idx for idx, _ in plan.axis_bins()) if directional else None
+    s, n, nvalid = binned_map_sums(h, exponent, plan.ks, periodic=plan.periodic,
+                                   index=plan.bin_index(), nbins=nb, lines=lines,
+                                   workers=workers)
+    blocks = 3 if directional else 1
+    keep = np.tile(plan.keep, blocks)
+    sums = 0.5 * s[keep]
+    if n is not None:
+        counts = 0.5 * n[keep]
+    elif directional:
+        counts = np.concatenate([plan.geometric_counts] + [
+            0.5 * c[plan.keep] for _, c in plan.axis_bins()])
+    else:
+        counts = plan.geometric_counts
+    return sums, counts, nvalid
 
 
 def _map_sums(scaled: np.ndarray, plan: Plan, workers: int, directional: bool):
@@ -80,6 +111,23 @@ def split_directions(sums: np.ndarray, nb: int) -> tuple[np.ndarray, ...]:
     tail = sums[..., -2:]
     return tuple(np.concatenate([b[..., d * nb:(d + 1) * nb] for b in blocks] + [tail],
                                 axis=-1) for d in range(3))
+
+
+def map_exponent(h: np.ndarray, index: int, batch: tuple[int, ...]) -> int:
+    """The exponent of :func:`scaled_map` without scaling a copy of the map.
+
+    Raises
+    ------
+    ValueError
+        Infinite heights, or fewer than 2 valid points (naming the map of a stack).
+    """
+    top, bottom = np.fmax.reduce(h, axis=None), np.fmin.reduce(h, axis=None)  # NaN skipped
+    if np.isnan(top):
+        raise ValueError(few_points_message(index, batch))
+    peak = max(float(top), -float(bottom))
+    if np.isinf(peak):
+        require_no_inf(h)
+    return int(tiles.power_of_two_exponent(peak))
 
 
 def scaled_map(h: np.ndarray, index: int, batch: tuple[int, ...]) -> tuple[np.ndarray, int]:

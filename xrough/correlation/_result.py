@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import numpy as np
@@ -14,7 +15,12 @@ from ..topography import Grid
 
 def g_unit(grid: Grid) -> str:
     """Return the unit of G (and of its errors): the height unit squared."""
-    return u.power_units(grid.height_unit, 2)
+    return _squared(grid.height_unit)
+
+
+@functools.lru_cache(maxsize=32)
+def _squared(unit: str) -> str:
+    return u.power_units(unit, 2)
 
 
 def g_result(topography: xr.DataArray, grid: Grid, G: xr.DataArray, *, dr: np.ndarray,
