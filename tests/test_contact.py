@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 import xarray as xr
 from scipy import fft as sfft
+from scipy.interpolate import PchipInterpolator
 
 import xrough
 from xrough.testing import assert_allclose, assert_netcdf_round_trip
@@ -56,17 +57,39 @@ def test_energy_of_model_spectrum_and_patch_energy():
     v = xrough.elastic_energy(G, E_star="25 MPa", a_c=["10 nm", "1 um"])
     # log-log interpolation of a smooth G at 40 points per decade: ~1e-4
     assert float(v.v_el) == pytest.approx(expected, rel=1e-3)
-    # eq. 44 against a fine trapezoid rule over ln r of the same interpolated curve
-    # (1e6 nodes: error ~1e-10), plus the ballistic part below the first bin
+    # eq. 44 against a fine trapezoid rule over ln r of the same continued curve
+    # (1e6 nodes: error ~1e-10), plus the even start below the first bin
     assert float(v.v_el_patch.sel(a_c=10.0)) == pytest.approx(
         E_STAR / 4 * _integral_g_over_r2(G, 10.0) * 1e-9, rel=1e-6)
 
 
+def _continued(G):
+    """G's continuation as AcfCurve documents it, built here from scipy alone: PCHIP of
+    ln G against ln r between the bins, and below the first bin the even start
+    a r^2 + b r^4 through the first two bins (ballistic, b = 0, unless that is concave and
+    rising up to the first bin)."""
+    dr, g = G.dr.values, G.values
+    pchip = PchipInterpolator(np.log(dr), np.log(g))
+    (r0, r1), (g0, g1) = dr[:2] ** 2, g[:2]
+    b = (g1 / r1 - g0 / r0) / (r1 - r0)
+    a = g0 / r0 - b * r0
+    if not (b <= 0 and a > 0 and 2 * r0 * -b <= a):
+        a, b = g0 / r0, 0.0
+    return pchip, a, b
+
+
+def _g_of(G, r):
+    pchip, a, b = _continued(G)
+    return np.where(r < float(G.dr[0]), a * r**2 + b * r**4, np.exp(pchip(np.log(r))))
+
+
 def _integral_g_over_r2(G, a):
-    """int_0^a G/r^2 dr for the log-log interpolated G, ballistic below the first bin."""
-    x = np.linspace(np.log(float(G.dr[0])), np.log(a), 1_000_001)
-    g = np.exp(np.interp(x, np.log(G.dr.values), np.log(G.values)))
-    return np.trapezoid(g * np.exp(-x), x) + float(G[0]) / float(G.dr[0])
+    """int_0^a G/r^2 dr of G's continuation, by a fine trapezoid rule over ln r (1e6 nodes:
+    error ~1e-10) above the first bin and the even start's closed form below it."""
+    pchip, ca, cb = _continued(G)
+    r0 = float(G.dr[0])
+    x = np.linspace(np.log(r0), np.log(a), 1_000_001)
+    return np.trapezoid(np.exp(pchip(x) - x), x) + ca * r0 + cb * r0**3 / 3
 
 
 def _stress_field_acf(topo, points_per_decade):
@@ -290,7 +313,7 @@ def test_patch_radius_on_model_g():
     assert a46 < a44
 
     def g(r):
-        return np.exp(np.interp(np.log(r), np.log(G.dr.values), np.log(G.values)))
+        return float(_g_of(G, np.asarray(r, dtype=float)))
 
     def v(a):
         return E_STAR / 4 * _integral_g_over_r2(G, a) * 1e-9
@@ -459,14 +482,17 @@ def test_units_follow_and_nm_equals_m():
 
 def test_results_round_trip_netcdf(tmp_path):
     G = _surface(n=128).rough.acf()
-    results = [G.rough.energy(E_star=E_STAR), G.rough.stress_acf(E_star=E_STAR),
-               G.rough.persson(E_star=E_STAR, p0=[1e5, 1e6], gradient_method="simple"),
-               G.rough.patch_radius(E_star=E_STAR, gamma=0.05)]
+    with warnings.catch_warnings():  # lambda_s = 2 px: v_el below one pixel, flagged
+        warnings.simplefilter("ignore", xrough.quality.QualityWarning)
+        results = [G.rough.energy(E_star=E_STAR), G.rough.stress_acf(E_star=E_STAR),
+                   G.rough.persson(E_star=E_STAR, p0=[1e5, 1e6], gradient_method="simple"),
+                   G.rough.patch_radius(E_star=E_STAR, gamma=0.05)]
     for k, res in enumerate(results):
         assert_netcdf_round_trip(res, tmp_path / f"r{k}.nc")
 
 
 @pytest.mark.slow  # 40 s (Persson theory on three stacked G)
+@pytest.mark.filterwarnings("ignore::xrough.quality.QualityWarning")  # lambda_s = 2 px
 def test_extra_dims_give_one_result_per_scan():
     stack = xr.concat([_surface(n=128, seed=s) for s in range(3)], dim="scan")
     G = stack.rough.acf()
@@ -628,6 +654,32 @@ def test_patch_radius_says_why_it_is_infinite_or_extrapolated():
     assert far.attrs["quality"] == "questionable"
 
 
+def test_even_start_below_the_first_lag():
+    """G = A r^2 + B r^4 sampled from r0 = 1 m (concave in r^2, rising to r^2 = 50): the
+    continuation below r0 is that polynomial, so the share of v_el below r0 is
+    E*/4 (A r0 + B r0^3 / 3) and a_c, a_c_upper below r0 solve their cubics exactly
+    (brentq on the polynomial here, to 1e-13)."""
+    from scipy.optimize import brentq
+
+    A, B = 0.25, -0.0025
+    dr = np.geomspace(1.0, 5.0, 30)
+    G = xr.DataArray(A * dr**2 + B * dr**4, dims="dr", attrs={"units": "m2"},
+                     coords={"dr": ("dr", dr, {"units": "m"})})
+    E, gamma = 25e6, 1e6  # roots near 0.6 m, where B a^3 is 1e-3 of A a
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", xrough.QualityWarning)  # roots below the data
+        v = xrough.elastic_energy(G, E_star=E)
+        pr = xrough.patch_radius(G, E_star=E, gamma=gamma)
+    below = float(v.extrapolated_below * v.v_el)
+    assert below == pytest.approx(E / 4 * (A + B / 3), rel=1e-12)
+    upper = brentq(lambda a: E / 4 * (A * a + B * a**3 / 3) - gamma, 1e-9, 1.0, xtol=1e-15)
+    refined = brentq(lambda a: E * (3 * A * a / 8 + 5 * B * a**3 / 24) - gamma, 1e-9, 1.0,
+                     xtol=1e-15)
+    assert 0.3 < refined < upper < 1.0
+    assert float(pr.a_c_upper) == pytest.approx(upper, rel=1e-12)
+    assert float(pr.a_c) == pytest.approx(refined, rel=1e-12)
+
+
 def test_patch_radius_below_the_data_is_the_root_of_the_ballistic_continuation():
     """Ballistic G measured from 1 m: a_c is the closed-form root, not a search bound.
 
@@ -643,7 +695,7 @@ def test_patch_radius_below_the_data_is_the_root_of_the_ballistic_continuation()
     G = xr.DataArray(dr**2 / 4, dims="dr", attrs={"units": "m2"},
                      coords={"dr": ("dr", dr, {"units": "m"})})
     E, gamma, gbar = 25e6, 0.05, 1.0
-    with pytest.warns(xrough.QualityWarning, match="ballistic continuation") as caught:
+    with pytest.warns(xrough.QualityWarning, match="continuation there") as caught:
         pr = xrough.patch_radius(G, E_star="25 MPa", gamma="50 mJ/m^2")
     assert len([w for w in caught if w.category is xrough.QualityWarning]) == 1
     assert float(pr.a_c) == pytest.approx(32 * gamma / (3 * E * gbar**2), rel=1e-9)

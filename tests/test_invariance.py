@@ -818,15 +818,17 @@ def test_elastic_energy_does_not_depend_on_the_bin_density(seed, hurst):
     """v_el (eq. 16) and v_el(a_c) (eq. 44) at 10, 20 and 40 bins per decade: within 1 %.
 
     v_el is a property of the surface; the bins only change the quadrature of
-    ``int G / r^2 dr`` (power laws between bin means, the same ballistic continuation
-    below the first bin, which is one pixel at every density). Measured on such maps:
+    ``int G / r^2 dr`` (monotone cubics in log-log between bin means, the same even start
+    below the first bins, which are 1 and sqrt(2) pixels at every density). Measured on such maps:
     0.1-0.3 %; 1 % leaves room and still catches an integral that depends on the number
     of bins (e.g. a sum over bins without their widths, or a misplaced bin centre: 5-50 %).
     """
     topo = surface_nm(n=64, seed=seed, hurst=hurst)
-    energies = [xrough.elastic_energy(topo.rough.acf(points_per_decade=ppd),
-                                      E_star="25 MPa", a_c=[20.0, 80.0])
-                for ppd in (10, 20, 40)]
+    with warnings.catch_warnings():  # H = 0.3: most of v_el lies below one pixel (flagged)
+        warnings.simplefilter("ignore", xrough.quality.QualityWarning)
+        energies = [xrough.elastic_energy(topo.rough.acf(points_per_decade=ppd),
+                                          E_star="25 MPa", a_c=[20.0, 80.0])
+                    for ppd in (10, 20, 40)]
     for e in energies[1:]:
         np.testing.assert_allclose(float(e.v_el), float(energies[0].v_el), rtol=0.01)
         np.testing.assert_allclose(e.v_el_patch.values, energies[0].v_el_patch.values,

@@ -5,6 +5,7 @@ import warnings
 import numpy as np
 import pytest
 import xarray as xr
+from scipy.interpolate import PchipInterpolator
 
 import xrough
 from conftest import data_path
@@ -161,27 +162,32 @@ def test_energy_bridges_the_gap_with_an_error_that_covers_it(gapped, whole):
 def test_bridge_energy_closed_form():
     """A pure power law G = r^1.4 on bins 1..1000 with a gap 10-100: the bridge is exact,
     so are both alternatives (same slope on either side), and its share is the closed
-    form of int_10^100 r^-0.6 dr over the whole integral (ballistic below 1, flat
-    beyond 1000)."""
+    form of int_10^100 r^-0.6 dr over the whole integral (the even start a r^2 + b r^4
+    through the bins at 1 and 3 below 1, flat beyond 1000)."""
     dr = np.array([1.0, 3.0, 10.0, 100.0, 300.0, 1000.0])
     g = dr**1.4
     share, err = bridge_energy(g, dr=dr, lo=np.array([20.0]), hi=np.array([50.0]))
     part = (100**0.4 - 10**0.4) / 0.4
-    total = 1.0 + (1000**0.4 - 1) / 0.4 + 1000**1.4 / 1000
+    b = (3**1.4 / 9 - 1) / 8  # G(1) = a + b = 1, G(3) = 9 a + 81 b = 3^1.4
+    total = (1 - b) + b / 3 + (1000**0.4 - 1) / 0.4 + 1000**1.4 / 1000
     assert share == pytest.approx(part / total, rel=1e-12)
     assert err == pytest.approx(0.0, abs=1e-12)
-    # a kink at the gap: below slope 2 (ballistic), above 0.4; the alternatives
-    # continue each slope from its side, the error is the larger departure
+    # a kink at the gap: below slope 2 (ballistic), above 0.4; the bridge is the curve's
+    # monotone cubic in log-log (scipy's PCHIP, integrated here by a fine trapezoid
+    # rule), the alternatives continue each slope from its side, the error is the larger
+    # departure
     g = np.where(dr <= 10, dr**2, 100 * (dr / 10) ** 0.4)
     share, err = bridge_energy(g, dr=dr, lo=np.array([20.0]), hi=np.array([50.0]))
-    s = np.log(g[3] / g[2]) / np.log(10)
-    bridge = 100 * 10**-s * (100 ** (s - 1) - 10 ** (s - 1)) / (s - 1)
+    pchip = PchipInterpolator(np.log(dr), np.log(g))
+
+    def integral(a, c):
+        x = np.linspace(np.log(a), np.log(c), 2_000_001)
+        return np.trapezoid(np.exp(pchip(x) - x), x)
+
+    bridge = integral(10, 100)
     left = 100 / 10**2 * (100 - 10)  # G = r^2: int r^0 dr
     right = g[3] * 100**-0.4 * (100**-0.6 - 10**-0.6) / -0.6
-    total = (1.0 + np.sum([g[k] * dr[k] ** -sk * (dr[k + 1] ** (sk - 1) - dr[k] ** (sk - 1))
-                           / (sk - 1) for k, sk in enumerate(
-                               np.diff(np.log(g)) / np.diff(np.log(dr)))])
-             + g[-1] / dr[-1])
+    total = 1.0 + integral(1, 1000) + g[-1] / dr[-1]  # ballistic start (G = r^2 at 1, 3)
     assert share == pytest.approx(bridge / total, rel=1e-9)
     assert err == pytest.approx(max(abs(left - bridge), abs(right - bridge)) / total,
                                 rel=1e-9)

@@ -327,8 +327,10 @@ def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Datas
               \frac{G(\Delta r)}{\Delta r^2}
 
     Exact within linear elasticity for any (statistically isotropic) surface. Between the
-    bins G is a power law; below the first bin it is continued ballistically
-    (``G ~ r^2``), beyond the last bin flat; the shares of those continuations in
+    bins G is a monotone cubic in log-log (a power law where the bins are one); below the
+    first bin it is continued as a surface smooth below its finest resolved scale,
+    ``G = a r^2 + b r^4`` through the first two bins (``b = 0``, ballistic, unless that is
+    concave and rising), beyond the last bin flat; the shares of those continuations in
     ``v_el`` are reported.
 
     Parameters
@@ -398,8 +400,8 @@ def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Datas
                 units="J m-2", long_name="areal elastic energy to flatten patches of radius "
                 "a_c", equation="eq. 44: v_el(a_c) = E*/4 int_0^a_c G/r^2 dr"),
             "extrapolated_below": part["below"].assign_attrs(
-                units="1", long_name="share of v_el from below the smallest dr (ballistic "
-                "continuation)"),
+                units="1", long_name="share of v_el from below the smallest dr (continued as "
+                "a dr^2 + b dr^4)"),
             "extrapolated_above": part["above"].assign_attrs(
                 units="1", long_name="share of v_el from beyond the largest dr (flat "
                 "continuation)"),
@@ -412,7 +414,8 @@ def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Datas
     return _rate(ds, bridged + [
         (part["below"] > EXTRAPOLATED, "questionable",
          f"more than {EXTRAPOLATED:.0%} of v_el comes from below the smallest lag, where G "
-         "is continued as dr^2: the energy is set by scales finer than the data "
+         "is continued as a smooth surface's a dr^2 + b dr^4: the energy is set by scales "
+         "finer than the data "
          "(H < 0.5 puts it at the smallest scales); measure finer, or read v_el as a "
          "lower bound"),
         (part["above"] > EXTRAPOLATED, "questionable",
@@ -1113,10 +1116,11 @@ def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
     with ``v_el(a_c) = (E*/4) int_0^{a_c} G(r)/r^2 dr``. Outside the lags of G the roots
     are those of G's continuation, in closed form (never a bound of the search):
 
-    - below the first lag ``r0``, G is continued ballistically, ``G = G(r0) (r/r0)^2``,
-      and ``a_c = 8 gamma r0^2 / (3 E* G(r0))``, ``a_c_upper = 4 gamma r0^2 / (E* G(r0))``
-      (for ``G = gbar^2 dr^2 / 4``: ``32 gamma / (3 E* gbar^2)`` and
-      ``16 gamma / (E* gbar^2)``);
+    - below the first lag ``r0``, G is continued as ``G = a r^2 + b r^4`` (the even start
+      of :func:`elastic_energy`), and the radii are the roots of cubics; for ``b = 0``
+      (ballistic, ``G = G(r0) (r/r0)^2``) ``a_c = 8 gamma r0^2 / (3 E* G(r0))``,
+      ``a_c_upper = 4 gamma r0^2 / (E* G(r0))`` (for ``G = gbar^2 dr^2 / 4``:
+      ``32 gamma / (3 E* gbar^2)`` and ``16 gamma / (E* gbar^2)``);
     - beyond the last lag ``rL``, G is continued flat, ``v_el(a) = v_el - E* G(rL) / (4 a)``
       with ``v_el`` of full contact (eq. 16), and ``a_c = E* G(rL) / (8 (v_el - gamma))``,
       ``a_c_upper = E* G(rL) / (4 (v_el - gamma))``.
@@ -1197,6 +1201,6 @@ def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
          "of G's flat continuation (in closed form), not of data: measure larger scales "
          "to confirm it"),
         (finite & (a_c < lags[0]), "questionable",
-         "a_c lies below the smallest lag of G: it is the root of G's ballistic "
-         "continuation (G ~ dr^2, in closed form), not of data: measure finer scales to "
+         "a_c lies below the smallest lag of G: it is the root of G's continuation "
+         "there (a dr^2 + b dr^4, in closed form), not of data: measure finer scales to "
          "confirm it")], what="patch_radius", G=G)

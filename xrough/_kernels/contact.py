@@ -271,9 +271,11 @@ def patch_radius_curve(g, *, dr, E_star, gamma) -> np.ndarray:
     Between the first and the last sample the smallest root is searched on a log grid and
     refined; outside them G is continued as in :class:`AcfCurve` and the roots are closed
     forms of that continuation, so no search bound is ever returned. Below the first
-    sample ``(r0, G0)``, ``G = c r^2`` with ``c = G0 / r0^2`` gives
-    ``v_el(a) = E* c a / 4`` and the roots ``4 gamma / (E* c)`` (eq. 44) and
-    ``8 gamma / (3 E* c)`` (eq. 46), both increasing functions being 0 - gamma at a = 0.
+    sample ``r0``, the even start ``G = A r^2 + B r^4`` gives
+    ``v_el(a) = E* (A a + B a^3 / 3) / 4`` and the roots of the cubics
+    ``A a + B a^3 / 3 = 4 gamma / E*`` (eq. 44) and ``3 A a / 8 + 5 B a^3 / 24 = gamma / E*``
+    (eq. 46), both increasing on ``[0, r0]`` from ``-gamma`` at ``a = 0``; for ``B = 0``
+    (ballistic, ``A = G0 / r0^2``) ``4 gamma / (E* A)`` and ``8 gamma / (3 E* A)``.
     Beyond the last sample ``(rL, GL)``, ``G = GL`` gives
     ``v_el(a) = v_el - E* GL / (4 a)`` with ``v_el`` of full contact (eq. 16), and the
     roots ``E* GL / (4 (v_el - gamma))`` (eq. 44) and ``E* GL / (8 (v_el - gamma))``
@@ -281,7 +283,6 @@ def patch_radius_curve(g, *, dr, E_star, gamma) -> np.ndarray:
     """
     curve = _curve(g, None, dr)
     r0, r_last = curve.dr[0], curve.dr[-1]
-    c = curve.g[0] / r0**2
     v_full = E_star / 4 * curve.cumulative_g_over_r2(np.array([np.inf]))[0][0]
 
     def upper(a):
@@ -291,7 +292,7 @@ def patch_radius_curve(g, *, dr, E_star, gamma) -> np.ndarray:
         return upper(a) + E_star * curve(a) / (8 * a)
 
     def root(f, below, beyond):
-        if f(np.array([r0]))[0] >= 0:  # in the ballistic continuation
+        if f(np.array([r0]))[0] >= 0:  # in the even start below r0
             return below
         inside = _first_root(f, r0, r_last)
         if np.isfinite(inside):
@@ -300,9 +301,18 @@ def patch_radius_curve(g, *, dr, E_star, gamma) -> np.ndarray:
             return np.inf
         return beyond  # in the flat continuation (f increases there)
 
+    def start_root(cubic, linear, rhs):
+        """The root in ``(0, r0]`` of ``cubic a^3 + linear a = rhs`` (increasing there)."""
+        if cubic == 0:
+            return rhs / linear
+        roots = np.roots([cubic, 0.0, linear, -rhs])
+        real = roots[(np.abs(roots.imag) <= 1e-9 * np.abs(roots)) & (roots.real > 0)].real
+        return float(np.min(real, initial=np.inf))
+
+    A, B = curve.a, curve.b
     return np.array([
-        root(refined, 8 * gamma / (3 * E_star * c),
+        root(refined, start_root(5 * B / 24, 3 * A / 8, gamma / E_star),
              E_star * curve.plateau / (8 * (v_full - gamma))),
-        root(upper, 4 * gamma / (E_star * c),
+        root(upper, start_root(B / 3, A, 4 * gamma / E_star),
              E_star * curve.plateau / (4 * (v_full - gamma))),
         v_full])

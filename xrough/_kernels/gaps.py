@@ -1,10 +1,10 @@
 """Integrals of G across lag ranges that no measurement covers (numpy only).
 
 A stitched G may have no bin over a range of lags between the windows of its
-measurements. Every integral of G takes it as the power law through the two bins around
-such a gap (log-log interpolation, :class:`AcfCurve`); how much that choice matters is
-bounded by the alternatives that continue either neighbour's own local slope across the
-gap instead.
+measurements. Every integral of G bridges it as :class:`AcfCurve` continues G between
+two bins (a monotone cubic in log-log through the bins around the gap, which meets the
+slopes on either side); how much that choice matters is bounded by the alternatives that
+continue either neighbour's own local slope across the gap instead.
 """
 
 from __future__ import annotations
@@ -34,8 +34,8 @@ def bridge_energy(g, *, dr, lo, hi) -> np.ndarray:
     Returns
     -------
     ndarray
-        ``[share, error]``: the share of the integral that comes from the log-log bridges
-        between the bins around each gap (summed over gaps), and the largest relative
+        ``[share, error]``: the share of the integral that comes from the bridges between
+        the bins around each gap (summed over gaps), and the largest relative
         change of the integral when a bridge is replaced by the continuation of the local
         slope of the bin pair below or above it (summed over gaps). ``[0, 0]`` without
         gaps between bins.
@@ -49,7 +49,8 @@ def bridge_energy(g, *, dr, lo, hi) -> np.ndarray:
         i = j - 1
         if i < 0 or j >= x.size or x[i] > gap_lo:
             continue  # not between two bins: the continuations' shares cover it
-        bridge = _g_over_r2(x[i], x[j], y[i], x[i], slope[i])
+        ends, _, _ = curve.cumulative_g_over_r2(np.array([x[i], x[j]]))
+        bridge = float(ends[1] - ends[0])
         others = ([_g_over_r2(x[i], x[j], y[i], x[i], slope[i - 1])] if i >= 1 else []) + (
             [_g_over_r2(x[i], x[j], y[j], x[j], slope[j])] if j + 1 < x.size else [])
         share += bridge / total
