@@ -83,9 +83,9 @@ def scaling_table(args) -> None:
     for n in args.sizes:
         topo = surface(n)
         h = topo.values
-        t = best_of(lambda: topo.rough.acf(estimator="random", n_pairs=budget, seed=1),
-                    args.repeat)
-        t_pass = best_of(lambda: np.nanmax(np.abs(h)), args.repeat)
+        t = best_of(lambda topo=topo: topo.rough.acf(estimator="random", n_pairs=budget,
+                                                     seed=1), args.repeat)
+        t_pass = best_of(lambda h=h: np.nanmax(np.abs(h)), args.repeat)
         first = t if first is None else first
         print(f"{n:>6} {t:8.4f} {t / first:11.2f} {t_pass:11.4f} {t / t_pass:11.2f}",
               flush=True)
@@ -111,12 +111,12 @@ def cost_model(args) -> None:
                        ("profile", surface(16 * n, profile=True))):
         m = topo.size if topo.attrs.get("periodic") else int(
             np.prod([2 * s - 1 for s in topo.shape]))
-        t_fft = best_of(lambda: topo.rough.acf(estimator="fft"), args.repeat)
-        t1 = best_of(lambda: topo.rough.acf(estimator="random", n_pairs=10_000, seed=1),
-                     args.repeat)
-        t2 = best_of(lambda: topo.rough.acf(estimator="random", n_pairs=1_000_000, seed=1),
-                     args.repeat)
-        t_count = best_of(lambda: valid_points(topo.values), args.repeat)
+        t_fft = best_of(lambda topo=topo: topo.rough.acf(estimator="fft"), args.repeat)
+        t1 = best_of(lambda topo=topo: topo.rough.acf(estimator="random", n_pairs=10_000,
+                                                      seed=1), args.repeat)
+        t2 = best_of(lambda topo=topo: topo.rough.acf(estimator="random", n_pairs=1_000_000,
+                                                      seed=1), args.repeat)
+        t_count = best_of(lambda topo=topo: valid_points(topo.values), args.repeat)
         nb = topo.rough.acf(estimator="random", n_pairs=10_000, seed=1).sizes["dr"]
         per_pair = (t2 - t1) / 990_000
         per_bin = (t1 - 1e4 * per_pair - t_count) / nb
@@ -127,7 +127,8 @@ def cost_model(args) -> None:
               f"pair, {per_bin:.3g} s per bin ({nb} bins); count {t_count / topo.size:.3g} "
               f"s per point; fft / random 1e4 = {t_fft / t1:.2f}", flush=True)
         if what == "open map":
-            t_tiled = best_of(lambda: topo.rough.acf(estimator="tiled"), max(1, args.repeat // 2))
+            t_tiled = best_of(lambda topo=topo: topo.rough.acf(estimator="tiled"),
+                              max(1, args.repeat // 2))
             print(f"open map: tiled {t_tiled:.4f} s, {t_tiled / topo.size:.3g} s per point, "
                   f"tiled / fft = {t_tiled / t_fft:.2f}", flush=True)
 
@@ -166,11 +167,13 @@ def check_choices(args) -> None:
         pairs = math.ceil(SAMPLING_KAPPA / (target / 2) ** 2) * nb
         explicit = dict(estimator="random", n_pairs=pairs, seed=1) if chosen == "random" \
             else {}
-        t_target = best_of(lambda: topo.rough.acf(target_error=target, dr_max=dr_max,
-                                                  seed=1), args.repeat)
-        t_chosen = best_of(lambda: topo.rough.acf(dr_max=dr_max, **explicit), args.repeat)
+        t_target = best_of(lambda topo=topo, target=target, dr_max=dr_max: topo.rough.acf(
+            target_error=target, dr_max=dr_max, seed=1), args.repeat)
+        t_chosen = best_of(lambda topo=topo, dr_max=dr_max, explicit=explicit: topo.rough.acf(
+            dr_max=dr_max, **explicit), args.repeat)
         other = {} if chosen == "random" else dict(estimator="random", n_pairs=pairs, seed=1)
-        t_other = best_of(lambda: topo.rough.acf(dr_max=dr_max, **other), args.repeat)
+        t_other = best_of(lambda topo=topo, dr_max=dr_max, other=other: topo.rough.acf(
+            dr_max=dr_max, **other), args.repeat)
         print(f"{n:>6} {periodic!s:>8} {dr_max or '-':>7} {target:7.2f} {chosen:>8} "
               f"{pairs:9d} {t_chosen:9.4f} {t_other:9.4f} {t_other / t_chosen:15.2f} "
               f"{t_target - t_chosen:9.4f}", flush=True)

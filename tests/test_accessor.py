@@ -134,7 +134,7 @@ def test_registered_on_xarray(owner, cls):
 
 def test_help_shows_signature_and_docstring():
     text = pydoc.render_doc(xr.DataArray([0.0]).rough.persson, renderer=pydoc.plaintext)
-    assert "persson(*, E_star: 'Any', p0: 'Any'" in text
+    assert "persson(*, E_star: 'QuantityLike', p0: 'QuantityLike'" in text
     assert "Real-space Persson theory" in text
 
 

@@ -79,9 +79,10 @@ class _forward:
             return func(self._obj, *args, **kwargs)
 
         this = data.replace(name="self", annotation=inspect.Parameter.empty)
-        method.__signature__ = sig.replace(parameters=[this, *params[1:]])
+        attributes: Any = method  # __signature__ and __wrapped__: not typed on functions
+        attributes.__signature__ = sig.replace(parameters=[this, *params[1:]])
         method.__doc__ = func.__doc__
-        method.__wrapped__ = func
+        attributes.__wrapped__ = func
         method.__annotations__ = {k: v for k, v in getattr(func, "__annotations__", {}).items()
                                   if k != data.name}
         method.__name__ = method.__qualname__ = func.__name__

@@ -38,11 +38,12 @@ Arguments with units (lags, wavenumbers, moduli, pressures) are read by :mod:`xr
 
 from __future__ import annotations
 
+from collections.abc import Hashable
 from dataclasses import dataclass, field
 
 import numpy as np
-import pint
 import xarray as xr
+from pint.facets.plain import PlainUnit
 
 from . import quality
 from . import units as u
@@ -76,7 +77,7 @@ class AcfSpec:
         Converts G (and its standard error) to ``length_unit^2``.
     to_m : float
         Converts ``length_unit`` to metres.
-    extra_dims : tuple of str
+    extra_dims : tuple of hashable
         Dims other than ``dr`` (one curve per combination).
     gaps : ndarray
         Lag ranges no measurement covers, shape ``(n, 2)`` in ``length_unit`` (from the
@@ -84,11 +85,11 @@ class AcfSpec:
     """
 
     dr: np.ndarray
-    length_unit: pint.Unit
+    length_unit: PlainUnit
     unit_str: str
     g_factor: float
     to_m: float
-    extra_dims: tuple[str, ...]
+    extra_dims: tuple[Hashable, ...]
     gaps: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
 
     @property
@@ -212,7 +213,7 @@ def read_acf(G: xr.DataArray, *, what: str = "G", single: bool = False,
     return G.drop_vars(quality.FLAG, errors="ignore"), spec
 
 
-def _gaps(attrs: dict, length_unit: pint.Unit, what: str) -> np.ndarray:
+def _gaps(attrs: dict, length_unit: PlainUnit, what: str) -> np.ndarray:
     """Return the uncovered lag ranges recorded on a G, ``(n, 2)`` in ``length_unit``."""
     if "uncovered_dr_min" not in attrs and "uncovered_dr_max" not in attrs:
         return np.empty((0, 2))

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -44,6 +43,7 @@ from .gradient import rms_gradient
 from .memo import by_content
 from .preprocess import reliability_window
 from .spectra import spectrum_input
+from .units import QuantityLike
 
 __all__ = ["elastic_energy", "stress_acf", "stress_acf_from_spectrum", "persson",
            "patch_radius", "KAPPA_PERSSON"]
@@ -265,7 +265,8 @@ def _rate(result, checks, *, what: str, G, inherited=()):
     """
     inherited = (G, *inherited)
     codes = xr.DataArray(np.int8(0))
-    notes, remarks = [], []  # remarks: notes of checks at level "good" (no warning)
+    notes: list[str] = []
+    remarks: list[str] = []  # notes of checks at level "good" (no warning)
     lazy = any(mask.chunks is not None for mask, _, _ in checks)
     for mask, level, note in checks:
         codes = np.maximum(codes, xr.where(mask, np.int8(quality.level_code(level)),
@@ -275,7 +276,8 @@ def _rate(result, checks, *, what: str, G, inherited=()):
     for source in inherited:
         if source is None:
             continue
-        codes = np.maximum(codes, quality.flag_of(source))
+        # numpy's stubs do not know DataArray.__array_ufunc__ (a DataArray comes back)
+        codes = np.maximum(codes, quality.flag_of(source))  # type: ignore[assignment]
         said = source.attrs.get("quality_notes")
         if said and not any(said in note for note in notes):  # one cause, one note
             notes.append(said)
@@ -319,7 +321,8 @@ def _nan_where(result, mask: xr.DataArray):
 # ---------------------------------------------------------------------------------------
 @_own_attrs
 @u.accepts_quantified
-def elastic_energy(G: xr.DataArray, *, E_star: Any, a_c: Any = None) -> xr.Dataset:
+def elastic_energy(G: xr.DataArray, *, E_star: QuantityLike,
+                   a_c: QuantityLike | None = None) -> xr.Dataset:
     r"""Areal elastic energy of full contact (eq. 16) and of patches of radius a_c (eq. 44).
 
     .. math:: v_{el} = \frac{E^*}{4}\int_0^\infty d\Delta r\,\frac{G(\Delta r)}{\Delta r^2},
@@ -454,7 +457,8 @@ def _bridged_energy(ds: xr.Dataset, G_si: xr.DataArray, spec: AcfSpec) -> tuple:
 # ---------------------------------------------------------------------------------------
 @_own_attrs
 @u.accepts_quantified
-def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "persson",
+def stress_acf(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike | None = None,
+               theory: str = "persson",
                gradient: xr.DataArray | None = None, kappa: float = KAPPA_PERSSON,
                gradient_method: str = "auto", smooth_full: bool = True) -> xr.DataArray:
     r"""Stress autocorrelation function in full (eq. 24) or partial contact (eq. 30/48).
@@ -569,7 +573,8 @@ def stress_acf(G: xr.DataArray, *, E_star: Any, p0: Any = None, theory: str = "p
 
 
 @u.accepts_quantified
-def stress_acf_from_spectrum(C: xr.DataArray, dr: Any, *, E_star: Any) -> xr.DataArray:
+def stress_acf_from_spectrum(C: xr.DataArray, dr: QuantityLike, *,
+                             E_star: QuantityLike) -> xr.DataArray:
     r"""Full-contact stress ACF of a model spectrum by the spectral route (eq. 22-24).
 
     .. math:: G_\sigma^{full}(\Delta r) = \left(\frac{E^*}{2}\right)^2 \frac{1}{2\pi}
@@ -665,7 +670,7 @@ def _first_finite(values: np.ndarray) -> np.ndarray:
 
 @_own_attrs
 @u.accepts_quantified
-def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
+def persson(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike, theory: str = "persson",
             kappa: float = KAPPA_PERSSON, gradient: xr.DataArray | None = None,
             gradient_method: str = "auto", variables: tuple[str, ...] | None = None,
             fit: xr.Dataset | None = None, smooth_full: bool = True) -> xr.Dataset:
@@ -793,7 +798,8 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
     out: dict[str, xr.DataArray] = {}
     checks: list = []
     derivative: list = []
-    area, method = None, "none"
+    area: _ContactArea | None = None
+    method = "none"
     if set(wanted) - {"sigma_quick"}:  # everything else needs gbar(dr)
         if gradient is None:
             with quality.quiet():  # their notes are this result's: it warns once
@@ -812,13 +818,16 @@ def persson(G: xr.DataArray, *, E_star: Any, p0: Any, theory: str = "persson",
                 fit = fit_acf(G)
         out["sigma_quick"] = _sigma_quick(run, fit)
     if "G_sigma" in wanted or "Gamma_sigma" in wanted:
+        assert area is not None  # every variable but sigma_quick has it
         stress, stress_checks, stress_derivative = _stress_vars(run, area, smooth_full)
         out.update(stress)
         checks += stress_checks
         derivative += stress_derivative
     if {"Gamma_sigma_sa", "Gamma_sigma_51"} & set(wanted):
+        assert area is not None
         out.update(_asymptote_vars(run, area))
     if "G_du" in wanted:
+        assert area is not None
         out["G_du"] = (_strip(G) * area.weight).assign_attrs(
             units=G.attrs["units"], long_name="displacement autocorrelation function",
             equation=f"eq. 34 with W of eq. 49 ({theory})")
@@ -936,14 +945,18 @@ def _std_of(value: xr.DataArray, of_p_star, area: _ContactArea, step: float = 1e
 
 def _area_vars(run: _PerssonRun, area: _ContactArea) -> dict[str, xr.DataArray]:
     """``p_star``, ``a_r``, ``a_ri`` and ``sigma_c``, those asked for."""
+    def a_ri() -> xr.DataArray:
+        assert area.a_ri is not None  # _contact_area computes it when it is wanted
+        return area.a_ri.assign_attrs(
+            units="1", long_name="improved relative contact area", equation="eq. 50")
+
     made = {
         "p_star": lambda: area.p_star.assign_attrs(
             units="1", long_name="reduced pressure p0 / (E* gbar)", equation="eq. 29"),
         "a_r": lambda: area.a_r.assign_attrs(
             units="1", long_name="relative contact area",
             equation="eq. 29: erf(sqrt(pi) kappa p* / 2)"),
-        "a_ri": lambda: area.a_ri.assign_attrs(
-            units="1", long_name="improved relative contact area", equation="eq. 50"),
+        "a_ri": a_ri,
         "sigma_c": lambda: (run.p0 / area.a_r).assign_attrs(
             units="Pa", long_name="mean contact stress at resolution dr",
             equation="eq. 39/40: p0 / a_r"),
@@ -1106,7 +1119,7 @@ def _persson_dataset(run: _PerssonRun, out: dict, p0s, method: str) -> xr.Datase
 # ---------------------------------------------------------------------------------------
 @_own_attrs
 @u.accepts_quantified
-def patch_radius(G: xr.DataArray, *, E_star: Any, gamma: Any) -> xr.Dataset:
+def patch_radius(G: xr.DataArray, *, E_star: QuantityLike, gamma: QuantityLike) -> xr.Dataset:
     r"""Radius of spontaneously adhering patches (Dahlquist-type criterion, eq. 43-46).
 
     - upper estimate (eq. 44): the smallest ``a_c`` with ``gamma = v_el(a_c)``;

@@ -19,11 +19,10 @@ functions.  The numpy kernels are :func:`xrough._kernels.fitting.fitted_spectrum
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
-import pint
 import xarray as xr
+from pint.facets.plain import PlainUnit
 
 from . import units as u
 from ._kernels.fitting import (
@@ -36,11 +35,12 @@ from ._kernels.fitting import (
 )
 from ._kernels.shape_factors import ROLLOFFS, rolloff_factor, self_affine_factor
 from .acf import lag_coord
+from .units import QuantityLike
 
 __all__ = ["read_fit", "model_acf", "gradient_from_fit", "rolloff_shapes"]
 
 
-def _length_unit(params: xr.Dataset, name: str) -> pint.Unit:
+def _length_unit(params: xr.Dataset, name: str) -> PlainUnit:
     return u.as_length_unit(u.units_of(params[name], what=name), what=name)
 
 
@@ -62,9 +62,9 @@ class FitReading:
 
     params: xr.Dataset
     model: str
-    lateral: pint.Unit
-    height: pint.Unit
-    g_unit: pint.Unit
+    lateral: PlainUnit
+    height: PlainUnit
+    g_unit: PlainUnit
 
     @property
     def lateral_str(self) -> str:
@@ -80,7 +80,7 @@ class FitReading:
         """Scalar coordinate ``name`` (``dr_ref``, ``lambda_0``) in the lateral unit."""
         return float(self.in_lateral(name))
 
-    def lags(self, dr: Any) -> np.ndarray:
+    def lags(self, dr: QuantityLike | None) -> np.ndarray:
         """Lags in the lateral unit (any form :func:`xrough.units.quantity` reads).
 
         Default (``dr=None``): 50 logarithmic points over the fitted range.
@@ -125,8 +125,8 @@ def read_fit(params: xr.Dataset) -> FitReading:
     ...                           rms_height="2 nm", unit="nm")
     >>> params = xrough.fit_acf(xrough.acf_from_spectrum(C, dr_min=1, dr_max=1e5))
     >>> fit = read_fit(params)
-    >>> fit.model, str(fit.lateral), str(fit.g_unit)
-    ('spectrum', 'nm', 'nm ** 2')
+    >>> fit.model, u.format_units(fit.lateral), u.format_units(fit.g_unit)
+    ('spectrum', 'nm', 'nm2')
     >>> read_fit(params.drop_vars("hurst"))
     Traceback (most recent call last):
     ...
@@ -195,7 +195,7 @@ def _eq36_gradient(fit: FitReading, values: np.ndarray, rolloff: str) -> xr.Data
 
 
 @u.accepts_quantified
-def model_acf(params: xr.Dataset, dr: Any = None) -> xr.DataArray:
+def model_acf(params: xr.Dataset, dr: QuantityLike | None = None) -> xr.DataArray:
     r"""Evaluate the fitted height-difference ACF ``G(dr)`` (plots, checks).
 
     For ``model="spectrum"``, eq. 9 of the fitted spectrum; for ``model="eq36"``,
@@ -270,7 +270,7 @@ def _gradient_rolloff(fit: FitReading, rolloff: str | None) -> str:
 
 
 @u.accepts_quantified
-def gradient_from_fit(params: xr.Dataset, dr: Any = None, *,
+def gradient_from_fit(params: xr.Dataset, dr: QuantityLike | None = None, *,
                       rolloff: str | None = None) -> xr.DataArray:
     r"""Scale-dependent rms gradient ``gbar(dr)`` from a fit of G.
 

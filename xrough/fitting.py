@@ -50,8 +50,8 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import pint
 import xarray as xr
+from pint.facets.plain import PlainUnit
 
 from . import quality
 from . import units as u
@@ -87,6 +87,7 @@ from .acf import (
 )
 from .fit_result import model_acf, rolloff_shapes  # noqa: F401  (read a fit; public here)
 from .memo import by_content
+from .units import QuantityLike
 
 __all__ = ["fit_acf", "model_acf", "describe_problems"]
 
@@ -104,7 +105,7 @@ _EQ36 = "eq. 36: 1/G(dr) = C_b/dr^2 + C_sa/dr^(2H) + 1/sigma_h^2, C_sa = dr_ref^
 # --------------------------------------------------------------------------------------
 # helpers
 # --------------------------------------------------------------------------------------
-def _area_unit(da: xr.DataArray, what: str) -> pint.Unit:
+def _area_unit(da: xr.DataArray, what: str) -> PlainUnit:
     unit = u.units_of(da, what=what)
     if unit.dimensionality != (u.ureg.meter**2).dimensionality:
         raise ValueError(f"{what} must be in length^2 (e.g. 'nm2'), but its units are "
@@ -112,7 +113,7 @@ def _area_unit(da: xr.DataArray, what: str) -> pint.Unit:
     return unit
 
 
-def reference_lag(dr: np.ndarray, lateral: pint.Unit) -> float:
+def reference_lag(dr: np.ndarray, lateral: PlainUnit) -> float:
     """Return the power of ten (decided in metres) nearest the geometric mean of ``dr``."""
     to_m = u.conversion_factor(lateral, "m")
     mean_m = float(np.exp(np.mean(np.log(dr)))) * to_m
@@ -126,7 +127,7 @@ def _variable(da: xr.DataArray, units: str, long_name: str) -> xr.DataArray:
 # --------------------------------------------------------------------------------------
 # the parameters held fixed (argument ``fix``)
 # --------------------------------------------------------------------------------------
-def _fix_hurst(value, lateral: pint.Unit, height: pint.Unit) -> tuple[float, str]:
+def _fix_hurst(value, lateral: PlainUnit, height: PlainUnit) -> tuple[float, str]:
     try:
         H = float(value)
     except (TypeError, ValueError):
@@ -137,7 +138,7 @@ def _fix_hurst(value, lateral: pint.Unit, height: pint.Unit) -> tuple[float, str
     return H, f"hurst={H:g}"
 
 
-def _fix_ballistic(value, lateral: pint.Unit, height: pint.Unit) -> tuple[float, str]:
+def _fix_ballistic(value, lateral: PlainUnit, height: PlainUnit) -> tuple[float, str]:
     q = u.quantity(value, default_units="", what="fix['C_b']")
     if not q.dimensionless or not (np.isfinite(q.to("").magnitude)
                                    and q.to("").magnitude >= 0):
@@ -150,7 +151,7 @@ def _is_number(value, limit: float) -> bool:
     return isinstance(value, (int, float, np.integer, np.floating)) and value == limit
 
 
-def _fix_plateau(value, lateral: pint.Unit, height: pint.Unit) -> tuple[float, str]:
+def _fix_plateau(value, lateral: PlainUnit, height: PlainUnit) -> tuple[float, str]:
     """``1/sigma_h^2`` in ``lateral`` (0: no plateau, ``sigma_h = inf``)."""
     if _is_number(value, np.inf):
         return 0.0, "sigma_h=inf"
@@ -161,7 +162,7 @@ def _fix_plateau(value, lateral: pint.Unit, height: pint.Unit) -> tuple[float, s
 
 def _fix_cutoff(name: str, none: float):
     """Parser of a cutoff wavelength in ``lateral``; ``none`` (inf or 0) means no cutoff."""
-    def parse(value, lateral: pint.Unit, height: pint.Unit) -> tuple[float, str]:
+    def parse(value, lateral: PlainUnit, height: PlainUnit) -> tuple[float, str]:
         if _is_number(value, none):
             return none, f"{name}={none:g}"
         length = u.length_in(value, lateral, what=f"fix[{name!r}]")
@@ -179,7 +180,7 @@ FIXABLE = {
 }
 
 
-def fixed_parameters(fix: dict | None, model: str, lateral: pint.Unit, height: pint.Unit,
+def fixed_parameters(fix: dict | None, model: str, lateral: PlainUnit, height: PlainUnit,
                      lambda_0: float = np.inf) -> tuple[np.ndarray, str]:
     """Read ``fix``: the ``fixed`` vector of ``model``'s kernel (NaN: free), a description.
 
@@ -326,12 +327,12 @@ def fit_acf(
     G: xr.DataArray,
     *,
     model: str = "spectrum",
-    dr_min: Any = None,
-    dr_max: Any = None,
+    dr_min: QuantityLike | None = None,
+    dr_max: QuantityLike | None = None,
     weights: str | None = "standard_error",
     fix: dict | None = None,
     rolloff: str | None = None,
-    lambda_0: Any = None,
+    lambda_0: QuantityLike | None = None,
 ) -> xr.Dataset:
     r"""Fit the height-difference ACF with the model spectrum (eq. 9 of eq. 35) or eq. 36.
 
@@ -597,8 +598,8 @@ class FitSetup:
     acf: AcfSpec
     model: str
     rolloff: str
-    height: pint.Unit
-    g_unit: pint.Unit
+    height: PlainUnit
+    g_unit: PlainUnit
     use: np.ndarray
     weighted: bool
     weighting: str
@@ -609,7 +610,7 @@ class FitSetup:
     dr_ref: float
 
     @property
-    def lateral(self) -> pint.Unit:
+    def lateral(self) -> PlainUnit:
         return self.acf.length_unit
 
     @property
@@ -655,7 +656,8 @@ def _model_and_rolloff(model: str, rolloff: str | None) -> tuple[str, str]:
     return model, rolloff
 
 
-def _lags_used(acf: AcfSpec, dr_min: Any, dr_max: Any) -> np.ndarray:
+def _lags_used(acf: AcfSpec, dr_min: QuantityLike | None,
+               dr_max: QuantityLike | None) -> np.ndarray:
     """Mask of the positive lags of G in ``[dr_min, dr_max]``."""
     lateral, dr = acf.length_unit, acf.dr
     lo = 0.0 if dr_min is None else u.length_in(dr_min, lateral, what="dr_min")
@@ -667,7 +669,7 @@ def _lags_used(acf: AcfSpec, dr_min: Any, dr_max: Any) -> np.ndarray:
     return use
 
 
-def _weighting(G: xr.DataArray, lateral: pint.Unit, weights: str | None) -> tuple:
+def _weighting(G: xr.DataArray, lateral: PlainUnit, weights: str | None) -> tuple:
     """``(weighted, description, standard error in lateral^2 or ones)``."""
     if weights not in ("standard_error", None):
         raise ValueError(f"weights must be 'standard_error' or None, got {weights!r}")
@@ -681,7 +683,7 @@ def _weighting(G: xr.DataArray, lateral: pint.Unit, weights: str | None) -> tupl
             xr.ones_like(G))
 
 
-def _long_cutoff(model: str, lambda_0: Any, lateral: pint.Unit) -> float:
+def _long_cutoff(model: str, lambda_0: QuantityLike | None, lateral: PlainUnit) -> float:
     if model == "eq36":
         if lambda_0 is not None:
             raise ValueError("lambda_0 applies to model='spectrum' only")

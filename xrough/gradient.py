@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
+from numpy.typing import ArrayLike
 
 from . import quality
 from . import units as u
@@ -46,6 +47,7 @@ from .fitting import describe_problems, fit_acf, prepare_fit
 from .memo import by_content
 from .models import model_attrs
 from .spectra import acf_samples, check_spectrum_options, spectrum_input, spectrum_lags
+from .units import QuantityLike
 
 __all__ = ["rms_gradient", "rms_gradient_exact", "gradient_from_spectrum",
            "gradient_from_fit", "GRADIENT_METHODS"]
@@ -165,9 +167,9 @@ def _rms_gradient(G: xr.DataArray, method: str, fit: xr.Dataset | None) -> xr.Da
         G = G.chunk({"dr": -1})  # each curve needs all its lags
     dr = spec.dr
     Gl = _strip(G) * spec.g_factor  # in the square of dr's unit
-    common = dict(input_core_dims=[["dr"], ["dr"]], output_core_dims=[["dr"]],
-                  vectorize=True, dask="parallelized", output_dtypes=[float],
-                  keep_attrs=False)
+    common: dict[str, Any] = dict(
+        input_core_dims=[["dr"], ["dr"]], output_core_dims=[["dr"]], vectorize=True,
+        dask="parallelized", output_dtypes=[float], keep_attrs=False)
     extra_attrs: dict = {}
     extra = [d for d in Gl.dims if d != "dr"]
     level = xr.DataArray(np.zeros([Gl.sizes[d] for d in extra], dtype=np.int8), dims=extra)
@@ -337,10 +339,10 @@ def _curve_notes(reasons: np.ndarray, level: np.ndarray) -> str:
 @u.accepts_quantified
 def rms_gradient_exact(
     G: xr.DataArray,
-    dr: Any = None,
+    dr: QuantityLike | None = None,
     *,
     smooth: float | None = None,
-    noise: Any = None,
+    noise: ArrayLike | None = None,
     support_rtol: float = 0.01,
     interpolation: str = "hermite",
     points_per_decade: float = 40,
@@ -452,7 +454,7 @@ def rms_gradient_exact(
                      what="rms_gradient_exact", depends=_GAP)
 
 
-def _supported_lags(acf, dr: Any, dr_lo: float, dr_hi: float,
+def _supported_lags(acf, dr: QuantityLike | None, dr_lo: float, dr_hi: float,
                     support_rtol: float) -> np.ndarray:
     """Check the lags ``dr`` asked for (all supported), or take the supported lags of G."""
     tol = 1e-9 * dr_hi
@@ -485,11 +487,11 @@ def _positive_only(acf, dr_arr: np.ndarray, gbar: np.ndarray, *, given: bool) ->
 @u.accepts_quantified
 def gradient_from_spectrum(
     C: xr.DataArray,
-    dr: Any = None,
+    dr: QuantityLike | None = None,
     *,
     points_per_decade: float = 20,
-    dr_min: Any = None,
-    dr_max: Any = None,
+    dr_min: QuantityLike | None = None,
+    dr_max: QuantityLike | None = None,
 ) -> xr.DataArray:
     r"""Scale-dependent rms gradient from an isotropic spectrum (paper eq. 26).
 

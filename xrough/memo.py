@@ -22,7 +22,7 @@ import inspect
 import threading
 from collections import OrderedDict
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Generic, ParamSpec, Protocol, TypeVar, cast
 
 from dask.base import tokenize
 
@@ -31,7 +31,24 @@ from . import quality
 __all__ = ["by_content", "forget"]
 
 #: ``cache_clear`` of every function decorated in this session.
-_CLEARS: list = []
+_CLEARS: list[Callable[[], None]] = []
+
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+
+
+class _Memoized(Protocol, Generic[_P, _R]):
+    """A function decorated by :func:`by_content`: the function, with its cache's methods."""
+
+    __wrapped__: Callable[_P, _R]
+    #: A copy of the kept result of an equal call, or None (nothing computed or warned).
+    peek: Callable[_P, _R | None]
+    #: Forget the kept results.
+    cache_clear: Callable[[], None]
+    #: ``hits``, ``misses`` and ``size``.
+    cache_info: Callable[[], dict[str, int]]
+
+    def __call__(self, *args: _P.args, **kwargs: _P.kwargs) -> _R: ...
 
 
 def _copy(result: Any) -> Any:
@@ -49,7 +66,7 @@ def _again(kept: tuple[Any, list]) -> Any:
     return _copy(result)
 
 
-def by_content(maxsize: int = 32) -> Callable:
+def by_content(maxsize: int = 32) -> Callable[[Callable[_P, _R]], _Memoized[_P, _R]]:
     """Decorate a pure function of xarray objects: equal arguments, one computation.
 
     The function returns an xarray object (or a tuple of them); its arguments are what
@@ -83,7 +100,7 @@ def by_content(maxsize: int = 32) -> Callable:
     >>> len(calls), float(b), double.cache_info()["hits"]
     (1, 2.0, 1)
     """
-    def decorate(func: Callable) -> Callable:
+    def decorate(func: Callable[_P, _R]) -> _Memoized[_P, _R]:
         cache: OrderedDict[str, tuple[Any, list]] = OrderedDict()
         lock = threading.Lock()
         counts = {"hits": 0, "misses": 0}
@@ -138,10 +155,11 @@ def by_content(maxsize: int = 32) -> Callable:
                 return {**counts, "size": len(cache)}
 
         _CLEARS.append(cache_clear)
-        wrapper.peek = peek
-        wrapper.cache_clear = cache_clear
-        wrapper.cache_info = cache_info
-        return wrapper
+        memoized = cast("_Memoized[_P, _R]", wrapper)  # functools.wraps: func's signature
+        memoized.peek = peek
+        memoized.cache_clear = cache_clear
+        memoized.cache_info = cache_info
+        return memoized
     return decorate
 
 

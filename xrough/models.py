@@ -8,12 +8,11 @@ back and forth between a model and netCDF-legal attributes.
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from . import units as u
 from ._kernels.spectral_models import SpectrumModel
+from .units import QuantityLike
 
 __all__ = ["self_affine_model", "model_attrs", "model_from_attrs", "MODEL_ATTR_POWERS"]
 
@@ -27,12 +26,12 @@ MODEL_ATTR_POWERS = {"q_r": (-1, 0), "q_s": (-1, 0), "q_0": (-1, 0), "C_r": (2, 
 def self_affine_model(
     *,
     hurst: float,
-    lambda_r: Any,
-    lambda_s: Any,
-    lambda_0: Any = None,
-    C_r: Any = None,
-    rms_height: Any = None,
-    rms_gradient: Any = None,
+    lambda_r: QuantityLike,
+    lambda_s: QuantityLike,
+    lambda_0: QuantityLike | None = None,
+    C_r: QuantityLike | None = None,
+    rms_height: QuantityLike | None = None,
+    rms_gradient: QuantityLike | None = None,
     rolloff: str = "sharp",
     unit: str = "m",
 ) -> SpectrumModel:

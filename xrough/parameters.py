@@ -25,8 +25,6 @@ slopes are pure numbers, curvatures are in 1 / lateral unit.
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 import xarray as xr
 
@@ -39,6 +37,7 @@ from ._kernels.checks import require_count, require_increasing
 from .acf import lag_coord, result_attrs
 from .preprocess import TIP_SAFETY_FACTOR, stated_tip_radius
 from .topography import SPACING_RTOL, Grid, check_valid_points, grid_of, require_whole_maps
+from .units import QuantityLike
 
 __all__ = ["roughness_parameters", "height_distribution", "slope_distribution",
            "curvature_distribution", "bearing_area_curve", "material_ratio",
@@ -257,7 +256,7 @@ def roughness_parameters(topography: xr.DataArray, *,
 # ------------------------------------------------------------------------- distributions
 
 
-def _edges(bins: Any, unit: str, what: str) -> np.ndarray | int:
+def _edges(bins: QuantityLike, unit: str, what: str) -> np.ndarray | int:
     """Return a number of bins, or explicit edges in ``unit``, checked."""
     if isinstance(bins, (int, np.integer)) and not isinstance(bins, (bool, np.bool_)):
         if bins < 1:
@@ -285,7 +284,7 @@ def _data_range(topography, grid, purpose: str, **kwargs) -> tuple[float, float]
 
 
 def _distribution(topography: xr.DataArray, grid: Grid, *, quantity: str, direction: str,
-                  unit: str, bins: Any, long_name: str, attrs: dict) -> xr.DataArray:
+                  unit: str, bins: QuantityLike, long_name: str, attrs: dict) -> xr.DataArray:
     """Return the histogram of :func:`xrough._kernels.parameters.values_of`, labelled."""
     options = {**_kernel_options(grid), "quantity": quantity, "direction": direction}
     edges = _edges(bins, unit, long_name)
@@ -317,7 +316,7 @@ def _distribution(topography: xr.DataArray, grid: Grid, *, quantity: str, direct
 
 
 @u.accepts_quantified
-def height_distribution(topography: xr.DataArray, *, bins: Any = 100) -> xr.DataArray:
+def height_distribution(topography: xr.DataArray, *, bins: QuantityLike = 100) -> xr.DataArray:
     """Probability density of the heights, relative to the mean of each map.
 
     Parameters
@@ -371,7 +370,7 @@ def _direction(direction: str | None, grid: Grid, allowed: tuple[str, ...],
 
 @u.accepts_quantified
 def slope_distribution(topography: xr.DataArray, *, direction: str | None = None,
-                       bins: Any = 100) -> xr.DataArray:
+                       bins: QuantityLike = 100) -> xr.DataArray:
     """Probability density of the slopes between neighbouring points.
 
     Parameters
@@ -419,7 +418,7 @@ def slope_distribution(topography: xr.DataArray, *, direction: str | None = None
 
 @u.accepts_quantified
 def curvature_distribution(topography: xr.DataArray, *, direction: str | None = None,
-                           bins: Any = 100) -> xr.DataArray:
+                           bins: QuantityLike = 100) -> xr.DataArray:
     """Probability density of the curvatures at one pixel.
 
     Parameters
@@ -469,7 +468,7 @@ def curvature_distribution(topography: xr.DataArray, *, direction: str | None = 
 
 @u.accepts_quantified
 def bearing_area_curve(topography: xr.DataArray, *,
-                       material_ratio: Any = None) -> xr.DataArray:
+                       material_ratio: QuantityLike | None = None) -> xr.DataArray:
     """Abbott-Firestone curve: the height at each material ratio, ``Smc(mr)``.
 
     Parameters
@@ -528,7 +527,8 @@ def bearing_area_curve(topography: xr.DataArray, *,
 
 
 @u.accepts_quantified
-def material_ratio(topography: xr.DataArray, *, height: Any = None) -> xr.DataArray:
+def material_ratio(topography: xr.DataArray, *,
+                   height: QuantityLike | None = None) -> xr.DataArray:
     """Fraction of the surface at or above each height, ``Smr(c)`` (ISO 25178-2).
 
     Parameters
@@ -587,7 +587,8 @@ def material_ratio(topography: xr.DataArray, *, height: Any = None) -> xr.DataAr
 # ------------------------------------------------------------------------ scale dependence
 
 
-def _steps(grid: Grid, dr: Any, points_per_decade: float, dr_max: Any,
+def _steps(grid: Grid, dr: QuantityLike | None, points_per_decade: float,
+           dr_max: QuantityLike | None,
            width: int) -> tuple[np.ndarray, np.ndarray]:
     """Return the steps ``dr`` (lateral unit) and their pixels per axis, ``(n, nd)``."""
     ppd = check_points_per_decade(points_per_decade)
@@ -639,9 +640,9 @@ def _step_coords(grid: Grid, steps: np.ndarray, dr: np.ndarray, what: str) -> di
 
 
 @u.accepts_quantified
-def scale_dependent_slope(topography: xr.DataArray, *, dr: Any = None,
+def scale_dependent_slope(topography: xr.DataArray, *, dr: QuantityLike | None = None,
                           points_per_decade: float = 10,
-                          dr_max: Any = None) -> xr.DataArray:
+                          dr_max: QuantityLike | None = None) -> xr.DataArray:
     r"""Rms slope of finite differences at every step ``dr`` (scale-dependent slope).
 
     Parameters
@@ -725,9 +726,10 @@ def scale_dependent_slope(topography: xr.DataArray, *, dr: Any = None,
 
 
 @u.accepts_quantified
-def scale_dependent_curvature(topography: xr.DataArray, *, dr: Any = None,
-                              points_per_decade: float = 10, dr_max: Any = None,
-                              tip_radius: Any = None, stated_tip: bool = True,
+def scale_dependent_curvature(topography: xr.DataArray, *, dr: QuantityLike | None = None,
+                              points_per_decade: float = 10,
+                              dr_max: QuantityLike | None = None,
+                              tip_radius: QuantityLike | None = None, stated_tip: bool = True,
                               safety_factor: float = TIP_SAFETY_FACTOR) -> xr.DataArray:
     r"""Rms curvature of second differences at every step ``dr``, with the tip check.
 
@@ -837,7 +839,7 @@ def _runs(dr: np.ndarray, hit: np.ndarray) -> str:
 
 
 @u.accepts_quantified
-def tip_check(curvature: xr.DataArray, *, tip_radius: Any,
+def tip_check(curvature: xr.DataArray, *, tip_radius: QuantityLike,
               safety_factor: float = TIP_SAFETY_FACTOR, source: str = "given") -> xr.DataArray:
     """Mark the scales at which a topography is curved beyond what its tip can image.
 

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import re
 import textwrap
+from collections.abc import Hashable
 
 import numpy as np
 import xarray as xr
@@ -79,13 +80,15 @@ def display_unit(units: str) -> str:
         return _MICRO.sub("µ", str(units))
 
 
-def _coord_text(name: str, value, units: str | None) -> str:
+def _coord_text(name: Hashable, value, units: str | None) -> str:
     """``"p0 = 0.1 MPa"`` for a legend: a value with its unit, compact prefix.
 
     A name (a string value, e.g. a measurement) stands alone.
     """
     if isinstance(value, (str, np.str_)):
         return str(value)
+    if units is None:
+        return f"{name} = {value}"
     try:
         q = _units.compact(_units.ureg.Quantity(float(value), _units.parse_units(units)))
         return f"{name} = {q.magnitude:.3g} {display_unit(format(q.units, '~'))}".rstrip()
@@ -93,11 +96,11 @@ def _coord_text(name: str, value, units: str | None) -> str:
         return f"{name} = {value}"
 
 
-def _coord_units(obj, dim: str) -> str | None:
+def _coord_units(obj, dim: Hashable) -> str | None:
     return obj[dim].attrs.get("units") if dim in obj.coords else None
 
 
-def _label(da: xr.DataArray, default: str) -> str:
+def _label(da: xr.DataArray, default: Hashable) -> str:
     name = da.attrs.get("long_name", da.name or default)
     units = display_unit(da.attrs["units"]) if da.attrs.get("units") else ""
     return f"{name} ({units})" if units else str(name)
@@ -191,6 +194,7 @@ def log_axis(axis) -> None:
             super().__init__(labelOnlyBase=False, minor_thresholds=(np.inf, np.inf))
 
         def __call__(self, x, pos=None):
+            assert self.axis is not None  # matplotlib sets it before asking for labels
             lo, hi = sorted(self.axis.get_view_interval())
             # matplotlib < 3.9 also asks for the labels of ticks outside the view
             if not (x > 0 and lo > 0 and lo <= x <= hi):
@@ -408,9 +412,9 @@ def _error_of(da: xr.DataArray, kind: str) -> np.ndarray | None:
     return None
 
 
-def _is_error(name: str) -> bool:
+def _is_error(name: Hashable) -> bool:
     """Whether a Dataset variable is the error of another (drawn as its band)."""
-    return name.endswith(("_std", "_model_error"))
+    return isinstance(name, str) and name.endswith(("_std", "_model_error"))
 
 
 @_units.accepts_quantified

@@ -46,6 +46,7 @@ from . import units as u
 from ._kernels import detrend as k
 from ._kernels.checks import require_flag
 from .topography import Grid, check_finite, grid_of, require_whole_maps
+from .units import QuantityLike
 
 __all__ = [
     "DETREND_MODES",
@@ -289,7 +290,8 @@ def fit_trend(topography: xr.DataArray, *, mode: str = "plane",
     ds = xr.Dataset(variables)
     if per_line:
         ds = ds.assign_coords(y=topography.coords["y"])
-    attrs = {"mode": _label(mode, bool(per_line)), "lateral_units": grid.lateral_unit}
+    attrs: dict[str, Any] = {"mode": _label(mode, bool(per_line)),
+                             "lateral_units": grid.lateral_unit}
     for d, c in zip(grid.dims, coords):
         attrs[f"{d}_centre"] = float(0.5 * (c[0] + c[-1]))
     ds.attrs = attrs
@@ -299,7 +301,7 @@ def fit_trend(topography: xr.DataArray, *, mode: str = "plane",
 # ------------------------------------------------------------------------------ outliers
 
 
-def _window_pixels(window: Any, grid: Grid) -> tuple[int, ...]:
+def _window_pixels(window: QuantityLike, grid: Grid) -> tuple[int, ...]:
     length = u.length_in(window, grid.lateral_unit, what="window")
     size = []
     for d, n, step in zip(grid.dims, grid.shape, grid.spacing):
@@ -321,7 +323,7 @@ def _mask_kernel(h, *, nd, threshold, method, size, periodic):
 
 @u.accepts_quantified
 def mask_outliers(topography: xr.DataArray, *, threshold: float = 5.0, method: str = "mad",
-                  window: Any = None) -> xr.DataArray:
+                  window: QuantityLike | None = None) -> xr.DataArray:
     r"""Mark spikes and dimples as missing (NaN) by robust z-scores.
 
     A point is an outlier when its height (or, with a ``window``, its residual from a local
@@ -520,10 +522,10 @@ def _tip_cutoff(topography: xr.DataArray, grid: Grid, tip_radius: float,
 def reliable(
     topography: xr.DataArray,
     *,
-    short_cutoff: Any = None,
-    long_cutoff: Any = None,
-    tip_radius: Any = None,
-    lateral_resolution: Any = None,
+    short_cutoff: QuantityLike | None = None,
+    long_cutoff: QuantityLike | None = None,
+    tip_radius: QuantityLike | None = None,
+    lateral_resolution: QuantityLike | None = None,
     safety_factor: float = TIP_SAFETY_FACTOR,
     min_pixels: float = 1.0,
     long_fraction: float = 0.5,

@@ -24,6 +24,7 @@ from ._kernels.checks import require_increasing
 from ._kernels.psd import WINDOWS, error_factors, mode_bins, mode_range, psd_kernel
 from .acf import result_attrs
 from .topography import Grid, check_valid_points, grid_of, require_whole_maps
+from .units import QuantityLike
 
 __all__ = ["power_spectrum", "MIN_VALID_FRACTION", "WINDOWS"]
 
@@ -48,9 +49,9 @@ def power_spectrum(
     *,
     direction: str = "radial",
     window: str | None = "auto",
-    bins: Any = "log",
+    bins: str | QuantityLike = "log",
     points_per_decade: float = 20,
-    bin_width: Any = None,
+    bin_width: QuantityLike | None = None,
     workers: int | None = None,
 ) -> xr.DataArray:
     r"""Power spectral density ``C(q)`` of the heights of a topography (eq. 4).

@@ -34,6 +34,7 @@ import os
 import sys
 import warnings
 from collections.abc import Iterable, Iterator
+from types import FrameType
 
 import dask.array as dsa
 import numpy as np
@@ -82,7 +83,7 @@ def user_stacklevel() -> int:
     >>> inside()
     1
     """
-    frame = sys._getframe(1)  # the function that will call warnings.warn: level 1
+    frame: FrameType | None = sys._getframe(1)  # the one that will call warnings.warn: 1
     level, found = 1, 1
     while frame is not None:
         if os.path.abspath(frame.f_code.co_filename).startswith(_PACKAGE_DIR):

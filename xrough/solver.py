@@ -30,6 +30,7 @@ from ._kernels.solver import (
 )
 from ._kernels.tiles import scaled_heights
 from .topography import check_valid_points, grid_of
+from .units import QuantityLike
 
 __all__ = ["solve_contact", "ConvergenceWarning"]
 
@@ -100,9 +101,9 @@ def _scaled_targets(targets: np.ndarray, e: int, load_dim: str) -> np.ndarray:
 def solve_contact(
     topography: xr.DataArray,
     *,
-    E_star: Any,
-    p0: Any = None,
-    displacement: Any = None,
+    E_star: QuantityLike,
+    p0: QuantityLike | None = None,
+    displacement: QuantityLike | None = None,
     tol: float = 1e-8,
     max_iter: int = 10_000,
     progress: bool | None = None,
@@ -284,6 +285,7 @@ def solve_contact(
     # of two 2**e nearest max|h| (exact in floating point), so that no height, square or
     # float32 transform overflows, and scale the fields back
     h_lat, e = scaled_heights(h * to_lat if to_lat != 1 else h)
+    assert e is not None  # check_topography: the map has valid points
     targets = _scaled_targets(loads.targets, e, loads.dim)
     results = _solve_loads(h_lat, op, targets, loads.dim, opts, progress)
     _warn_unconverged(results, opts)

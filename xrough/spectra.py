@@ -14,11 +14,13 @@ The rms gradient of a spectrum or of a G by eq. 26 is in :mod:`xrough.gradient`.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Hashable
 from typing import Any
 
 import numpy as np
-import pint
 import xarray as xr
+from numpy.typing import ArrayLike
+from pint.facets.plain import PlainUnit
 
 from . import quality
 from . import units as _units
@@ -38,6 +40,7 @@ from ._kernels.uncertainty import covariance_from_acf
 from .acf import mark_gaps, read_acf, result_attrs
 from .memo import by_content
 from .models import model_attrs, model_from_attrs, self_affine_model
+from .units import QuantityLike
 
 __all__ = [
     "model_spectrum",
@@ -89,15 +92,15 @@ def _log_grid(knots: list[float], points_per_decade: float) -> np.ndarray:
 # public functions
 # --------------------------------------------------------------------------------------
 def model_spectrum(
-    q: Any = None,
+    q: QuantityLike | None = None,
     *,
     hurst: float,
-    lambda_r: Any,
-    lambda_s: Any,
-    lambda_0: Any = None,
-    C_r: Any = None,
-    rms_height: Any = None,
-    rms_gradient: Any = None,
+    lambda_r: QuantityLike,
+    lambda_s: QuantityLike,
+    lambda_0: QuantityLike | None = None,
+    C_r: QuantityLike | None = None,
+    rms_height: QuantityLike | None = None,
+    rms_gradient: QuantityLike | None = None,
     rolloff: str = "sharp",
     unit: str = "m",
     points_per_decade: float = 50,
@@ -207,9 +210,9 @@ def model_spectrum(
 class _SpectrumInput:
     """A validated isotropic spectrum: ``q``, units and the function that evaluates ``C``."""
 
-    dim: str
+    dim: Hashable
     q: np.ndarray
-    length_unit: pint.Unit
+    length_unit: PlainUnit
     unit_str: str
     model: SpectrumModel | None
     func: Any  # the model, or a PowerLawInterpolant through the samples
@@ -261,8 +264,8 @@ def spectrum_input(spectrum: Any) -> _SpectrumInput:
     return _SpectrumInput(dim, q, length_unit, unit_str, model, func)
 
 
-def spectrum_lags(spec: _SpectrumInput, dr: Any, points_per_decade: float, dr_min: Any,
-                   dr_max: Any) -> np.ndarray:
+def spectrum_lags(spec: _SpectrumInput, dr: QuantityLike | None, points_per_decade: float,
+                  dr_min: QuantityLike | None, dr_max: QuantityLike | None) -> np.ndarray:
     """``dr`` in the spectrum's length unit; by default logarithmic over its wavelengths."""
     check_points_per_decade(points_per_decade)
     if dr is not None:
@@ -282,11 +285,11 @@ def spectrum_lags(spec: _SpectrumInput, dr: Any, points_per_decade: float, dr_mi
 @_units.accepts_quantified
 def acf_from_spectrum(
     spectrum: xr.DataArray,
-    dr: Any = None,
+    dr: QuantityLike | None = None,
     *,
     points_per_decade: float = 20,
-    dr_min: Any = None,
-    dr_max: Any = None,
+    dr_min: QuantityLike | None = None,
+    dr_max: QuantityLike | None = None,
 ) -> xr.DataArray:
     r"""Height-difference ACF from an isotropic spectrum (paper eq. 9).
 
@@ -399,7 +402,7 @@ class _AcfInput:
     dr: np.ndarray
     G: np.ndarray  # in length_unit^2
     noise: np.ndarray  # relative independent scatter per sample (0: none known)
-    length_unit: pint.Unit
+    length_unit: PlainUnit
     unit_str: str
     gaps: np.ndarray  # lag ranges no measurement covers (AcfSpec.gaps)
     covariance: np.ndarray | None = None  # of the relative statistical errors (bins x bins)
@@ -541,10 +544,10 @@ def _error_at(q: np.ndarray, acf: _AcfInput, grid_error, *, smooth, interpolatio
 @_units.accepts_quantified
 def spectrum(
     G: xr.DataArray,
-    q: Any = None,
+    q: QuantityLike | None = None,
     *,
     smooth: float | None = None,
-    noise: Any = None,
+    noise: ArrayLike | None = None,
     support_rtol: float = 0.01,
     max_error: float = 0.1,
     interpolation: str = "hermite",

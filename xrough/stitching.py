@@ -44,6 +44,7 @@ import dask
 import dask.array as dsa
 import numpy as np
 import xarray as xr
+from pint.facets.plain import PlainUnit
 
 from . import quality
 from . import units as u
@@ -138,7 +139,7 @@ def _is_acf(da: xr.DataArray) -> bool:
 
 
 def _lateral_unit(da: xr.DataArray) -> str:
-    """Unit of the lags of a G, or the lateral unit of a topography (its Grid's)."""
+    """Return the unit of the lags of a G, or the lateral unit of a topography (its Grid's)."""
     if not _is_acf(da):
         return grid_of(da, what="measurement").lateral_unit
     return u.format_units(u.as_length_unit(u.units_of(da.coords["dr"], what="coordinate 'dr'"),
@@ -146,7 +147,7 @@ def _lateral_unit(da: xr.DataArray) -> str:
 
 
 def _height_unit(da: xr.DataArray) -> str:
-    unit = u.units_of(da, what="heights")
+    unit: PlainUnit = u.units_of(da, what="heights")
     if _is_acf(da):
         unit = unit**0.5
     return u.format_units(u.as_length_unit(unit, what="heights"))
@@ -282,7 +283,7 @@ def _curve(name: str, da: xr.DataArray, own_edges: np.ndarray, *, chunk: bool,
         cnt = da.coords["pair_count"].data if "pair_count" in da.coords else np.ones(da.shape)
         return np.asarray(da.dr.values, dtype=float), da.data, se, cnt, dict(da.attrs)
     grid = grid_of(da, what=f"measurement {name!r}")
-    extra = tuple(d for d in da.dims if d not in grid.dims)
+    extra = tuple(str(d) for d in da.dims if d not in grid.dims)
     if chunk and da.chunks is None:  # a graph of its own, one map per chunk
         da = da.chunk({d: (1 if d in extra else -1) for d in da.dims})
     G = height_difference_acf(da, bins=own_edges, pool=extra or None, **acf_kwargs)
@@ -543,7 +544,7 @@ def stitch_mismatch(curves: xr.Dataset, *, threshold: float = 3.0,
         chi2 = float(np.mean(r**2 * w))
         rows.append((f"{names[a]}/{names[b]}", names[a], names[b], int(ok.sum()), mean,
                      err, mean / err, chi2, float(dr[ok].min()), float(dr[ok].max())))
-    cols = list(zip(*rows)) if rows else [[]] * 10
+    cols: list[tuple[Any, ...]] = list(zip(*rows)) if rows else [()] * 10
     lunit = curves.dr.attrs.get("units", "")
     ds = xr.Dataset(
         {"n_bins": ("pair", np.asarray(cols[3], dtype=np.int64)),
@@ -871,7 +872,8 @@ def stitch(
                      "(attrs uncovered_dr_min/max); fit, energy, gradient, stress ACF, "
                      "Persson theory, patch radius and spectrum of this G bridge the gap "
                      "or mark what depends on it", StitchingGapWarning)
-    text = "" if lazy else "; ".join(_unexplained_factors(names, *factors, threshold))
+    text = "" if lazy else "; ".join(_unexplained_factors(names, factors[0], factors[1],
+                                                            threshold))
     out = quality.mark_curves(out, xr.DataArray(code), what="stitch", notes=text, warn=False)
     if text and warn:
         quality.warn(text, LevelFactorWarning)

@@ -15,6 +15,7 @@ import os
 from typing import Any
 
 import numpy as np
+import xarray as xr
 from scipy import fft as sfft
 
 from . import units as u
@@ -22,6 +23,7 @@ from ._kernels.checks import require_count
 from ._kernels.hankel import profile_spectrum_kernel
 from .models import model_attrs, self_affine_model
 from .topography import topography
+from .units import QuantityLike
 
 __all__ = ["self_affine_surface"]
 
@@ -55,20 +57,20 @@ def _as_tuple(value: Any, nd: int, what: str) -> tuple:
 def self_affine_surface(
     *,
     hurst: float,
-    lambda_r: Any,
-    lambda_s: Any,
-    size: Any,
+    lambda_r: QuantityLike,
+    lambda_s: QuantityLike,
+    size: QuantityLike,
     n: int | tuple[int, int],
-    rms_height: Any = None,
-    rms_gradient: Any = None,
-    C_r: Any = None,
-    lambda_0: Any = None,
+    rms_height: QuantityLike | None = None,
+    rms_gradient: QuantityLike | None = None,
+    C_r: QuantityLike | None = None,
+    lambda_0: QuantityLike | None = None,
     rolloff: str = "sharp",
     unit: str = "m",
     profile: bool = False,
     random_amplitudes: bool = True,
     seed: int | np.random.Generator | None = None,
-) -> xr.DataArray:  # noqa: F821
+) -> xr.DataArray:
     r"""Random periodic self-affine topography with the spectrum of eq. 35.
 
     Parameters

@@ -17,12 +17,13 @@ and the same G in m2 over lags in m) compare equal.
 from __future__ import annotations
 
 import os
-from typing import Any
+from collections.abc import Hashable
 
 import numpy as np
 import xarray as xr
 
 from xrough import units as xu
+from xrough.units import QuantityLike
 
 __all__ = ["assert_units_equal", "assert_allclose", "assert_netcdf_round_trip"]
 
@@ -36,7 +37,7 @@ def _require(ok: bool, message: str) -> None:
         raise AssertionError(message)
 
 
-def _variables(obj: xr.DataArray | xr.Dataset) -> dict[str, xr.Variable]:
+def _variables(obj: xr.DataArray | xr.Dataset) -> dict[Hashable, xr.Variable]:
     """Every variable: a DataArray's data (as :data:`DATA`) and coords, or a Dataset's."""
     if isinstance(obj, xr.DataArray):
         return {DATA: obj.variable, **{k: obj.coords[k].variable for k in obj.coords}}
@@ -49,7 +50,7 @@ def _same_variables(a, b) -> tuple[dict, dict]:
     """Return the variables of ``a`` and ``b``; fail unless names, dims and shapes agree."""
     va, vb = _variables(a), _variables(b)
     _require(type(a) is type(b), f"types differ: {type(a).__name__} != {type(b).__name__}")
-    _require(set(va) == set(vb), f"variables differ: {sorted(set(va) ^ set(vb))}")
+    _require(set(va) == set(vb), f"variables differ: {sorted(set(va) ^ set(vb), key=str)}")
     for name, x in va.items():
         _require(x.dims == vb[name].dims, f"{name}: dims {x.dims} != {vb[name].dims}")
         _require(x.shape == vb[name].shape,
@@ -114,13 +115,13 @@ def _in_units_of(x: xr.Variable, y: xr.Variable, name: str) -> np.ndarray:
     return np.asarray(y.values) * factor if factor != 1 else np.asarray(y.values)
 
 
-def _atol_in(atol: Any, var: xr.Variable, name: str) -> float:
+def _atol_in(atol: QuantityLike, var: xr.Variable, name: str) -> float:
     """Return ``atol`` in the units of ``var``.
 
     Plain numbers as they are; with units, converted where the dimensions agree and 0
     where they do not (a height tolerance on the lateral coordinate ``x``).
     """
-    if np.ndim(atol) == 0 and isinstance(atol, (int, float, np.number)):
+    if isinstance(atol, (int, float, np.number)) and np.ndim(atol) == 0:
         return float(atol)
     units = _units(var, name)
     q = xu.quantity(atol, what="atol")
@@ -130,7 +131,7 @@ def _atol_in(atol: Any, var: xr.Variable, name: str) -> float:
 
 
 def assert_allclose(a: xr.DataArray | xr.Dataset, b: xr.DataArray | xr.Dataset, *,
-                    rtol: float = 1e-7, atol: Any = 0.0) -> None:
+                    rtol: float = 1e-7, atol: QuantityLike = 0.0) -> None:
     """Assert that ``a`` and ``b`` hold the same values once ``b`` is in the units of ``a``.
 
     Every variable of ``b`` (data and coordinates) is converted to the units of the same

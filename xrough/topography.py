@@ -15,11 +15,14 @@ from typing import Any
 import numpy as np
 import pint
 import xarray as xr
+from numpy.typing import ArrayLike
+from pint.facets.plain import PlainUnit
 
 from . import units as u
 from ._kernels.checks import require_flag
 from ._kernels.pairs import require_no_inf
 from .models import MODEL_ATTR_POWERS
+from .units import QuantityLike
 
 __all__ = ["topography", "convert_units", "Grid", "grid_of", "SPACING_RTOL"]
 
@@ -141,6 +144,7 @@ def grid_of(da: xr.DataArray, *, what: str = "topography") -> Grid:
         if da.sizes[dim] < 2:
             raise ValueError(f"{what} needs at least 2 points along {dim!r}")
     periodic = bool(int(da.attrs.get("periodic", 0)))
+    assert lunit is not None  # _core_dims: at least one dim
     return Grid(dims=dims, shape=tuple(da.sizes[d] for d in dims), spacing=tuple(spacing),
                 lateral_unit=u.format_units(lunit), height_unit=u.format_units(hunit),
                 periodic=periodic)
@@ -185,10 +189,10 @@ def _pair(value: Any, n: int, what: str) -> list[Any]:
 
 
 def topography(
-    heights: Any,
+    heights: ArrayLike | pint.Quantity | xr.DataArray,
     *,
-    spacing: Any = None,
-    size: Any = None,
+    spacing: QuantityLike | None = None,
+    size: QuantityLike | None = None,
     unit: str | None = None,
     height_unit: str | None = None,
     periodic: bool | None = None,
@@ -251,6 +255,7 @@ def topography(
             da = da.astype(float)
         if unit is not None or height_unit is not None:
             hu = height_unit or unit
+            assert hu is not None  # one of them is given
             if "units" in da.attrs and u.parse_units(da.attrs["units"]) != u.parse_units(hu):
                 raise ValueError(f"heights already have units {da.attrs['units']!r}; "
                                  f"convert explicitly instead of relabelling as {hu!r}")
@@ -308,8 +313,8 @@ def topography(
 
 
 @u.accepts_quantified
-def convert_units(topography: xr.DataArray, height: Any = None, *,
-                  lateral: Any = None) -> xr.DataArray:
+def convert_units(topography: xr.DataArray, height: str | PlainUnit | None = None, *,
+                  lateral: str | PlainUnit | None = None) -> xr.DataArray:
     """Convert a topography's heights and/or lateral coordinates to other units.
 
     Values are multiplied by the conversion factor and the ``units`` attributes rewritten;

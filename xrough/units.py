@@ -9,22 +9,34 @@ Physical parameters accept a plain number, a string (``"25 MPa"``), a pint Quant
 registry) or a DataArray with a ``units`` attribute (0-d for one value), all read by
 :func:`quantity`, the one unit boundary of the package. Plain numbers are SI
 (``E_star=25e6`` is 25 MPa), except lengths tied to data or to a ``unit=`` argument, which
-are in that unit (``dr_max=100`` on a map in nm is 100 nm).
+are in that unit (``dr_max=100`` on a map in nm is 100 nm). Type checkers see these
+parameters as :data:`QuantityLike`.
 """
 
 from __future__ import annotations
 
 import functools
 import re
-from collections.abc import Callable, Mapping
-from typing import Any
+from collections.abc import Callable, Hashable, Mapping, Sequence
+from typing import (
+    Any,
+    Literal,
+    Protocol,
+    TypeAlias,
+    TypeGuard,
+    TypeVar,
+    cast,
+    overload,
+)
 
 import cf_xarray.units as _cf_units
 import numpy as np
 import pint
 import xarray as xr
+from pint.facets.plain import PlainUnit
 
 __all__ = [
+    "QuantityLike",
     "ureg",
     "parse_units",
     "format_units",
@@ -59,6 +71,16 @@ _GLUED_NON_ASCII = re.compile(r"(?<=[Åµμ])(?=-?\d)")
 #: of another registry are converted through their string representation.
 ureg: pint.UnitRegistry = _cf_units.units
 
+#: What a physical parameter accepts, the forms :func:`quantity` reads: a plain number or a
+#: numeric array (in SI, or in the data's unit for lengths tied to data), a string of a
+#: number and a unit (``"25 MPa"``), a pint Quantity of any registry, a DataArray with a
+#: ``units`` attribute, or a list or tuple of single values in these forms
+#: (``["0.1 MPa", 2e5]``). The annotation of every physical parameter of the public API.
+QuantityLike: TypeAlias = (
+    int | float | np.integer | np.floating | np.ndarray | str | pint.Quantity | xr.DataArray
+    | Sequence[int | float | np.integer | np.floating | str | pint.Quantity | xr.DataArray]
+)
+
 
 def _cf_to_pint(text: str) -> str:
     """Spell a unit for the registry: CF's middle dot and non-ASCII glued powers."""
@@ -67,7 +89,7 @@ def _cf_to_pint(text: str) -> str:
 
 def _did_you_mean(text: str) -> str:
     """``" (did you mean 'MPa'?)"`` when a symbol of ``text`` is a unit in another case."""
-    hints = []
+    hints: list[tuple[int, str]] = []
     for word in re.findall(r"[A-Za-zµμ_]+", text):
         try:
             if word in ureg:
@@ -79,12 +101,12 @@ def _did_you_mean(text: str) -> str:
                 if (prefix + base).lower() == word.lower() and prefix + base in ureg:
                     hints.append((-sum(a == b for a, b in zip(word, prefix + base)),
                                   prefix + base))
-    hints = list(dict.fromkeys(h for _, h in sorted(hints)))
-    return f" (did you mean {' or '.join(repr(h) for h in hints)}?)" if hints else ""
+    names = list(dict.fromkeys(h for _, h in sorted(hints)))
+    return f" (did you mean {' or '.join(repr(h) for h in names)}?)" if names else ""
 
 
 
-def parse_units(units: str | pint.Unit, *, what: str = "units") -> pint.Unit:
+def parse_units(units: str | PlainUnit, *, what: str = "units") -> pint.Unit:
     """Parse a CF/UDUNITS or pint unit string into a pint Unit.
 
     Parameters
@@ -112,9 +134,11 @@ def parse_units(units: str | pint.Unit, *, what: str = "units") -> pint.Unit:
         return ureg.Unit(_cf_to_pint(units))
     except Exception as err:  # noqa: BLE001 - pint's parser also raises TokenError, ...
         try:  # allow scale prefixes written like "1e-6 m" via a full parse
-            q = ureg.Quantity(_cf_to_pint(units))
+            q: pint.Quantity = ureg.Quantity(_cf_to_pint(units))
             if q.magnitude == 1:
-                return q.units
+                # pint types a Quantity's units as its plain facet's; they are this
+                # registry's Unit
+                return cast(pint.Unit, q.units)
         except Exception:  # noqa: BLE001 - fall through to the clear message below
             pass
         if isinstance(err, pint.errors.UndefinedUnitError) and err.unit_names:
@@ -129,7 +153,7 @@ def parse_units(units: str | pint.Unit, *, what: str = "units") -> pint.Unit:
         raise ValueError(f"{head}{reason}{_did_you_mean(units)}") from err
 
 
-def format_units(unit: pint.Unit | str) -> str:
+def format_units(unit: PlainUnit | str) -> str:
     """Format a unit as a CF/UDUNITS string: ``"m2"``, ``"J m-2"``, ``"Pa"``.
 
     Examples
@@ -146,7 +170,7 @@ def format_units(unit: pint.Unit | str) -> str:
     elif unit._REGISTRY is not ureg:  # noqa: SLF001 - another registry's unit
         unit = parse_units(str(unit))
     parts = []
-    for name, exp in unit._units.items():  # noqa: SLF001 - pint's documented container
+    for name, exp in _factors(unit):
         # symbols in ASCII, as UDUNITS spells them: micro "u", and "angstrom" (cf-xarray's
         # registry reads "angstrom2" but not "Å2")
         sym = ureg.get_symbol(name).replace("µ", "u").replace("Å", "angstrom")
@@ -155,6 +179,15 @@ def format_units(unit: pint.Unit | str) -> str:
     # positive exponents first, as CF does ("J m-2", not "m-2 J"); else in product order
     parts.sort(key=lambda p: bool(re.search(r"-\d", p)))
     return " ".join(parts) if parts else "1"
+
+
+def _factors(unit: PlainUnit) -> list[tuple[str, float]]:
+    """``(name, exponent)`` of each factor of ``unit``, in product order.
+
+    pint types the exponents as any number (complex too); those of a unit are real.
+    """
+    items = unit._units.items()  # noqa: SLF001 - pint's documented container
+    return cast("list[tuple[str, float]]", list(items))
 
 
 def units_of(obj: Any, *, what: str | None = None) -> pint.Unit:
@@ -182,11 +215,32 @@ def units_of(obj: Any, *, what: str | None = None) -> pint.Unit:
     return parse_units(units, what=str(name))
 
 
-def _is_dataarray(value: Any) -> bool:
+class _Labelled(Protocol):
+    """What :func:`quantity` reads of a DataArray (an xarray Variable has it too)."""
+
+    @property
+    def attrs(self) -> dict[Any, Any]: ...
+
+    @property
+    def dims(self) -> tuple[Hashable, ...]: ...
+
+    @property
+    def values(self) -> np.ndarray: ...
+
+
+class _Quantified(Protocol):
+    """An object whose ``.data`` is a pint Quantity (a pint-xarray quantified one)."""
+
+    @property
+    def data(self) -> pint.Quantity: ...
+
+
+def _is_dataarray(value: object) -> TypeGuard[_Labelled]:
     return hasattr(value, "attrs") and hasattr(value, "dims") and hasattr(value, "values")
 
 
-def quantity(value: Any, *, default_units: str | pint.Unit = "", what: str = "value"):
+def quantity(value: QuantityLike, *, default_units: str | PlainUnit = "",
+             what: str = "value") -> pint.Quantity:
     """Turn any accepted form of a physical value into a pint Quantity of this registry.
 
     This is xrough's one unit boundary: every public function reads its physical and length
@@ -285,7 +339,7 @@ def quantity(value: Any, *, default_units: str | pint.Unit = "", what: str = "va
                     f"a DataArray with a 'units' attribute, got {type(value).__name__}")
 
 
-def magnitude_in(value: Any, unit: str | pint.Unit, *, what: str) -> np.ndarray:
+def magnitude_in(value: QuantityLike, unit: str | PlainUnit, *, what: str) -> np.ndarray:
     """Magnitude of ``value`` (any form :func:`quantity` accepts) in ``unit``, as floats.
 
     Plain numbers are taken to be in ``unit`` already. The dimensions must agree.
@@ -309,13 +363,13 @@ def magnitude_in(value: Any, unit: str | pint.Unit, *, what: str) -> np.ndarray:
     return mag
 
 
-def _show(value: Any) -> str:
+def _show(value: object) -> str:
     if _is_dataarray(value):
         return f"a DataArray in {value.attrs.get('units', 'no unit')!r}"
     return repr(value)
 
 
-def to_si(value: Any, dimension: str, *, what: str) -> float | np.ndarray:
+def to_si(value: QuantityLike, dimension: str, *, what: str) -> float | np.ndarray:
     """Convert a parameter to an SI magnitude after checking its dimensionality.
 
     Parameters
@@ -341,7 +395,14 @@ def to_si(value: Any, dimension: str, *, what: str) -> float | np.ndarray:
     return float(mag) if np.ndim(mag) == 0 else mag
 
 
-def positive_si(value: Any, dimension: str, *, what: str, many: bool = False):
+@overload
+def positive_si(value: QuantityLike, dimension: str, *, what: str,
+                many: Literal[False] = False) -> float: ...
+@overload
+def positive_si(value: QuantityLike, dimension: str, *, what: str,
+                many: bool) -> float | np.ndarray: ...
+def positive_si(value: QuantityLike, dimension: str, *, what: str,
+                many: bool = False) -> float | np.ndarray:
     """SI magnitude of a positive, finite physical parameter (plain numbers are SI).
 
     Parameters
@@ -391,7 +452,8 @@ _SI_UNITS = {
 }
 
 
-def length_in(value: Any, unit: str | pint.Unit, *, what: str, positive: bool = True) -> float:
+def length_in(value: QuantityLike, unit: str | PlainUnit, *, what: str,
+              positive: bool = True) -> float:
     """One length in ``unit`` (any form :func:`quantity` accepts; numbers are in ``unit``).
 
     Lengths tied to data follow the data's unit: ``dr_max=100`` on a map in nm means
@@ -408,14 +470,14 @@ def length_in(value: Any, unit: str | pint.Unit, *, what: str, positive: bool = 
     mag = magnitude_in(value, unit, what=what)
     if np.ndim(mag) != 0 and np.size(mag) != 1:
         raise ValueError(f"{what} must be a single length, got {_show(value)}")
-    mag = float(np.reshape(mag, -1)[0])
-    if not np.isfinite(mag) or (positive and not mag > 0):
+    length = float(np.reshape(mag, -1)[0])
+    if not np.isfinite(length) or (positive and not length > 0):
         raise ValueError(f"{what} must be a {'positive' if positive else 'finite'} length, "
                          f"got {_show(value)}")
-    return mag
+    return length
 
 
-def array_in(value: Any, unit: str | pint.Unit, *, what: str, noun: str = "values",
+def array_in(value: QuantityLike, unit: str | PlainUnit, *, what: str, noun: str = "values",
              positive: bool = False) -> np.ndarray:
     """1-D array of finite values ``>= 0`` (``> 0`` with ``positive``) in ``unit``.
 
@@ -435,7 +497,7 @@ def array_in(value: Any, unit: str | pint.Unit, *, what: str, noun: str = "value
     return values
 
 
-def as_length_unit(units: str | pint.Unit, *, what: str) -> pint.Unit:
+def as_length_unit(units: str | PlainUnit, *, what: str) -> PlainUnit:
     """Parse ``units`` and check that it is a length.
 
     Raises
@@ -450,7 +512,7 @@ def as_length_unit(units: str | pint.Unit, *, what: str) -> pint.Unit:
     return unit
 
 
-def is_length(units: str | pint.Unit) -> bool:
+def is_length(units: str | PlainUnit) -> bool:
     """Whether ``units`` is a length unit (``False`` also for one that does not parse).
 
     Examples
@@ -500,7 +562,7 @@ def length_unit_word(word: str) -> str | None:
     return _LENGTH_NAMES.get(word.lower())
 
 
-def conversion_factor(from_units: str | pint.Unit, to_units: str | pint.Unit) -> float:
+def conversion_factor(from_units: str | PlainUnit, to_units: str | PlainUnit) -> float:
     """Multiplicative factor from one unit to another (``1 from = f to``).
 
     Examples
@@ -515,7 +577,7 @@ def conversion_factor(from_units: str | pint.Unit, to_units: str | pint.Unit) ->
     return float(f"{ureg.Quantity(1, f).to(t).magnitude:.14g}")
 
 
-def multiply_units(*units: str | pint.Unit) -> str:
+def multiply_units(*units: str | PlainUnit) -> str:
     """CF string of a product of units. ``multiply_units("nm", "nm") == "nm2"``."""
     out = ureg.dimensionless
     for u in units:
@@ -523,13 +585,13 @@ def multiply_units(*units: str | pint.Unit) -> str:
     return format_units(out)
 
 
-def power_units(units: str | pint.Unit, exponent: float) -> str:
+def power_units(units: str | PlainUnit, exponent: float) -> str:
     """CF string of a unit raised to a power. ``power_units("nm", 2) == "nm2"``."""
     u = parse_units(units) if isinstance(units, str) else units
     return format_units(u**exponent)
 
 
-def is_quantified(obj: Any) -> bool:
+def is_quantified(obj: object) -> TypeGuard[_Quantified]:
     """Whether an xarray object (or any object with ``.data``) holds a pint Quantity.
 
     Examples
@@ -604,7 +666,10 @@ def _holds_quantities(obj: Any) -> bool:
     return isinstance(obj, (xr.DataArray, xr.Dataset, xr.DataTree)) and dequantify(obj) is not obj
 
 
-def accepts_quantified(func: Callable[..., Any]) -> Callable[..., Any]:
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def accepts_quantified(func: _F) -> _F:
     """Let a public function take pint-quantified data (pint-xarray's ``.pint.quantify()``).
 
     The first argument (a DataArray, Dataset or DataTree, or a mapping of them) is passed
@@ -624,14 +689,14 @@ def accepts_quantified(func: Callable[..., Any]) -> Callable[..., Any]:
     """
 
     @functools.wraps(func)
-    def wrapper(data, /, *args, **kwargs):
+    def wrapper(data: Any, /, *args: Any, **kwargs: Any) -> Any:
         if isinstance(data, (xr.DataArray, xr.Dataset, xr.DataTree)):
             data = dequantify(data)
         elif isinstance(data, Mapping) and any(map(_holds_quantities, data.values())):
             data = {k: dequantify(v) if _holds_quantities(v) else v for k, v in data.items()}
         return func(data, *args, **kwargs)
 
-    return wrapper
+    return cast(_F, wrapper)  # same signature: the first argument is only dequantified
 
 
 #: SI prefixes by power of ten, for :func:`compact`.
@@ -655,7 +720,7 @@ def compact(q: pint.Quantity) -> pint.Quantity:
     """
     if np.size(q.magnitude) != 1:
         raise ValueError(f"compact: one value is needed, got {np.size(q.magnitude)}")
-    items = list(q.units._units.items())  # noqa: SLF001 - pint's documented container
+    items = _factors(q.units)
     value = float(np.reshape(q.magnitude, -1)[0])
     if not items or value == 0 or not np.isfinite(value):
         return q

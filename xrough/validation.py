@@ -26,6 +26,7 @@ from .correlation import height_difference_acf
 from .fitting import fit_acf
 from .gradient import rms_gradient
 from .solver import check_topography, solve_contact
+from .units import QuantityLike
 
 __all__ = ["compare_with_simulation", "fit_kappa", "VALIDATION_THEORIES"]
 
@@ -86,8 +87,10 @@ def _full_contact_load(h_lat: np.ndarray, spacing, periodic: bool, E: float, gba
     """Mean pressure just beyond full contact (Pa)."""
     if not periodic:  # no exact threshold in free space: a generous multiple
         return 4.0 * E * gbar0
-    stress = full_contact_stress(h_lat, ElasticOperator(h_lat.shape, spacing,
-                                                          periodic=True)) * E
+    inverse = full_contact_stress(h_lat, ElasticOperator(h_lat.shape, spacing,
+                                                           periodic=True))
+    assert inverse is not None  # a periodic grid has one
+    stress = inverse * E
     return FULL_CONTACT_MARGIN * float(max(-stress.min(), 1e-3 * E * gbar0))
 
 
@@ -119,7 +122,7 @@ def _on_lags(da: xr.DataArray, dr: np.ndarray) -> xr.DataArray:
 
 
 def _errors(diff: xr.DataArray, scale: xr.DataArray | float, sel: np.ndarray):
-    rel = np.abs(diff.isel(dr=np.flatnonzero(sel))) / scale
+    rel = abs(diff.isel(dr=np.flatnonzero(sel))) / scale
     return rel.max("dr", skipna=True), np.sqrt((rel**2).mean("dr", skipna=True))
 
 
@@ -127,8 +130,8 @@ def _errors(diff: xr.DataArray, scale: xr.DataArray | float, sel: np.ndarray):
 def compare_with_simulation(
     topography: xr.DataArray,
     *,
-    E_star: Any,
-    p0: Any,
+    E_star: QuantityLike,
+    p0: QuantityLike,
     theory: str | tuple[str, ...] = VALIDATION_THEORIES,
     kappa: float | None = None,
     full_contact: bool = True,
@@ -281,7 +284,7 @@ def compare_with_simulation(
     kappa_used, fitted = _kappa(kappa, names, sim.area[0], p_star[0])
     lo, hi, sel = _error_lags(rough.G["dr"].values, grid, error_range)
     pred = _predictions(rough, E, p0s, names, kappa_used, smooth_full)
-    coords = {"theory": ("theory", np.array(names, dtype=object),
+    coords: dict[str, Any] = {"theory": ("theory", np.array(names, dtype=object),
                          {"long_name": "theory of partial contact (see attrs)"}),
               "p0": ("p0", p0s, {"units": "Pa", "long_name": "mean pressure"}),
               "dr": ("dr", rough.G["dr"].values, {"units": grid.lateral_unit,
@@ -395,7 +398,7 @@ def _predictions(rough: _Roughness, E: float, p0s: np.ndarray, names: tuple[str,
     theory). Each warning of :func:`xrough.persson` is issued once, not once per theory.
     """
     G, dr = rough.G, rough.G["dr"].values
-    predicted = {v: [] for v in _PREDICTED}
+    predicted: dict[str, list[np.ndarray]] = {v: [] for v in _PREDICTED}
     printed = None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -507,6 +510,7 @@ def _stress_vars(pred: dict, sim: _Simulation, coords: dict, sel: np.ndarray,
 def _full_contact_vars(G: xr.DataArray, E: float, sim: _Simulation, sel: np.ndarray,
                        err_attrs: dict) -> dict:
     """Return the full-contact stress ACF, simulated and of eq. 24, and its error."""
+    assert sim.p_full is not None  # simulated with full_contact
     n, p_full = sim.n, float(sim.p_full)
     S_full_sim = sim.stress_acf.isel(p0=n).values - p_full**2
     S_full = stress_acf(G, E_star=E).values

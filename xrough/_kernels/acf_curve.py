@@ -34,7 +34,7 @@ pixel scale, and G zig-zags between neighbouring bins by far more than its stand
 from __future__ import annotations
 
 import numpy as np
-from scipy.interpolate import PchipInterpolator, make_smoothing_spline
+from scipy.interpolate import BSpline, PchipInterpolator, make_smoothing_spline
 
 __all__ = ["AcfCurve", "DETERMINED", "FLAT_SLOPE", "G_RANGE", "RELATIVE_ERROR_RANGE", "acf_problem",
            "relative_error_problem", "require_acf"]
@@ -225,10 +225,10 @@ class AcfCurve:
         self.slope = np.diff(self.y) / np.diff(self.x)  # mean log-log slope per piece
         self._pchip = PchipInterpolator(self.x, self.y)
         self.a, self.b = self._even_start()
-        self._spline = None
+        self._spline: BSpline | None = None
 
     def _even_start(self) -> tuple[float, float]:
-        """``(a, b)`` of ``G = a r^2 + b r^4`` below the first sample (module docstring)."""
+        """Return ``(a, b)`` of ``G = a r^2 + b r^4`` below the first sample (module docstring)."""
         (r0, r1), (g0, g1) = self.dr[:2] ** 2, self.g[:2]
         b = (g1 / r1 - g0 / r0) / (r1 - r0)
         a = g0 / r0 - b * r0

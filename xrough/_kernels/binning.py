@@ -48,7 +48,7 @@ def check_points_per_decade(value) -> float:
     ValueError: points_per_decade must be a positive number up to 1000, got 0
     """
     ok = (isinstance(value, numbers.Real) and not isinstance(value, bool)
-          and np.isfinite(value) and 0 < value <= MAX_POINTS_PER_DECADE)
+          and np.isfinite(float(value)) and 0 < float(value) <= MAX_POINTS_PER_DECADE)
     if not ok:
         raise ValueError(f"points_per_decade must be a positive number up to "
                          f"{MAX_POINTS_PER_DECADE}, got {value!r}")
@@ -162,7 +162,7 @@ def lag_multiplicity(n: int, k: int, periodic: bool) -> np.ndarray:
 
 def lag_radius2(ks: tuple[int, ...], spacing: tuple[float, ...]) -> np.ndarray:
     """Squared lag length on the folded lattice ``0..k`` per axis (broadcast to full shape)."""
-    r2 = 0.0
+    r2: np.ndarray | float = 0.0
     for axis, (k, d) in enumerate(zip(ks, spacing)):
         shape = [1] * len(ks)
         shape[axis] = k + 1

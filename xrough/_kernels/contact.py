@@ -302,7 +302,7 @@ def patch_radius_curve(g, *, dr, E_star, gamma) -> np.ndarray:
         return beyond  # in the flat continuation (f increases there)
 
     def start_root(cubic, linear, rhs):
-        """The root in ``(0, r0]`` of ``cubic a^3 + linear a = rhs`` (increasing there)."""
+        """Return the root in ``(0, r0]`` of ``cubic a^3 + linear a = rhs`` (increasing there)."""
         if cubic == 0:
             return rhs / linear
         roots = np.roots([cubic, 0.0, linear, -rhs])

@@ -105,7 +105,7 @@ def _fit_normalised(h: np.ndarray, unit: list[np.ndarray], degree: int):
     if nd == 1:
         (px,) = powers
         moments = m @ px  # (..., 2d+1)
-        rhs_m = h0 @ px[:, : degree + 1]
+        rhs_m: np.ndarray = h0 @ px[:, : degree + 1]
         normal = np.stack([np.stack([moments[..., a[0] + b[0]] for b in terms], -1)
                            for a in terms], -2)
         rhs = np.stack([rhs_m[..., a[0]] for a in terms], -1)

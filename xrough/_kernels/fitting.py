@@ -17,6 +17,8 @@ number of bins and (spectrum) the flags of the resolved cutoffs.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from scipy import optimize
 
@@ -123,7 +125,7 @@ _FAR_S, _FAR_R = 1e3, 1e5
 #: relative error <= 5e-15 (sharp) and 5e-9 (smooth, set by _KNOTS) against the defaults
 #: over 16 decades of dr, 0.02 <= H <= 0.99; half the cost.
 _KNOTS = {"sharp": 0.0, "smooth": 40.0}
-_QUADRATURE = {"t_split": 32.0, "order": 10, "panels_per_decade": 4.0}
+_QUADRATURE: dict[str, Any] = {"t_split": 32.0, "order": 10, "panels_per_decade": 4.0}
 #: A cutoff is resolved when its eta (eps) exceeds this many standard deviations and
 #: _MIN_EFFECT (a relative change of G below 1e-6 is no cutoff, even in exact data).
 _SIGNIFICANCE, _MIN_EFFECT = 2.0, 1e-6
@@ -641,7 +643,7 @@ class _ShapeProblem:
             G, se, dr=dr, use=use, dr_ref=dr_ref, weighted=weighted, fixed=fixed, unit=unit,
             what="the model spectrum")
         self.dof = self.n - p
-        self.index = {k: i for i, k in enumerate(np.flatnonzero(self.free))}
+        self.index = {int(k): i for i, k in enumerate(np.flatnonzero(self.free))}
         self.ly = np.log(G_sel / self.G_ref)
         self.g_max = _g_max(G_sel, self.w, weighted)
         self.x_lo, self.x_hi = float(self.x.min()), float(self.x.max())
@@ -745,7 +747,7 @@ class _ShapeProblem:
             return r
 
         def jac(t):
-            d0 = cache["d"] if np.array_equal(cache.get("t"), t) else dev(t)
+            d0 = cache["d"] if "t" in cache and np.array_equal(cache["t"], t) else dev(t)
             cols = []
             for i, k in enumerate(np.flatnonzero(rest)):
                 h = self.steps[k] if t[i] + self.steps[k] <= self.upper[k] else -self.steps[k]
@@ -760,7 +762,8 @@ class _ShapeProblem:
                                      gtol=_GTOL, max_nfev=_MAX_NFEV)
         theta = full(res.x)
         if profile:
-            d = cache["d"] if np.array_equal(cache.get("t"), res.x) else dev(res.x)
+            d = (cache["d"] if "t" in cache and np.array_equal(cache["t"], res.x)
+                 else dev(res.x))
             theta[0] = self.amplitude(d)
         return theta
 

@@ -39,9 +39,10 @@ from scipy import fft as sfft
 from .binning import binned_sum, folded_bin_index, lag_multiplicity, lag_radius2
 from .uncertainty import finite_area_variance
 
-__all__ = ["folded_pair_sums", "binned_map_sums", "map_kernel_applies", "folded_geometric_counts", "padded_shape", "binned_geometry",
-           "require_no_inf", "few_points_message", "packed", "pool", "g_from_packed",
-           "area_variance", "times_power_of_two"]
+__all__ = ["folded_pair_sums", "binned_map_sums", "map_kernel_applies",
+           "folded_geometric_counts", "padded_shape", "binned_geometry", "require_no_inf",
+           "few_points_message", "packed", "pool", "g_from_packed", "area_variance",
+           "times_power_of_two"]
 
 
 def padded_shape(shape: tuple[int, ...], ks: tuple[int, ...], periodic: bool) -> tuple[int, ...]:
@@ -168,7 +169,7 @@ def _sq_terms_nonperiodic(h2: np.ndarray, ks: tuple[int, ...]) -> np.ndarray:
     return _sq_rows(t, ks, 0, ks[0] + 1)
 
 
-def _sq_rows(t: np.ndarray, ks: tuple[int, int], i0: int, i1: int) -> np.ndarray:
+def _sq_rows(t: np.ndarray, ks: tuple[int, ...], i0: int, i1: int) -> np.ndarray:
     """Rows ``i0:i1`` of the folded ``h(r)^2 + h(r+d)^2`` sums from the summed-area table.
 
     ``t`` is ``(..., ny + 1, nx + 1)`` with ``t[0, :] = t[:, 0] = 0``. For lags
@@ -196,7 +197,7 @@ def _sq_rows(t: np.ndarray, ks: tuple[int, int], i0: int, i1: int) -> np.ndarray
 
 
 def folded_pair_sums(h: np.ndarray, ks: tuple[int, ...], *, periodic: bool,
-                     workers: int = -1) -> tuple[np.ndarray, np.ndarray]:
+                     workers: int = -1) -> tuple[np.ndarray, np.ndarray | None]:
     """Folded sums of squared differences and pair counts over the last ``len(ks)`` axes.
 
     Parameters
@@ -322,7 +323,7 @@ def _masked(h, valid, ks, fshape, axes, workers):
 BLOCK_ELEMENTS = 2**19
 
 
-def binned_map_sums(h: np.ndarray, exponent: int, ks: tuple[int, int], *, periodic: bool,
+def binned_map_sums(h: np.ndarray, exponent: int, ks: tuple[int, ...], *, periodic: bool,
                     index: np.ndarray, nbins: int, lines=None, workers: int = -1):
     """Binned folded sums of squared differences and pair counts of one map, by FFT.
 
@@ -395,7 +396,7 @@ def _row_blocks(rows: int, width: int):
 def _binned_rows(block, rows: int, *, index, nbins, lines):
     """Bin a folded plane given block by block (``block(i0, i1)``: rows ``i0:i1``)."""
     out = np.zeros(nbins + 1)
-    line_y = np.empty(rows) if lines is not None else None
+    line_y = np.empty(rows)  # the first column of each row (the lags along y)
     line_x = None
     for i0, i1 in _row_blocks(rows, index.shape[1]):
         b = block(i0, i1)
@@ -510,7 +511,7 @@ def _open_binned(h, exponent, binner, *, ks, fshape, workers):
                   axis=0, out=t[1:, 1 + c0:1 + c1])
     for r0, r1 in _row_blocks(ny, nx):
         np.cumsum(t[1 + r0:1 + r1, 1:], axis=-1, out=t[1 + r0:1 + r1, 1:])
-    sq = binner(lambda i0, i1: _sq_rows(t, ks, i0, i1), ks[0] + 1)
+    sq = binner(functools.partial(_sq_rows, t, ks), ks[0] + 1)
     del t
     spec = np.empty((fshape[0], fshape[1] // 2 + 1), dtype=np.complex128)
     _spectrum_rows(lambda r0, r1: _scaled_centred(h, exponent, mean, r0, r1), ny, fshape,
@@ -524,7 +525,7 @@ def _open_binned(h, exponent, binner, *, ks, fshape, workers):
 
 
 def _masked_binned(h, exponent, binner, *, ks, fshape, workers):
-    """Sums and counts of a map with missing points (the correlations of :func:`_masked`).
+    """Bin the sums and counts of a map with missing points (correlations of :func:`_masked`).
 
     One half spectrum holds the mask's transform ``M``, then per column slab its power
     ``|M|^2`` (counts) and ``2 Re(conj(B) M) - 2 |A|^2`` (sums) side by side in its real
@@ -544,7 +545,8 @@ def _masked_binned(h, exponent, binner, *, ks, fshape, workers):
     v = spec.view(np.float64).reshape(spec.shape + (2,))
     slabs = list(_column_slabs(spec.shape[1], m0))
     for square in (True, False):  # B = F(h^2), then A = F(h)
-        _spectrum_rows(lambda r0, r1: _scaled_centred(h, exponent, mean, r0, r1, square),
+        _spectrum_rows(lambda r0, r1, square=square: _scaled_centred(h, exponent, mean, r0,
+                                                                     r1, square),
                        ny, (ny, fshape[1]), rows, workers)
         for c0, c1 in slabs:
             slab = np.zeros((m0, c1 - c0), dtype=np.complex128)

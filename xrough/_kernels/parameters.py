@@ -249,7 +249,8 @@ def _slopes_of_map(h, *, nd, steps, spacing, periodic, hfactor) -> np.ndarray:
     complete = not np.isnan(h).any()
     out = np.empty((len(steps), 2))
     for i, ks in enumerate(np.asarray(steps, dtype=int).reshape(-1, nd)):
-        total, count = 0.0, 0
+        total: float | np.ndarray = 0.0
+        count: int | np.ndarray = 0
         for a in range(nd):
             ms, n = _mean_square(fd.slope(h, nd=nd, axis=a, step=int(ks[a]),
                                           spacing=spacing[a], periodic=periodic), nd,
@@ -334,14 +335,18 @@ def values_of(h, *, quantity: str, direction: str, nd: int, spacing: tuple[float
             values = np.abs(fd.slope(hl, nd=1, axis=0, step=1, spacing=spacing[0],
                                      periodic=periodic))
         else:
-            sy, sx = fd.gradient(hl, steps=(1, 1), spacing=spacing, periodic=periodic)
+            sy, sx = fd.gradient(hl, steps=(1, 1), spacing=(spacing[0], spacing[1]),
+                                 periodic=periodic)
             values = np.hypot(sy, sx)
     elif quantity == "slope":
+        assert axis is not None  # a direction "x" or "y"
         values = fd.slope(hl, nd=nd, axis=axis, step=1, spacing=spacing[axis],
                           periodic=periodic)
     elif direction == "mean":
-        values = fd.mean_curvature(hl, steps=(1, 1), spacing=spacing, periodic=periodic)
+        values = fd.mean_curvature(hl, steps=(1, 1), spacing=(spacing[0], spacing[1]),
+                                   periodic=periodic)
     else:
+        assert axis is not None  # a direction "x" or "y"
         values = fd.curvature(hl, nd=nd, axis=axis, step=1, spacing=spacing[axis],
                               periodic=periodic)
     return values.reshape(batch + (-1,))

@@ -27,6 +27,7 @@ by the summed ``sum w^2 m`` of the lines with at least 2 valid points).
 from __future__ import annotations
 
 import functools
+from typing import overload
 
 import numpy as np
 import scipy.fft as sfft
@@ -46,6 +47,10 @@ WINDOWS = ("hann", "hamming", "blackman", "blackmanharris")
 DIRECTIONS = ("radial", "x", "y", "profile")
 
 
+@overload
+def window_1d(name: str, n: int) -> np.ndarray: ...
+@overload
+def window_1d(name: None, n: int) -> None: ...
 def window_1d(name: str | None, n: int) -> np.ndarray | None:
     """Return the window ``name`` of ``n`` points, scaled to a mean square of 1 (None: none).
 
@@ -82,7 +87,8 @@ def _axis_modes(n: int, d: float, half: bool) -> tuple[np.ndarray, np.ndarray]:
 
 def _modes(shape: tuple[int, ...], spacing: tuple[float, ...]):
     """``|q|^2`` and weight of every entry of the real FFT of a grid (last axis halved)."""
-    q2, weight = 0.0, 1.0
+    q2: float | np.ndarray = 0.0
+    weight: float | np.ndarray = 1.0
     for axis, (n, d) in enumerate(zip(shape, spacing)):
         q, w = _axis_modes(n, d, half=axis == len(shape) - 1)
         view = [1] * len(shape)
@@ -175,7 +181,7 @@ def error_factors(shape: tuple[int, ...], spacing: tuple[float, ...],
     if window is None:
         return np.ones(n_modes.size)
     edges = np.asarray(edges_key, dtype=float)
-    q2 = 0.0
+    q2: float | np.ndarray = 0.0
     for axis, (n, d) in enumerate(zip(shape, spacing)):  # the full plane of modes
         view = [1] * len(shape)
         view[axis] = n

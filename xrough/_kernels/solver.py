@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy import fft as sfft
@@ -279,6 +280,11 @@ class _Stall:
         return self.count
 
 
+#: A work map of :class:`_State` not (or no longer) allocated: released before the next.
+_RELEASED = np.empty(0)
+_RELEASED.setflags(write=False)
+
+
 @dataclass
 class _State:
     """Iterate of :func:`solve_load`: pressure and direction on the contact set, work maps.
@@ -298,13 +304,13 @@ class _State:
     t_s: np.ndarray
     inc: np.ndarray
     dtype: type
-    hh: np.ndarray | None = None
-    pf: np.ndarray | None = None
-    tf: np.ndarray | None = None
+    hh: np.ndarray = field(default_factory=lambda: _RELEASED)
+    pf: np.ndarray = field(default_factory=lambda: _RELEASED)
+    tf: np.ndarray = field(default_factory=lambda: _RELEASED)
     zf: np.ndarray | None = None
-    u: np.ndarray | None = None
-    d: np.ndarray | None = None
-    below: np.ndarray | None = None
+    u: np.ndarray = field(default_factory=lambda: _RELEASED)
+    d: np.ndarray = field(default_factory=lambda: _RELEASED)
+    below: np.ndarray = field(default_factory=lambda: _RELEASED)
     exact: bool = True
     fresh: bool = True
     delta: float = 0.0  #: 1 to conjugate the next direction, 0 to restart it
@@ -353,7 +359,8 @@ def _set_precision(prob: _Problem, st: _State, dtype: type, t_dtype: type) -> No
 
     The maps of the previous phase are released first, so that both are never alive.
     """
-    st.hh = st.pf = st.tf = st.zf = st.u = st.d = st.below = None
+    st.hh = st.pf = st.tf = st.u = st.d = st.below = _RELEASED
+    st.zf = None
     shape = prob.h.shape
     st.dtype = dtype
     st.hh = np.ascontiguousarray(prob.h, dtype=dtype)
@@ -372,7 +379,7 @@ def _refresh_displacement(prob: _Problem, st: _State) -> None:
 
     ``pf`` holds ``p`` only as of the last contact-set change: brought up to date first.
     """
-    st.u = None
+    st.u = _RELEASED
     st.pf.ravel()[st.idx] = st.p_s
     st.u = prob.op(st.pf)
     st.transforms += 2
@@ -490,6 +497,7 @@ def _advance_displacement(prob: _Problem, st: _State, r: np.ndarray, tau: float,
     _rescale(st.u, r, tau, s)
     if c_idx is None or c_idx.size <= POINT_LOADS_MAX[st.u.dtype.type]:
         if c_idx is not None:
+            assert c_val is not None  # given with c_idx
             prob.op.add_point_loads(st.u, c_idx, c_val)
         st.exact = st.exact and r.dtype == st.u.dtype
     else:
@@ -545,7 +553,7 @@ def _cg_step(prob: _Problem, st: _State) -> _Step:
         st.p_s = q_s
     if (c_idx is not None and c_idx.size > POINT_LOADS_MAX[st.u.dtype.type]
             and r.dtype == st.u.dtype):
-        r = None  # released before the new transform pair
+        del r  # released before the new transform pair
         _refresh_displacement(prob, st)
     else:
         _advance_displacement(prob, st, r, tau, s, c_idx, c_val)
@@ -619,8 +627,9 @@ def _converged(prob: _Problem, st: _State, step: _Step) -> bool | None:
 def _result(prob: _Problem, st: _State, converged: bool) -> dict:
     """Full maps of the solution; ``u`` is reused when transformed afresh in float64."""
     u = st.u if st.fresh and st.u.dtype == np.float64 else None
-    st.hh = st.pf = st.tf = st.zf = st.u = st.d = st.below = None  # before the result
-    pressure = np.zeros(prob.h.size)
+    st.hh = st.pf = st.tf = st.u = st.d = st.below = _RELEASED  # before the result
+    st.zf = None
+    pressure: np.ndarray = np.zeros(prob.h.size)
     pressure[st.idx] = st.p_s
     pressure = pressure.reshape(prob.h.shape)
     if u is None:
@@ -760,6 +769,7 @@ def full_contact_solution(h: np.ndarray, op: ElasticOperator, p0: float) -> dict
     :func:`solve_load`) is measured on it, so the result is checked, not assumed.
     """
     p = full_contact_stress(h, op)
+    assert p is not None  # a periodic grid (see above)
     p += p0
     u = op(p)
     gap = np.subtract(u, h)
@@ -773,7 +783,7 @@ def full_contact_solution(h: np.ndarray, op: ElasticOperator, p0: float) -> dict
 
 def coarse_start(h: np.ndarray, op: ElasticOperator, p0: float, *, levels: int,
                   tol: float, max_iter: int, precision: str,
-                  precondition: bool = True) -> tuple[np.ndarray, int]:
+                  precondition: bool = True) -> tuple[np.ndarray | None, int]:
     """Start from the solution on grids restricted ``levels`` times by 2.
 
     Each restriction averages 2 x 2 pixels of ``h`` (the spacing doubles); the coarse
@@ -828,7 +838,7 @@ def solve_approach(
             f"(max(h) - mean(h) = {h.max() - h.mean():g}), where the mean pressure is not "
             "determined by the displacement; prescribe p0 instead"
         )
-    state = {"p": p_init, "iterations": 0, "last": None, "p0": None}
+    state: dict[str, Any] = {"p": p_init, "iterations": 0, "last": None, "p0": None}
     hmax = float(h.max())
 
     def mismatch(p0: float) -> float:

@@ -185,7 +185,8 @@ def _acf_pieces(dr: np.ndarray, G: np.ndarray, *, interpolation: str, low_delay:
     if interpolation == "hermite":
         coef = np.zeros((6, dr.size))
         coef[0] = G
-        spline = interpolate.CubicSpline(u, v, bc_type=((1, 2.0), (1, 0.0)))
+        # scipy-stubs want arrays of end derivatives; a number is the 1-D case of one
+        spline = interpolate.CubicSpline(u, v, bc_type=((1, 2.0), (1, 0.0)))  # type: ignore[arg-type]
         slope, curvature = spline(u, 1), spline(u, 2)
         coef[:, 1:] = G[1:] * _hermite_factor(
             dr[:-1] / dr[1:], -np.expm1(-np.diff(u)), slope[:-1] - alpha, slope[1:] - alpha,

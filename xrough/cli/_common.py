@@ -11,6 +11,7 @@ import re
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from typing import SupportsFloat
 
 import numpy as np
 import xarray as xr
@@ -107,7 +108,7 @@ def _compact(value: float, unit: str):
         q = q.to("dimensionless")
     if q.dimensionless or value == 0 or not np.isfinite(value):
         return q
-    items = list(q.units._units.items())  # noqa: SLF001 - pint's documented container
+    items = u._factors(q.units)  # noqa: SLF001 - xrough's own helper
     if len(items) == 1 and items[0][1] not in (1, 1.0) and float(items[0][1]).is_integer():
         n = int(items[0][1])
         root = u.compact(u.ureg.Quantity(abs(value) ** (1 / n), u.ureg.Unit(items[0][0])))
@@ -166,9 +167,9 @@ def show_errors(value: xr.DataArray, std: xr.DataArray | None = None,
     return " ".join(parts) + unit
 
 
-def finite(value: float) -> float | None:
-    value = float(value)
-    return value if np.isfinite(value) else None
+def finite(value: SupportsFloat) -> float | None:
+    number = float(value)
+    return number if np.isfinite(number) else None
 
 
 def number(da: xr.DataArray | float, unit: str | None = None) -> dict:

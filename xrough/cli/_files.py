@@ -20,6 +20,7 @@ import tempfile
 import warnings
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -115,8 +116,9 @@ def _checked(args: argparse.Namespace) -> dict:
     if scale is not None and not (np.isfinite(scale) and scale != 0):
         raise CLIError(f"--height-scale {scale}: must be a finite, non-zero number")
     try:
-        options = {"size": _size(args.size), "unit": _length_unit(args.unit, "--unit"),
-                   "height_unit": _length_unit(args.height_unit, "--height-unit")}
+        options: dict[str, Any] = {
+            "size": _size(args.size), "unit": _length_unit(args.unit, "--unit"),
+            "height_unit": _length_unit(args.height_unit, "--height-unit")}
     except CLIError:
         raise
     except ValueError as err:  # a unit's own message, naming the option

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 from .._version import __version__
 from . import acf, demo, info, report
@@ -31,7 +32,8 @@ class _Parser(argparse.ArgumentParser):
 
 def parser() -> argparse.ArgumentParser:
     """Build the parser of ``xrough`` and its commands."""
-    common = {"epilog": _EPILOG, "formatter_class": argparse.RawDescriptionHelpFormatter}
+    common: dict[str, Any] = {"epilog": _EPILOG,
+                              "formatter_class": argparse.RawDescriptionHelpFormatter}
     p = _Parser(
         prog="xrough", description="Contact mechanics of rough surfaces from the "
         "height-difference autocorrelation function G(dr).", **common)

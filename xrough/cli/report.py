@@ -299,6 +299,7 @@ def _emit(out, png, E_star: float, p0: float, gamma: float | None, records) -> N
 def run(args: argparse.Namespace) -> int:
     """Compute, archive, draw and print the contact mechanics of each file."""
     E_star, p0, gamma = (_quantity(args, option) for option in QUANTITIES)
+    assert E_star is not None and p0 is not None  # required options
     out = output(args.output)
     png = out.with_suffix(".png")
     measured = measure_all(args, _analysis(E_star, p0, gamma))

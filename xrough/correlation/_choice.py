@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import os
 from dataclasses import dataclass
+from typing import Any
 
 import dask
 import numpy as np
@@ -97,11 +98,11 @@ def memory_budget(memory_limit=None) -> tuple[float, str]:
     if isinstance(memory_limit, bool) or not (np.isfinite(value) and value > 0):
         raise ValueError(f"memory_limit must be a positive number of bytes or a string "
                          f"such as '4 GB', got {memory_limit!r}")
-    return value, f"{source}={memory_limit!r}: {format_bytes(value)}"
+    return value, f"{source}={memory_limit!r}: {format_bytes(int(value))}"
 
 
 def fft_memory(shape: tuple[int, ...], ks: tuple[int, ...], periodic: bool) -> float:
-    """Peak bytes of the all-pairs FFT of one 2D map (:func:`~xrough._kernels.pairs.binned_map_sums`).
+    """Peak bytes of the all-pairs FFT of one 2D map (``pairs.binned_map_sums``).
 
     Its half spectrum (complex, padded shape), half as much again for the row transforms
     of a map with missing points, and one map-sized array (float64); from the shape
@@ -146,7 +147,7 @@ def choose_estimator(da: xr.DataArray, grid: Grid, direction: str, pool,
     fits = need <= budget
     return ("fft" if fits else "tiled"), (
         f"{'fft' if fits else 'tiled'}: the all-pairs FFT of this map needs about "
-        f"{format_bytes(need)}, {'within' if fits else 'beyond'} the memory budget "
+        f"{format_bytes(int(need))}, {'within' if fits else 'beyond'} the memory budget "
         f"({source})")
 
 
@@ -178,8 +179,8 @@ def _error_floor(dr: tuple, pairs: tuple, area: float, pixel_area: float,
 
     Cached per grid and bins: the quadrature is worth computing once per geometry.
     """
-    dr = np.asarray(dr)
-    out = np.sqrt(finite_area_variance(dr, np.ones_like(dr), np.asarray(pairs), area=area,
+    lags = np.asarray(dr)
+    out = np.sqrt(finite_area_variance(lags, np.ones_like(lags), np.asarray(pairs), area=area,
                                        pixel_area=pixel_area, geometry=geometry))
     out.setflags(write=False)
     return out
@@ -246,7 +247,8 @@ def choose_for_target(da: xr.DataArray, grid: Grid, target: float, *, direction:
     worst = int(np.nanargmax(floor))
     cost = {exact: maps * (COST["fft"] * s.transformed if exact == "fft" else
                            COST["tiled"] * points)}
-    common = dict(floor=float(floor[worst]), floor_dr=float(s.dr[worst]), cost=cost)
+    common: dict[str, Any] = dict(floor=float(floor[worst]), floor_dr=float(s.dr[worst]),
+                                  cost=cost)
     where = (f"the finite-area error of G is at least {floor[worst]:.2g} at dr = "
              f"{s.dr[worst]:.4g} {grid.lateral_unit} on a map of this size and these bins "
              "(standard_error of a G flat over the bins, the most favourable surface)")

@@ -5,8 +5,14 @@ from __future__ import annotations
 import numpy as np
 
 from .._kernels import binning, tiles
-from .._kernels.pairs import (binned_map_sums, few_points_message, folded_pair_sums,
-                              map_kernel_applies, packed, require_no_inf)
+from .._kernels.pairs import (
+    binned_map_sums,
+    few_points_message,
+    folded_pair_sums,
+    map_kernel_applies,
+    packed,
+    require_no_inf,
+)
 from ._plan import Plan, progress_bar
 
 
@@ -114,7 +120,7 @@ def split_directions(sums: np.ndarray, nb: int) -> tuple[np.ndarray, ...]:
 
 
 def map_exponent(h: np.ndarray, index: int, batch: tuple[int, ...]) -> int:
-    """The exponent of :func:`scaled_map` without scaling a copy of the map.
+    """Return the exponent of :func:`scaled_map` without scaling a copy of the map.
 
     Raises
     ------

@@ -95,8 +95,8 @@ def _explicit_edges(bins, lateral_unit: str) -> np.ndarray:
 
 def _linear_edges(lo: float, hi_edge: float, hi: float, spacing, lateral_unit: str,
                   bin_width) -> np.ndarray:
-    width = min(spacing) if bin_width is None else _length(bin_width, lateral_unit,
-                                                           "bin_width")
+    width = min(spacing) if bin_width is None else u.length_in(
+        bin_width, lateral_unit, what="bin_width", positive=False)
     n_bins = (hi_edge - lo) / width
     if n_bins > MAX_BINS:
         raise ValueError(
@@ -183,7 +183,7 @@ class OpenMapBins:
     """Radial bins of one open map, from the row-blocked lattice counts (no lag plane)."""
 
     edges: np.ndarray
-    ks: tuple[int, int]  # largest lag index per axis
+    ks: tuple[int, ...]  # largest lag index per axis
     keep: np.ndarray  # bins that contain at least one lattice lag
     dr: np.ndarray  # pair-weighted mean lag distance of the kept bins
     pairs: np.ndarray  # unordered pairs per kept bin on a map without missing points

@@ -51,7 +51,7 @@ def check_n_pairs(n_pairs) -> int:
     return require_count(n_pairs, "n_pairs", minimum=1)
 
 
-def map_seeds(da: xr.DataArray, extra: list[str], seed: int | None) -> xr.DataArray:
+def map_seeds(da: xr.DataArray, extra: list, seed: int | None) -> xr.DataArray:
     """One seed per map along the extra dims (numpy and dask draw the same pairs)."""
     nmaps = int(np.prod([da.sizes[d] for d in extra])) if extra else 1
     seeds = np.random.SeedSequence(seed).generate_state(nmaps, dtype=np.uint64)

@@ -339,7 +339,8 @@ def _reader_errors_in_words(path: Path, description: str):
     try:
         yield
     except UnicodeError as err:
-        raise ValueError(f"{path.name}: the text cannot be decoded ({err.reason} at byte "
+        reason = getattr(err, "reason", err)  # a bare UnicodeError has no reason
+        raise ValueError(f"{path.name}: the text cannot be decoded ({reason} at byte "
                          f"{getattr(err, 'start', '?')}); pass encoding= if the file is "
                          "text in another encoding") from err
     except ValueError as err:

@@ -118,8 +118,8 @@ def _check_al3d(path: Path, size: int) -> None:
         head = fh.read(len(_AL3D_MAGIC) + 2 * _AL3D_TAG)
         if not head.startswith(_AL3D_MAGIC):
             raise fail(path, "not an AL3D file (no 'AliconaImaging' magic)")
-        count = head[len(_AL3D_MAGIC) + _AL3D_TAG + 20:len(_AL3D_MAGIC) + _AL3D_TAG + 50]
-        count = _whole(path, "TagCount", count.split(b"\0")[0].decode("latin-1"))
+        field = head[len(_AL3D_MAGIC) + _AL3D_TAG + 20:len(_AL3D_MAGIC) + _AL3D_TAG + 50]
+        count = _whole(path, "TagCount", field.split(b"\0")[0].decode("latin-1"))
         head += fh.read(min(count * _AL3D_TAG + _AL3D_COMMENT, _MAX_HEADER))
     tags, header_end = _al3d_tags(path, head)
 
@@ -138,8 +138,8 @@ def _check_al3d(path: Path, size: int) -> None:
     if depth_end > size:
         raise fail(path, f"truncated file: {what} ends at byte {depth_end}, the file has "
                          f"{size} bytes")
-    texture, planes = number("TextureImageOffset", 0), number("NumberOfPlanes")
-    icon = number("IconOffset", 0)
+    texture, planes = number("TextureImageOffset", 0) or 0, number("NumberOfPlanes")
+    icon = number("IconOffset", 0) or 0
     if texture and texture < depth_end and texture >= depth:
         raise fail(path, f"corrupted AL3D header: TextureImageOffset {texture} lies inside "
                          f"{what}")

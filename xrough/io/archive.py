@@ -928,10 +928,11 @@ def _read_tree(dt: xr.DataTree, path: Path, lazy: bool) -> dict:
                 with _checksum.reading(name, f"variable {str(var_name)!r} of group "
                                              f"{node.path!r}"):
                     var.load()
-        entry = {}
+        entry: dict = {}
         if groups is not None:
-            entry = groups.get(node.path)
-            _checksum.verify(name, node.path, ds, node.children, entry)
+            found = groups.get(node.path)
+            _checksum.verify(name, node.path, ds, node.children, found)  # refuses None
+            entry = found or {}
             _checksum.check_missing(name, node.path, ds, entry.get("missing", {}))
         ds = ds.copy()
         ds.attrs = {k: v for k, v in ds.attrs.items()

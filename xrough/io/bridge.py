@@ -443,7 +443,7 @@ def _channel_data(reader, channel, path: Path, size, unit) -> dict:
                                      advice=" (e.g. unit='um')")
         kwargs["unit"] = "m"  # placeholder label; relabelled below
     topo = reader.topography(**kwargs)
-    heights = np.ma.filled(np.ma.asarray(topo.heights(), dtype=float), np.nan)
+    heights: np.ndarray = np.ma.filled(np.ma.asarray(topo.heights(), dtype=float), np.nan)
     if "physical_sizes" not in kwargs:  # sizes as the file states them: compare
         check_height_scale(path, heights, max(float(s) for s in topo.physical_sizes),
                            _unit_text(topo.unit) or "(file unit)")

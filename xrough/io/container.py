@@ -26,8 +26,11 @@ class _Loader(yaml.SafeLoader):
     """Safe YAML with the one Python tag containers write: ``!!python/tuple`` (sizes)."""
 
 
-_Loader.add_constructor("tag:yaml.org,2002:python/tuple",
-                        lambda loader, node: loader.construct_sequence(node))
+def _sequence(loader: yaml.SafeLoader, node: yaml.SequenceNode) -> list:
+    return loader.construct_sequence(node)
+
+
+_Loader.add_constructor("tag:yaml.org,2002:python/tuple", _sequence)
 
 
 def container_attrs(path: Path) -> dict:
@@ -64,7 +67,7 @@ def container_attrs(path: Path) -> dict:
             datafile = (topo or {}).get("datafile") or {}
             if datafile.get("original") != Path(path).name:
                 continue
-            out = {"container_file": META}
+            out: dict[str, str | int | float] = {"container_file": META}
             for key, value in topo.items():
                 if isinstance(value, bool):
                     out[f"container_{key}"] = int(value)

@@ -33,6 +33,7 @@ import re
 import struct
 from datetime import datetime
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from igor2 import binarywave
@@ -288,7 +289,7 @@ def _layout(path: Path, blob: bytes, header: dict, wave) -> dict:
     else:
         labelled = False
         names = [_text(wh["bname"]) or "wave"]
-    chans = [{"index": k, "name": n,
+    chans: list[dict[str, Any]] = [{"index": k, "name": n,
               "unit": _channel_unit(n, data_unit, note, labelled)}
              for k, n in enumerate(names)]
     for c in chans:

@@ -64,6 +64,7 @@ from __future__ import annotations
 import re
 from datetime import datetime
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -334,13 +335,14 @@ def _channels(path: Path):
                                                          "stm list", "nc afm list")), {})
     gx = _int(path, scan, "Samps/line", "scan list", default=0)
     gy = _int(path, scan, "Lines", "scan list", default=0)
-    out = []
+    out: list[dict[str, Any]] = []
     for n, entries in sections:
         if n.lower() not in _IMAGE_SECTIONS:
             continue
         index = len(out)
         name = _image_name(entries, index)
-        info = {"index": index, "name": name, "entries": entries, "scan": _scan(entries)}
+        info: dict[str, Any] = {"index": index, "name": name, "entries": entries,
+                                "scan": _scan(entries)}
         try:
             per_lsb, unit, formula, raw_scale = _z_scale(path, sections, entries, name)
             info.update(per_lsb=per_lsb, unit=unit, formula=formula, z_scale=raw_scale)
@@ -408,15 +410,16 @@ def _check_layout(path: Path, text: str, sections, infos: list[dict]) -> None:
     last = None
     for number, (name, entries) in enumerate(sections[1:], start=1):
         what = names.get(id(entries), f"section {number} ({name!r})")
-        offset, length = (_section_value(entries, key) for key in ("Data offset",
-                                                                  "Data length"))
-        if offset is None or length is None:
+        offset_text, length_text = (_section_value(entries, key) for key in ("Data offset",
+                                                                            "Data length"))
+        if offset_text is None or length_text is None:
             continue
         try:
-            offset, length = int(float(offset.split()[0])), int(float(length.split()[0]))
+            offset = int(float(offset_text.split()[0]))
+            length = int(float(length_text.split()[0]))
         except (IndexError, ValueError):
-            raise fail(path, f"{what}: 'Data offset: {offset}' or "
-                             f"'Data length: {length}' is not an integer") from None
+            raise fail(path, f"{what}: 'Data offset: {offset_text}' or "
+                             f"'Data length: {length_text}' is not an integer") from None
         if header_length is not None and offset < header_length:
             raise fail(path, f"{what}: Data offset {offset} lies inside "
                              f"the {header_length}-byte header")

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import mmap
 from pathlib import Path
+from typing import Any
 
 import netCDF4
 import numpy as np
@@ -326,7 +327,7 @@ def _choose(ds: xr.Dataset, name: str, variable: str | None) -> str:
         if preferred in candidates:
             return preferred
     if len(candidates) == 1:
-        return candidates[0]
+        return str(candidates[0])
     if not candidates:
         raise ValueError(f"{name}: no data variable in the root group (an xrough analysis "
                          "archive? open it with xrough.open_analysis, or pass group=)")
@@ -398,9 +399,9 @@ def _read(path: Path, variable, group, unit, height_unit, size) -> xr.DataArray:
     check_hdf5_size(path)
     try:
         with _open(path, group) as ds:
-            for var_name, var in ds.variables.items():
+            for var_name, stored in ds.variables.items():
                 with _checksum.reading(name, f"variable {var_name!r}"):
-                    var.load()
+                    stored.load()
     except OSError as err:
         raise ValueError(f"{name}: cannot read as NetCDF ({err})") from err
     where = "/" + (group or "").strip("/")
@@ -409,24 +410,24 @@ def _read(path: Path, variable, group, unit, height_unit, size) -> xr.DataArray:
         _checksum.verify(name, where, ds, (), groups.get(where))
         _checksum.check_missing(name, where, ds, groups[where].get("missing", {}))
     ds.attrs.pop(_checksum.KEY, None)
-    for var in ds.variables.values():  # files of earlier versions: their checksums
-        var.attrs.pop(_checksum.LEGACY, None)
+    for stored in ds.variables.values():  # files of earlier versions: their checksums
+        stored.attrs.pop(_checksum.LEGACY, None)
     ds.attrs.pop(_checksum.LEGACY, None)
-    var = _choose(ds, name, variable)
-    da = ds[var]
+    chosen = _choose(ds, name, variable)
+    da = ds[chosen]
     own = "units" in da.attrs and all("units" in da[d].attrs for d in ("x", "y")
                                        if d in da.coords)
-    if var == _DATAARRAY_DEFAULT:
+    if chosen == _DATAARRAY_DEFAULT:
         da.name = None
     if "x" not in da.dims:
-        raise ValueError(f"{name}: variable {var!r} has dims {da.dims}; a topography needs "
+        raise ValueError(f"{name}: variable {chosen!r} has dims {da.dims}; a topography needs "
                          "dims ('y', 'x') or ('x',)")
     core = ("y", "x") if "y" in da.dims else ("x",)
     da = da.transpose(..., *core)
     attrs = {str(k): _plain(v) for k, v in da.attrs.items()}
     hunit = height_unit or unit or _units(attrs)
     if hunit is None:
-        raise MissingOptionError(name, f"variable {var!r} has no units attribute",
+        raise MissingOptionError(name, f"variable {chosen!r} has no units attribute",
                                  ("unit", "height_unit"), either=True)
     attrs.pop("unit", None)
     attrs["units"] = hunit if own and not (height_unit or unit) else u.format_units(hunit)
@@ -455,8 +456,8 @@ def _read(path: Path, variable, group, unit, height_unit, size) -> xr.DataArray:
         attrs["periodic"] = int(bool(int(periodic)))
     da.attrs = attrs
     da.encoding = {}
-    for d in da.coords:
-        da[d].encoding = {}
+    for coord in da.coords:
+        da[coord].encoding = {}
     if not own:
         da.name = "height"
         da.attrs.setdefault("long_name", "height")
@@ -506,10 +507,11 @@ def write(topo: xr.DataArray, path, *, format: str = "NETCDF4") -> None:
         name = _DATAARRAY_DEFAULT  # what DataArray.to_netcdf names it
     variables = {name: topo.variable, **topo.coords.variables}
     encoding = {k: _checksum.chunk_encoding(v, fmt) for k, v in variables.items()}
-    topo.to_netcdf(path, engine="netcdf4", format=format, encoding=encoding)
+    topo.to_netcdf(path, engine="netcdf4", format=format,  # type: ignore[call-overload]
+                   encoding=encoding)  # format is checked by netCDF4 (a clear message)
     with netCDF4.Dataset(path, "a") as nc:  # what the file follows, as the archives say
         nc.setncattr("Conventions", CONVENTIONS)
-    entry = {"missing": _checksum.missing_counts(variables)}
+    entry: dict[str, Any] = {"missing": _checksum.missing_counts(variables)}
     with _open(path) as ds:
         entry["sha256"] = _checksum.digests(ds, (), entry)  # reads values without checksums
     _checksum.stamp(path, "netcdf", {"/": entry})

@@ -52,7 +52,7 @@ _TEXT_MAGIC = b"aISO-1.0"
 _BINARY_MAGIC = b"bISO-1.0"
 _BOM = b"\xef\xbb\xbf"
 #: ``DataType`` codes of ISO 25178-71: numpy type and the marker of missing points.
-_DATA_TYPES = {
+_DATA_TYPES: dict[int, tuple[str, np.dtype, int | None]] = {
     0: ("UINT8", np.dtype("u1"), None),
     1: ("UINT16", np.dtype("<u2"), 2**16 - 1),
     2: ("UINT32", np.dtype("<u4"), 2**32 - 1),

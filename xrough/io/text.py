@@ -61,6 +61,7 @@ import xarray as xr
 
 from .. import units as u
 from ..topography import grid_of, topography
+from ..units import QuantityLike
 from ._common import MissingOptionError, micro_as_u, nonuniform_profile, reader_errors
 
 __all__ = ["sniff", "read", "write", "looks_binary"]
@@ -279,10 +280,11 @@ class _Header:
 
     def __init__(self):
         self.attrs: dict[str, str | int | float] = {}
-        self.size = {"x": None, "y": None, "xy": None, "profile": None}
-        self.spacing = {"x": None, "y": None}
-        self.unit = {"x": None, "y": None, "z": None, "any": None}
-        self.count = {"x": None, "y": None}
+        self.size: dict[str, tuple[float, str | None] | None] = {
+            "x": None, "y": None, "xy": None, "profile": None}
+        self.spacing: dict[str, tuple[float, str | None] | None] = {"x": None, "y": None}
+        self.unit: dict[str, str | None] = {"x": None, "y": None, "z": None, "any": None}
+        self.count: dict[str, int | None] = {"x": None, "y": None}
         self.height_factor: tuple[float, str | None, str] | None = None
         self.channel: str | None = None
         self.lines: set[int] = set()  # indices of lines read as titles, units or counts
@@ -421,7 +423,7 @@ def _stated_steps(header: _Header, n: int, lunit: str | None) -> list[float]:
 
     In ``lunit``; a length gives two candidates, ``L / n`` and ``L / (n - 1)``.
     """
-    out = []
+    out: list[float] = []
     for q, divisors in ((header.spacing["x"], (1,)),
                         (header.size["profile"] or header.size["x"], (n, n - 1))):
         if q is None:
@@ -773,8 +775,8 @@ class _Options:
 
     unit: str | None
     height_unit: str | None
-    spacing: object
-    size: object
+    spacing: QuantityLike | None
+    size: QuantityLike | None
     resample: bool
     column: int | str | None
 
@@ -816,7 +818,8 @@ def _table(name: str, parsed, layout: str) -> _Table:
     if names:
         attrs["columns"] = ", ".join(names)
     attrs["text_layout"] = layout
-    column_units = [_unit_in(n) for n in names] if names else [None] * values.shape[1]
+    column_units: list[str | None] = ([_unit_in(n) for n in names] if names
+                                      else [None] * values.shape[1])
     factor_unit = None
     if header.height_factor is not None:
         factor, factor_unit, stated = header.height_factor
@@ -889,8 +892,8 @@ def _column_lateral(t: _Table, opts: _Options):
     elif header.spacing["x"] is not None:
         spacing = header.spacing["x"][0]
         lunit = opts.unit or header.spacing["x"][1] or header.lateral_unit()
-    elif (header.size["profile"] or header.size["x"]) is not None:
-        size, stated = (header.size["profile"] or header.size["x"])
+    elif (length := header.size["profile"] or header.size["x"]) is not None:
+        size, stated = length
         lunit = opts.unit or stated or header.lateral_unit()
     else:
         raise MissingOptionError(t.name, "a column of heights without lateral size",

@@ -73,8 +73,8 @@ _MAX_CHECKSUM_FILE = 1 << 16
 NAMESPACE = "http://www.opengps.eu/2008/ISO5436_2"
 _XSI = "http://www.w3.org/2001/XMLSchema-instance"
 _REVISION = "ISO5436 - 2000"
-_DTYPES = {"I": np.dtype("<i2"), "L": np.dtype("<i4"), "F": np.dtype("<f4"),
-           "D": np.dtype("<f8")}
+_DTYPES: dict[str, np.dtype] = {"I": np.dtype("<i2"), "L": np.dtype("<i4"),
+                                "F": np.dtype("<f4"), "D": np.dtype("<f8")}
 _MAIN = "main.xml"
 _DATA_MEMBER = "bindata/data.bin"
 _VALID_MEMBER = "bindata/valid.bin"
@@ -213,8 +213,8 @@ def _float(text: str | None, path: Path, what: str, default=None) -> float | Non
 
 def _int(text: str | None, path: Path, what: str) -> int:
     try:
-        value = int(text)
-    except (TypeError, ValueError):
+        value = int(text or "")  # None: not an integer either
+    except ValueError:
         raise ValueError(f"{path.name}: {what} must be an integer, got {text!r}") from None
     if value < 1:
         raise ValueError(f"{path.name}: {what} must be positive, got {value}")
@@ -463,9 +463,9 @@ def _metadata(root) -> dict:
         if value:
             attrs[key] = value
     parts = [attrs.get(k) for k in ("instrument_manufacturer", "instrument_model")]
-    parts = [p for p in parts if p and p.lower() not in _PLACEHOLDERS]
-    if parts:
-        attrs["instrument"] = " ".join(parts)
+    named = [p for p in parts if p and p.lower() not in _PLACEHOLDERS]
+    if named:
+        attrs["instrument"] = " ".join(named)
     return attrs
 
 
