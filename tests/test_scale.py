@@ -151,56 +151,82 @@ def _counted_topography(h, chunk):
     return ref.copy(data=data), ref, src
 
 
-def _adds(parts, fan_in=8):
-    """Additions in a tree of sums with fan-in 8 over ``parts`` partial sums."""
-    n = 0
-    while parts > 1:
-        parts = -(-parts // fan_in)
-        n += parts
-    return n
+def _tile_sums_held(G):
+    """Compute ``G`` on one thread; the most tile lag sums (and partial sums of them) held
+    at once, and the number of tiles."""
+    import dask
+    from dask.callbacks import Callback
+
+    def is_sum(key):
+        return "tiled-g-tile-sums" in str(key[0] if isinstance(key, tuple) else key)
+
+    class Held(Callback):
+        most = 0
+
+        def _posttask(self, key, result, dsk, state, worker_id):
+            if is_sum(key):
+                Held.most = max(Held.most, sum(map(is_sum, state["cache"])))
+
+    with dask.config.set(scheduler="sync"), Held():
+        got = G.compute()
+    return got, Held.most
 
 
-def _tiled_tasks(m):
-    """Tasks of the tiled graph (excluding the reads) for the aligned two-level case.
-
-    Map of m x m chunks of c = 64 points, tile = c, halo K = 32 < c, factor f = 4, t = m / 4
-    level-1 tiles per axis. Level 0: a scaled-heights piece per chunk (m^2); per tile the
-    own chunk whole and the K-strips of the neighbours cut ((3m - 2) chunk-tile pairs per
-    axis, m of them the tile's own: (3m - 2)^2 - m^2 cuts); m^2 tile sums; a fan-in-8 tree.
-    Level 1: a coarsened piece per chunk (m^2, 16 x 16 blocks); t^2 tiles of 64 blocks
-    whose halo of 32 blocks holds whole pieces (no cuts); a tree. One final task.
-    """
-    t = m // 4
-    level0 = m**2 + ((3 * m - 2) ** 2 - m**2) + m**2 + _adds(m**2)
-    level1 = m**2 + t**2 + _adds(t**2)
-    return level0 + level1 + 1
+# map of m x m chunks of 128 points, tile = chunk, halo 32: levels 0 and 1 share their
+# tiles (the halo of level 1 is 32 blocks of 4 points = one chunk), block levels beyond
+_KW = dict(tile=128, halo=32, factor=4, min_lag_cells=4)
 
 
 @pytest.mark.parametrize("m", [4, 8])
-def test_tiled_graph_reads_each_chunk_once_and_grows_linearly(m):
+def test_tiled_reads_each_chunk_once_and_sums_as_it_goes(m):
     """Each chunk of the input is read exactly once (counted by the array itself, whatever
-    dask's graph optimisations do), and the graph has the tasks of ``_tiled_tasks``:
-    about 12 per chunk, linear in the number of chunks and tiles (quadratic in m)."""
-    import dask
-
+    dask's graph optimisations do); the tiles' lag sums are added as the map is swept (a
+    tree along each row of tiles, then over the rows: at most about two rows of tiles'
+    sums held at once, not all of them); the numbers equal those of the map in memory."""
     rng = np.random.default_rng(m)
-    h = rng.normal(size=(64 * m, 64 * m))
+    h = rng.normal(size=(128 * m, 128 * m))
     h[rng.random(h.shape) < 0.1] = np.nan
-    topo, ref, src = _counted_topography(h, 64)
-    kw = dict(tile=64, halo=32, factor=4, min_lag_cells=4, dr_max=120)
-    G = height_difference_acf_tiled(topo, **kw)
-    layers = G.data.__dask_graph__().layers
-    (layer,) = [v for k, v in layers.items() if k.startswith("tiled-g-")]
-    assert len(layer) == _tiled_tasks(m)
-    assert sorted(set(G.block.values)) == [1, 4]  # two levels, as _tiled_tasks assumes
+    topo, ref, src = _counted_topography(h, 128)
+    G = height_difference_acf_tiled(topo, **_KW)
+    assert sorted(set(G.block.values))[:3] == [1, 4, 16]  # shared levels 0-1, and beyond
     assert src.reads == {}  # building the graph read nothing
-    with dask.config.set(scheduler="threads", num_workers=2):
-        got = G.compute()
+    got, held = _tile_sums_held(G)
     assert len(src.reads) == m * m
     assert set(src.reads.values()) == {1}
-    # the same numbers as from the map in memory (one chunk per tile), to round-off
-    xr.testing.assert_allclose(got, height_difference_acf_tiled(ref, **kw), rtol=1e-12,
+    assert held <= 2 * m + 8 < m * m + 8
+    xr.testing.assert_allclose(got, height_difference_acf_tiled(ref, **_KW), rtol=1e-12,
                                atol=0)
+
+
+def test_tiled_graph_grows_linearly_with_the_chunks():
+    """Tasks per chunk stay bounded (dask's overlap: halo strips and their joins, one task
+    per tile for levels 0 and 1, trees of sums, the block levels beyond): the graph of a
+    map of m x m chunks has at most 20 m^2 + 400 tasks, reads included."""
+    tasks = {}
+    for m in (4, 8, 16):
+        topo, _, _ = _counted_topography(np.zeros((128 * m, 128 * m)), 128)
+        tasks[m] = len(height_difference_acf_tiled(topo, **_KW).data.__dask_graph__())
+        assert tasks[m] <= 20 * m * m + 400, tasks
+    assert tasks[16] - tasks[8] <= 20 * (16**2 - 8**2), tasks
+
+
+def test_tiled_shared_levels_equal_separate_levels_and_fft():
+    """Levels 0 and 1 from one extended tile give the numbers of separate tiles per level
+    (1e-12; the separate path runs for a tile that is no multiple of ``factor``) and of
+    the in-memory FFT estimator within the halo (1e-10, the same pair counts)."""
+    topo = _masked_surface(n=640)
+    kw = dict(tile=256, halo=64, factor=4, min_lag_cells=8)
+    G = height_difference_acf_tiled(topo, **kw)
+    separate = height_difference_acf_tiled(topo, **dict(kw, tile=254))
+    assert sorted(set(G.block.values)) == [1, 4, 16]
+    xr.testing.assert_allclose(G, separate, rtol=1e-12, atol=0)
+    np.testing.assert_array_equal(G.pair_count.values, separate.pair_count.values)
+    ref = topo.rough.acf()
+    exact = G.block.values == 1
+    np.testing.assert_allclose(G.values[exact], ref.values[exact], rtol=1e-10, atol=0)
+    np.testing.assert_array_equal(G.pair_count.values[exact], ref.pair_count.values[exact])
+    lazy = height_difference_acf_tiled(topo.chunk({"y": 100, "x": 170}), **kw).compute()
+    xr.testing.assert_allclose(lazy, G, rtol=1e-12, atol=0)
 
 
 def test_tiled_chunk_scales_differ_by_far():

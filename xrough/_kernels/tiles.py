@@ -22,12 +22,15 @@ statistics of the tile extended by the halo ``K`` on every side (zero outside th
 counts every ordered pair whose first point is in the tile exactly once; the folded lag
 planes of all tiles add up to those of the whole map.
 
-Scales: heights are divided by a power of two per *piece* (a chunk of the map, or the
-block statistics derived from it) so that no square overflows; a piece is a pair
-``(values, e)`` meaning ``values * 2**e`` (``e`` is None for a piece without valid
-points). Pieces, tiles and partial sums meet on the largest exponent among them; a
-multiplication by a power of two is exact, so the result is the same as with one global
-scale, without a pass over the whole map first.
+Scales: heights are divided by a power of two so that no square overflows. An extended
+tile of heights is scaled by its own power of two (nearest its largest ``|h|``); block
+statistics carry their power of two per cell, as a fourth channel ``e`` (a cell of
+``(n, mu, M2, e)`` means ``(n, mu 2**e, M2 4**e)``), set by the chunk of heights they
+were derived from and brought to the largest one wherever cells meet (a block, a tile).
+The sums of a tile are a pair ``(planes, e)`` meaning ``S * 4**e`` (``e`` None without
+valid points); partial sums meet on the largest exponent. A multiplication by a power of
+two is exact, so the result is the same as with one global scale, without a pass over the
+whole map first.
 """
 
 from __future__ import annotations
@@ -39,9 +42,9 @@ from .binning import binned_sum
 from .pairs import area_variance, fold, require_no_inf, times_power_of_two
 
 __all__ = ["power_of_two_exponent", "scaled_heights", "point_stats", "coarsen_stats",
-           "coarsen_piece", "cut_piece", "merge_stats", "tile_piece_sums", "add_scaled",
-           "tile_pair_sums", "block_levels", "bin_levels", "chunk_bounds", "overlaps",
-           "scaled_chunk", "assemble"]
+           "merge_stats", "height_stats", "height_block_stats", "coarsen_scaled",
+           "tile_height_sums", "tile_stats_sums", "tile_two_levels", "encode", "decode",
+           "add_encoded", "first", "tile_pair_sums", "block_levels", "bin_levels", "assemble"]
 
 
 def power_of_two_exponent(peak) -> np.ndarray:
@@ -124,29 +127,6 @@ def coarsen_stats(stats: np.ndarray, factor: int, offset: tuple[int, int] = (0, 
     return np.stack([nn, mean, m2n])
 
 
-def _cells(values: np.ndarray) -> np.ndarray:
-    """Block statistics of a piece's values: heights (2D) are single points."""
-    return values if values.ndim == 3 else point_stats(values)
-
-
-def coarsen_piece(piece, factor: int, offset: tuple[int, int]):
-    """:func:`coarsen_stats` of a piece ``(values, e)`` (same scale)."""
-    values, e = piece
-    return coarsen_stats(_cells(values), factor, offset), e
-
-
-def cut_piece(piece, rows: tuple[int, int], cols: tuple[int, int]):
-    """Return a copy of part of a piece (so that the rest of it can be freed)."""
-    values, e = piece
-    return values[..., rows[0]:rows[1], cols[0]:cols[1]].copy(), e
-
-
-def _rescale(stats: np.ndarray, shift: int) -> np.ndarray:
-    """Statistics of heights multiplied by ``2**shift`` (exact)."""
-    n, mu, m2 = stats
-    return np.stack([n, np.ldexp(mu, shift), np.ldexp(m2, 2 * shift)])
-
-
 def merge_stats(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Statistics of the union of the points of cells ``a`` and ``b`` (exact merge).
 
@@ -166,47 +146,168 @@ def merge_stats(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
-def _gather(pieces, origins, shape):
-    """Merge pieces into the statistics of a region of ``shape`` cells, on one scale."""
-    exponents = [e for _, e in pieces if e is not None]
-    e = max(exponents) if exponents else None
-    out = np.zeros((3,) + tuple(shape))
-    for (values, ep), (y, x) in zip(pieces, origins):
-        if ep is None:
-            continue
-        st = _cells(values)
-        if ep != e:
-            st = _rescale(st, ep - e)
-        where = (slice(None), slice(y, y + st.shape[1]), slice(x, x + st.shape[2]))
-        out[where] = merge_stats(out[where], st)
-    return out, e
+def encode(planes: np.ndarray, e) -> np.ndarray:
+    """Return a piece ``(planes, e)`` as one row of numbers: ``planes`` flattened, ``e``.
 
-
-def tile_piece_sums(pieces, *, origins, shape, inner, ks):
-    """Folded ``(S, N)`` of one tile, as a piece ``(planes (2, Ky+1, Kx+1), e)``.
-
-    ``pieces`` cover the tile extended by the halo (region of ``shape`` cells, zero where
-    no piece lies: outside the map); ``origins`` are their positions in that region and
-    ``inner`` the tile's. ``S`` is in units of ``2**(2 e)``.
+    Shape ``(1, 1, planes.size + 1)`` (one tile of a dask array of pieces); ``e`` None
+    becomes NaN. See :func:`decode` and :func:`add_encoded`.
     """
-    ext, e = _gather(pieces, origins, shape)
-    s, n = tile_pair_sums(ext, inner, ks)
-    return np.stack([s, n]), e
+    return np.concatenate([planes.ravel(), [np.nan if e is None else float(e)]])[None, None]
 
 
-def add_scaled(*parts):
-    """Sum of folded ``(S, N)`` pieces, ``S`` brought to the largest exponent (exact)."""
-    exponents = [e for _, e in parts if e is not None]
-    total = np.zeros_like(parts[0][0])
-    if not exponents:
-        return total, None
-    e = max(exponents)
-    for planes, ep in parts:
-        if ep is None:
-            continue
-        total[0] += planes[0] if ep == e else np.ldexp(planes[0], 2 * (ep - e))
-        total[1] += planes[1]
-    return total, e
+def decode(row: np.ndarray, ks_levels) -> list:
+    """Return the pieces ``((S, N), e)`` of the levels, from their rows (:func:`encode`)."""
+    pieces, start = [], 0
+    for ky, kx in ks_levels:
+        size = 2 * (ky + 1) * (kx + 1)
+        e = row[start + size]
+        pieces.append((row[start:start + size].reshape(2, ky + 1, kx + 1),
+                       None if np.isnan(e) else int(e)))
+        start += size + 1
+    return pieces
+
+
+def add_encoded(x: np.ndarray, axis, keepdims: bool = False, *, sizes) -> np.ndarray:
+    """Sum encoded pieces along ``axis``, ``S`` brought to the largest exponent (exact).
+
+    ``x`` ``(..., sum(sizes))``: along the last axis the encoded pieces (:func:`encode`)
+    of one or more levels, of lengths ``sizes``; the combine and aggregate of a
+    :func:`dask.array.reduction`.
+    """
+    axis = tuple(a % x.ndim for a in np.atleast_1d(axis))
+    parts, start = [], 0
+    for size in sizes:
+        block = x[..., start:start + size]
+        half = (size - 1) // 2
+        s, n, e = block[..., :half], block[..., half:-1], block[..., -1:]
+        top = np.fmax.reduce(e, axis=axis, keepdims=True)  # NaN (no valid point) skipped
+        shift = np.where(np.isnan(e), 0, e - np.where(np.isnan(top), 0, top)).astype(int)
+        s = np.where(np.isnan(e), 0.0, np.ldexp(s, 2 * shift)).sum(axis=axis, keepdims=True)
+        parts += [s, n.sum(axis=axis, keepdims=True), top]
+        start += size
+    out = np.concatenate(parts, axis=-1)
+    return out if keepdims else out.squeeze(axis)
+
+
+def first(x, axis=None, keepdims=None):
+    """Return ``x`` (the ``chunk`` of a reduction whose blocks are already pieces)."""
+    return x
+
+
+def height_stats(h: np.ndarray, factor: int) -> np.ndarray:
+    """Block statistics ``(4, my, mx)`` = ``(n, mu, M2, e)`` of ``factor x factor`` blocks.
+
+    ``h``: heights of a part of the map starting at a multiple of ``factor`` per axis
+    (partial blocks at its end); they are scaled by one power of two ``2**e``, nearest
+    their largest ``|h|`` (``e`` = 0 for cells without valid points).
+    """
+    scaled, e = scaled_heights(h)
+    st = coarsen_stats(point_stats(scaled), factor)
+    return np.concatenate([st, np.full((1,) + st.shape[1:], float(e or 0))])
+
+
+def _block_max(a: np.ndarray, factor: int) -> np.ndarray:
+    """Largest value of each ``factor x factor`` block (partial blocks at the end)."""
+    ny, nx = a.shape
+    my, mx = -(-ny // factor), -(-nx // factor)
+    full = np.full((my * factor, mx * factor), -np.inf)
+    full[:ny, :nx] = a
+    return full.reshape(my, factor, mx, factor).max(axis=(1, 3))
+
+
+def _to_exponent(stats: np.ndarray, e) -> np.ndarray:
+    """``(n, mu, M2)`` of cells ``(n, mu, M2, e_cell)`` brought to exponents ``e`` (exact)."""
+    n, mu, m2, ec = stats
+    shift = np.where(n > 0, ec - e, 0.0).astype(int)
+    if not shift.any():
+        return stats[:3]
+    return np.stack([n, np.ldexp(mu, shift), np.ldexp(m2, 2 * shift)])
+
+
+def coarsen_scaled(stats: np.ndarray, factor: int) -> np.ndarray:
+    """:func:`coarsen_stats` of cells with their own powers of two ``(n, mu, M2, e)``.
+
+    ``stats`` starts at a multiple of ``factor`` per axis; each block comes to the largest
+    exponent of its valid cells (exact), which it keeps as its own.
+    """
+    n, e = stats[0], stats[3]
+    top = _block_max(np.where(n > 0, e, -np.inf), factor)
+    top = np.where(np.isfinite(top), top, 0.0)
+    per_cell = np.repeat(np.repeat(top, factor, axis=0), factor, axis=1)
+    per_cell = per_cell[:n.shape[0], :n.shape[1]]
+    st = coarsen_stats(_to_exponent(stats, per_cell), factor)
+    return np.concatenate([st, top[None]])
+
+
+def height_block_stats(h: np.ndarray, factor: int, rows: int = 256) -> np.ndarray:
+    """Block statistics ``(3, my, mx)`` of (scaled) heights in ``factor x factor`` blocks.
+
+    The same as ``coarsen_stats(point_stats(h), factor)`` (partial blocks at the end),
+    slab by slab of rows so that no full-size temporaries are made.
+    """
+    ny, nx = h.shape
+    my, mx = -(-ny // factor), -(-nx // factor)
+    out = np.zeros((3, my, mx))
+    step = max(1, rows // factor) * factor
+    for r0 in range(0, ny, step):
+        slab = h[r0:r0 + step]
+        b0 = r0 // factor
+        st = coarsen_stats(point_stats(slab), factor)
+        out[:, b0:b0 + st.shape[1]] = st
+    return out
+
+
+def tile_two_levels(ext: np.ndarray, *, ks0, ks1, depth, factor) -> np.ndarray:
+    """Return the folded ``(S, N)`` of a tile of heights and of its blocks, encoded.
+
+    ``ext``: heights of the tile extended by ``depth`` on every side (NaN outside the
+    map), ``depth`` at least ``ks0`` and ``ks1 * factor`` and a multiple of ``factor``
+    per axis, the tile starting at a multiple of ``factor`` of the map. Level 0: the
+    tile with the halo ``ks0``; level 1: the blocks of ``factor x factor`` points of the
+    tile with the halo ``ks1`` blocks. Both in units of the same ``4**e`` (one power of
+    two for the whole extended tile). Returns ``encode(level 0)`` then ``encode(level 1)``.
+    """
+    scaled, e = scaled_heights(ext)
+    size = tuple(m - 2 * d for m, d in zip(ext.shape, depth))
+    cut0 = tuple(slice(d - k, d + m + k) for d, k, m in zip(depth, ks0, size))
+    s0, n0 = tile_pair_sums(point_stats(scaled[cut0]), _inner(scaled[cut0].shape, ks0), ks0)
+    stats = height_block_stats(scaled, factor)
+    cut1 = (slice(None),) + tuple(
+        slice(d // factor - k, d // factor - (-m // factor) + k)
+        for d, k, m in zip(depth, ks1, size))
+    st = stats[cut1]
+    s1, n1 = tile_pair_sums(st, _inner(st.shape[1:], ks1), ks1)
+    return np.concatenate([encode(np.stack([s0, n0]), e), encode(np.stack([s1, n1]), e)],
+                          axis=-1)
+
+
+def _inner(shape, ks):
+    """Return the slices of the tile inside a block extended by ``ks`` on every side."""
+    return tuple(slice(k, m - k) for m, k in zip(shape, ks))
+
+
+def tile_height_sums(ext: np.ndarray, *, ks) -> np.ndarray:
+    """Folded ``(S, N)`` of one tile of heights, encoded (:func:`encode`).
+
+    ``ext``: heights of the tile extended by ``ks`` on every side (NaN outside the map),
+    scaled here by their own power of two ``2**e``; ``S`` is in units of ``4**e``.
+    """
+    scaled, e = scaled_heights(ext)
+    s, n = tile_pair_sums(point_stats(scaled), _inner(ext.shape, ks), ks)
+    return encode(np.stack([s, n]), e)
+
+
+def tile_stats_sums(ext: np.ndarray, *, ks) -> np.ndarray:
+    """Folded ``(S, N)`` of one tile of block statistics ``(n, mu, M2, e)``, encoded.
+
+    ``ext`` ``(4, Ey, Ex)``: the tile extended by ``ks`` on every side (``n`` = 0 outside
+    the map); its cells come to their largest exponent ``e``.
+    """
+    valid = ext[0] > 0
+    e = int(ext[3][valid].max()) if valid.any() else None
+    s, n = tile_pair_sums(_to_exponent(ext, 0 if e is None else e), _inner(ext.shape[1:], ks),
+                          ks)
+    return encode(np.stack([s, n]), e)
 
 
 def tile_pair_sums(ext: np.ndarray, inner: tuple[slice, slice], ks: tuple[int, int],
@@ -274,15 +375,16 @@ def tile_pair_sums(ext: np.ndarray, inner: tuple[slice, slice], ks: tuple[int, i
 # ---------------------------------------------------------------------------------------
 # levels, chunks and the final assembly of the tiled estimator
 # ---------------------------------------------------------------------------------------
-def block_levels(shape: tuple[int, int], halo: int, factor: int, ks_full: tuple[int, int]
-                 ) -> tuple[list[int], list[tuple[int, int]]]:
+def block_levels(shape: tuple[int, ...], halo: int, factor: int, ks_full: tuple[int, ...]
+                 ) -> tuple[list[int], list[tuple[int, ...]]]:
     """Block side (points) and largest lag index (blocks) per level, up to ``ks_full``.
 
     Level ``l`` has blocks of ``factor**l`` points and covers lags up to ``halo`` blocks
     per axis (fewer on a map of fewer blocks); levels are added until one reaches the
     largest lag wanted, ``ks_full`` points per axis.
     """
-    cells, ks_levels = [], []
+    cells: list[int] = []
+    ks_levels: list[tuple[int, ...]] = []
     while True:
         f = factor ** len(cells)
         n_l = tuple(-(-n // f) for n in shape)
@@ -293,9 +395,9 @@ def block_levels(shape: tuple[int, int], halo: int, factor: int, ks_full: tuple[
             return cells, ks_levels
 
 
-def bin_levels(edges: np.ndarray, spacing: tuple[float, float], shape: tuple[int, int],
-               cells: list[int], ks_levels: list[tuple[int, int]],
-               ks_full: tuple[int, int]) -> np.ndarray:
+def bin_levels(edges: np.ndarray, spacing: tuple[float, ...], shape: tuple[int, ...],
+               cells: list[int], ks_levels: list[tuple[int, ...]],
+               ks_full: tuple[int, ...]) -> np.ndarray:
     """Level of each bin: the finest whose lattice holds all the bin's lags (0 if none)."""
     assign = np.zeros(len(edges) - 1, dtype=int)
     for b, e1 in enumerate(edges[1:]):
@@ -310,43 +412,15 @@ def bin_levels(edges: np.ndarray, spacing: tuple[float, float], shape: tuple[int
     return assign
 
 
-def chunk_bounds(chunks: tuple[int, ...]) -> np.ndarray:
-    """Start of each chunk along an axis, and the end of the last."""
-    return np.concatenate([[0], np.cumsum(chunks)]).astype(int)
-
-
-def overlaps(lo: np.ndarray, hi: np.ndarray, region: tuple[int, int]) -> list:
-    """List the pieces ``[lo, hi)`` (per axis) that overlap ``region``.
-
-    Each as (index, cut within the piece, start of the cut, whether the whole piece lies
-    in the region).
-    """
-    first = int(np.searchsorted(hi, region[0], side="right"))
-    last = int(np.searchsorted(lo, region[1], side="left"))
-    out = []
-    for i in range(first, last):
-        a, b = max(int(lo[i]), region[0]), min(int(hi[i]), region[1])
-        if a < b:
-            out.append((i, (a - int(lo[i]), b - int(lo[i])), a,
-                        a == lo[i] and b == hi[i]))
-    return out
-
-
-def scaled_chunk(block, after=()):
-    """Return :func:`scaled_heights` of a chunk.
-
-    ``after`` are results of tasks that must run before this chunk is read (unused: they
-    only order the graph).
-    """
-    return scaled_heights(block)
-
-
-def assemble(level_sums, *, idxs, assign, keep, nb, dr, pixel_area, height_unit, g_unit):
+def assemble(total, *, ks_levels, idxs, assign, keep, nb, dr, pixel_area, height_unit,
+             g_unit):
     """Bin each level's folded sums and keep, per bin, the level assigned to it.
 
-    ``level_sums`` are pieces ``((S, N), e)``; returns ``(G, pair count, standard error)``
+    ``total``: the encoded sums of the levels (:func:`add_encoded`), pieces ``((S, N), e)``
+    once decoded; returns ``(G, pair count, standard error)``
     of the kept bins, G and its standard error scaled back from the largest exponent.
     """
+    level_sums = decode(np.ravel(total), ks_levels)
     exponents = [e for _, e in level_sums if e is not None]
     top = max(exponents) if exponents else 0
     sums = np.zeros(nb)

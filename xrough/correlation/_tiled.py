@@ -12,11 +12,15 @@ their own lag; a level is only used for lags of at least ``min_lag_cells`` block
 this regrouping moves pairs by at most one block per axis (see Notes of the function for
 the error).
 
-The computation is one dask graph on the chunks of the (possibly NetCDF- or zarr-backed)
-map: each chunk is read once, by one task that scales its heights by their own power of
-two (so no tile waits for a maximum over the whole map) and from which its block
-statistics at every level are derived; a tile takes its chunks and thin halo strips cut
-from the neighbouring ones; the reduction is a tree of sums of small lag planes.
+The computation is a dask array built from dask's own operations on the chunks of the
+(possibly NetCDF- or zarr-backed) map, each chunk read once: the map in chunks of one
+tile, extended by the halo from the neighbouring chunks (:func:`dask.array.overlap.overlap`),
+one task per tile (:func:`dask.array.blockwise`; for the default options it gives the
+tile's planes at level 0 and at level 1 from the same extended heights), and tree
+reductions (:func:`dask.array.reduction`) along each row of tiles and over the rows, so
+that the partial sums are added as the map is swept. Coarser levels take block
+statistics derived chunk by chunk (:meth:`dask.array.Array.map_blocks`), with tiles and
+trees of their own.
 """
 
 from __future__ import annotations
@@ -25,12 +29,10 @@ import functools
 import sys
 from typing import Any
 
-import dask
 import dask.array as dsa
 import numpy as np
 import xarray as xr
 from dask.diagnostics import ProgressBar
-from dask.highlevelgraph import HighLevelGraph
 
 from .._kernels import binning, tiles
 from ..topography import Grid, grid_of
@@ -108,10 +110,11 @@ def height_difference_acf_tiled(
     ``(b / r)^2``: measured below 1e-3 for self-affine and Gaussian-correlated maps with
     the defaults (``tests/test_scale.py``).
 
-    Heights are scaled per chunk by a power of two (exactly undone when the sums meet), so
-    the tiles need no pass over the whole map first. Peak memory is a few tile FFTs per
-    thread plus about two chunk rows of pieces and halo strips; 11 to 15 tasks per chunk (see
-    ``docs/scale.md`` for measured time and memory against the map size).
+    Heights are scaled per tile (block statistics per chunk) by a power of two, exactly
+    undone when the sums meet, so the tiles need no pass over the whole map first. The
+    tiles' lag sums are added by trees as the map is swept; peak memory is a few tile
+    FFTs per thread plus a band of about two rows of chunks (see ``docs/scale.md`` for
+    measured time and memory against the map size).
 
     Examples
     --------
@@ -186,9 +189,10 @@ def _computed(topography: xr.DataArray, grid: Grid, lag_bins: OpenMapBins, *, ce
     edges = lag_bins.edges
     idxs = [binning.folded_bin_index(ks, tuple(d * cell for d in grid.spacing), edges)
             for ks, cell in zip(ks_levels, cells)]
-    finish = functools.partial(tiles.assemble, idxs=idxs, assign=assign, keep=lag_bins.keep,
-                               nb=len(edges) - 1, dr=lag_bins.dr, pixel_area=grid.pixel_area,
-                               height_unit=grid.height_unit, g_unit=g_unit(grid))
+    finish = functools.partial(tiles.assemble, ks_levels=ks_levels, idxs=idxs, assign=assign,
+                               keep=lag_bins.keep, nb=len(edges) - 1, dr=lag_bins.dr,
+                               pixel_area=grid.pixel_area, height_unit=grid.height_unit,
+                               g_unit=g_unit(grid))
     res = _tiled_graph(arr, tile=tile, factor=factor, ks_levels=ks_levels, finish=finish,
                        n_out=int(lag_bins.keep.sum()))
     if lazy:
@@ -199,135 +203,136 @@ def _computed(topography: xr.DataArray, grid: Grid, lag_bins: OpenMapBins, *, ce
     return res.compute()
 
 
-class _Graph:
-    """The tasks of the tiled estimator under construction (see :func:`_tiled_graph`).
-
-    ``piece[i, j]`` is the key of chunk ``(i, j)``'s piece at the current level; ``step``
-    maps every key to the last chunk, in row-major order, that its task needs.
-    """
-
-    def __init__(self, arr: dsa.Array, name: str):
-        self.name = name
-        self.bounds = [tiles.chunk_bounds(ch) for ch in arr.chunks]
-        self.width = len(arr.chunks[1])
-        self.dsk: dict = {}
-        self.piece: dict = {}
-        self.step: dict = {}
-        for i in range(len(arr.chunks[0])):
-            for j in range(self.width):
-                self.piece[i, j] = (f"{name}-piece-0", i, j)
-                self.step[self.piece[i, j]] = i * self.width + j
-
-    def coarsen(self, lev: int, factor: int) -> None:
-        """Derive each chunk's piece at level ``lev`` from its piece one level finer."""
-        finer = factor ** (lev - 1)
-        for (i, j), key in list(self.piece.items()):
-            offset = (int(self.bounds[0][i]) // finer, int(self.bounds[1][j]) // finer)
-            self.piece[i, j] = (f"{self.name}-piece-{lev}", i, j)
-            self.dsk[self.piece[i, j]] = (functools.partial(
-                tiles.coarsen_piece, factor=factor, offset=offset), key)
-            self.step[self.piece[i, j]] = self.step[key]
-
-    def tile_sums(self, lev: int, cell: int, ks: tuple[int, int], tile: int) -> list:
-        """Add one task per tile of level ``lev`` (blocks of ``cell`` points); their keys."""
-        # cells [lo, hi) of each chunk's piece at this level, per axis
-        spans = [(b[:-1] // cell, -(-b[1:] // cell)) for b in self.bounds]
-        n_cells = [int(-(-b[-1] // cell)) for b in self.bounds]
-        parts = []
-        for ty, r0 in enumerate(range(0, n_cells[0], tile)):
-            for tx, c0 in enumerate(range(0, n_cells[1], tile)):
-                start = (r0, c0)
-                end = (min(n_cells[0], r0 + tile), min(n_cells[1], c0 + tile))
-                origin = tuple(s - k for s, k in zip(start, ks))  # of the extended tile
-                hits = [tiles.overlaps(*spans[ax], (max(0, origin[ax]),
-                                                    min(n_cells[ax], end[ax] + ks[ax])))
-                        for ax in range(2)]
-                args, origins = self._tile_args(lev, ty, tx, hits, origin)
-                tile_key = (f"{self.name}-tile-{lev}", ty, tx)
-                self.dsk[tile_key] = (functools.partial(
-                    tiles.tile_piece_sums, origins=origins,
-                    shape=tuple(e - s + 2 * k for s, e, k in zip(start, end, ks)),
-                    inner=tuple(slice(k, k + e - s) for s, e, k in zip(start, end, ks)),
-                    ks=ks), args)
-                self.step[tile_key] = max(self.step[a] for a in args)
-                parts.append(tile_key)
-        return parts
-
-    def _tile_args(self, lev, ty, tx, hits, origin):
-        """Pieces of a tile (whole, or cut to its region) and their origins in the tile."""
-        args, origins = [], []
-        for i, rows, y, whole_y in hits[0]:
-            for j, cols, x, whole_x in hits[1]:
-                if whole_y and whole_x:
-                    args.append(self.piece[i, j])
-                else:
-                    args.append((f"{self.name}-cut-{lev}", ty, tx, i, j))
-                    self.dsk[args[-1]] = (functools.partial(tiles.cut_piece, rows=rows,
-                                                            cols=cols), self.piece[i, j])
-                    self.step[args[-1]] = self.step[self.piece[i, j]]
-                origins.append((y - origin[0], x - origin[1]))
-        return args, origins
-
-    def tree_sum(self, parts: list, name: str, fan_in: int = 8):
-        """Add a tree of :func:`~xrough._kernels.tiles.add_scaled` over ``parts``; its root."""
-        depth = 0
-        while len(parts) > 1:
-            grouped = []
-            for k in range(0, len(parts), fan_in):
-                grouped.append((name, depth, k // fan_in))
-                self.dsk[grouped[-1]] = (tiles.add_scaled, *parts[k:k + fan_in])
-                self.step[grouped[-1]] = max(self.step[p] for p in parts[k:k + fan_in])
-            parts, depth = grouped, depth + 1
-        return parts[0]
-
-    def read_chunks(self, keys, window: int) -> None:
-        """Add the task reading each chunk, after the tasks that needed no later chunk.
-
-        A chunk is read only once the tiles, cuts and coarser pieces that needed no chunk
-        after the one ``window`` steps earlier are done: the computation sweeps the map
-        row by row, holding about a row of chunks, whatever order the scheduler prefers.
-        """
-        first = f"{self.name}-piece-0"
-        after: dict = {}
-        for key, s in self.step.items():
-            if not key[0].startswith(first):
-                after.setdefault(s + window, []).append(key)
-        for i, j in self.piece:
-            self.dsk[(first, i, j)] = (tiles.scaled_chunk, keys[i][j],
-                                       after.get(i * self.width + j, []))
-
-
 def _tiled_graph(arr: dsa.Array, *, tile: int, factor: int, ks_levels, finish,
-                 n_out: int, window: int = 4) -> dsa.Array:
-    """Build the tiled estimator as one explicit dask graph on the chunks of ``arr`` (2D).
+                 n_out: int, row_every: int = 8, split_every: int = 2) -> dsa.Array:
+    """Build the tiled estimator as one dask array on the chunks of ``arr`` (2D heights).
 
-    Per chunk of the input (each read once, by one task): its heights scaled by their own
-    power of two (a piece ``(values, e)``, see :mod:`xrough._kernels.tiles`), then its
-    block statistics at each coarser level, coarsened within the chunk (blocks aligned to
-    the whole map; a block that straddles chunks is split into partial blocks, merged
-    exactly where a tile gathers them). Per level and tile: the pieces of the chunks that
-    overlap the tile plus its halo, cut to that region where a piece is not wholly inside
-    it (so that the rest of the chunk can be freed), gathered on their largest exponent
-    and summed, one task per tile; a tree of sums per level; one task ``finish`` taking
-    the level sums, whose ``(3, n_out)`` result is the one chunk of the returned array.
-    Each chunk's first task also waits for the tasks that needed no chunk after the one
-    ``window`` steps before it (row-major), so that the work sweeps the map and memory
-    holds about two chunk rows.
+    Per level ``l`` (blocks of ``factor**l`` points): the map in chunks of one tile of
+    ``tile`` cells, each extended by the level's halo with cells of its neighbours
+    (:func:`dask.array.overlap.overlap`; NaN heights or empty blocks outside the map),
+    reduced to its folded lag planes (one task per tile, :func:`dask.array.blockwise`;
+    encoded by :func:`~xrough._kernels.tiles.encode`); a tree sums them along each row of
+    tiles (``row_every`` per step) and a tree over the rows (``split_every``), both
+    :func:`dask.array.reduction`; ``finish`` takes the level sums, and its
+    ``(3, n_out)`` result is the one chunk of the returned array.
 
-    Tasks: ``C`` per level (``C`` chunks), one per tile, at most one cut per (tile,
-    overlapping chunk) and about ``tiles / 7`` additions per level, plus one.
+    Levels 0 and 1 share their tiles when the halo of level 1 (``ks1 * factor`` points)
+    fits in one chunk (the default ``tile=1024, halo=256, factor=4``): the heights of
+    each tile are extended once, by ``depth`` = the larger halo, and one task gives both
+    levels' planes (:func:`~xrough._kernels.tiles.tile_two_levels`), so both are summed
+    as the map is swept (dask orders the tasks by the trees): the sweep holds a band of
+    about two rows of chunks and the partial sums of a few rows. Otherwise level 1, and
+    always the coarser levels (``factor**2`` times fewer cells and fewer), take block
+    statistics ``(n, mu, M2, e)`` derived from each chunk of heights
+    (:func:`~xrough._kernels.tiles.height_stats`) or from the level before
+    (:func:`~xrough._kernels.tiles.coarsen_scaled`, chunks aligned to the blocks), with
+    their own tiles and trees; their statistics are small (a level-2 map has 256 times
+    fewer cells than the map has points). Each chunk of ``arr`` is read once: its tasks
+    (halo strips, tiles, block statistics) all take the one read.
     """
     if any(np.isnan(c) for ch in arr.chunks for c in ch):
         raise ValueError("the tiled estimator needs known chunk sizes; call "
                          "compute_chunk_sizes() on the dask array first")
-    name = "tiled-g-" + dask.base.tokenize(arr.name, tile, factor, ks_levels, finish)
-    g = _Graph(arr, name)
-    roots = []
-    for lev, ks in enumerate(ks_levels):
-        if lev > 0:
-            g.coarsen(lev, factor)
-        roots.append(g.tree_sum(g.tile_sums(lev, factor**lev, ks, tile), f"{name}-sum-{lev}"))
-    g.read_chunks(arr.__dask_keys__(), window)
-    g.dsk[(name, 0, 0)] = (finish, roots)
-    graph = HighLevelGraph.from_collections(name, g.dsk, dependencies=[arr])
-    return dsa.Array(graph, name, chunks=((3,), (n_out,)), dtype=float)
+    if arr.dtype.kind != "f":
+        arr = arr.astype(float)
+    sizes = [2 * (ky + 1) * (kx + 1) + 1 for ky, kx in ks_levels]
+    depth = None
+    if len(ks_levels) > 1:  # halo of a tile for both level 0 and level 1, if it can be
+        depth = tuple(-(-max(k0, k1 * factor) // factor) * factor
+                      for k0, k1 in zip(*ks_levels[:2]))
+        chunks = _tile_chunks(arr.shape, tile, depth)
+        if tile % factor or any(min(c) < d for c, d in zip(chunks, depth)):
+            depth = None
+    if depth is not None:
+        # one task per tile for levels 0 and 1 (the blocks of level 1 from the heights
+        # of the tile and its halo of one block tile), one tree
+        heights = arr.rechunk(chunks)
+        ext = dsa.overlap.overlap(heights, depth=dict(enumerate(depth)), boundary=np.nan)
+        both = functools.partial(tiles.tile_two_levels, ks0=ks_levels[0], ks1=ks_levels[1],
+                                 depth=depth, factor=factor)
+        levels = [dsa.blockwise(both, "yxp", ext, "yx", new_axes={"p": sizes[0] + sizes[1]},
+                                adjust_chunks={"y": 1, "x": 1}, dtype=float,
+                                meta=np.empty((0, 0, 0)), token="tiled-g-tile-sums")]
+        sizes[:2] = [sizes[:2]]
+        first_coarse = 2
+    else:
+        heights = arr.rechunk(_tile_chunks(arr.shape, tile, ks_levels[0]))
+        levels = [_tile_sums(heights, ks_levels[0], np.nan, tiles.tile_height_sums)]
+        first_coarse = 1
+    stats = None
+    for lev, ks in enumerate(ks_levels[first_coarse:], start=first_coarse):
+        if stats is None:  # the first level of its own: from the heights of each chunk
+            step = factor**lev
+            aligned = _aligned(heights, step, (0, 1))
+            stats = dsa.map_blocks(
+                tiles.height_stats, aligned, step,
+                chunks=((4,),) + _coarse_chunks(aligned, step),
+                new_axis=0, dtype=float, meta=np.empty((0, 0, 0)))
+        else:
+            aligned = _aligned(stats, factor, (1, 2))
+            stats = dsa.map_blocks(tiles.coarsen_scaled, aligned, factor,
+                                       chunks=((4,),) + _coarse_chunks(aligned, factor, 1),
+                                       dtype=float, meta=np.empty((0, 0, 0)))
+        cells = stats.rechunk(((4,),) + _tile_chunks(stats.shape[1:], tile, ks))
+        levels.append(_tile_sums(cells, (0,) + ks, 0.0, tiles.tile_stats_sums))
+    totals = []
+    for level, size in zip(levels, sizes):
+        add = functools.partial(tiles.add_encoded, sizes=np.atleast_1d(size).tolist())
+        # a tree along each row of tiles, then a tree over the rows
+        rows = dsa.reduction(level, tiles.first, add, combine=add, axis=1, keepdims=True,
+                             split_every={1: row_every}, dtype=float,
+                             meta=np.empty((0, 0, 0)), name="tiled-g-tile-sums")
+        totals.append(dsa.reduction(rows, tiles.first, add, combine=add, axis=(0, 1),
+                                    split_every={0: split_every, 1: 2}, dtype=float,
+                                    meta=np.empty((0,)), name="tiled-g-tile-sums"))
+    total = dsa.concatenate(totals).rechunk(-1) if len(totals) > 1 else totals[0]
+    return total.map_blocks(finish, chunks=((3,), (n_out,)), new_axis=1, dtype=float,
+                            meta=np.empty((0, 0)))
+
+
+def _tile_chunks(shape, tile: int, ks) -> tuple:
+    """Return chunks of ``tile`` cells along each axis.
+
+    The last is merged into the one before if it is thinner than the halo ``ks`` (a halo
+    is taken from the neighbouring chunk only).
+    """
+    out = []
+    for n, k in zip(shape, ks):
+        ch = [tile] * (n // tile) + ([n % tile] if n % tile else [])
+        if len(ch) > 1 and ch[-1] < k:
+            ch[-2:] = [ch[-2] + ch[-1]]
+        out.append(tuple(ch))
+    return tuple(out)
+
+
+def _aligned(arr: dsa.Array, factor: int, axes) -> dsa.Array:
+    """``arr`` with its chunks along ``axes`` starting at multiples of ``factor``."""
+    chunks = list(arr.chunks)
+    for ax in axes:
+        bounds = np.cumsum(arr.chunks[ax])
+        inner = sorted({int(b) // factor * factor for b in bounds[:-1]} - {0})
+        chunks[ax] = tuple(np.diff([0, *inner, int(bounds[-1])]).tolist())
+    return arr.rechunk(tuple(chunks))
+
+
+def _coarse_chunks(arr: dsa.Array, factor: int, first: int = 0):
+    """Chunks of blocks of ``factor`` cells of the (aligned) chunks along the last 2 axes."""
+    return tuple(tuple(-(-c // factor) for c in arr.chunks[ax])
+                 for ax in range(first, first + 2))
+
+
+def _tile_sums(cells: dsa.Array, ks, outside, tile_sums) -> dsa.Array:
+    """Return the encoded lag planes of each tile of one level: ``(tiles y, tiles x, size)``.
+
+    ``cells``: the level's map in chunks of one tile (heights, or block statistics with
+    their channel first); ``ks``: the halo per axis; ``outside``: the value beyond the
+    map's edges.
+    """
+    depth = dict(enumerate(ks))
+    boundary = {ax: (outside if k else "none") for ax, k in depth.items()}
+    ext = dsa.overlap.overlap(cells, depth=depth, boundary=boundary)
+    size = 2 * (ks[-2] + 1) * (ks[-1] + 1) + 1
+    return dsa.blockwise(functools.partial(tile_sums, ks=tuple(ks[-2:])), "yxp", ext,
+                         "cyx"[-cells.ndim:], new_axes={"p": size},
+                         adjust_chunks={"y": 1, "x": 1}, concatenate=True, dtype=float,
+                         meta=np.empty((0, 0, 0)), token="tiled-g-tile-sums")
