@@ -180,3 +180,25 @@ def test_model_error_holds_on_a_held_out_solver_run():
         observed = cmp.area_error.sel(theory=theory).values
         predicted, spread = area_model_error(loads, area)
         assert np.all(np.abs(observed - predicted) < 2 * spread), (area, observed, predicted)
+
+
+@pytest.mark.parametrize("height, lateral", [("m", "m"), ("um", "nm"), ("nm", "um")])
+def test_persson_errors_are_the_same_in_every_unit(height, lateral):
+    """The same map in m, and with heights and lags in different units: a_r, its
+    statistical and model errors are numbers, sigma_c and its errors are pressures (the
+    same in Pa); E* and p0 given as strings in other units too. Values to 1e-6; the
+    statistical errors to 1e-5 (the response of gbar to one-sigma steps of G along its
+    covariance's principal axes, through the smoothing and the isotonic projection: unit
+    factors move its last digits, measured 1.3e-6)."""
+    topo = surface(5)
+    base = topo.rough.acf().rough.persson(E_star=E_STAR, p0=P0)
+    other = xrough.convert_units(topo, height, lateral=lateral)
+    got = other.rough.acf().rough.persson(E_star="25e6 Pa", p0="150 kPa")
+    for name in ("a_r", "a_r_std", "a_r_model_error", "sigma_c", "sigma_c_std",
+                 "sigma_c_model_error", "p_star_std"):
+        assert got[name].attrs.get("units") == base[name].attrs.get("units"), name
+        np.testing.assert_allclose(got[name].values, base[name].values,
+                                   rtol=1e-5 if name.endswith("_std") else 1e-6,
+                                   err_msg=name)
+    f = xrough.units.conversion_factor("nm", lateral)
+    np.testing.assert_allclose(got.dr.values, base.dr.values * f, rtol=1e-12)
