@@ -324,9 +324,9 @@ class AcfCurve:
         else:
             inside = np.clip(lr, self.x[0], self.x[-1])
             d1, d2 = spline.derivative(1)(inside), spline.derivative(2)(inside)
-        a, br2 = self.a, self.b * r**2
-        start1 = (2 * a + 4 * br2) / (a + br2)
-        start2 = 4 * a * br2 / (a + br2) ** 2
+        t = self.b / self.a * r**2  # b r^2 / a: scale-free (G may be 1e156 of its unit)
+        start1 = (2 + 4 * t) / (1 + t)
+        start2 = 4 * t / (1 + t) ** 2
         d1 = np.where(lr < self.x[0], start1, np.where(lr > self.x[-1], 0.0, d1))
         d2 = np.where(lr < self.x[0], start2, np.where(lr > self.x[-1], 0.0, d2))
         return d1, d2
