@@ -197,8 +197,12 @@ def test_persson_errors_are_the_same_in_every_unit(height, lateral):
     for name in ("a_r", "a_r_std", "a_r_model_error", "sigma_c", "sigma_c_std",
                  "sigma_c_model_error", "p_star_std"):
         assert got[name].attrs.get("units") == base[name].attrs.get("units"), name
+        # an error near full contact (1e-9 of the largest) is zero to this tolerance: it
+        # differed by 4 % on the oldest supported versions
+        scale = 1e-6 * np.nanmax(np.abs(base[name].values))
         np.testing.assert_allclose(got[name].values, base[name].values,
                                    rtol=1e-5 if name.endswith("_std") else 1e-6,
+                                   atol=scale if name.endswith("_std") else 0,
                                    err_msg=name)
     f = xrough.units.conversion_factor("nm", lateral)
     np.testing.assert_allclose(got.dr.values, base.dr.values * f, rtol=1e-12)
