@@ -662,8 +662,7 @@ def dequantify(obj: Any) -> Any:
     raise TypeError(f"dequantify: expected an xarray object, got {type(obj).__name__}")
 
 
-def _holds_quantities(obj: Any) -> bool:
-    return isinstance(obj, (xr.DataArray, xr.Dataset, xr.DataTree)) and dequantify(obj) is not obj
+_XARRAY = (xr.DataArray, xr.Dataset, xr.DataTree)
 
 
 _F = TypeVar("_F", bound=Callable[..., Any])
@@ -690,10 +689,13 @@ def accepts_quantified(func: _F) -> _F:
 
     @functools.wraps(func)
     def wrapper(data: Any, /, *args: Any, **kwargs: Any) -> Any:
-        if isinstance(data, (xr.DataArray, xr.Dataset, xr.DataTree)):
+        if isinstance(data, _XARRAY):
             data = dequantify(data)
-        elif isinstance(data, Mapping) and any(map(_holds_quantities, data.values())):
-            data = {k: dequantify(v) if _holds_quantities(v) else v for k, v in data.items()}
+        elif isinstance(data, Mapping):  # measurements by name (stitching)
+            plain = {k: dequantify(v) if isinstance(v, _XARRAY) else v
+                     for k, v in data.items()}
+            if any(plain[k] is not v for k, v in data.items()):  # dequantify: same if plain
+                data = plain
         return func(data, *args, **kwargs)
 
     return cast(_F, wrapper)  # same signature: the first argument is only dequantified
@@ -708,8 +710,9 @@ def compact(q: pint.Quantity) -> pint.Quantity:
     """One value with the SI prefix that puts it between 1 and 1000 (pint's ``to_compact``).
 
     The prefix goes on the first unit of the numerator, by its root for a power
-    (``3e5 nm2`` is ``0.3 um2``). pint's own ``to_compact`` leaves array magnitudes alone,
-    and this registry (cf-xarray's, ``force_ndarray_like``) makes every magnitude one.
+    (``3e6 nm2`` is ``3 um2``: its root is 1.7 um). pint's own ``to_compact`` leaves
+    array magnitudes alone, and this registry (cf-xarray's, ``force_ndarray_like``) makes
+    every magnitude one.
 
     Examples
     --------
@@ -717,6 +720,8 @@ def compact(q: pint.Quantity) -> pint.Quantity:
     '1.2 µm'
     >>> f"{compact(ureg.Quantity(0.05, 'J/m**2')):~}"
     '50.0 mJ / m ** 2'
+    >>> f"{compact(ureg.Quantity(3e6, 'nm**2')):.3g~}"
+    '3 µm ** 2'
     """
     if np.size(q.magnitude) != 1:
         raise ValueError(f"compact: one value is needed, got {np.size(q.magnitude)}")

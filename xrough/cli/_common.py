@@ -100,19 +100,14 @@ def write_atomic(path: Path, write: Callable[[Path], object]) -> None:
 def _compact(value: float, unit: str):
     """``value unit`` as a pint Quantity with a readable prefix.
 
-    Powers of one unit (``nm2``) get the prefix of their root (``0.3 um2``, not
-    ``3e+05 nm2``), as pint's ``to_compact`` alone does not.
+    :func:`xrough.units.compact`: powers of one unit get the prefix of their root
+    (``3e6 nm2`` is ``3 um2``).
     """
     q = u.ureg.Quantity(value, u.parse_units(unit))
     if q.dimensionless and not str(q.units) == "dimensionless":
         q = q.to("dimensionless")
     if q.dimensionless or value == 0 or not np.isfinite(value):
         return q
-    items = u._factors(q.units)  # noqa: SLF001 - xrough's own helper
-    if len(items) == 1 and items[0][1] not in (1, 1.0) and float(items[0][1]).is_integer():
-        n = int(items[0][1])
-        root = u.compact(u.ureg.Quantity(abs(value) ** (1 / n), u.ureg.Unit(items[0][0])))
-        return q.to(root.units**n)
     return u.compact(q)
 
 
