@@ -464,6 +464,31 @@ def test_isotropic_maps_are_not_called_anisotropic():
                 assert "anisotropy_ratio_min" not in G.attrs and "quality" not in G.attrs
 
 
+def test_the_direction_check_forms_the_axis_errors_only_where_the_ratio_asks(monkeypatch):
+    """G's standard error needs the spectrum of G, most of a small map's cost: an
+    isotropic map forms it once (the radial G), a grooved one three times (the radial G
+    and, for the check's significance, G along y and along x)."""
+    import warnings
+
+    from xrough._kernels import pairs
+
+    calls = []
+    real = pairs.finite_area_variance
+    monkeypatch.setattr(pairs, "finite_area_variance",
+                        lambda *a, **k: calls.append(k["geometry"]) or real(*a, **k))
+    rough = xrough.self_affine_surface(hurst=0.8, lambda_r="32 nm", lambda_s="4 nm",
+                                       size="256 nm", n=256, rms_gradient=0.05, seed=3,
+                                       unit="nm")
+    rough.rough.acf()
+    assert calls == ["radial"]
+    calls.clear()
+    grooved = (rough + 2.0 * np.sin(2 * np.pi * rough.x / 16.0)).assign_attrs(rough.attrs)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        G = grooved.transpose("y", "x").rough.acf()
+    assert calls == ["radial", "axis", "axis"] and G.attrs["quality"] == "questionable"
+
+
 def test_grooves_are_anisotropic_in_any_unit_and_their_axis_lags_are_exact():
     """Grooves along y (h = sin(2 pi x / 16 px) plus isotropic roughness): G along x
     oscillates with the grooves, G along y sees only the roughness.  Flagged with one

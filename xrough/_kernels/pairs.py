@@ -662,12 +662,14 @@ def pool(sums: np.ndarray, axis, keepdims: bool = False) -> np.ndarray:
 
 
 def g_from_packed(sums, *, dr, pixel_area, geometry, height_unit, g_unit,
-                  random) -> np.ndarray:
+                  random, errors: bool = True) -> np.ndarray:
     """G, pair count, standard error and sampling error ``(..., 4, nb)`` from packed sums.
 
     G is the mean of the pair values per bin; its standard error combines the finite-area
     variance (:func:`area_variance`) with the Monte-Carlo variance of random pairs (0 for
     all pairs, ``random=False``); all back from the scaled heights (``2**exponent``).
+    ``errors=False``: the standard error is NaN, not computed (the spectrum of G that the
+    finite-area variance needs is most of the cost of a small map's G).
     """
     nb = (sums.shape[-1] - 2) // 3
     gsum, counts, gsq = sums[..., :nb], sums[..., nb:2 * nb], sums[..., 2 * nb:3 * nb]
@@ -678,9 +680,13 @@ def g_from_packed(sums, *, dr, pixel_area, geometry, height_unit, g_unit,
         var = np.clip(gsq / np.where(has, counts, 1.0) - G**2, 0.0, None)
         sampling = (np.where(counts > 1, np.sqrt(var / np.where(counts > 1, counts - 1, 1.0)),
                              np.nan) if random else np.zeros_like(G))
-    area_var = area_variance(G, counts, valid, dr=dr, pixel_area=pixel_area, geometry=geometry,
-                             smooth=RANDOM_PAIRS_SMOOTHING if random else None)
-    total = np.where(has, np.sqrt(area_var + np.nan_to_num(sampling) ** 2), np.nan)
+    if errors:
+        area_var = area_variance(G, counts, valid, dr=dr, pixel_area=pixel_area,
+                                 geometry=geometry,
+                                 smooth=RANDOM_PAIRS_SMOOTHING if random else None)
+        total = np.where(has, np.sqrt(area_var + np.nan_to_num(sampling) ** 2), np.nan)
+    else:
+        total = np.full(G.shape, np.nan)
     G, total, sampling = (times_power_of_two(x, exponent, power=2, height_unit=height_unit,
                                              g_unit=g_unit)
                           for x in (G, total, np.where(has, sampling, np.nan)))

@@ -11,6 +11,8 @@ has, and the contact theory of an isotropic surface does not describe it.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import xarray as xr
 
@@ -27,13 +29,16 @@ RATIO, SIGNIFICANCE = 1.5, 3.0
 WINDOW = 0.25
 
 
-def anisotropy(G_y, se_y, G_x, se_x, *, dr: np.ndarray, grid: Grid):
+def anisotropy(G_y: xr.DataArray, G_x: xr.DataArray, *, dr: np.ndarray, grid: Grid,
+               errors: Callable[[], tuple[xr.DataArray, xr.DataArray]]):
     """Which curves of a radial G have directions that differ, and what to say.
 
-    ``G_y``, ``se_y``, ``G_x``, ``se_x``: G along y and along x and their standard errors,
-    computed DataArrays on dim ``dr`` (further dims: one verdict per curve).  Where
-    ``G_x / G_y`` leaves ``[1/RATIO, RATIO]`` beyond :data:`SIGNIFICANCE` standard errors
-    at some lag up to :data:`WINDOW` of the shorter side, the curve is questionable.
+    ``G_y``, ``G_x``: G along y and along x, computed DataArrays on dim ``dr`` (further
+    dims: one verdict per curve); ``errors()`` returns their standard errors, and is
+    called only when the ratio alone leaves the band somewhere (the spectrum each error
+    needs is most of the cost of a small map's G).  Where ``G_x / G_y`` leaves
+    ``[1/RATIO, RATIO]`` beyond :data:`SIGNIFICANCE` standard errors at some lag up to
+    :data:`WINDOW` of the shorter side, the curve is questionable.
 
     Returns ``None`` when no curve is, else ``(codes, note, attrs)``: the level code per
     curve (int8 on the extra dims), the finding in words and the attrs
@@ -42,18 +47,25 @@ def anisotropy(G_y, se_y, G_x, se_x, *, dr: np.ndarray, grid: Grid):
     attributes of its lazy twin (a lazy G is not judged: compute it, or compare
     ``acf(direction='x')`` and ``acf(direction='y')``).
     """
+    def last(a: xr.DataArray) -> np.ndarray:  # the values with dr last
+        return np.asarray(a.transpose(..., "dr").values)
+
+    gy, gx = last(G_y), last(G_x)
     with np.errstate(divide="ignore", invalid="ignore"):
-        log_ratio = np.log(G_x / G_y)
-        error = np.sqrt((se_x / G_x) ** 2 + (se_y / G_y) ** 2)
-    inside = xr.DataArray(dr <= WINDOW * min(grid.size), dims="dr")
-    usable = inside & np.isfinite(log_ratio) & (G_x > 0) & (G_y > 0)
-    hit = usable & (np.abs(log_ratio) > np.log(RATIO)) & (
-        np.abs(log_ratio) > SIGNIFICANCE * error.fillna(np.inf))
-    if not bool(hit.any()):
+        log_ratio = np.log(gx / gy)
+    usable = (dr <= WINDOW * min(grid.size)) & np.isfinite(log_ratio) & (gx > 0) & (gy > 0)
+    hit = usable & (np.abs(log_ratio) > np.log(RATIO))
+    if not hit.any():
         return None
-    values = log_ratio.where(usable).values
+    se_y, se_x = (last(a) for a in errors())
+    with np.errstate(divide="ignore", invalid="ignore"):
+        error = np.sqrt((se_x / gx) ** 2 + (se_y / gy) ** 2)
+    hit &= np.abs(log_ratio) > SIGNIFICANCE * np.where(np.isnan(error), np.inf, error)
+    if not hit.any():
+        return None
+    values = np.where(usable, log_ratio, np.nan)
     lo, hi = float(np.exp(np.nanmin(values))), float(np.exp(np.nanmax(values)))
-    lags = dr[np.asarray(hit.any([d for d in hit.dims if d != "dr"]))]
+    lags = dr[hit.reshape(-1, dr.size).any(axis=0)]
     note = (f"G along x and along y differ beyond {SIGNIFICANCE:g} standard errors "
             f"(G_x / G_y from {lo:.2g} to {hi:.2g}, at dr = {lags.min():.3g} to "
             f"{lags.max():.3g} {grid.lateral_unit}): the surface is anisotropic (a texture, "
@@ -61,5 +73,8 @@ def anisotropy(G_y, se_y, G_x, se_x, *, dr: np.ndarray, grid: Grid):
             "offsets: detrend(..., per_line=True)): the radial G averages directions that "
             "no single direction has, and the contact theory of an isotropic surface may "
             "not hold (compare acf(direction='x') and acf(direction='y'))")
-    codes = hit.any("dr").astype(np.int8) * np.int8(quality.level_code("questionable"))
+    level = np.int8(quality.level_code("questionable"))
+    ref = G_y.isel(dr=0, drop=True)
+    codes = xr.DataArray(hit.any(axis=-1).astype(np.int8) * level, dims=ref.dims,
+                         coords=ref.coords)
     return codes, note, {"anisotropy_ratio_min": lo, "anisotropy_ratio_max": hi}

@@ -303,8 +303,11 @@ def _in_memory(da: xr.DataArray, grid: Grid, estimator: str, *, n_pairs, seed, o
     found = None
     if len(parts) == 3 and G.chunks is None:  # G along y and x: the verdict (eager only)
         axis = replace(p, lag_axes=1)
-        along = [_g_parts(part, grid, axis, random=False) for part in parts[1:]]
-        found = anisotropy(*(a[k] for a in along for k in (0, 2)), dr=p.dr, grid=grid)
+        # their errors only where the ratio alone leaves the band (most maps: nowhere)
+        found = anisotropy(*(_g_parts(part, grid, axis, random=False, errors=False)[0]
+                             for part in parts[1:]), dr=p.dr, grid=grid,
+                           errors=lambda: tuple(_g_parts(part, grid, axis, random=False)[2]
+                                                for part in parts[1:]))
         if found is not None:
             extra.update(found[2])
     G = g_result(
@@ -364,13 +367,18 @@ def _split(sums: xr.DataArray, p: Plan) -> tuple[xr.DataArray, ...]:
         keep_attrs=False) for d in range(3))
 
 
-def _g_parts(sums: xr.DataArray, grid: Grid, p: Plan, *, random: bool):
-    """G, pair count, standard error and sampling error (dim ``dr``) from packed sums."""
+def _g_parts(sums: xr.DataArray, grid: Grid, p: Plan, *, random: bool,
+             errors: bool = True):
+    """G, pair count, standard error and sampling error (dim ``dr``) from packed sums.
+
+    ``errors=False``: the standard error is NaN, not computed (:func:`g_from_packed`).
+    """
     nb = int(p.keep.sum())
     out = xr.apply_ufunc(
         g_from_packed, sums, input_core_dims=[["packed"]], output_core_dims=[["part", "dr"]],
         dask="parallelized", output_dtypes=[float], keep_attrs=False,
         dask_gufunc_kwargs={"output_sizes": {"part": 4, "dr": nb}},
         kwargs={"dr": p.dr, "pixel_area": grid.pixel_area, "geometry": p.geometry,
-                "height_unit": grid.height_unit, "g_unit": g_unit(grid), "random": random})
+                "height_unit": grid.height_unit, "g_unit": g_unit(grid), "random": random,
+                "errors": errors})
     return tuple(out.isel(part=k, drop=True) for k in range(4))
