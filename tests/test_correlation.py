@@ -619,28 +619,40 @@ def test_memory_limit_option_and_config(monkeypatch, tmp_path):
             topo.rough.acf(memory_limit=bad)
 
 
-def test_map_kernel_equals_the_lag_plane():
+@pytest.mark.parametrize("route", ["one block", "many blocks", "float32", "extreme scale"])
+def test_map_kernel_equals_the_lag_plane(route, monkeypatch):
     """The binned map kernel (no lag plane, no full-size temporaries) gives the sums of
     the folded lag plane binned afterwards, to round-off: periodic, open, missing points,
-    with the sums along each axis."""
+    with the sums along each axis; the rows and columns in one block or in many (blocks
+    of 16 rows, slabs of a few columns), a float32 map (rows scaled in double, block by
+    block), and heights near 2^+-600 (scaled before the transforms) and 2^+-1010 (beyond
+    the range of a float64 power of two as a factor)."""
     from xrough._kernels import pairs
     from xrough._kernels.binning import binned_sum, folded_bin_index
 
+    if route == "many blocks":
+        monkeypatch.setattr(pairs, "BLOCK_ELEMENTS", 16 * 40)
     rng = np.random.default_rng(3)
     for shape, periodic, holes in [((64, 80), True, 0.0), ((61, 70), False, 0.0),
                                    ((50, 64), False, 0.2), ((64, 64), True, 0.1)]:
         h = rng.normal(size=shape) * 1e3
         h[rng.random(shape) < holes] = np.nan
+        if route == "float32":
+            h = h.astype(np.float32)
+        e = 10
+        if route == "extreme scale":  # exact: powers of two
+            e = (600 if periodic else 1010) * (-1 if holes else 1)
+            h = np.ldexp(h, e - 10)
         ks = tuple(n // 2 for n in shape) if periodic else (shape[0] - 3, shape[1] // 2)
         edges = log_bin_edges(1.0, float(np.hypot(*ks)) + 1, 10)
         idx = folded_bin_index(ks, (1.0, 1.0), edges)
         nb = len(edges) - 1
         lines = (folded_bin_index(ks[:1], (1.0,), edges),
                  folded_bin_index(ks[1:], (1.0,), edges))
-        e = 10
         s, n, nvalid = pairs.binned_map_sums(h, e, ks, periodic=periodic, index=idx,
                                              nbins=nb, lines=lines, workers=1)
-        S, N = pairs.folded_pair_sums(np.ldexp(h, -e), ks, periodic=periodic)
+        S, N = pairs.folded_pair_sums(np.ldexp(h.astype(np.float64), -e), ks,
+                                      periodic=periodic)
         ref_s = np.concatenate([binned_sum(S, idx, nb), binned_sum(S[:, 0], lines[0], nb),
                                 binned_sum(S[0, :], lines[1], nb)])
         np.testing.assert_allclose(s, ref_s, rtol=1e-10, atol=1e-12 * np.abs(ref_s).max())

@@ -169,6 +169,17 @@ def _sq_terms_nonperiodic(h2: np.ndarray, ks: tuple[int, ...]) -> np.ndarray:
     return _sq_rows(t, ks, 0, ks[0] + 1)
 
 
+def cumulative_rows(t: np.ndarray) -> np.ndarray:
+    """``t`` replaced by its cumulative sum along axis 0 (of a C-ordered 2-D array), in place.
+
+    Row by row, each addition vectorised along a row: numpy's ``cumsum(axis=0)`` walks
+    each column with the row stride and took 14 times as long on a 1024^2 map.
+    """
+    for y in range(1, t.shape[0]):
+        np.add(t[y - 1], t[y], out=t[y])
+    return t
+
+
 def _sq_rows(t: np.ndarray, ks: tuple[int, ...], i0: int, i1: int) -> np.ndarray:
     """Rows ``i0:i1`` of the folded ``h(r)^2 + h(r+d)^2`` sums from the summed-area table.
 
@@ -329,14 +340,15 @@ def binned_map_sums(h: np.ndarray, exponent: int, ks: tuple[int, ...], *, period
 
     The sums of :func:`folded_pair_sums` for a single map (the heights scaled by
     ``2**-exponent``), added up per bin of the folded lags as they come out of the
-    transforms, so that the lag plane is never formed: the map's half spectrum (about 4x
-    the map for an open one, 1x for a periodic one) is the only full-size array (a
-    second one of half that size holds one spectrum at a time for a map with missing
-    points). Its rows are transformed block by block from the heights (zero padded, the
-    scale, the mean and the mask applied block by block), its columns slab by slab in
-    place, each slab turned at once into its power (or cross) spectrum, averaged over
-    ``k`` and ``-k`` and transformed back along the columns (type-I DCT); the rows of the
-    folded plane are then transformed back, weighted and binned a block at a time.
+    transforms, so that the lag plane is never formed: the row transforms (about 2x the
+    map for an open one, 1x for a periodic one) and the real quarter of the folded power
+    (1x, 0.25x) are the only full-size arrays (a map with missing points has two row
+    transforms and two quarters at once). The rows are transformed block by block from
+    the heights (zero padded, the scale, the mean and the mask applied block by block;
+    a periodic float64 map's at once, scaled after), the columns slab by slab, each slab
+    turned at once into its power (or cross) spectrum, averaged over ``k`` and ``-k`` and
+    transformed back along the columns (type-I DCT) into the quarter; its rows are then
+    transformed back, weighted and binned a block at a time.
 
     Parameters
     ----------
@@ -412,14 +424,15 @@ def _binned_rows(block, rows: int, *, index, nbins, lines):
                                                                      (line_y, line_x))])
 
 
-def _spectrum_rows(fill, n: int, fshape: tuple[int, int], out: np.ndarray, workers: int):
-    """Write the row transforms of a map (``fill(r0, r1)``: its rows) into ``out``.
+def _spectrum_rows(fill, n: int, width: int, workers: int) -> np.ndarray:
+    """Return the row transforms ``(n, width // 2 + 1)`` of a map (``fill(r0, r1)``: rows).
 
-    Rows ``n:`` of ``out`` (the zero padding of the columns) are set to 0.
+    Each row zero padded to ``width``, a block of rows at a time (so that only a block of
+    the rows ``fill`` makes, scaled or centred, exists at once).
     """
-    for r0, r1 in _row_blocks(n, fshape[1]):
-        out[r0:r1] = sfft.rfft(fill(r0, r1), n=fshape[1], axis=-1, workers=workers)
-    out[n:] = 0.0
+    out = np.empty((n, width // 2 + 1), dtype=np.complex128)
+    for r0, r1 in _row_blocks(n, width):
+        out[r0:r1] = sfft.rfft(fill(r0, r1), n=width, axis=-1, workers=workers)
     return out
 
 
@@ -452,18 +465,43 @@ def _folded_row_block(plane: np.ndarray, i0: int, i1: int, ks, fshape, workers):
     return b
 
 
-def _power_slabs(spec: np.ndarray, fshape, workers, zero_mean: bool = False) -> np.ndarray:
-    """Columns of a row-transformed map in place, slab by slab, to the folded power.
+def _column_transforms(rows: np.ndarray, m0: int, workers: int):
+    """Yield ``(c0, c1, slab)``, the transformed columns ``c0:c1`` of ``rows``.
 
-    Returns the real quarter (rows ``0..m0/2``, a strided view into ``spec``).
+    Each column zero padded to ``m0``, slab by slab, in one buffer reused for every slab
+    (valid until the next).
     """
-    m0 = fshape[0]
+    ny, width = rows.shape
+    slabs = list(_column_slabs(width, m0))
+    buf = np.empty((m0, max(c1 - c0 for c0, c1 in slabs)), dtype=np.complex128)
+    for c0, c1 in slabs:
+        slab = buf[:, :c1 - c0]
+        slab[:ny] = rows[:, c0:c1]
+        slab[ny:] = 0.0
+        yield c0, c1, sfft.fft(slab, axis=0, workers=workers, overwrite_x=True)
+
+
+def _power(slab: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """``|slab|^2`` into ``out`` (a real array of the slab's shape)."""
+    np.square(slab.real, out=out)
+    out += np.square(slab.imag)
+    return out
+
+
+def _power_slabs(spec: np.ndarray, workers: int) -> np.ndarray:
+    """Columns of a periodic map's row transforms in place, slab by slab, to the folded power.
+
+    ``spec``: ``(m0, width)`` complex, all of the map's rows (no padding); the mean is
+    removed (exactly: the power at ``k = 0`` set to 0). Returns the real quarter (rows
+    ``0..m0/2``), a strided view into ``spec``: no array of the map's size is made.
+    """
+    m0 = spec.shape[0]
     v = spec.view(np.float64).reshape(spec.shape + (2,))
     for c0, c1 in _column_slabs(spec.shape[1], m0):
         slab = spec[:, c0:c1]
         sfft.fft(slab, axis=0, workers=workers, overwrite_x=True)
-        if zero_mean and c0 == 0:
-            slab[0, 0] = 0.0  # remove the mean exactly
+        if c0 == 0:
+            slab[0, 0] = 0.0
         re, im = v[:, c0:c1, 0], v[:, c0:c1, 1]
         np.square(re, out=re)
         np.square(im, out=im)
@@ -472,12 +510,41 @@ def _power_slabs(spec: np.ndarray, fshape, workers, zero_mean: bool = False) -> 
     return v[:m0 // 2 + 1, :, 0]
 
 
+def _power_quarter(rows: np.ndarray, m0: int, workers: int) -> np.ndarray:
+    """Return the real quarter ``(m0/2 + 1, width)`` of the folded power of a map.
+
+    ``rows``: the row transforms of the map (``(ny, width)`` complex, ``ny <= m0``), each
+    column zero padded to ``m0`` and transformed a slab of columns at a time, its power
+    folded (:func:`_fold_columns`) into the quarter: the one full-size array made here, a
+    real one of about a quarter of the padded spectrum (of a map padded to twice its
+    size, half of the map's).
+    """
+    quarter = np.empty((m0 // 2 + 1, rows.shape[1]))
+    power = None
+    for c0, c1, slab in _column_transforms(rows, m0, workers):
+        if power is None:
+            power = np.empty(slab.shape)
+        quarter[:, c0:c1] = _fold_columns(_power(slab, power[:, :c1 - c0]), m0, workers)
+    return quarter
+
+
+#: Largest |exponent| of the heights' scale for which a float64 map's rows are transformed
+#: before they are scaled: the sums of a row (at most 2^32 terms of at most 2^(e+1)) stay
+#: far from overflow and from subnormal numbers, so that scaling the transform by
+#: 2^-exponent gives the bits of the transform of the scaled rows.
+SCALE_AFTER = 512
+
+
 def _periodic_binned(h, exponent, binner, *, ks, fshape, workers):
     ny, nx = h.shape
-    spec = np.empty((fshape[0], fshape[1] // 2 + 1), dtype=np.complex128)
-    _spectrum_rows(lambda r0, r1: np.ldexp(h[r0:r1].astype(np.float64), -exponent), ny,
-                   fshape, spec, workers)
-    quarter = _power_slabs(spec, fshape, workers, zero_mean=True)
+    if h.dtype == np.float64 and abs(exponent) < SCALE_AFTER:
+        # all rows at once, straight from the heights: no copy of them, scaled in place
+        rows = sfft.rfft(h, axis=-1, workers=workers)
+        rows.view(np.float64)[...] *= 2.0 ** -exponent
+    else:  # a float32 map, or an extreme scale: block by block, scaled first
+        rows = _spectrum_rows(lambda r0, r1: scaled_rows(h[r0:r1], exponent), ny,
+                              fshape[1], workers)
+    quarter = _power_slabs(rows, workers)
     # sum of squared differences over pairs: 2 (C(0) - C(d)) per distinct signed lag
     zero = _folded_row_block(quarter, 0, 1, ks, fshape, workers)[0, 0]
     cy, cx = (_axis_counts(m, k, True) / m for m, k in zip(fshape, ks))
@@ -491,11 +558,26 @@ def _periodic_binned(h, exponent, binner, *, ks, fshape, workers):
     return binner(block, ks[0] + 1)
 
 
-def _scaled_centred(h, exponent, mean, r0, r1, square=False):
-    """Rows ``r0:r1`` of ``h 2**-exponent - mean``, 0 where missing (squared if asked)."""
-    b = np.ldexp(h[r0:r1].astype(np.float64), -exponent)  # float32 maps in double
+def scaled_rows(h: np.ndarray, exponent: int) -> np.ndarray:
+    """``h * 2**-exponent`` in float64, one pass (a new array; float32 maps in double).
+
+    A multiplication by the power of two where it is a normal number (exact, as
+    ``ldexp``, which is several times slower), ``ldexp`` beyond.
+    """
+    if abs(exponent) < 1000:
+        return np.multiply(h, 2.0 ** -exponent, dtype=np.float64)
+    return np.ldexp(h.astype(np.float64), -exponent)
+
+
+def _scaled_centred(h, exponent, mean, r0, r1, square=False, complete=False):
+    """Rows ``r0:r1`` of ``h 2**-exponent - mean``, 0 where missing (squared if asked).
+
+    ``complete``: the map has no missing point (nothing to look for).
+    """
+    b = scaled_rows(h[r0:r1], exponent)
     b -= mean
-    np.copyto(b, 0.0, where=np.isnan(b))
+    if not complete:
+        np.copyto(b, 0.0, where=np.isnan(b))
     if square:
         np.square(b, out=b)
     return b
@@ -506,17 +588,17 @@ def _open_binned(h, exponent, binner, *, ks, fshape, workers):
     mean = np.ldexp(h.mean(dtype=np.float64), -exponent)
     # the h(r)^2 + h(r+d)^2 terms first, from the summed-area table (the size of the map)
     t = np.zeros((ny + 1, nx + 1))
-    for c0, c1 in _column_slabs(nx, ny):  # cumulative along y, then along x
-        np.cumsum(_scaled_centred(h[:, c0:c1], exponent, mean, 0, ny, square=True),
-                  axis=0, out=t[1:, 1 + c0:1 + c1])
-    for r0, r1 in _row_blocks(ny, nx):
-        np.cumsum(t[1 + r0:1 + r1, 1:], axis=-1, out=t[1 + r0:1 + r1, 1:])
+    for r0, r1 in _row_blocks(ny, nx):  # cumulative along x, a block of rows at a time
+        np.cumsum(_scaled_centred(h, exponent, mean, r0, r1, square=True, complete=True),
+                  axis=-1, out=t[1 + r0:1 + r1, 1:])
+    cumulative_rows(t)
     sq = binner(functools.partial(_sq_rows, t, ks), ks[0] + 1)
     del t
-    spec = np.empty((fshape[0], fshape[1] // 2 + 1), dtype=np.complex128)
-    _spectrum_rows(lambda r0, r1: _scaled_centred(h, exponent, mean, r0, r1), ny, fshape,
-                   spec, workers)
-    quarter = _power_slabs(spec, fshape, workers)
+    rows = _spectrum_rows(lambda r0, r1: _scaled_centred(h, exponent, mean, r0, r1,
+                                                         complete=True),
+                          ny, fshape[1], workers)
+    quarter = _power_quarter(rows, fshape[0], workers)
+    del rows
     corr = binner(lambda i0, i1: _folded_row_block(quarter, i0, i1, ks, fshape, workers),
                   ks[0] + 1)
     corr *= -2.0
@@ -527,10 +609,10 @@ def _open_binned(h, exponent, binner, *, ks, fshape, workers):
 def _masked_binned(h, exponent, binner, *, ks, fshape, workers):
     """Bin the sums and counts of a map with missing points (correlations of :func:`_masked`).
 
-    One half spectrum holds the mask's transform ``M``, then per column slab its power
-    ``|M|^2`` (counts) and ``2 Re(conj(B) M) - 2 |A|^2`` (sums) side by side in its real
-    and imaginary places, ``B`` and ``A`` the transforms of ``h^2`` and ``h``, computed
-    one at a time in a second array of the map's rows (half the padded spectrum).
+    The row transforms of the mask and of ``h^2`` first: per column slab their
+    transforms ``M`` and ``B`` give the folded ``|M|^2`` (counts) and
+    ``2 Re(conj(B) M)`` (sums) in two real quarters; then those of ``h``, whose folded
+    ``2 |A|^2`` each slab takes from the sums (folding is linear).
     """
     ny, nx = h.shape
     m0 = fshape[0]
@@ -538,47 +620,39 @@ def _masked_binned(h, exponent, binner, *, ks, fshape, workers):
     nvalid = float(np.count_nonzero(valid))
     del valid
     mean = np.ldexp(np.nansum(h, dtype=np.float64) / max(nvalid, 1.0), -exponent)
-    spec = np.empty((m0, fshape[1] // 2 + 1), dtype=np.complex128)
-    _spectrum_rows(lambda r0, r1: np.isfinite(h[r0:r1]).astype(np.float64), ny, fshape,
-                   spec, workers)
-    rows = np.empty((ny, spec.shape[1]), dtype=np.complex128)
-    v = spec.view(np.float64).reshape(spec.shape + (2,))
-    slabs = list(_column_slabs(spec.shape[1], m0))
-    for square in (True, False):  # B = F(h^2), then A = F(h)
-        _spectrum_rows(lambda r0, r1, square=square: _scaled_centred(h, exponent, mean, r0,
-                                                                     r1, square),
-                       ny, (ny, fshape[1]), rows, workers)
-        for c0, c1 in slabs:
-            slab = np.zeros((m0, c1 - c0), dtype=np.complex128)
-            slab[:ny] = rows[:, c0:c1]
-            sfft.fft(slab, axis=0, workers=workers, overwrite_x=True)
-            a, b = v[:, c0:c1, 0], v[:, c0:c1, 1]
-            if square:
-                sfft.fft(spec[:, c0:c1], axis=0, workers=workers, overwrite_x=True)
-                w = slab.real * a
-                w += slab.imag * b
-                w *= 2.0
-                np.square(a, out=a)
-                np.square(b, out=b)
-                a += b  # |M|^2
-                b[...] = w  # 2 Re(conj(B) M)
-            else:
-                w = slab.real * slab.real
-                w += slab.imag * slab.imag
-                w *= 2.0
-                b -= w
-                _fold_columns(v[:, c0:c1], m0, workers)
+
+    def rows_of(square):  # the row transforms of h^2 (square) or h, centred and scaled
+        return _spectrum_rows(lambda r0, r1: _scaled_centred(h, exponent, mean, r0, r1,
+                                                             square), ny, fshape[1], workers)
+
+    mask = _spectrum_rows(lambda r0, r1: np.isfinite(h[r0:r1]).astype(np.float64), ny,
+                          fshape[1], workers)
+    rows = rows_of(True)
+    width = mask.shape[1]
+    counts_q, sums_q = np.empty((2, m0 // 2 + 1, width))
+    masks = _column_transforms(mask, m0, workers)
+    for (c0, c1, b), (_, _, m) in zip(_column_transforms(rows, m0, workers), masks):
+        w = b.real * m.real
+        w += b.imag * m.imag
+        w *= 2.0  # 2 Re(conj(B) M)
+        sums_q[:, c0:c1] = _fold_columns(w, m0, workers)
+        counts_q[:, c0:c1] = _fold_columns(_power(m, w), m0, workers)  # |M|^2
+    del mask, rows, masks
+    rows = rows_of(False)
+    for c0, c1, a in _column_transforms(rows, m0, workers):
+        p = _power(a, np.empty(a.shape))
+        p *= 2.0  # 2 |A|^2
+        sums_q[:, c0:c1] -= _fold_columns(p, m0, workers)
     del rows
-    quarter = v[:m0 // 2 + 1]
     empty = np.zeros((ks[0] + 1, ks[1] + 1), dtype=bool)  # lags without pairs
 
     def count_block(i0, i1):
-        c = np.rint(_folded_row_block(quarter[..., 0], i0, i1, ks, fshape, workers))
+        c = np.rint(_folded_row_block(counts_q, i0, i1, ks, fshape, workers))
         empty[i0:i1] = c == 0
         return c
 
     def sum_block(i0, i1):
-        s = _folded_row_block(quarter[..., 1], i0, i1, ks, fshape, workers)
+        s = _folded_row_block(sums_q, i0, i1, ks, fshape, workers)
         s[empty[i0:i1]] = 0.0  # no pairs: only round-off was there
         return s
 
