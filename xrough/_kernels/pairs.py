@@ -502,10 +502,10 @@ def _power_slabs(spec: np.ndarray, workers: int) -> np.ndarray:
         sfft.fft(slab, axis=0, workers=workers, overwrite_x=True)
         if c0 == 0:
             slab[0, 0] = 0.0
-        re, im = v[:, c0:c1, 0], v[:, c0:c1, 1]
-        np.square(re, out=re)
-        np.square(im, out=im)
-        re += im
+        both = v[:, c0:c1]
+        np.square(both, out=both)  # one pass over the real and imaginary parts
+        re = both[..., 0]
+        re += both[..., 1]
         _fold_columns(re, m0, workers)
     return v[:m0 // 2 + 1, :, 0]
 
@@ -528,19 +528,18 @@ def _power_quarter(rows: np.ndarray, m0: int, workers: int) -> np.ndarray:
     return quarter
 
 
-#: Largest |exponent| of the heights' scale for which a float64 map's rows are transformed
-#: before they are scaled: the sums of a row (at most 2^32 terms of at most 2^(e+1)) stay
-#: far from overflow and from subnormal numbers, so that scaling the transform by
-#: 2^-exponent gives the bits of the transform of the scaled rows.
-SCALE_AFTER = 512
+#: Largest |exponent| of the heights' scale for which a float64 map is transformed as it
+#: is and its sums scaled at the end: a mode's power (at most 2^(2e + 66) for up to 2^32
+#: points) stays far from overflow, and its smallest values far from subnormal numbers,
+#: so that scaling the sums by 2^(-2 exponent) is exact, as scaling the heights first.
+SCALE_AFTER = 400
 
 
 def _periodic_binned(h, exponent, binner, *, ks, fshape, workers):
     ny, nx = h.shape
-    if h.dtype == np.float64 and abs(exponent) < SCALE_AFTER:
-        # all rows at once, straight from the heights: no copy of them, scaled in place
+    scale_after = h.dtype == np.float64 and abs(exponent) < SCALE_AFTER
+    if scale_after:  # all rows at once, straight from the heights: no copy of them
         rows = sfft.rfft(h, axis=-1, workers=workers)
-        rows.view(np.float64)[...] *= 2.0 ** -exponent
     else:  # a float32 map, or an extreme scale: block by block, scaled first
         rows = _spectrum_rows(lambda r0, r1: scaled_rows(h[r0:r1], exponent), ny,
                               fshape[1], workers)
@@ -555,7 +554,10 @@ def _periodic_binned(h, exponent, binner, *, ks, fshape, workers):
         b += (2.0 * zero) * np.multiply.outer(cy[i0:i1], cx)
         return b
 
-    return binner(block, ks[0] + 1)
+    sums = binner(block, ks[0] + 1)
+    if scale_after:
+        sums *= 2.0 ** (-2 * exponent)
+    return sums
 
 
 def scaled_rows(h: np.ndarray, exponent: int) -> np.ndarray:
