@@ -198,7 +198,11 @@ def _sinusoid_G() -> xr.DataArray:
 def test_gradient_of_a_sinusoid_falls_back_and_says_why():
     """It stopped at a failed fit: all NaN and numpy RuntimeWarnings.  Now the exact
     gradient where G determines it and the next method, the ballistic form, on the
-    other lags: each the number its own method gives (same kernels: rtol 1e-12)."""
+    other lags: each the number its own method gives (same kernels: rtol 1e-12), but at
+    the first two lags, where G is a smooth surface's (``a dr^2 + b dr^4``, here b = 0):
+    there gbar is the full gradient ``sqrt(4 a)``, which for this surface is
+    ``2 pi / 32`` (to 0.1 %: the lattice's bins see its two modes at their own angles),
+    where the spectrum of G, which smooths the two delta peaks of C, gave 4 % less."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         gbar = _sinusoid_G().rough.gradient()
@@ -215,7 +219,11 @@ def test_gradient_of_a_sinusoid_falls_back_and_says_why():
     simple = xrough.rms_gradient(_sinusoid_G(), method="simple").values
     covered = np.isfinite(exact)
     assert 0 < covered.sum() < covered.size
-    np.testing.assert_allclose(gbar.values[covered], exact[covered], rtol=1e-12, atol=0)
+    first = np.arange(covered.size) < 2
+    np.testing.assert_allclose(gbar.values[first], 2 * np.pi / 32, rtol=1e-3)
+    np.testing.assert_allclose(exact[first], 2 * np.pi / 32 * 0.958, rtol=5e-3)
+    np.testing.assert_allclose(gbar.values[covered & ~first], exact[covered & ~first],
+                               rtol=1e-12, atol=0)
     np.testing.assert_allclose(gbar.values[~covered], simple[~covered], rtol=1e-12, atol=0)
 
 

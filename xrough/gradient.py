@@ -218,8 +218,10 @@ def _gradient_std(gbar: xr.DataArray, Gl: xr.DataArray, errors: dict | None,
     if errors is None:
         std, error_of = xr.full_like(gbar, np.nan), ERROR_OF_NONE
     else:
+        values = [Gl] + ([_strip(gbar)] if method == "auto" else [])  # its even start
         std = xr.apply_ufunc(
-            kernels.gradient_std, Gl, input_core_dims=[["dr"]], output_core_dims=[["dr"]],
+            kernels.gradient_std, *values, input_core_dims=[["dr"]] * len(values),
+            output_core_dims=[["dr"]],
             kwargs={"dr": Gl["dr"].values, "errors": errors, "ballistic": method == "simple",
                     "smooth": _EXACT_DEFAULTS["smooth"],
                     "interpolation": _EXACT_DEFAULTS["interpolation"]},
