@@ -48,9 +48,10 @@ AUTO_METHODS = ("exact", "fit", "simple", "exact+fit", "exact+simple")
 #: ``|b| dr^2 / a`` is at most ``EVEN_START[0]`` there: eq. 26's full gradient ``4 a`` is
 #: then gbar there, its weight falling linearly to 0 at ``EVEN_START[1]``.  On the exact
 #: expected G of sharply cut self-affine maps the ratio at one pixel is 0.01-0.05 for
-#: ``lambda_s`` = 4-8 px, where ``sqrt(4 a)`` is within -0.2 % of the lattice's gbar and
-#: eq. 26 of the spectrum of G rings by up to +1 %; it is 0.08-0.14 for ``lambda_s`` =
-#: 2 px (rough to the pixel), where the expansion is 1.4-2.6 % low.
+#: ``lambda_s`` = 4-8 px, where ``sqrt(4 a)`` is within 0.03 % of the lattice's gbar and
+#: eq. 26 of the spectrum of G rings by up to +1 %; 0.05-0.08 for 3 px (0.14 %); it is
+#: 0.08-0.14 for ``lambda_s`` = 2 px (rough to the pixel), where the expansion is 0.5-1 %
+#: low and the spectrum of G within 0.05 %.
 EVEN_START = (0.05, 0.08)
 
 
@@ -196,29 +197,40 @@ def _even_start_std(rel, g, gbar, dr, errors):
 def even_start(dr, g) -> tuple[float, np.ndarray, np.ndarray]:
     """Return the full gradient of a G that is smooth at its first lags, and where it holds.
 
-    ``G = a dr^2 + b dr^4`` through the first two valid bins is the start of the even
-    expansion of a smooth surface's G (``a = m2 / 4``, ``b = -m4 / 64``: the moments
-    ``m_n = (1/2pi) int q^(n+1) C dq``), and eq. 26 at lags where it holds is the full
-    gradient, ``gbar^2 = m2 = 4 a``, the largest gbar of any lag. Returns ``(sqrt(4 a),
-    weight, d_ln_a)``: the weight per lag (:data:`EVEN_START` of ``|b| dr^2 / a`` on the
-    first two valid bins, 0 elsewhere, and 0 everywhere when ``a <= 0`` or ``b > 0``,
-    which no surface's G has), and the derivatives of ``ln a`` with respect to ``ln G``
-    per bin (for its error). NaN and zeros when there are fewer than two valid bins.
+    A smooth surface's G starts as the even series ``a dr^2 + b dr^4 + c dr^6`` (``a = m2 /
+    4``, ``b = -m4 / 64``, ``c = m6 / 2304`` with the moments ``m_n = (1/2pi) int q^(n+1) C
+    dq``), and eq. 26 at lags where it holds is the full gradient, ``gbar^2 = m2 = 4 a``,
+    the largest gbar of any lag. Whether it holds: ``|b| dr^2 / a`` of the two terms
+    through the first two valid bins (:data:`EVEN_START`); ``a`` itself from the three
+    terms through the first three (two terms when there are only two: on the exact
+    expected G of sharply cut maps the three terms are within 0.02 % at ``lambda_s`` = 4
+    px and 0.14 % at 3 px, the two within 0.2 % and 0.6 %). Returns ``(sqrt(4 a), weight,
+    d_ln_a)``: the weight per lag (of ``|b| dr^2 / a`` on the first two valid bins, 0
+    elsewhere, and 0 everywhere when ``a <= 0`` or ``b > 0``, which no surface's G has)
+    and the derivatives of ``ln a`` with respect to ``ln G`` per bin (for its error).
+    NaN and zeros when there are fewer than two valid bins.
     """
     dr, g = np.asarray(dr, dtype=float), np.asarray(g, dtype=float)
     weight, d_ln_a = np.zeros(dr.shape), np.zeros(dr.shape)
-    first = np.flatnonzero(np.isfinite(g) & (g > 0) & (dr > 0))[:2]
+    first = np.flatnonzero(np.isfinite(g) & (g > 0) & (dr > 0))[:3]
     if first.size < 2:
         return np.nan, weight, d_ln_a
-    (r0, r1), (g0, g1) = dr[first], g[first]
-    det = r0**2 * r1**2 * (r1**2 - r0**2)
-    a = (g0 * r1**4 - g1 * r0**4) / det
-    b = (g1 * r0**2 - g0 * r1**2) / det
-    if not (a > 0 and b <= 0):
+    r, v = dr[first], g[first]
+    a2, b2 = np.linalg.solve(np.c_[r[:2] ** 2, r[:2] ** 4], v[:2])
+    if not (a2 > 0 and b2 <= 0):
+        return np.nan, weight, d_ln_a
+    terms = np.c_[r**2, r**4, r**6][:, :r.size]
+    try:
+        row = np.linalg.inv(terms)[0]  # a = row @ v
+    except np.linalg.LinAlgError:
+        return np.nan, weight, d_ln_a
+    a = float(row @ v)
+    if not a > 0:
         return np.nan, weight, d_ln_a
     lo, hi = EVEN_START
-    weight[first] = np.clip((hi - np.abs(b) * dr[first] ** 2 / a) / (hi - lo), 0.0, 1.0)
-    d_ln_a[first] = np.array([g0 * r1**4, -g1 * r0**4]) / (det * a)
+    two = first[:2]
+    weight[two] = np.clip((hi - np.abs(b2) * dr[two] ** 2 / a2) / (hi - lo), 0.0, 1.0)
+    d_ln_a[first] = row * v / a
     return float(np.sqrt(4.0 * a)), weight, d_ln_a
 
 
