@@ -588,24 +588,26 @@ def _scaled_centred(h, exponent, mean, r0, r1, square=False, complete=False):
 def _open_binned(h, exponent, binner, *, ks, fshape, workers):
     ny, nx = h.shape
     mean = np.ldexp(h.mean(dtype=np.float64), -exponent)
-    # the h(r)^2 + h(r+d)^2 terms first, from the summed-area table (the size of the map)
-    t = np.zeros((ny + 1, nx + 1))
-    for r0, r1 in _row_blocks(ny, nx):  # cumulative along x, a block of rows at a time
-        np.cumsum(_scaled_centred(h, exponent, mean, r0, r1, square=True, complete=True),
-                  axis=-1, out=t[1 + r0:1 + r1, 1:])
-    cumulative_rows(t)
-    sq = binner(functools.partial(_sq_rows, t, ks), ks[0] + 1)
-    del t
     rows = _spectrum_rows(lambda r0, r1: _scaled_centred(h, exponent, mean, r0, r1,
                                                          complete=True),
                           ny, fshape[1], workers)
     quarter = _power_quarter(rows, fshape[0], workers)
     del rows
-    corr = binner(lambda i0, i1: _folded_row_block(quarter, i0, i1, ks, fshape, workers),
-                  ks[0] + 1)
-    corr *= -2.0
-    corr += sq
-    return corr
+    # the h(r)^2 + h(r+d)^2 terms from the summed-area table (the size of the map), made
+    # once the row transforms are gone, and binned with the correlations in one pass
+    t = np.zeros((ny + 1, nx + 1))
+    for r0, r1 in _row_blocks(ny, nx):  # cumulative along x, a block of rows at a time
+        np.cumsum(_scaled_centred(h, exponent, mean, r0, r1, square=True, complete=True),
+                  axis=-1, out=t[1 + r0:1 + r1, 1:])
+    cumulative_rows(t)
+
+    def block(i0, i1):
+        b = _folded_row_block(quarter, i0, i1, ks, fshape, workers)
+        b *= -2.0
+        b += _sq_rows(t, ks, i0, i1)
+        return b
+
+    return binner(block, ks[0] + 1)
 
 
 def _masked_binned(h, exponent, binner, *, ks, fshape, workers):
