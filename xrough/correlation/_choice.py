@@ -104,9 +104,10 @@ def memory_budget(memory_limit=None) -> tuple[float, str]:
 def fft_memory(shape: tuple[int, ...], ks: tuple[int, ...], periodic: bool) -> float:
     """Peak bytes of the all-pairs FFT of one 2D map (``pairs.binned_map_sums``).
 
-    Its half spectrum (complex, padded shape), half as much again for the row transforms
-    of a map with missing points, and one map-sized array (float64); from the shape
-    alone, the worst case (missing points) since the heights are not read.
+    An upper bound: one and a half times its half spectrum (complex, padded shape) and
+    one map-sized array (float64), 7x an open map, where it holds 3x (its row
+    transforms and a real quarter of the spectrum) and 6x with missing points (two of
+    each); from the shape alone, since the heights are not read.
     """
     fshape = padded_shape(tuple(shape), tuple(ks), periodic)
     spectrum = 16.0 * fshape[0] * (fshape[-1] // 2 + 1)
@@ -117,8 +118,8 @@ def choose_estimator(da: xr.DataArray, grid: Grid, direction: str, pool,
                      memory_limit=None, dr_max=None) -> tuple[str, str | None]:
     """``'fft'`` unless one open map is chunked in y/x or its FFT exceeds the memory budget.
 
-    The all-pairs FFT of an open map holds its padded half spectrum (about four times
-    the map) and half that again with missing points (:func:`fft_memory`); beyond the
+    The all-pairs FFT of an open map holds three times the map, six with missing points
+    (:func:`fft_memory` bounds both); beyond the
     budget of :func:`memory_budget`, or when the map is split into dask chunks, the tiled
     estimator (exact up to its halo, block levels beyond; see
     :func:`~xrough.correlation.height_difference_acf_tiled`) keeps memory flat. The

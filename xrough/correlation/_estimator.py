@@ -115,8 +115,8 @@ def height_difference_acf(
         are NaN at finer lags than the tip resolves. ``False``: G over all lags, no window.
     memory_limit : int, float or str, optional
         Bytes the all-pairs FFT of an open map may take (``4e9`` or ``"4 GB"``) before
-        ``'auto'`` takes the tiled estimator; that FFT needs its padded half spectrum,
-        about 4x the map (6x with missing points: the budget assumes them). Default: the
+        ``'auto'`` takes the tiled estimator; that FFT needs about 3x the map (6x with
+        missing points; the budget assumes 7x, an upper bound). Default: the
         dask config key ``xrough.memory_limit`` if set, else half the memory the system
         has available (``MemAvailable``: free memory and reclaimable caches, not the free
         pages alone), so that the choice does not depend on what the page cache holds.
