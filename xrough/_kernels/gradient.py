@@ -28,8 +28,9 @@ from .spectrum_of_acf import (
 )
 from .uncertainty import PREDICTION_PER_DECADE, relative_covariance
 
-__all__ = ["AUTO_METHODS", "EVEN_START", "exact_gradient", "exact_support", "exact_on_lags",
-           "auto_gradient", "even_start", "with_even_start", "simple_gradient", "gradient_std"]
+__all__ = ["AUTO_METHODS", "EVEN_START", "EVEN_THREE", "EVEN_AGREE", "exact_gradient",
+           "exact_support", "exact_on_lags", "auto_gradient", "even_start", "with_even_start",
+           "simple_gradient", "gradient_std"]
 
 #: Share of the variance of ``ln G`` whose principal axes carry the error of gbar: 99 %
 #: leaves 5-10 % of the scatter at one pixel out (which lives in the smallest axes), all
@@ -53,6 +54,21 @@ AUTO_METHODS = ("exact", "fit", "simple", "exact+fit", "exact+simple")
 #: 0.08-0.14 for ``lambda_s`` = 2 px (rough to the pixel), where the expansion is 0.5-1 %
 #: low and the spectrum of G within 0.05 %.
 EVEN_START = (0.05, 0.08)
+#: ``a`` from the two terms up to a ratio of ``EVEN_THREE[0]``, from three (through the
+#: third bin as well) from ``EVEN_THREE[1]``: the two are within 0.01 % of the lattice's
+#: gbar at ``lambda_s`` = 8 px (ratio 0.01) and 0.1-0.2 % at 4 px (0.03-0.05), where the
+#: three are within 0.02 %; but the third bin of a map mixes lattice radii (2 and sqrt 5
+#: px), whose mean square differs from the square of their mean by 0.3 %, which a third
+#: term through it turns into several percent on a surface with little curvature (4 % on
+#: two cosines of 32 px).
+EVEN_THREE = (0.02, 0.03)
+#: Where three terms take part, they must agree with the two within ``EVEN_AGREE[0]``
+#: (the weight falling to 0 at ``EVEN_AGREE[1]``): on a smooth surface they differ by
+#: about the square of that ratio (0.2 % at ``lambda_s`` = 4 px, 0.5 % at 3 px; 0.2-1.7 %
+#: on the profiles of the test data, whose third bin lies at three pixels); a G that
+#: bends or zig-zags over its first three bins (the axis and diagonal lags of a map whose
+#: scan lines differ: 10 % on the UNCD AFM map) is no smooth surface's.
+EVEN_AGREE = (0.02, 0.04)
 
 
 def _cumulative(q, values):
@@ -146,7 +162,7 @@ def gradient_std(g, gbar=None, *, dr, errors: dict, ballistic: bool = False, smo
     so the same relative error stands for it.  NaN at invalid lags and where the
     covariance cannot be formed.  ``gbar``: the values of :func:`auto_gradient`, whose
     even start (:func:`with_even_start`) has the error of ``sqrt(4 a)`` (half the
-    relative error of ``a``, linear in the first two bins of G), by its weight at the
+    relative error of ``a``, linear in the first three bins of G), by its weight at the
     first lags and on the lags it caps.
     """
     g = np.asarray(g, dtype=float)
@@ -187,7 +203,7 @@ def _even_start_std(rel, g, gbar, dr, errors):
         return rel
     cov = np.nan_to_num(relative_covariance(dr, g, **errors))
     own = 0.5 * np.sqrt(max(float(d_ln_a @ cov @ d_ln_a), 0.0))
-    w0 = weight[np.flatnonzero(weight)[0]] if np.any(weight) else 0.0
+    w0 = _first_weight(weight)
     with np.errstate(invalid="ignore"):
         capped = (weight == 0) & (np.abs(gbar / full - 1.0) < 1e-9)
     share = np.where(capped, w0, weight)
@@ -201,14 +217,14 @@ def even_start(dr, g) -> tuple[float, np.ndarray, np.ndarray]:
     4``, ``b = -m4 / 64``, ``c = m6 / 2304`` with the moments ``m_n = (1/2pi) int q^(n+1) C
     dq``), and eq. 26 at lags where it holds is the full gradient, ``gbar^2 = m2 = 4 a``,
     the largest gbar of any lag. Whether it holds: ``|b| dr^2 / a`` of the two terms
-    through the first two valid bins (:data:`EVEN_START`); ``a`` itself from the three
-    terms through the first three (two terms when there are only two: on the exact
-    expected G of sharply cut maps the three terms are within 0.02 % at ``lambda_s`` = 4
-    px and 0.14 % at 3 px, the two within 0.2 % and 0.6 %). Returns ``(sqrt(4 a), weight,
-    d_ln_a)``: the weight per lag (of ``|b| dr^2 / a`` on the first two valid bins, 0
-    elsewhere, and 0 everywhere when ``a <= 0`` or ``b > 0``, which no surface's G has)
-    and the derivatives of ``ln a`` with respect to ``ln G`` per bin (for its error).
-    NaN and zeros when there are fewer than two valid bins.
+    through the first two valid bins (:data:`EVEN_START`). ``a`` comes from those two
+    terms where that ratio is at most :data:`EVEN_THREE` [0], from the three terms through
+    the first three bins from :data:`EVEN_THREE` [1] (linear between), and the three must
+    agree with the two (:data:`EVEN_AGREE`). Returns ``(sqrt(4 a), weight, d_ln_a)``: the
+    weight per lag (on the first two valid bins, 0 elsewhere, and 0 everywhere when
+    ``a <= 0`` or ``b > 0``, which no surface's G has) and the derivatives of ``ln a``
+    with respect to ``ln G`` per bin (for its error). NaN and zeros when there are fewer
+    than two valid bins.
     """
     dr, g = np.asarray(dr, dtype=float), np.asarray(g, dtype=float)
     weight, d_ln_a = np.zeros(dr.shape), np.zeros(dr.shape)
@@ -216,22 +232,37 @@ def even_start(dr, g) -> tuple[float, np.ndarray, np.ndarray]:
     if first.size < 2:
         return np.nan, weight, d_ln_a
     r, v = dr[first], g[first]
-    a2, b2 = np.linalg.solve(np.c_[r[:2] ** 2, r[:2] ** 4], v[:2])
-    if not (a2 > 0 and b2 <= 0):
+    rows = [np.linalg.inv(np.c_[r[:2] ** 2, r[:2] ** 4])]
+    a2, b2 = rows[0] @ v[:2]
+    if not (a2 > 0 and b2 * r[0] ** 2 <= 1e-9 * a2):  # b > 0 beyond round-off
         return np.nan, weight, d_ln_a
-    terms = np.c_[r**2, r**4, r**6][:, :r.size]
-    try:
-        row = np.linalg.inv(terms)[0]  # a = row @ v
-    except np.linalg.LinAlgError:
-        return np.nan, weight, d_ln_a
+    ratio = abs(b2) * r[0] ** 2 / a2
+    three = float(1.0 - _ramp(ratio, EVEN_THREE)) if first.size == 3 else 0.0
+    row = np.r_[rows[0][0], 0.0][:first.size]  # a = row @ v
+    agree = 1.0
+    if three > 0:
+        row3 = np.linalg.inv(np.c_[r**2, r**4, r**6])[0]
+        agree = float(_ramp(abs((row3 @ v) / a2 - 1.0), EVEN_AGREE))
+        row = (1.0 - three) * row + three * row3
     a = float(row @ v)
     if not a > 0:
         return np.nan, weight, d_ln_a
-    lo, hi = EVEN_START
     two = first[:2]
-    weight[two] = np.clip((hi - np.abs(b2) * dr[two] ** 2 / a2) / (hi - lo), 0.0, 1.0)
+    weight[two] = (_ramp(np.abs(b2) * dr[two] ** 2 / a2, EVEN_START)
+                   * (1.0 - three * (1.0 - agree)))
     d_ln_a[first] = row * v / a
     return float(np.sqrt(4.0 * a)), weight, d_ln_a
+
+
+def _ramp(x, limits):
+    """1 up to ``limits[0]``, 0 from ``limits[1]``, linear between."""
+    lo, hi = limits
+    return np.clip((hi - np.asarray(x, dtype=float)) / (hi - lo), 0.0, 1.0)
+
+
+def _first_weight(weight: np.ndarray) -> float:
+    """Return the weight of :func:`even_start` at the first lag (0: none anywhere)."""
+    return float(weight[np.flatnonzero(weight)[0]]) if np.any(weight) else 0.0
 
 
 def with_even_start(gbar, dr, g) -> np.ndarray:
@@ -246,7 +277,7 @@ def with_even_start(gbar, dr, g) -> np.ndarray:
     if not np.isfinite(full):
         return gbar
     gbar = (1.0 - weight) * gbar + weight * full
-    w0 = weight[np.flatnonzero(weight)[0]] if np.any(weight) else 0.0
+    w0 = _first_weight(weight)
     excess = np.where(np.isfinite(gbar), np.maximum(gbar - full, 0.0), 0.0)
     return gbar - w0 * excess
 
