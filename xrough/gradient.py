@@ -113,9 +113,9 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto",
         fit. The coordinate ``gradient_method`` records the route (CF flags); for one
         curve ``attrs["method"]`` and ``attrs["fallback_reason"]`` say it in words.
         Whatever the route, where G is a smooth surface's at its first lags (``a dr^2 +
-        b dr^4 + c dr^6`` with ``|b| dr^2 / a`` at most 0.05, the weight falling to 0 at
-        0.08), gbar there is eq. 26's full gradient ``sqrt(4 a)`` and no lag's gbar
-        exceeds it (docs/quality.md).
+        b dr^4`` through its first two bins with ``|b| dr^2 / a`` at most 0.05, the
+        weight falling to 0 at 0.08), gbar there is eq. 26's full gradient ``sqrt(4 a)``
+        and no lag's gbar exceeds it (docs/quality.md).
     fit : xarray.Dataset, optional
         A :func:`xrough.fit_acf` result of this G, reused by ``'fit'`` and ``'auto'``
         instead of fitting again. Without it, a default fit of this G that the session
