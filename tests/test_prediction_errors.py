@@ -233,6 +233,14 @@ def test_even_start_of_a_smooth_g_in_closed_form():
             assert d_ln_a[i] == pytest.approx(np.log(a1 / a) / 1e-7, rel=1e-5)
     assert np.isnan(even_start(dr, 0.25 * dr**2 + 0.01 * dr**4)[0])  # b > 0
     assert np.isnan(even_start(dr, np.array([1.0, 5.0, 6.0, 7.0]))[0])  # a < 0
+    # the same in any unit (lags in m, G in m^2; a km-sized lag with G in km^2)
+    g = a * dr**2 - 0.04 * a * dr**4 + 1e-4 * a * dr**6
+    ref = even_start(dr, g)
+    for scale in (1e-9, 1e3):
+        other = even_start(dr * scale, g * scale**2)
+        assert other[0] == pytest.approx(ref[0], rel=1e-12)
+        np.testing.assert_allclose(other[1], ref[1], rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(other[2], ref[2], rtol=1e-9, atol=1e-12)
     # the route's values: moved at the first lags, capped at the full gradient beyond
     g = a * dr**2 - 0.01 * a * dr**4
     out = with_even_start(np.array([1.02, 1.01, 1.005, 0.9]), dr, g)

@@ -231,26 +231,27 @@ def even_start(dr, g) -> tuple[float, np.ndarray, np.ndarray]:
     first = np.flatnonzero(np.isfinite(g) & (g > 0) & (dr > 0))[:3]
     if first.size < 2:
         return np.nan, weight, d_ln_a
-    r, v = dr[first], g[first]
-    rows = [np.linalg.inv(np.c_[r[:2] ** 2, r[:2] ** 4])]
-    a2, b2 = rows[0] @ v[:2]
-    if not (a2 > 0 and b2 * r[0] ** 2 <= 1e-9 * a2):  # b > 0 beyond round-off
+    # in units of the first lag and of G there: the same numbers in nm, m or km
+    x, v = dr[first] / dr[first[0]], g[first] / g[first[0]]
+    two_terms = np.linalg.inv(np.c_[x[:2] ** 2, x[:2] ** 4])
+    a2, b2 = two_terms @ v[:2]
+    if not (a2 > 0 and b2 <= 1e-9 * a2):  # b > 0 beyond round-off
         return np.nan, weight, d_ln_a
-    ratio = abs(b2) * r[0] ** 2 / a2
+    ratio = abs(b2) / a2  # |b| dr^2 / a at the first lag
     three = float(1.0 - _ramp(ratio, EVEN_THREE)) if first.size == 3 else 0.0
-    row = np.r_[rows[0][0], 0.0][:first.size]  # a = row @ v
+    row = np.r_[two_terms[0], 0.0][:first.size]  # a = row @ v
     agree = 1.0
     if three > 0:
-        row3 = np.linalg.inv(np.c_[r**2, r**4, r**6])[0]
+        row3 = np.linalg.inv(np.c_[x**2, x**4, x**6])[0]
         agree = float(_ramp(abs((row3 @ v) / a2 - 1.0), EVEN_AGREE))
         row = (1.0 - three) * row + three * row3
     a = float(row @ v)
     if not a > 0:
         return np.nan, weight, d_ln_a
     two = first[:2]
-    weight[two] = (_ramp(np.abs(b2) * dr[two] ** 2 / a2, EVEN_START)
-                   * (1.0 - three * (1.0 - agree)))
+    weight[two] = _ramp(ratio * x[:2] ** 2, EVEN_START) * (1.0 - three * (1.0 - agree))
     d_ln_a[first] = row * v / a
+    a *= g[first[0]] / dr[first[0]] ** 2
     return float(np.sqrt(4.0 * a)), weight, d_ln_a
 
 
