@@ -15,6 +15,7 @@ import sys
 import time
 import warnings
 
+import dask
 import netCDF4
 import numpy as np
 import pytest
@@ -352,6 +353,15 @@ def test_library_errors_on_an_existing_file_name_it(tmp_path, monkeypatch, error
         xrough.open_analysis(path)
 
 
+#: HDF5 1.14.2 (the netCDF4 1.7.1 wheels, the oldest supported) crashed the process in
+#: 1-2 of 6 runs of this test when dask's threads read these damaged files (a file
+#: closed by the garbage collector in one thread while another reads; xarray serialises
+#: the reads, not that close), and never with one thread (4 of 4); HDF5 2.2 never did.
+#: Below HDF5 2 the lazy reads here run in one thread: the check tested is the same.
+_DAMAGED_INDEX_SCHEDULER = ("threads" if int(netCDF4.__hdf5libversion__.split(".")[0]) >= 2
+                            else "synchronous")
+
+
 @pytest.mark.parametrize("chunks", [None, {}], ids=["eager", "lazy"])
 def test_a_damaged_index_of_chunks_is_refused(tmp_path, chunks):
     """HDF5's chunk index (version-1 B-tree nodes) has no checksum: a flipped byte in a
@@ -366,7 +376,8 @@ def test_a_damaged_index_of_chunks_is_refused(tmp_path, chunks):
             path = tmp_path / f"flip{position}.nc"
             path.write_bytes(_flip(raw, position))
             try:
-                back = _computed(xrough.open_analysis(path, chunks=chunks))
+                with dask.config.set(scheduler=_DAMAGED_INDEX_SCHEDULER):
+                    back = _computed(xrough.open_analysis(path, chunks=chunks))
             except ValueError as err:
                 assert path.name in str(err), (position, err)
             else:
