@@ -163,20 +163,19 @@ def _sq_terms_nonperiodic(h2: np.ndarray, ks: tuple[int, ...]) -> np.ndarray:
         return e * lag_multiplicity(n, k, False)
     ny, nx = h2.shape[-2:]
     t = np.zeros(h2.shape[:-2] + (ny + 1, nx + 1))
-    inner = t[..., 1:, 1:]
-    np.cumsum(h2, axis=-2, out=inner)
-    np.cumsum(inner, axis=-1, out=inner)
+    np.cumsum(h2, axis=-1, out=t[..., 1:, 1:])
+    cumulative_rows(t)
     return _sq_rows(t, ks, 0, ks[0] + 1)
 
 
 def cumulative_rows(t: np.ndarray) -> np.ndarray:
-    """``t`` replaced by its cumulative sum along axis 0 (of a C-ordered 2-D array), in place.
+    """``t`` replaced by its cumulative sum along axis -2 (the rows of each map), in place.
 
     Row by row, each addition vectorised along a row: numpy's ``cumsum(axis=0)`` walks
     each column with the row stride and took 14 times as long on a 1024^2 map.
     """
-    for y in range(1, t.shape[0]):
-        np.add(t[y - 1], t[y], out=t[y])
+    for y in range(1, t.shape[-2]):
+        np.add(t[..., y - 1, :], t[..., y, :], out=t[..., y, :])
     return t
 
 
