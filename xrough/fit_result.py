@@ -32,12 +32,19 @@ from ._kernels.fitting import (
     SPECTRUM_PARAMETERS,
     fitted_spectrum_acf,
     fitted_spectrum_gradient,
+    fitted_spectrum_gradient_std,
 )
 from ._kernels.shape_factors import ROLLOFFS, rolloff_factor, self_affine_factor
 from .acf import lag_coord
 from .units import QuantityLike
 
-__all__ = ["read_fit", "model_acf", "gradient_from_fit", "rolloff_shapes"]
+__all__ = ["read_fit", "model_acf", "gradient_from_fit", "rolloff_shapes", "COVARIANCE",
+           "COVARIANCE_DIMS"]
+
+#: The variable of a spectrum fit that holds the covariance of its parameters, and its dims
+#: (those of ``xarray.DataArray.curvefit``); the parameters are
+#: :data:`xrough._kernels.fitting.COVARIANCE_PARAMETERS`.
+COVARIANCE, COVARIANCE_DIMS = "parameter_covariance", ("cov_i", "cov_j")
 
 
 def _length_unit(params: xr.Dataset, name: str) -> PlainUnit:
@@ -98,15 +105,23 @@ class FitReading:
     def lag_axis(self, values: np.ndarray) -> xr.DataArray:
         return xr.DataArray(values, dims="dr", coords=lag_coord(values, self.lateral_str))
 
-    def per_fit(self, func, values: np.ndarray, **kwargs) -> xr.DataArray:
-        """``func`` of the fitted spectrum at the lags ``values``, one curve per fit."""
+    def per_fit(self, func, values: np.ndarray, *, covariance: bool = False,
+                **kwargs) -> xr.DataArray:
+        """``func`` of the fitted spectrum at the lags ``values``, one curve per fit.
+
+        ``covariance``: ``func`` also takes the fit's ``parameter_covariance``.
+        """
         arrays = [self.params["hurst"], self.params["G_sa"], self.params["lambda_r"],
                   self.in_lateral("lambda_s"), self.params["lambda_r_resolved"],
                   self.params["lambda_s_resolved"], rolloff_shapes(self.params)]
+        core: list[list[str]] = [[]] * len(arrays)
+        if covariance:
+            arrays.append(self.params[COVARIANCE])
+            core = [*core, list(COVARIANCE_DIMS)]
         arrays = [a.reset_coords(drop=True) for a in arrays]
         lam_0 = self.scalar("lambda_0") if "lambda_0" in self.params.variables else np.inf
         return xr.apply_ufunc(
-            func, *arrays, input_core_dims=[[]] * len(arrays), output_core_dims=[["dr"]],
+            func, *arrays, input_core_dims=core, output_core_dims=[["dr"]],
             vectorize=True, dask="parallelized", output_dtypes=[float],
             dask_gufunc_kwargs={"output_sizes": {"dr": values.size}},
             kwargs={"dr": values, "dr_ref": self.scalar("dr_ref"), "lam_0": lam_0,
@@ -306,7 +321,11 @@ def gradient_from_fit(params: xr.Dataset, dr: QuantityLike | None = None, *,
     -------
     xarray.DataArray
         ``gbar`` (units "1") on dim ``dr`` and the extra dims of ``params``;
-        ``attrs["equation"]`` is ``"eq. 26"`` or ``"eq. 37/38"``.
+        ``attrs["equation"]`` is ``"eq. 26"`` or ``"eq. 37/38"``.  A spectrum fit with
+        its ``parameter_covariance`` adds the coordinate ``gbar_std``, the statistical
+        standard deviation of gbar: eq. 26 of the fitted spectrum linearised in the fit's
+        parameters (a cutoff the data do not resolve: the change within one standard
+        deviation of it).
 
     Raises
     ------
@@ -354,13 +373,24 @@ def gradient_from_fit(params: xr.Dataset, dr: QuantityLike | None = None, *,
     fit = read_fit(params)
     rolloff = _gradient_rolloff(fit, rolloff)
     values = fit.lags(dr)
+    std = None
     if fit.model == "spectrum":
         g_factor = u.conversion_factor(fit.g_unit, fit.lateral**2)
         out = fit.per_fit(fitted_spectrum_gradient, values, g_factor=g_factor)
+        if COVARIANCE in params.variables:
+            std = fit.per_fit(fitted_spectrum_gradient_std, values, covariance=True,
+                              g_factor=g_factor) * out
         equation, what = "eq. 26", "fitted spectrum"
     else:
         out = _eq36_gradient(fit, values, rolloff)
         equation, what = "eq. 37/38", "fit of eq. 36"
-    return _curve(out, "gbar", {"units": "1",
-                                "long_name": f"scale-dependent rms gradient ({what})",
-                                "equation": equation, "rolloff": rolloff})
+    out = _curve(out, "gbar", {"units": "1",
+                               "long_name": f"scale-dependent rms gradient ({what})",
+                               "equation": equation, "rolloff": rolloff})
+    if std is None:
+        return out
+    of = params[COVARIANCE].attrs.get("error_of", "")
+    return out.assign_coords(gbar_std=xr.Variable(out.dims, std.transpose(*out.dims).data, {
+        "units": "1", "long_name": "statistical standard deviation of gbar",
+        "error_of": f"{of}; eq. 26 of the fitted spectrum, linear in the fit's "
+                    "parameter_covariance"}))

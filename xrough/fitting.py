@@ -37,7 +37,12 @@ with ``<name>_std``, one standard deviation in the same units):
     ballistic coefficient (dimensionless once ``dr`` and ``G`` are in the same length unit;
     ``gbar^2(0) = 4/C_b``, eq. 38a), ``>= 0``; 0 when the ballistic regime is unresolved.
 
-plus ``reduced_chi2`` and ``n_bins``.
+plus ``reduced_chi2`` and ``n_bins``, and (spectrum) ``parameter_covariance`` on the dims
+``cov_i``, ``cov_j``: the covariance of ``ln G_sa``, ``H``, ``eta = (dr_ref /
+lambda_r)^(2-2H)`` and ``eps = (lambda_s / dr_ref)^(2H)`` (0 where a cutoff is not
+resolved), the parameters in which the fit is linear near a cutoff; the ``<name>_std``
+are its diagonal carried to each parameter, and the error of the fitted spectrum's gbar
+(:func:`xrough.gradient_from_fit`) comes from it.
 
 The least-squares fits themselves (numpy) are in :mod:`xrough._kernels.fitting`.  A fit
 is read (its units, the G and the gradient it implies) by :mod:`xrough.fit_result`:
@@ -58,6 +63,7 @@ from . import units as u
 from ._kernels.fitting import (
     AIC_MARGIN,
     CHI2_ALONE,
+    COVARIANCE_PARAMETERS,
     EQ36_OUTPUTS,
     H_BOUNDS,
     HURST_MARGIN,
@@ -85,7 +91,12 @@ from .acf import (
     read_acf,
     result_attrs,
 )
-from .fit_result import model_acf, rolloff_shapes  # noqa: F401  (read a fit; public here)
+from .fit_result import (  # noqa: F401  (read a fit; public here)
+    COVARIANCE,
+    COVARIANCE_DIMS,
+    model_acf,
+    rolloff_shapes,
+)
 from .memo import by_content
 from .units import QuantityLike
 
@@ -406,7 +417,8 @@ def fit_acf(
           lateral^2), the flags ``lambda_r_resolved`` and ``lambda_s_resolved`` (1 or 0,
           see Notes), ``rolloff_shape`` (0 sharp, 1 smooth: the shape fitted; CF
           ``flag_values``), ``reduced_chi2_other_rolloff`` (the other shape on the same
-          bins; NaN when only one was fitted) and the scalar coordinate ``lambda_0``
+          bins; NaN when only one was fitted), ``parameter_covariance`` (dims ``cov_i``,
+          ``cov_j``: see the module docstring) and the scalar coordinate ``lambda_0``
           (``inf``: none).
         * ``'eq36'``: ``sigma_h``, ``G_sa``, ``hurst``, ``C_b`` ("1"), ``lambda_r``.
 
@@ -753,7 +765,7 @@ def _flag(da: xr.DataArray, dtype, long_name: str, **attrs) -> xr.DataArray:
     return da.astype(dtype).assign_attrs(long_name=long_name, units="1", **attrs)
 
 
-def _fit_variables(setup: FitSetup, part: dict) -> dict:
+def _fit_variables(setup: FitSetup, part: dict, out: xr.DataArray) -> dict:
     """Build the data variables of the fit Dataset from the kernel's outputs ``part``."""
     data = {}
     error_of = (ERROR_OF_SURFACE if setup.model == "spectrum" and error_model(setup.G)
@@ -788,6 +800,7 @@ def _fit_variables(setup: FitSetup, part: dict) -> dict:
         "checks of the fit that failed (bit per check; see docs/quality.md)",
         **quality.cf_flags(PROBLEMS, np.int16, masks=True))
     if setup.model == "spectrum":
+        data[COVARIANCE] = _covariance(out, setup.outputs, error_of)
         data["lambda_r_resolved"] = _variable(
             part["lambda_r_resolved"].astype(np.int8), "1",
             "1: lambda_r fitted; 0: no roll-off in the data")
@@ -796,6 +809,28 @@ def _fit_variables(setup: FitSetup, part: dict) -> dict:
             "1: lambda_s fitted; 0: no ballistic regime in the data, lambda_s is an "
             "upper bound")
     return data
+
+
+def _covariance(out: xr.DataArray, outputs: tuple[str, ...], error_of: str) -> xr.DataArray:
+    """Build the covariance of a spectrum fit's parameters, on the dims ``cov_i``, ``cov_j``.
+
+    ``out``: the kernel's outputs (dim ``fit_output`` last, one chunk), whose last
+    entries are the covariance row by row.
+    """
+    names = list(COVARIANCE_PARAMETERS)
+    k = outputs.index(f"cov_{names[0]}_{names[0]}")
+    block = out.isel(fit_output=slice(k, k + len(names) ** 2))
+    data = block.data.reshape((*block.shape[:-1], len(names), len(names)))
+    cov = xr.DataArray(data, dims=(*block.dims[:-1], *COVARIANCE_DIMS),
+                       coords={c: v for c, v in block.coords.items() if "fit_output" not in v.dims})
+    return cov.assign_coords({d: (d, names, {"long_name": "parameter of the fit"})
+                              for d in COVARIANCE_DIMS}).assign_attrs(
+        units="1", long_name="covariance of the fit's parameters",
+        parameters="ln_G_sa = ln G_sa; hurst; eta = (dr_ref / lambda_r)^(2 - 2 hurst), 0 "
+                   "where lambda_r_resolved = 0; eps = (lambda_s / dr_ref)^(2 hurst), 0 "
+                   "where lambda_s_resolved = 0 (the fit is linear in a cutoff near none); "
+                   "rows and columns of fixed parameters are 0",
+        error_of=error_of)
 
 
 def _fit_attrs(setup: FitSetup, part: dict, single: bool) -> dict:
@@ -852,10 +887,11 @@ def _spectrum_attrs(setup: FitSetup, part: dict, single: bool) -> dict:
 
 def _fit_dataset(setup: FitSetup, out: xr.DataArray) -> xr.Dataset:
     """Build the fit Dataset of :func:`fit_acf` from the kernel's outputs ``out``."""
-    part = {name: out.isel(fit_output=k, drop=True) for k, name in enumerate(setup.outputs)}
+    part = {name: out.isel(fit_output=k, drop=True) for k, name in enumerate(setup.outputs)
+            if not name.startswith("cov_")}
     single = out.ndim == 1 and out.chunks is None
     lat_s = u.format_units(setup.lateral)
-    ds = xr.Dataset(_fit_variables(setup, part), attrs=_fit_attrs(setup, part, single))
+    ds = xr.Dataset(_fit_variables(setup, part, out), attrs=_fit_attrs(setup, part, single))
     ds = ds.assign_coords(dr_ref=((), setup.dr_ref, {"units": lat_s,
                                                      "long_name": "reference lag of G_sa"}))
     if setup.model == "spectrum":

@@ -179,12 +179,16 @@ def _rms_gradient(G: xr.DataArray, method: str, fit: xr.Dataset | None) -> xr.Da
     level = xr.DataArray(np.zeros([Gl.sizes[d] for d in extra], dtype=np.int8), dims=extra)
     notes = ""  # 'simple' and 'exact' are what they say: good
     errors = error_model(G)  # lengths in dr's unit, as Gl
+    fit_rel = None  # the relative error of gbar where the fit gives it
     if method == "simple":
         out = xr.apply_ufunc(kernels.simple_gradient, xr.DataArray(dr, dims="dr"), Gl,
                              dask="parallelized", output_dtypes=[float], keep_attrs=False)
     elif method == "fit":
         params = fit_acf(G) if fit is None else fit
         out = _fitted_on_lags(params, G)
+        if "gbar_std" in out.coords:
+            fit_rel = out["gbar_std"].reset_coords(drop=True) / _strip(out)
+            out = out.drop_vars("gbar_std")
         if params.attrs.get("model") != "spectrum":
             extra_attrs["equation"] = "eq. 37/38 with the fit of eq. 36"
         if quality.FLAG in params.coords:
@@ -195,12 +199,12 @@ def _rms_gradient(G: xr.DataArray, method: str, fit: xr.Dataset | None) -> xr.Da
                              kwargs={"dr": dr, **_EXACT_DEFAULTS}, **common)
         extra_attrs["note"] = "NaN where G does not determine gbar (see rms_gradient_exact)"
     else:
-        out, info, level, notes = _auto(G, Gl, _noise(G), spec, fit)
+        out, fit_rel, info, level, notes = _auto(G, Gl, _noise(G), spec, fit)
         extra_attrs.update(info)
     out = out.transpose(..., "dr").assign_coords(G["dr"].coords)
     out = out.drop_vars([c for c in out.coords if c not in out.dims and c != "dr"
                          and c != "gradient_method"], errors="ignore")
-    out = out.assign_coords(gbar_std=_gradient_std(out, Gl, errors, method))
+    out = out.assign_coords(gbar_std=_gradient_std(out, Gl, errors, method, fit_rel))
     level = level.reset_coords(drop=True)
     out.name = "gbar"
     attrs = {"units": "1", "long_name": "scale-dependent rms gradient",
@@ -217,14 +221,20 @@ def _rms_gradient(G: xr.DataArray, method: str, fit: xr.Dataset | None) -> xr.Da
 
 
 def _gradient_std(gbar: xr.DataArray, Gl: xr.DataArray, errors: dict | None,
-                  method: str) -> xr.Variable:
-    """Build the coordinate ``gbar_std``, the statistical error of gbar (NaN where gbar is)."""
+                  method: str, fit_rel: xr.DataArray | None) -> xr.Variable:
+    """Build the coordinate ``gbar_std``, the statistical error of gbar (NaN where gbar is).
+
+    ``fit_rel``: the relative error of gbar on the lags where the fitted model gives it.
+    """
     if errors is None:
         std, error_of = xr.full_like(gbar, np.nan), ERROR_OF_NONE
     else:
-        values = [Gl] + ([_strip(gbar)] if method == "auto" else [])  # its even start
+        gbar_or_none = _strip(gbar) if method == "auto" else xr.full_like(Gl, np.nan)
+        values = [Gl, gbar_or_none, xr.full_like(Gl, np.nan) if fit_rel is None else fit_rel]
         std = xr.apply_ufunc(
-            kernels.gradient_std, *values, input_core_dims=[["dr"]] * len(values),
+            lambda g, gb, f, **kw: kernels.gradient_std(
+                g, gb if method == "auto" else None, f, **kw),  # auto: its even start
+            *values, input_core_dims=[["dr"]] * len(values),
             output_core_dims=[["dr"]],
             kwargs={"dr": Gl["dr"].values, "errors": errors, "ballistic": method == "simple",
                     "smooth": _EXACT_DEFAULTS["smooth"],
@@ -232,9 +242,10 @@ def _gradient_std(gbar: xr.DataArray, Gl: xr.DataArray, errors: dict | None,
             vectorize=True, dask="parallelized", output_dtypes=[float], keep_attrs=False)
         std = std * gbar.reset_coords(drop=True)  # relative to absolute (NaN where gbar is)
         error_of = ERROR_OF_SURFACE + (
-            "; the relative linear response of eq. 26 of eq. 10/11 to G's errors, also where "
-            "the fitted model gives gbar (the ballistic sqrt(4 G) / dr where eq. 26 has no "
-            "value)" if method != "simple" else "")
+            "; the relative linear response of eq. 26 of eq. 10/11 to G's errors (the "
+            "ballistic sqrt(4 G) / dr where eq. 26 has no value); where the fitted model "
+            "gives gbar, eq. 26 of the fitted spectrum linear in the fit's "
+            "parameter_covariance" if method != "simple" else "")
     return xr.Variable(gbar.dims, std.transpose(*gbar.dims).data, attrs={
         "units": "1", "long_name": "statistical standard deviation of gbar",
         "error_of": error_of})
@@ -256,8 +267,12 @@ def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec,
     dr = spec.dr
     fit = fit_gradient = None
     se = xr.ones_like(Gl)
+    fitted_std = xr.full_like(Gl, np.nan)
     if params is not None:
-        fitted = _strip(_fitted_on_lags(params, G).drop_vars(
+        fitted = _fitted_on_lags(params, G)
+        if "gbar_std" in fitted.coords:
+            fitted_std = _strip(fitted["gbar_std"]) / _strip(fitted)
+        fitted = _strip(fitted.drop_vars(
             [c for c in params.coords if c not in params.dims], errors="ignore"))
     else:
         fitted = xr.full_like(Gl, np.nan)
@@ -266,17 +281,19 @@ def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec,
             _, se = setup.inputs()
             fit, fit_gradient = setup.options, setup.gradient_options
     if fitted.chunks is None and Gl.chunks is not None:
-        fitted = fitted.chunk()
+        fitted, fitted_std = fitted.chunk(), fitted_std.chunk()
 
-    def kernel(g, s, n, f):
-        return kernels.auto_gradient(g, s, n, None if params is None else f, dr=dr,
+    def kernel(g, s, n, f, fs):
+        return kernels.auto_gradient(g, s, n, None if params is None else f,
+                                     None if params is None else fs, dr=dr,
                                      exact=_EXACT_DEFAULTS, fit=fit,
                                      fit_gradient=fit_gradient)
 
-    out, code, n_exact, bits, level = xr.apply_ufunc(
-        kernel, Gl, se, noise, fitted.transpose(*Gl.dims), input_core_dims=[["dr"]] * 4,
-        output_core_dims=[["dr"], [], [], [], []], vectorize=True, dask="parallelized",
-        output_dtypes=[float, np.int8, np.int64, np.int16, np.int8], keep_attrs=False)
+    out, fit_rel, code, n_exact, bits, level = xr.apply_ufunc(
+        kernel, Gl, se, noise, fitted.transpose(*Gl.dims), fitted_std.transpose(*Gl.dims),
+        input_core_dims=[["dr"]] * 5, output_core_dims=[["dr"], ["dr"], [], [], [], []],
+        vectorize=True, dask="parallelized",
+        output_dtypes=[float, float, np.int8, np.int64, np.int16, np.int8], keep_attrs=False)
     code = code.assign_attrs(
         long_name="route of the rms gradient per curve", units="1",
         **quality.cf_flags(kernels.AUTO_METHODS, np.int8))
@@ -304,7 +321,7 @@ def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec,
                 # quotes the fit, or a report, can say each once)
                 notes = quality.SEPARATOR.join(
                     [notes, *quality.notes_of(params)])
-    return out, info, level, notes
+    return out, fit_rel, info, level, notes
 
 
 def _route_reason(code: int, n_exact: int, n_valid: int, bits: int, level: int,

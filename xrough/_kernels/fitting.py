@@ -46,6 +46,8 @@ __all__ = [
     "fit_spectrum_kernel",
     "fitted_spectrum_acf",
     "fitted_spectrum_gradient",
+    "fitted_spectrum_gradient_std",
+    "COVARIANCE_PARAMETERS",
 ]
 
 MODELS = ("spectrum", "eq36")
@@ -57,7 +59,14 @@ FLAGS = ("lambda_r_resolved", "lambda_s_resolved")
 SPECTRUM_OUTPUTS = (*SPECTRUM_PARAMETERS, *(f"{p}_std" for p in SPECTRUM_PARAMETERS),
                     "reduced_chi2", "n_bins", *FLAGS, "rms_misfit", "max_misfit_factor",
                     "reduced_chi2_eq36",
-                    "rolloff_shape", "reduced_chi2_other_rolloff", "fit_problems", "quality")
+                    "rolloff_shape", "reduced_chi2_other_rolloff", "fit_problems", "quality",
+                    *(f"cov_{a}_{b}" for a in ("ln_G_sa", "hurst", "eta", "eps")
+                      for b in ("ln_G_sa", "hurst", "eta", "eps")))
+#: The parameters of a spectrum fit's covariance (the last outputs of
+#: :data:`SPECTRUM_OUTPUTS`, row by row): ``ln G_sa``, ``H``, ``eta = (dr_ref /
+#: lambda_r)^(2 - 2H)`` and ``eps = (lambda_s / dr_ref)^(2H)`` (0: no such cutoff), the
+#: parameters in which the fit is linearised (:func:`fitted_spectrum_gradient_std`).
+COVARIANCE_PARAMETERS = ("ln_G_sa", "hurst", "eta", "eps")
 #: The checks of a fit (bit k of ``fit_problems``) and the quality level each implies
 #: (1 questionable, 2 failed; see :func:`fit_problems`).
 PROBLEM_LEVELS = {
@@ -977,6 +986,29 @@ def _shape_parameters(problem: _ShapeProblem, theta, active, cov_free) -> tuple:
     return out, std, resolved_r, resolved_s
 
 
+def _reference_covariance(problem: _ShapeProblem, theta, cov_free, resolved_r: bool,
+                          resolved_s: bool) -> np.ndarray:
+    """Return the covariance of the fit in :data:`COVARIANCE_PARAMETERS` (per ``dr_ref``).
+
+    The fit's own ``eta``, ``eps`` are referred to its first and last bins (``x_hi``,
+    ``x_lo``), which may differ between curves with missing bins: ``eta_ref = eta
+    x_hi^-(2-2H)``, ``eps_ref = eps x_lo^(2H)``, and the covariance moves with their
+    Jacobian (``H`` enters both).  A cutoff set to none keeps its variance: its effect
+    within one standard deviation is the fit's uncertainty about it.
+    """
+    free = problem.free
+    cov = np.zeros((4, 4))
+    cov[np.ix_(free, free)] = cov_free
+    H = theta[1]
+    eta = np.exp(theta[2]) if resolved_r and free[2] else 0.0
+    eps = np.exp(theta[3]) if resolved_s and free[3] else 0.0
+    f_r, f_s = problem.x_hi ** -(2 - 2 * H), problem.x_lo ** (2 * H)
+    T = np.eye(4)
+    T[2, 1:3] = 2 * np.log(problem.x_hi) * eta * f_r, f_r
+    T[3, [1, 3]] = 2 * np.log(problem.x_lo) * eps * f_s, f_s
+    return T @ cov @ T.T
+
+
 def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, rel_cov=None,
                         power_law_from_start=False, **kw):
     """Fit the model spectrum of one roll-off shape to one G (see :func:`fit_spectrum_kernel`).
@@ -1007,11 +1039,13 @@ def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, rel_cov=None,
                               hurst_free=bool(free[1]), chi2_other=chi2_eq36,
                               hurst_std=std[2], max_factor=max_factor,
                               g_max=problem.g_max, cutoff_std=(std[3], std[4]))
+    cov = _reference_covariance(problem, theta, cov_free, resolved_r, resolved_s)
     if code == 2:  # the numbers mean nothing (but a fixed value stays what it was)
         keep = np.array([False, False, not free[1], not free[2], not free[3], False])
-        out[~keep], std[~keep] = np.nan, np.nan
+        out[~keep], std[~keep], cov[:] = np.nan, np.nan, np.nan
     values = np.array([*out, *std, chi2, problem.n, resolved_r, resolved_s, rms_misfit,
-                       max_factor, chi2_eq36, np.nan, np.nan, bits, code], dtype=float)
+                       max_factor, chi2_eq36, np.nan, np.nan, bits, code, *cov.ravel()],
+                      dtype=float)
     if not theta_out:
         return values
     # whether the first search (from eq. 36's start) ended at the pure power law
@@ -1112,3 +1146,49 @@ def fitted_spectrum_gradient(H, G_sa, lam_r, lam_s, r_ok, s_ok, shape, *, dr, dr
         q_r, q_s, q_0 = 2 * np.pi / np.array([lr, ls, lam_0], dtype=float)
     return np.sqrt(model_gradient2(2 * np.pi / dr, c=c, hurst=H, q_r=q_r, q_s=q_s,
                                    q_0=q_0, rolloff=rolloff))
+
+
+def fitted_spectrum_gradient_std(H, G_sa, lam_r, lam_s, r_ok, s_ok, shape, cov, *, dr,
+                                 dr_ref, lam_0, g_factor):
+    """Relative standard deviation of :func:`fitted_spectrum_gradient` at lags ``dr``.
+
+    ``cov``: the fit's covariance in :data:`COVARIANCE_PARAMETERS` (the parameters of
+    :func:`fit_spectrum_kernel`, linear in a cutoff that the data barely resolve), carried
+    through eq. 26 of the fitted spectrum: ``var ln gbar = J cov J^T`` with ``J`` from
+    central differences at a thousandth of each standard deviation.  A cutoff the data do
+    not resolve (``eta`` or ``eps`` = 0, at its bound) is one-sided: its column is the
+    secant over one standard deviation, the change of gbar that the fit cannot exclude
+    (its tangent at none is 0 on every lag the cutoff does not reach).  NaN where the
+    fit failed or has no covariance.
+    """
+    cov = np.asarray(cov, dtype=float)
+    if not (np.isfinite(H) and np.isfinite(G_sa)) or not np.all(np.isfinite(cov)):
+        return np.full(np.shape(dr), np.nan)
+    lr, ls = _fitted_cutoffs(lam_r, lam_s, r_ok, s_ok, lam_0)
+    p0 = np.array([0.0, H, (dr_ref / lr) ** (2 - 2 * H) if np.isfinite(lr) and r_ok else 0.0,
+                   (ls / dr_ref) ** (2 * H) if s_ok and ls > 0 else 0.0])
+
+    def ln_gbar(p):
+        with np.errstate(divide="ignore", over="ignore"):
+            lr_p = dr_ref * p[2] ** (-1 / (2 - 2 * p[1])) if p[2] > 0 else np.inf
+            ls_p = dr_ref * p[3] ** (1 / (2 * p[1])) if p[3] > 0 else 0.0
+        return np.log(fitted_spectrum_gradient(
+            p[1], G_sa * np.exp(p[0]), min(lr_p, lam_0), ls_p, p[2] > 0, p[3] > 0, shape,
+            dr=dr, dr_ref=dr_ref, lam_0=lam_0, g_factor=g_factor))
+
+    sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    base = ln_gbar(p0)
+    J = np.zeros((np.size(dr), 4))
+    for k in np.flatnonzero(sd > 0):
+        h = 1e-3 * sd[k]
+        up = p0.copy()
+        if k >= 2 and p0[k] < h:  # at (or within a step of) no cutoff: one-sided
+            up[k] += sd[k] if p0[k] == 0 else h
+            J[:, k] = (ln_gbar(up) - base) / (up[k] - p0[k])
+            continue
+        down = p0.copy()
+        up[k] += h
+        down[k] -= h
+        J[:, k] = (ln_gbar(up) - ln_gbar(down)) / (2 * h)
+    with np.errstate(invalid="ignore"):
+        return np.sqrt(np.maximum(np.einsum("ik,kl,il->i", J, cov, J), 0.0))

@@ -17,7 +17,13 @@ from scipy.optimize import isotonic_regression
 
 from .acf_curve import require_acf
 from .binning import log_range
-from .fitting import SPECTRUM_OUTPUTS, fit_spectrum_kernel, fitted_spectrum_gradient
+from .fitting import (
+    COVARIANCE_PARAMETERS,
+    SPECTRUM_OUTPUTS,
+    fit_spectrum_kernel,
+    fitted_spectrum_gradient,
+    fitted_spectrum_gradient_std,
+)
 from .hankel import power_law_moment_kernel
 from .spectrum_of_acf import (
     principal_axes,
@@ -144,8 +150,8 @@ def nonincreasing_in_lag(dr, values) -> np.ndarray:
     return values
 
 
-def gradient_std(g, gbar=None, *, dr, errors: dict, ballistic: bool = False, smooth=None,
-                 interpolation: str = "hermite") -> np.ndarray:
+def gradient_std(g, gbar=None, fitted=None, *, dr, errors: dict, ballistic: bool = False,
+                 smooth=None, interpolation: str = "hermite") -> np.ndarray:
     """Relative statistical standard deviation of gbar on every lag of one G curve.
 
     ``errors``: the map geometry of G, the keywords of
@@ -159,9 +165,10 @@ def gradient_std(g, gbar=None, *, dr, errors: dict, ballistic: bool = False, smo
     on the grid of :data:`~xrough._kernels.uncertainty.PREDICTION_PER_DECADE` (the error
     of an error: 2-5 % against 40 per decade, at a quarter of the cost), at most
     :data:`GRADIENT_ERROR_AXES` of them, the variance of the rest as the ballistic
-    response; the ballistic value where the exact gradient has none.  The fitted
-    model's gbar follows G's errors as the exact one does where the model describes G,
-    so the same relative error stands for it.  NaN at invalid lags and where the
+    response; the ballistic value where the exact gradient has none.  ``fitted``: the
+    relative error of gbar on the lags where the fitted model gives it (NaN elsewhere;
+    :func:`~xrough._kernels.fitting.fitted_spectrum_gradient_std`, the fit's response to
+    G's errors), which stands there.  NaN at invalid lags and where the
     covariance cannot be formed.  ``gbar``: the values of :func:`auto_gradient`, whose
     even start (:func:`with_even_start`) has the error of ``sqrt(4 a)`` (half the
     relative error of ``a``, linear in the first three bins of G), by its weight at the
@@ -179,6 +186,10 @@ def gradient_std(g, gbar=None, *, dr, errors: dict, ballistic: bool = False, smo
     out[ok] = 0.5 * np.sqrt(np.diag(cov))  # ballistic: gbar ~ sqrt(G)
     if ballistic:
         return out
+    fit = np.full(dr.shape, np.nan) if fitted is None else np.asarray(fitted, dtype=float)
+    if np.all(np.isfinite(fit[ok])):  # the fit gives every lag: no exact response needed
+        out[ok] = fit[ok]
+        return out if gbar is None else _even_start_std(out, g, np.asarray(gbar), dr, errors)
     # order-4 panels: the errors move by 2e-6 to 1e-3 of themselves against order 8 on
     # the test files, at 3/4 of the cost
     options = dict(smooth=smooth, interpolation=interpolation,
@@ -197,6 +208,7 @@ def gradient_std(g, gbar=None, *, dr, errors: dict, ballistic: bool = False, smo
     with np.errstate(invalid="ignore", divide="ignore"):
         rel = np.sqrt(var / base**2 + 0.25 * np.maximum(left, 0.0))
     out[ok] = np.where(np.isfinite(rel) & (base > 0), rel, out[ok])
+    out = np.where(np.isfinite(fit), fit, out)
     return out if gbar is None else _even_start_std(out, g, np.asarray(gbar), dr, errors)
 
 
@@ -318,8 +330,9 @@ def exact_on_lags(g, noise, *, dr, smooth, support_rtol, interpolation,
     return out
 
 
-def auto_gradient(g, se, noise, fitted=None, *, dr, exact: dict, fit: dict | None,
-                  fit_gradient: dict | None) -> tuple[np.ndarray, int, int, int, int]:
+def auto_gradient(g, se, noise, fitted=None, fitted_std=None, *, dr, exact: dict,
+                  fit: dict | None, fit_gradient: dict | None
+                  ) -> tuple[np.ndarray, np.ndarray, int, int, int, int]:
     """Gbar of one curve by the first route that covers it, the route, and why.
 
     The exact gradient where G determines it; if that is fewer than half of the valid
@@ -327,7 +340,8 @@ def auto_gradient(g, se, noise, fitted=None, *, dr, exact: dict, fit: dict | Non
     gradient leaves open (code 3); the ballistic form where no fit succeeds (code 2, or 4
     on the lags the exact gradient leaves open).  A fit that its checks rate failed
     (:func:`~xrough._kernels.fitting.fit_problems`) counts as no fit.
-    ``fitted``: the gradient of a fit already made on the lags ``dr`` (then no fit runs);
+    ``fitted``: the gradient of a fit already made on the lags ``dr`` (then no fit runs),
+    ``fitted_std`` its relative error (NaN: none);
     ``exact``: options of :func:`exact_on_lags`; ``fit``/``fit_gradient``: options of
     :func:`~xrough._kernels.fitting.fit_spectrum_kernel` (with its lags ``dr``) and
     :func:`~xrough._kernels.fitting.fitted_spectrum_gradient` (None: no fit), as
@@ -338,55 +352,66 @@ def auto_gradient(g, se, noise, fitted=None, *, dr, exact: dict, fit: dict | Non
     spectrum of G rings by up to 1 % there at a sharp cutoff, and a fitted model that puts
     roughness below the scales G resolves gave up to twice the full gradient.
 
-    Returns ``(gbar, route, n_exact, fit_problems, quality)``: the route's code in
+    Returns ``(gbar, fit_std, route, n_exact, fit_problems, quality)``: ``fit_std`` the
+    relative error of gbar where the fitted model gives it (NaN elsewhere; see
+    :func:`~xrough._kernels.fitting.fitted_spectrum_gradient_std`), the route's code in
     :data:`AUTO_METHODS`, the number of lags the exact gradient covers, the problem bits of
     the fit made here (-1: none made) and the quality code (0 good; 1 questionable: the
     fit was questionable or the ballistic form was used; 2 failed: no lag determined).
     """
-    gbar, *rest = _auto_route(g, se, noise, fitted, dr=dr, exact=exact, fit=fit,
-                              fit_gradient=fit_gradient)
+    gbar, *rest = _auto_route(g, se, noise, fitted, fitted_std, dr=dr, exact=exact,
+                              fit=fit, fit_gradient=fit_gradient)
     return (with_even_start(gbar, dr, g), *rest)
 
 
-def _auto_route(g, se, noise, fitted, *, dr, exact, fit, fit_gradient):
+def _auto_route(g, se, noise, fitted, fitted_std, *, dr, exact, fit, fit_gradient):
     """:func:`auto_gradient` before its even start."""
     valid = np.isfinite(g) & (dr > 0)
+    none = np.full(dr.shape, np.nan)
     out = exact_on_lags(g, noise, dr=dr, **exact)
     covered = np.isfinite(out) & valid
     n_exact = int(covered.sum())
     if n_exact == valid.sum():
-        return out, 0, n_exact, -1, 0
+        return out, none, 0, n_exact, -1, 0
     use_exact = 2 * n_exact >= valid.sum()
     bits, fit_code = -1, 0
     if fitted is None:
-        fitted, bits, fit_code = _fit_gradient(g, se, dr, fit, fit_gradient)
+        fitted, fitted_std, bits, fit_code = _fit_gradient(g, se, dr, fit, fit_gradient)
     if fitted is not None and np.all(np.isfinite(fitted[valid])):
+        taken = valid & ~covered if use_exact else valid
+        std = none if fitted_std is None else np.where(taken, fitted_std, np.nan)
         if use_exact:
-            return (np.where(covered, out, np.where(valid, fitted, np.nan)), 3, n_exact, bits,
-                    fit_code)
-        return np.where(valid, fitted, np.nan), 1, n_exact, bits, fit_code
+            return (np.where(covered, out, np.where(valid, fitted, np.nan)), std, 3, n_exact,
+                    bits, fit_code)
+        return np.where(valid, fitted, np.nan), std, 1, n_exact, bits, fit_code
     simple = simple_gradient(dr, g)
     if use_exact:
         gbar = np.where(covered, out, np.where(valid, simple, np.nan))
         route = 4
     else:
         gbar, route = np.where(valid, simple, np.nan), 2
-    return gbar, route, n_exact, bits, 1 if np.any(np.isfinite(gbar)) else 2
+    return gbar, none, route, n_exact, bits, 1 if np.any(np.isfinite(gbar)) else 2
 
 
 def _fit_gradient(g, se, dr, fit, fit_gradient):
-    """Gbar of the model spectrum fitted to one G (None if it fails), its problems, quality."""
+    """Fit one G: the fitted spectrum's gbar (None if it fails), its error, problems, quality.
+
+    The error is relative (:func:`~xrough._kernels.fitting.fitted_spectrum_gradient_std`).
+    """
     if fit is None:
-        return None, -1, 0
+        return None, None, -1, 0
     try:
         params = dict(zip(SPECTRUM_OUTPUTS, fit_spectrum_kernel(g, se, **fit)))
     except (ValueError, FloatingPointError, np.linalg.LinAlgError):
-        return None, -1, 2
+        return None, None, -1, 2
     bits, code = int(params["fit_problems"]), int(params["quality"])
     if code == 2:
-        return None, bits, code
+        return None, None, bits, code
+    names = COVARIANCE_PARAMETERS
+    cov = np.array([[params[f"cov_{a}_{b}"] for b in names] for a in names])
+    args = (params["hurst"], params["G_sa"], params["lambda_r"], params["lambda_s"],
+            params["lambda_r_resolved"], params["lambda_s_resolved"], params["rolloff_shape"])
+    lags = np.where(dr > 0, dr, np.nan)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        return fitted_spectrum_gradient(
-            params["hurst"], params["G_sa"], params["lambda_r"], params["lambda_s"],
-            params["lambda_r_resolved"], params["lambda_s_resolved"], params["rolloff_shape"],
-            dr=np.where(dr > 0, dr, np.nan), **fit_gradient), bits, code
+        return (fitted_spectrum_gradient(*args, dr=lags, **fit_gradient),
+                fitted_spectrum_gradient_std(*args, cov, dr=lags, **fit_gradient), bits, code)
