@@ -394,3 +394,16 @@ def test_fitted_gradient_std_is_the_spread_of_draws_of_the_parameters():
                   / fitted_spectrum_gradient(H, G_sa, lr, 0.0, 1, 0, 0, **kw))
     np.testing.assert_allclose(rel0, np.abs(step), rtol=1e-12)  # J sd = the step
     assert rel0[-1] == 0.0 and rel0[0] > 0.01  # only lags the cutoff reaches move
+
+
+def test_fitted_gbar_std_is_the_same_in_every_unit_and_for_dask(rough_seeds):
+    G, _, g = rough_seeds[1]
+    in_um = xrough.convert_units(
+        xrough.self_affine_surface(hurst=0.5, lambda_r=N / 8, lambda_s=2.0, size=float(N),
+                                   n=N, rms_gradient=0.1, unit="nm", seed=1), "um"
+    ).rough.acf().rough.gradient()
+    np.testing.assert_allclose(in_um.gbar_std.values, g.gbar_std.values, rtol=1e-6)
+    lazy = xrough.rms_gradient(G.expand_dims(scan=2).chunk({"scan": 1}))
+    assert lazy.chunks is not None
+    np.testing.assert_allclose(lazy.gbar_std.isel(scan=1).values, g.gbar_std.values,
+                               rtol=1e-12)
