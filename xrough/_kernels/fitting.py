@@ -148,6 +148,11 @@ _GRID = (np.array([0.1, 0.3, 0.5, 0.7, 0.9]), np.array([-4.0, -1.0, 2.0, 5.0]),
          np.array([-4.0, -1.0, 2.0, 5.0]))
 _N_RESTARTS = 3
 _RESTART_MISFIT = 0.03
+#: ... or (weighted) one with a reduced chi^2 above this that lost a cutoff which its
+#: fit needed: the refit without it worse by more than this in chi^2 (the likelihood
+#: ratio of one parameter at two standard deviations; the test that dropped it is on
+#: the cutoff's standard deviation, linear, and a cutoff near its bound is not).
+_RESTART_CHI2_LOST, _LOST_CHI2 = 1.0, 4.0
 #: Evaluations of eq. 9 a fit of one shape keeps for reuse (see :func:`_acf_shape`).
 _MEMO_SIZE = 1024
 #: A restart whose search comes this close to the end of an earlier search (see
@@ -667,6 +672,7 @@ class _ShapeProblem:
         self.uu = float(self.u @ self.u)
         self.memo = {}  # evaluations of eq. 9 (see _acf_shape)
         self.ends, self.outcomes = [], []  # of the first searches of the solves (solve)
+        self.lost: set[bytes] = set()  # ends of solves that dropped a cutoff they needed
 
     def cutoffs(self, t):
         """``(lambda_r, lambda_s)`` of ``theta`` in units of ``dr_ref``."""
@@ -855,12 +861,15 @@ class _ShapeProblem:
             theta, active, cov_free, chi2 = self.outcomes[hit.k]
             return theta.copy(), active.copy(), cov_free, chi2
         r_end = self.residuals(theta)
-        moved = True
+        moved, rss = True, np.inf
         for k in range(3):
             if moved and k > 0:
                 # a refit after a cutoff was dropped may start where G ignores lambda_s
                 theta = self.optimise(self.released(theta, active), active)
             cov_free, chi2 = self.covariance(theta)
+            if self.weighted and chi2 * self.dof - rss > _LOST_CHI2:  # it needed the cutoff
+                self.lost.add(theta.tobytes())
+            rss = chi2 * self.dof
             moved = self.drop_unresolved(theta, active, cov_free)
             if not moved:
                 break
@@ -912,8 +921,14 @@ def _best_solution(problem: _ShapeProblem, theta, chi2_eq36: float, seed=None,
     law is the same in both shapes).
     """
     def poor_alone(theta, chi2):
-        return (chi2 > CHI2_QUESTIONABLE if problem.weighted
-                else problem.misfit(theta) > _RESTART_MISFIT)
+        if not problem.weighted:
+            return problem.misfit(theta) > _RESTART_MISFIT
+        # a fit that lost a cutoff the data needed (:meth:`_ShapeProblem.solve`) and
+        # misses G beyond its errors sits in a local minimum (a 256^2 map, H 0.5,
+        # lambda_s = 2 px: H 0.69 at reduced chi^2 3.5 from eq. 36's start, 0.53 at 0.097
+        # from the grid)
+        return chi2 > CHI2_QUESTIONABLE or (chi2 > _RESTART_CHI2_LOST
+                                            and theta.tobytes() in problem.lost)
 
     def poor(theta, chi2):
         return chi2 > chi2_eq36 or poor_alone(theta, chi2)
