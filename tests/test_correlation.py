@@ -619,19 +619,25 @@ def test_memory_limit_option_and_config(monkeypatch, tmp_path):
             topo.rough.acf(memory_limit=bad)
 
 
-@pytest.mark.parametrize("route", ["one block", "many blocks", "float32", "extreme scale"])
+@pytest.mark.parametrize("route", ["one block", "many blocks", "threads", "float32",
+                                   "extreme scale"])
 def test_map_kernel_equals_the_lag_plane(route, monkeypatch):
     """The binned map kernel (no lag plane, no full-size temporaries) gives the sums of
     the folded lag plane binned afterwards, to round-off: periodic, open, missing points,
     with the sums along each axis; the rows and columns in one block or in many (blocks
-    of 16 rows, slabs of a few columns), a float32 map (rows scaled in double, block by
-    block), and heights near 2^+-600 (scaled before the transforms) and 2^+-1010 (beyond
-    the range of a float64 power of two as a factor)."""
+    of 16 rows, slabs of a few columns), the slabs and blocks on two threads (as maps of
+    2^21 points and more run; the caller saying whether the map is whole), a float32
+    map (rows scaled in double, block by block), and heights near 2^+-600 (scaled before
+    the transforms) and 2^+-1010 (beyond the range of a float64 power of two as a
+    factor)."""
     from xrough._kernels import pairs
     from xrough._kernels.binning import binned_sum, folded_bin_index
 
-    if route == "many blocks":
+    workers = 2 if route == "threads" else 1
+    if route in ("many blocks", "threads"):
         monkeypatch.setattr(pairs, "BLOCK_ELEMENTS", 16 * 40)
+    if route == "threads":
+        monkeypatch.setattr(pairs, "THREAD_MIN_ELEMENTS", 0)
     rng = np.random.default_rng(3)
     for shape, periodic, holes in [((64, 80), True, 0.0), ((61, 70), False, 0.0),
                                    ((50, 64), False, 0.2), ((64, 64), True, 0.1)]:
@@ -649,8 +655,9 @@ def test_map_kernel_equals_the_lag_plane(route, monkeypatch):
         nb = len(edges) - 1
         lines = (folded_bin_index(ks[:1], (1.0,), edges),
                  folded_bin_index(ks[1:], (1.0,), edges))
-        s, n, nvalid = pairs.binned_map_sums(h, e, ks, periodic=periodic, index=idx,
-                                             nbins=nb, lines=lines, workers=1)
+        s, n, nvalid = pairs.binned_map_sums(
+            h, e, ks, periodic=periodic, index=idx, nbins=nb, lines=lines, workers=workers,
+            complete=(not holes) if route == "threads" else None)
         S, N = pairs.folded_pair_sums(np.ldexp(h.astype(np.float64), -e), ks,
                                       periodic=periodic)
         ref_s = np.concatenate([binned_sum(S, idx, nb), binned_sum(S[:, 0], lines[0], nb),

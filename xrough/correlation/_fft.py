@@ -39,9 +39,10 @@ def fft_kernel(h: np.ndarray, *, plan: Plan, workers: int, progress,
     try:
         for b in range(flat.shape[0]):
             if map_kernel_applies(plan.shape, plan.ks, plan.periodic):
-                exponents[b] = map_exponent(flat[b], b, batch)
+                exponents[b], complete = map_exponent(flat[b], b, batch)
                 sums[b], counts[b], nvalid[b] = _binned_sums(flat[b], int(exponents[b]),
-                                                             plan, workers, directional)
+                                                             plan, workers, directional,
+                                                             complete)
                 continue
             scaled, exponents[b] = scaled_map(flat[b], b, batch)
             sums[b], counts[b], nvalid[b] = _map_sums(scaled, plan, workers, directional)
@@ -56,7 +57,7 @@ def fft_kernel(h: np.ndarray, *, plan: Plan, workers: int, progress,
 
 
 def _binned_sums(h: np.ndarray, exponent: int, plan: Plan, workers: int,
-                 directional: bool):
+                 directional: bool, complete: bool | None = None):
     """:func:`_map_sums` of one map by :func:`~xrough._kernels.pairs.binned_map_sums`.
 
     The heights are read as they are (scaled block by block): no copy of the map, and no
@@ -66,7 +67,7 @@ def _binned_sums(h: np.ndarray, exponent: int, plan: Plan, workers: int,
     lines = tuple(idx for idx, _ in plan.axis_bins()) if directional else None
     s, n, nvalid = binned_map_sums(h, exponent, plan.ks, periodic=plan.periodic,
                                    index=plan.bin_index(), nbins=nb, lines=lines,
-                                   workers=workers)
+                                   workers=workers, complete=complete)
     blocks = 3 if directional else 1
     keep = np.tile(plan.keep, blocks)
     sums = 0.5 * s[keep]
@@ -119,21 +120,26 @@ def split_directions(sums: np.ndarray, nb: int) -> tuple[np.ndarray, ...]:
                                 axis=-1) for d in range(3))
 
 
-def map_exponent(h: np.ndarray, index: int, batch: tuple[int, ...]) -> int:
-    """Return the exponent of :func:`scaled_map` without scaling a copy of the map.
+def map_exponent(h: np.ndarray, index: int, batch: tuple[int, ...]) -> tuple[int, bool]:
+    """Return the exponent of :func:`scaled_map` (no scaled copy) and whether the map is whole.
+
+    Whether the map has no NaN comes from the same two passes.
 
     Raises
     ------
     ValueError
         Infinite heights, or fewer than 2 valid points (naming the map of a stack).
     """
-    top, bottom = np.fmax.reduce(h, axis=None), np.fmin.reduce(h, axis=None)  # NaN skipped
-    if np.isnan(top):
-        raise ValueError(few_points_message(index, batch))
+    top, bottom = np.max(h), np.min(h)  # NaN if any point is missing
+    complete = not (np.isnan(top) or np.isnan(bottom))
+    if not complete:
+        top, bottom = np.fmax.reduce(h, axis=None), np.fmin.reduce(h, axis=None)
+        if np.isnan(top):
+            raise ValueError(few_points_message(index, batch))
     peak = max(float(top), -float(bottom))
     if np.isinf(peak):
         require_no_inf(h)
-    return int(tiles.power_of_two_exponent(peak))
+    return int(tiles.power_of_two_exponent(peak)), complete
 
 
 def scaled_map(h: np.ndarray, index: int, batch: tuple[int, ...]) -> tuple[np.ndarray, int]:
