@@ -670,3 +670,23 @@ def test_map_kernel_equals_the_lag_plane(route, monkeypatch):
             assert nvalid == np.isfinite(h).sum()
         else:
             assert n is None and nvalid == h.size
+
+
+def test_threaded_slabs_stop_at_an_interrupt(monkeypatch):
+    """An interrupt (or an error) in the slabs of a large map drops the slabs not yet
+    started, instead of finishing the whole map before it is raised."""
+    import time
+
+    from xrough._kernels import pairs
+
+    started = []
+
+    def slab(item, threads):
+        started.append(item)
+        time.sleep(0.01)
+        if item == 1:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        pairs._in_threads(slab, range(200), 2, pairs.THREAD_MIN_ELEMENTS)
+    assert len(started) < 20, len(started)

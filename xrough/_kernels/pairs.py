@@ -522,8 +522,11 @@ def _in_threads(func, items, workers: int, elements: int) -> list:
     threads = _thread_count(workers)
     if threads <= 1 or len(items) < 2 or elements < THREAD_MIN_ELEMENTS:
         return [func(item, workers) for item in items]
-    with concurrent.futures.ThreadPoolExecutor(min(threads, len(items))) as pool:
+    pool = concurrent.futures.ThreadPoolExecutor(min(threads, len(items)))
+    try:
         return list(pool.map(lambda item: func(item, 1), items))
+    finally:  # an interrupt (or an error) drops the slabs not yet started
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
 def _power_slabs(spec: np.ndarray, workers: int) -> np.ndarray:
