@@ -221,9 +221,7 @@ def folded_pair_sums(h: np.ndarray, ks: tuple[int, ...], *, periodic: bool,
     periodic : bool
         Circular lags (one period of a periodic surface) or open boundaries.
     workers : int
-        Threads for :mod:`scipy.fft` and for the slabs and blocks (:func:`_in_threads`).
-    complete : bool, optional
-        Whether ``h`` has no missing point, when the caller knows (None: looked for).
+        Threads for :mod:`scipy.fft`.
 
     Returns
     -------
