@@ -78,6 +78,7 @@ from ._kernels.fitting import (
     PROBLEMS,
     SPECTRUM_OUTPUTS,
     SPECTRUM_PARAMETERS,  # noqa: F401
+    fit_covariance,
     fit_eq36_kernel,
     fit_spectrum_kernel,
 )
@@ -800,7 +801,7 @@ def _fit_variables(setup: FitSetup, part: dict, out: xr.DataArray) -> dict:
         "checks of the fit that failed (bit per check; see docs/quality.md)",
         **quality.cf_flags(PROBLEMS, np.int16, masks=True))
     if setup.model == "spectrum":
-        data[COVARIANCE] = _covariance(out, setup.outputs, error_of)
+        data[COVARIANCE] = _covariance(out, error_of)
         data["lambda_r_resolved"] = _variable(
             part["lambda_r_resolved"].astype(np.int8), "1",
             "1: lambda_r fitted; 0: no roll-off in the data")
@@ -811,18 +812,14 @@ def _fit_variables(setup: FitSetup, part: dict, out: xr.DataArray) -> dict:
     return data
 
 
-def _covariance(out: xr.DataArray, outputs: tuple[str, ...], error_of: str) -> xr.DataArray:
+def _covariance(out: xr.DataArray, error_of: str) -> xr.DataArray:
     """Build the covariance of a spectrum fit's parameters, on the dims ``cov_i``, ``cov_j``.
 
-    ``out``: the kernel's outputs (dim ``fit_output`` last, one chunk), whose last
-    entries are the covariance row by row.
+    ``out``: the kernel's outputs (dim ``fit_output`` last, one chunk).
     """
     names = list(COVARIANCE_PARAMETERS)
-    k = outputs.index(f"cov_{names[0]}_{names[0]}")
-    block = out.isel(fit_output=slice(k, k + len(names) ** 2))
-    data = block.data.reshape((*block.shape[:-1], len(names), len(names)))
-    cov = xr.DataArray(data, dims=(*block.dims[:-1], *COVARIANCE_DIMS),
-                       coords={c: v for c, v in block.coords.items() if "fit_output" not in v.dims})
+    cov = xr.DataArray(fit_covariance(out.data), dims=(*out.dims[:-1], *COVARIANCE_DIMS),
+                       coords={c: v for c, v in out.coords.items() if "fit_output" not in v.dims})
     return cov.assign_coords({d: (d, names, {"long_name": "parameter of the fit"})
                               for d in COVARIANCE_DIMS}).assign_attrs(
         units="1", long_name="covariance of the fit's parameters",

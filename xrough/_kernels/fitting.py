@@ -47,6 +47,7 @@ __all__ = [
     "fitted_spectrum_acf",
     "fitted_spectrum_gradient",
     "fitted_spectrum_gradient_std",
+    "fit_covariance",
     "COVARIANCE_PARAMETERS",
 ]
 
@@ -56,17 +57,29 @@ EQ36_OUTPUTS = (*PARAMETERS, *(f"{p}_std" for p in PARAMETERS), "reduced_chi2", 
                 "rms_misfit", "max_misfit_factor", "fit_problems", "quality")
 SPECTRUM_PARAMETERS = ("sigma_h", "G_sa", "hurst", "lambda_r", "lambda_s", "C_r")
 FLAGS = ("lambda_r_resolved", "lambda_s_resolved")
+#: The parameters of a spectrum fit's covariance (the last outputs of
+#: :data:`SPECTRUM_OUTPUTS`, row by row; :func:`fit_covariance`): ``ln G_sa``, ``H``,
+#: ``eta = (dr_ref / lambda_r)^(2 - 2H)`` and ``eps = (lambda_s / dr_ref)^(2H)`` (0: no
+#: such cutoff), the parameters in which the fit is linearised
+#: (:func:`fitted_spectrum_gradient_std`).
+COVARIANCE_PARAMETERS = ("ln_G_sa", "hurst", "eta", "eps")
 SPECTRUM_OUTPUTS = (*SPECTRUM_PARAMETERS, *(f"{p}_std" for p in SPECTRUM_PARAMETERS),
                     "reduced_chi2", "n_bins", *FLAGS, "rms_misfit", "max_misfit_factor",
                     "reduced_chi2_eq36",
                     "rolloff_shape", "reduced_chi2_other_rolloff", "fit_problems", "quality",
-                    *(f"cov_{a}_{b}" for a in ("ln_G_sa", "hurst", "eta", "eps")
-                      for b in ("ln_G_sa", "hurst", "eta", "eps")))
-#: The parameters of a spectrum fit's covariance (the last outputs of
-#: :data:`SPECTRUM_OUTPUTS`, row by row): ``ln G_sa``, ``H``, ``eta = (dr_ref /
-#: lambda_r)^(2 - 2H)`` and ``eps = (lambda_s / dr_ref)^(2H)`` (0: no such cutoff), the
-#: parameters in which the fit is linearised (:func:`fitted_spectrum_gradient_std`).
-COVARIANCE_PARAMETERS = ("ln_G_sa", "hurst", "eta", "eps")
+                    *(f"cov_{a}_{b}" for a in COVARIANCE_PARAMETERS
+                      for b in COVARIANCE_PARAMETERS))
+
+
+def fit_covariance(values):
+    """Return the ``(..., 4, 4)`` covariance in :data:`COVARIANCE_PARAMETERS` of fits.
+
+    ``values``: outputs of :func:`fit_spectrum_kernel` on the last axis (numpy or dask).
+    """
+    n = len(COVARIANCE_PARAMETERS)
+    k = SPECTRUM_OUTPUTS.index(f"cov_{COVARIANCE_PARAMETERS[0]}_{COVARIANCE_PARAMETERS[0]}")
+    block = values[..., k:k + n * n]
+    return block.reshape((*block.shape[:-1], n, n))
 #: The checks of a fit (bit k of ``fit_problems``) and the quality level each implies
 #: (1 questionable, 2 failed; see :func:`fit_problems`).
 PROBLEM_LEVELS = {

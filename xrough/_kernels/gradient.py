@@ -18,8 +18,8 @@ from scipy.optimize import isotonic_regression
 from .acf_curve import require_acf
 from .binning import log_range
 from .fitting import (
-    COVARIANCE_PARAMETERS,
     SPECTRUM_OUTPUTS,
+    fit_covariance,
     fit_spectrum_kernel,
     fitted_spectrum_gradient,
     fitted_spectrum_gradient_std,
@@ -401,14 +401,14 @@ def _fit_gradient(g, se, dr, fit, fit_gradient):
     if fit is None:
         return None, None, -1, 0
     try:
-        params = dict(zip(SPECTRUM_OUTPUTS, fit_spectrum_kernel(g, se, **fit)))
+        values = fit_spectrum_kernel(g, se, **fit)
     except (ValueError, FloatingPointError, np.linalg.LinAlgError):
         return None, None, -1, 2
+    params = dict(zip(SPECTRUM_OUTPUTS, values))
     bits, code = int(params["fit_problems"]), int(params["quality"])
     if code == 2:
         return None, None, bits, code
-    names = COVARIANCE_PARAMETERS
-    cov = np.array([[params[f"cov_{a}_{b}"] for b in names] for a in names])
+    cov = fit_covariance(values)
     args = (params["hurst"], params["G_sa"], params["lambda_r"], params["lambda_s"],
             params["lambda_r_resolved"], params["lambda_s_resolved"], params["rolloff_shape"])
     lags = np.where(dr > 0, dr, np.nan)

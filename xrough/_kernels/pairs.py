@@ -467,14 +467,19 @@ def _fold_columns(x: np.ndarray, m: int, workers: int) -> np.ndarray:
     return sfft.dct(x[:half + 1], type=1, axis=0, workers=workers, overwrite_x=True)
 
 
-def _folded_row_block(plane: np.ndarray, i0: int, i1: int, ks, fshape, workers):
+def _folded_row_block(plane: np.ndarray, i0: int, i1: int, ks, fshape, workers, *,
+                      scale: float = 1.0, offset: float = 0.0):
     """Rows ``i0:i1`` of the folded inverse: DCT-I along the rows, lags ``0..kx``, weighted.
 
     ``plane`` holds rows ``0..m0/2`` of the columns' folded inverse (the real quarter);
     the weights are the distinct signed lags per folded lag over the transformed points.
+    ``scale * inverse + offset`` is weighted (three passes over the block).
     """
     b = sfft.dct(plane[i0:i1], type=1, axis=-1, workers=workers)[:, :ks[1] + 1]
-    b *= (lag_multiplicity(fshape[0], ks[0], True)[i0:i1] / np.prod(fshape))[:, None]
+    wy = lag_multiplicity(fshape[0], ks[0], True)[i0:i1].astype(float)
+    b *= (scale / np.prod(fshape) * wy)[:, None]
+    if offset:
+        b += (offset * wy)[:, None]
     b *= lag_multiplicity(fshape[1], ks[1], True)
     return b
 
@@ -609,19 +614,13 @@ def _periodic_binned(h, exponent, binner, *, ks, fshape, workers):
         rows = _spectrum_rows(lambda r0, r1: scaled_rows(h[r0:r1], exponent), ny,
                               fshape[1], workers)
     quarter = _power_slabs(rows, workers)
-    # sum of squared differences over pairs: 2 (C(0) - C(d)) per distinct signed lag, the
-    # points of a periodic map being pairs at every lag: (2 C(0) - 2 C(d)) wy wx, with
-    # wy, wx the signed lags per folded lag; three passes over each block
+    # sum of squared differences over pairs: 2 (C(0) - C(d)) per distinct signed lag (the
+    # points of a periodic map are pairs at every lag)
     zero = _folded_row_block(quarter, 0, 1, ks, fshape, workers)[0, 0]
-    wy, wx = (lag_multiplicity(m, k, True).astype(float) for m, k in zip(fshape, ks))
-    scale = -2.0 / np.prod(fshape)
 
     def block(i0, i1, threads):
-        b = sfft.dct(quarter[i0:i1], type=1, axis=-1, workers=threads)[:, :ks[1] + 1]
-        b *= (scale * wy[i0:i1])[:, None]
-        b += (2.0 * zero * wy[i0:i1])[:, None]
-        b *= wx
-        return b
+        return _folded_row_block(quarter, i0, i1, ks, fshape, threads, scale=-2.0,
+                                 offset=2.0 * zero)
 
     sums = binner(block, ks[0] + 1)
     if scale_after:
@@ -671,8 +670,7 @@ def _open_binned(h, exponent, binner, *, ks, fshape, workers):
     cumulative_rows(t)
 
     def block(i0, i1, threads):
-        b = _folded_row_block(quarter, i0, i1, ks, fshape, threads)
-        b *= -2.0
+        b = _folded_row_block(quarter, i0, i1, ks, fshape, threads, scale=-2.0)
         b += _sq_rows(t, ks, i0, i1)
         return b
 
