@@ -684,9 +684,29 @@ def test_threaded_slabs_stop_at_an_interrupt(monkeypatch):
     def slab(item, threads):
         started.append(item)
         time.sleep(0.01)
-        if item == 1:
+        if item == (8, 16):  # the second block
             raise KeyboardInterrupt
 
-    with pytest.raises(KeyboardInterrupt):
-        pairs._in_threads(slab, range(200), 2, pairs.THREAD_MIN_ELEMENTS)
+    with pytest.raises(KeyboardInterrupt):  # 200 blocks of 8 rows
+        pairs._in_threads(slab, 1600, pairs.BLOCK_ELEMENTS // 8, 2)
     assert len(started) < 20, len(started)
+
+
+@pytest.mark.parametrize("parts", [1, 2, 3])
+@pytest.mark.parametrize("rows, width", [(513, 513), (1025, 1025), (5, 7), (1000, 2**19),
+                                         (2049, 2048)])
+def test_row_blocks_cover_the_rows_in_balanced_blocks(rows, width, parts):
+    """The blocks tile the rows; a multiple of ``parts`` (the threads) unless they would
+    be under 8 rows; within the block size; equal but the last (no thread gets a
+    one-column slab while the other does the map)."""
+    from xrough._kernels import pairs
+
+    blocks = list(pairs._row_blocks(rows, width, parts))
+    assert blocks[0][0] == 0 and blocks[-1][1] == rows
+    assert all(a[1] == b[0] for a, b in zip(blocks, blocks[1:]))
+    sizes = [b - a for a, b in blocks]
+    assert len(set(sizes[:-1])) <= 1 and sizes[-1] <= sizes[0]
+    assert sizes[0] == 8 or sizes[0] * width <= pairs.BLOCK_ELEMENTS
+    if rows >= 8 * parts:
+        assert len(blocks) % parts == 0 or sizes[0] == 8
+        assert sizes[-1] >= sizes[0] - len(blocks)

@@ -31,9 +31,9 @@ exponent; :func:`g_from_packed` turns the sums into G and its errors.
 
 from __future__ import annotations
 
-import concurrent.futures
 import functools
 import os
+import threading
 
 import numpy as np
 from scipy import fft as sfft
@@ -164,10 +164,10 @@ def _sq_terms_nonperiodic(h2: np.ndarray, ks: tuple[int, ...]) -> np.ndarray:
         e = cs[..., n - i] + cs[..., n:n + 1] - cs[..., i]
         return e * lag_multiplicity(n, k, False)
     ny, nx = h2.shape[-2:]
-    t = np.zeros(h2.shape[:-2] + (ny + 1, nx + 1))
-    np.cumsum(h2, axis=-1, out=t[..., 1:, 1:])
-    cumulative_rows(t)
-    return _sq_rows(t, ks, 0, ks[0] + 1)
+    e = _sq_rows(sq_table([(0, ny, h2)], ny, nx, ks[1], h2.shape[:-2]), 0, ks[0] + 1)
+    e *= lag_multiplicity(ny, ks[0], False)[:, None] / 2
+    e *= lag_multiplicity(nx, ks[1], False)
+    return e
 
 
 def cumulative_rows(t: np.ndarray) -> np.ndarray:
@@ -181,30 +181,45 @@ def cumulative_rows(t: np.ndarray) -> np.ndarray:
     return t
 
 
-def _sq_rows(t: np.ndarray, ks: tuple[int, ...], i0: int, i1: int) -> np.ndarray:
-    """Rows ``i0:i1`` of the folded ``h(r)^2 + h(r+d)^2`` sums from the summed-area table.
+def sq_table(blocks, ny: int, nx: int, kx: int, batch: tuple[int, ...] = (),
+             scale: float = 1.0) -> np.ndarray:
+    """Return the table ``U`` whose rows give the folded ``h(r)^2 + h(r+d)^2`` sums.
 
-    ``t`` is ``(..., ny + 1, nx + 1)`` with ``t[0, :] = t[:, 0] = 0``. For lags
-    ``(+i, +j)`` and ``(+i, -j)`` the corners of the rectangles are ``0, i, ny - i, ny``
-    (and likewise in ``j``), so every term is a (reversed) slice of ``t``: views, no
-    gathers.
+    ``blocks``: ``(r0, r1, h2)``, the squared heights of rows ``r0:r1`` (``h2`` of shape
+    ``batch + (r1 - r0, nx)``), covering the ``ny`` rows in order. With the summed-area
+    table ``t`` of ``h^2`` (``t[0, :] = t[:, 0] = 0``), the sums over the pairs at lags
+    ``(+i, +j)`` and ``(+i, -j)`` are rectangles with corners ``0, i, ny - i, ny`` (and
+    likewise in ``j``): nine terms of ``t``, which make three rows of
+
+        U[x, j] = t[x, nx - j] - t[x, j] + t[x, nx]      (j = 0..kx),
+
+    ``e(i, j) = U[ny - i, j] - U[i, j] + U[ny, j]``. ``U`` is linear in a row of ``t``: it
+    is made from each row's cumulative sum and then summed along the rows, so that ``t``
+    itself is never formed. ``scale``: ``U`` times it (exact for a power of two).
     """
-    ky, kx = ks
-    ny, nx = t.shape[-2] - 1, t.shape[-1] - 1
-    fi = slice(i0, i1)
+    u = np.zeros(batch + (ny + 1, kx + 1))
+    for r0, r1, h2 in blocks:
+        c = np.empty(h2.shape[:-1] + (nx + 1,))
+        c[..., 0] = 0.0
+        np.cumsum(h2, axis=-1, out=c[..., 1:])
+        if scale != 1.0:
+            c *= scale
+        out = u[..., 1 + r0:1 + r1, :]
+        np.subtract(c[..., nx - kx:][..., ::-1], c[..., :kx + 1], out=out)
+        out += c[..., nx:nx + 1]
+    return cumulative_rows(u)
+
+
+def _sq_rows(u: np.ndarray, i0: int, i1: int) -> np.ndarray:
+    """Return rows ``i0:i1`` of the folded ``h(r)^2 + h(r+d)^2`` sums (unweighted).
+
+    From the table of :func:`sq_table`, ``(..., ny + 1, kx + 1)``: views, no gathers,
+    two passes.
+    """
+    ny = u.shape[-2] - 1
     ri = slice(ny - i0, ny - i1 if ny - i1 >= 0 else None, -1)
-    fj, rj = slice(0, kx + 1), slice(nx, nx - kx - 1 if nx - kx - 1 >= 0 else None, -1)
-    total = t[..., ny:ny + 1, nx:nx + 1]
-    e = t[..., ri, rj] + t[..., fi, fj]
-    e -= t[..., ri, fj]
-    e -= t[..., fi, rj]
-    e += total
-    e -= t[..., fi, nx:nx + 1]
-    e -= t[..., ny:ny + 1, fj]
-    e += t[..., ri, nx:nx + 1]
-    e += t[..., ny:ny + 1, rj]
-    e *= lag_multiplicity(ny, ky, False)[i0:i1, None] / 2
-    e *= lag_multiplicity(nx, kx, False)
+    e = u[..., ri, :] - u[..., i0:i1, :]
+    e += u[..., ny:ny + 1, :]
     return e
 
 
@@ -406,8 +421,14 @@ def map_kernel_applies(shape: tuple[int, ...], ks: tuple[int, ...], periodic: bo
             and all(m % 2 == 0 for m in padded_shape(shape, ks, periodic)))
 
 
-def _row_blocks(rows: int, width: int):
-    step = max(8, BLOCK_ELEMENTS // max(width, 1))
+def _row_blocks(rows: int, width: int, parts: int = 1):
+    """Return blocks ``(r0, r1)`` of ``rows`` rows of ``width``, of equal size (but the last).
+
+    A multiple of ``parts`` of them, each of at most :data:`BLOCK_ELEMENTS` (or 8 rows).
+    """
+    count = -(-rows * max(width, 1) // BLOCK_ELEMENTS)
+    count = -(-count // parts) * parts
+    step = max(8, -(-rows // count))
     return ((r, min(rows, r + step)) for r in range(0, rows, step))
 
 
@@ -428,8 +449,7 @@ def _binned_rows(block, rows: int, *, index, nbins, lines, workers: int = 1):
                 first.append(b[0].copy())
         return np.bincount(index[i0:i1].ravel(), weights=b.ravel(), minlength=nbins + 1)
 
-    out = np.sum(_in_threads(one, _row_blocks(rows, index.shape[1]), workers, index.size),
-                 axis=0)
+    out = np.sum(_in_threads(one, rows, index.shape[1], workers), axis=0)
     line_x = first[0] if first else None
     if lines is None:
         return out[:nbins]
@@ -450,10 +470,6 @@ def _spectrum_rows(fill, n: int, width: int, workers: int) -> np.ndarray:
     return out
 
 
-def _column_slabs(width: int, rows: int):
-    return _row_blocks(width, rows)
-
-
 def _fold_columns(x: np.ndarray, m: int, workers: int) -> np.ndarray:
     """Average rows ``k`` and ``m - k`` of a real slab in place, DCT-I of rows ``0..m/2``.
 
@@ -468,39 +484,73 @@ def _fold_columns(x: np.ndarray, m: int, workers: int) -> np.ndarray:
 
 
 def _folded_row_block(plane: np.ndarray, i0: int, i1: int, ks, fshape, workers, *,
-                      scale: float = 1.0, offset: float = 0.0):
+                      scale: float = 1.0, offset=0.0):
     """Rows ``i0:i1`` of the folded inverse: DCT-I along the rows, lags ``0..kx``, weighted.
 
     ``plane`` holds rows ``0..m0/2`` of the columns' folded inverse (the real quarter);
     the weights are the distinct signed lags per folded lag over the transformed points.
-    ``scale * inverse + offset`` is weighted (three passes over the block).
+    Returns ``(scale * inverse + offset / 4)`` weighted: ``offset`` is a number or an
+    array of the block's shape (four times the term). A folded lag off the axes (and off
+    half a periodic length) has four signed lags: a factor 4 with the scale, the rows and
+    columns of fewer halved (two passes over the block; three with an array).
     """
     b = sfft.dct(plane[i0:i1], type=1, axis=-1, workers=workers)[:, :ks[1] + 1]
-    wy = lag_multiplicity(fshape[0], ks[0], True)[i0:i1].astype(float)
-    b *= (scale / np.prod(fshape) * wy)[:, None]
-    if offset:
-        b += (offset * wy)[:, None]
-    b *= lag_multiplicity(fshape[1], ks[1], True)
+    b *= 4.0 * scale / np.prod(fshape)
+    if np.ndim(offset) or offset:
+        b += offset
+    for axis, (m, k) in enumerate(zip(fshape, ks)):
+        single = np.flatnonzero(lag_multiplicity(m, k, True) == 1)
+        if axis == 0:
+            b[single[(single >= i0) & (single < i1)] - i0] *= 0.5
+        else:
+            b[:, single] *= 0.5
     return b
 
 
-def _column_slab(rows: np.ndarray, c0: int, c1: int, m0: int, workers: int) -> np.ndarray:
+class _Scratch:
+    """Buffers for one sweep of slabs or blocks, one per thread and name.
+
+    A slab reuses the memory of the thread's previous slab: memory fresh from the system
+    is paged in (zeroed) as it is first written, which cost as much as the numpy passes
+    over it (a 1024^2 open map made 50 MB of slab buffers per G).
+    """
+
+    def __init__(self):
+        self._buffers: dict = {}
+
+    def get(self, name: str, shape: tuple[int, ...], dtype=np.float64) -> np.ndarray:
+        key = (threading.get_ident(), name)
+        size = int(np.prod(shape))
+        buf = self._buffers.get(key)
+        if buf is None or buf.size < size:
+            buf = self._buffers[key] = np.empty(size, dtype)
+        return buf[:size].reshape(shape)
+
+
+def _column_slab(rows: np.ndarray, c0: int, c1: int, m0: int, workers: int,
+                 scratch: _Scratch, name: str = "slab") -> np.ndarray:
     """Return the transformed columns ``c0:c1`` of ``rows``, each zero padded to ``m0``.
 
-    A new buffer per slab, so that slabs can run on threads of their own.
+    In the thread's buffer ``name`` of ``scratch``, so that slabs can run on threads of
+    their own.
     """
     ny = rows.shape[0]
-    slab = np.empty((m0, c1 - c0), dtype=np.complex128)
+    slab = scratch.get(name, (m0, c1 - c0), np.complex128)
     slab[:ny] = rows[:, c0:c1]
     slab[ny:] = 0.0
     return sfft.fft(slab, axis=0, workers=workers, overwrite_x=True)
 
 
-def _power(slab: np.ndarray, out: np.ndarray) -> np.ndarray:
-    """``|slab|^2`` into ``out`` (a real array of the slab's shape)."""
-    np.square(slab.real, out=out)
-    out += np.square(slab.imag)
-    return out
+def _folded_power(slab: np.ndarray, m0: int, workers: int) -> np.ndarray:
+    """Return the folded inverse of ``|slab|^2`` along axis 0 (:func:`_fold_columns`).
+
+    Rows ``0..m0/2``, made in the slab's memory (its real parts: a strided view).
+    """
+    v = slab.view(np.float64).reshape(slab.shape + (2,))
+    np.square(v, out=v)  # one pass over the real and imaginary parts
+    re = v[..., 0]
+    re += v[..., 1]
+    return _fold_columns(re, m0, workers)
 
 
 #: Arrays below this many elements are not split over threads (:func:`_in_threads`, one
@@ -511,36 +561,61 @@ def _power(slab: np.ndarray, out: np.ndarray) -> np.ndarray:
 THREAD_MIN_ELEMENTS = 2**18
 
 
-def _in_threads(func, items, workers: int, elements: int) -> list:
-    """``[func(item, threads) for item in items]``, the items on ``workers`` threads.
+def _in_threads(func, rows: int, width: int, workers: int) -> list:
+    """``[func(block, threads) for block in _row_blocks(rows, width)]`` on ``workers`` threads.
 
-    Each call then transforms with one thread (``threads = 1``): the numpy passes between
-    the transforms (powers, folds, weights, binning) run in parallel too, which one call's
-    threaded transforms alone do not.  One thread, which transforms with ``workers``,
-    where the array (``elements``) is small or the machine has one core.
+    The blocks (of rows, or slabs of columns: ``rows`` is then the number of columns)
+    are as many as the threads or a multiple, of equal size; each thread, the caller's
+    among them, takes the next block until none is left. Each call then transforms with
+    one thread (``threads = 1``): the numpy passes between the transforms (powers, folds,
+    weights, binning) run in parallel too, which one call's threaded transforms alone do
+    not.  One thread, which transforms with ``workers``, where the array (``rows *
+    width``) is small or the machine has one core.
+
+    The helper threads are started per call (tens of microseconds): a pool's idle
+    threads woke one at a time, and a second slab waited for the first (a
+    ``ThreadPoolExecutor`` ran the two slabs of a 1024^2 map one after the other). An
+    interrupt (or an error, in any thread) stops every thread after its current block.
     """
-    items = list(items)
     threads = _thread_count(workers)
-    if threads <= 1 or len(items) < 2 or elements < THREAD_MIN_ELEMENTS:
-        return [func(item, workers) for item in items]
-    futures = [_pool(threads).submit(func, item, 1) for item in items]
+    if threads <= 1 or rows * width < THREAD_MIN_ELEMENTS:
+        return [func(block, workers) for block in _row_blocks(rows, width)]
+    blocks = list(_row_blocks(rows, width, threads))
+    out: list = [None] * len(blocks)
+    order = iter(range(len(blocks)))
+    lock = threading.Lock()
+    stopped: list = []  # the error that stopped the sweep (None: the caller's)
+
+    def share():
+        while not stopped:
+            with lock:
+                i = next(order, None)
+            if i is None:
+                return
+            out[i] = func(blocks[i], 1)
+
+    def helper():
+        try:
+            share()
+        except BaseException as error:  # noqa: BLE001 - raised again by the caller
+            stopped.append(error)
+
+    helpers = [threading.Thread(target=helper, daemon=True, name="xrough-slabs")
+               for _ in range(min(threads, len(blocks)) - 1)]
+    for t in helpers:
+        t.start()
     try:
-        return [f.result() for f in futures]
-    finally:  # an interrupt (or an error) drops the slabs not yet started
-        for f in futures:
-            f.cancel()
-
-
-_POOLS: dict = {}
-
-
-def _pool(threads: int) -> concurrent.futures.ThreadPoolExecutor:
-    """Return the pool of ``threads`` threads of this process (made once; not across a fork)."""
-    key = (os.getpid(), threads)
-    if key not in _POOLS:
-        _POOLS[key] = concurrent.futures.ThreadPoolExecutor(threads,
-                                                            thread_name_prefix="xrough")
-    return _POOLS[key]
+        share()
+    except BaseException:
+        stopped.append(None)
+        raise
+    finally:
+        for t in helpers:
+            t.join()
+    errors = [e for e in stopped if e is not None]
+    if errors:
+        raise errors[0]
+    return out
 
 
 def _power_slabs(spec: np.ndarray, workers: int) -> np.ndarray:
@@ -552,7 +627,6 @@ def _power_slabs(spec: np.ndarray, workers: int) -> np.ndarray:
     slabs (disjoint columns) run on ``workers`` threads.
     """
     m0 = spec.shape[0]
-    v = spec.view(np.float64).reshape(spec.shape + (2,))
 
     def one(cols, threads):
         c0, c1 = cols
@@ -560,14 +634,10 @@ def _power_slabs(spec: np.ndarray, workers: int) -> np.ndarray:
         sfft.fft(slab, axis=0, workers=threads, overwrite_x=True)
         if c0 == 0:
             slab[0, 0] = 0.0
-        both = v[:, c0:c1]
-        np.square(both, out=both)  # one pass over the real and imaginary parts
-        re = both[..., 0]
-        re += both[..., 1]
-        _fold_columns(re, m0, threads)
+        _folded_power(slab, m0, threads)
 
-    _in_threads(one, _column_slabs(spec.shape[1], m0), workers, spec.size)
-    return v[:m0 // 2 + 1, :, 0]
+    _in_threads(one, spec.shape[1], m0, workers)
+    return spec.view(np.float64)[:m0 // 2 + 1, ::2]
 
 
 def _thread_count(workers: int) -> int:
@@ -588,13 +658,14 @@ def _power_quarter(rows: np.ndarray, m0: int, workers: int) -> np.ndarray:
     """
     width = rows.shape[1]
     quarter = np.empty((m0 // 2 + 1, width))
+    scratch = _Scratch()
 
     def one(cols, threads):  # a slab of columns
         c0, c1 = cols
-        slab = _column_slab(rows, c0, c1, m0, threads)
-        quarter[:, c0:c1] = _fold_columns(_power(slab, np.empty(slab.shape)), m0, threads)
+        slab = _column_slab(rows, c0, c1, m0, threads, scratch)
+        quarter[:, c0:c1] = _folded_power(slab, m0, threads)
 
-    _in_threads(one, _column_slabs(width, m0), workers, quarter.size)
+    _in_threads(one, width, m0, workers)
     return quarter
 
 
@@ -620,7 +691,7 @@ def _periodic_binned(h, exponent, binner, *, ks, fshape, workers):
 
     def block(i0, i1, threads):
         return _folded_row_block(quarter, i0, i1, ks, fshape, threads, scale=-2.0,
-                                 offset=2.0 * zero)
+                                 offset=8.0 * zero)
 
     sums = binner(block, ks[0] + 1)
     if scale_after:
@@ -661,18 +732,16 @@ def _open_binned(h, exponent, binner, *, ks, fshape, workers):
                           ny, fshape[1], workers)
     quarter = _power_quarter(rows, fshape[0], workers)
     del rows
-    # the h(r)^2 + h(r+d)^2 terms from the summed-area table (the size of the map), made
+    # the h(r)^2 + h(r+d)^2 terms from the table of sq_table (the size of the map), made
     # once the row transforms are gone, and binned with the correlations in one pass
-    t = np.zeros((ny + 1, nx + 1))
-    for r0, r1 in _row_blocks(ny, nx):  # cumulative along x, a block of rows at a time
-        np.cumsum(_scaled_centred(h, exponent, mean, r0, r1, square=True, complete=True),
-                  axis=-1, out=t[1 + r0:1 + r1, 1:])
-    cumulative_rows(t)
+    # (doubled: the four signed lags of a folded one, over the pair's two squares)
+    u = sq_table(((r0, r1, _scaled_centred(h, exponent, mean, r0, r1, square=True,
+                                           complete=True))
+                  for r0, r1 in _row_blocks(ny, nx)), ny, nx, ks[1], scale=2.0)
 
     def block(i0, i1, threads):
-        b = _folded_row_block(quarter, i0, i1, ks, fshape, threads, scale=-2.0)
-        b += _sq_rows(t, ks, i0, i1)
-        return b
+        return _folded_row_block(quarter, i0, i1, ks, fshape, threads, scale=-2.0,
+                                 offset=_sq_rows(u, i0, i1))
 
     return binner(block, ks[0] + 1)
 
@@ -700,28 +769,28 @@ def _masked_binned(h, exponent, binner, *, ks, fshape, workers):
                           fshape[1], workers)
     width = mask.shape[1]
     counts_q, sums_q = np.empty((2, m0 // 2 + 1, width))
+    scratch = _Scratch()
 
     def cross(cols, threads, squares, mask):  # a slab of columns of h^2 and of the mask
         c0, c1 = cols
-        b, m = (_column_slab(r, c0, c1, m0, threads) for r in (squares, mask))
-        w = b.real * m.real
-        w += b.imag * m.imag
+        b, m = (_column_slab(r, c0, c1, m0, threads, scratch, name)
+                for r, name in ((squares, "b"), (mask, "m")))
+        w = np.multiply(b.real, m.real, out=scratch.get("w", b.shape))
+        w += np.multiply(b.imag, m.imag, out=b.imag)
         w *= 2.0  # 2 Re(conj(B) M)
         sums_q[:, c0:c1] = _fold_columns(w, m0, threads)
-        counts_q[:, c0:c1] = _fold_columns(_power(m, w), m0, threads)  # |M|^2
+        counts_q[:, c0:c1] = _folded_power(m, m0, threads)  # |M|^2
 
     def power(cols, threads, rows):  # a slab of columns of h
         c0, c1 = cols
-        a = _column_slab(rows, c0, c1, m0, threads)
-        p = _power(a, np.empty(a.shape))
+        p = _folded_power(_column_slab(rows, c0, c1, m0, threads, scratch), m0, threads)
         p *= 2.0  # 2 |A|^2
-        sums_q[:, c0:c1] -= _fold_columns(p, m0, threads)
+        sums_q[:, c0:c1] -= p
 
-    _in_threads(functools.partial(cross, squares=rows_of(True), mask=mask),
-                _column_slabs(width, m0), workers, counts_q.size)
+    _in_threads(functools.partial(cross, squares=rows_of(True), mask=mask), width, m0,
+                workers)
     del mask
-    _in_threads(functools.partial(power, rows=rows_of(False)), _column_slabs(width, m0),
-                workers, counts_q.size)
+    _in_threads(functools.partial(power, rows=rows_of(False)), width, m0, workers)
     empty = np.zeros((ks[0] + 1, ks[1] + 1), dtype=bool)  # lags without pairs
 
     def count_block(i0, i1, threads):
