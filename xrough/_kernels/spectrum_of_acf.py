@@ -67,10 +67,17 @@ class _RadialPieces(NamedTuple):
         j = np.clip(np.searchsorted(self.hi, r, side="left"), 0, self.hi.size - 1)
         x = r / self.hi[j]
         p0 = self.p0[j]
-        out = np.zeros_like(r)
-        for m in range(self.coef.shape[0] - 1, -1, -1):  # Horner in x
-            out = out * x + self.coef[m, j] * (p0 + m) ** 2
+        g = self._laplacian_coef()[:, j]  # one gather of all terms
+        out = g[-1].copy()
+        for m in range(g.shape[0] - 2, -1, -1):  # Horner in x
+            out *= x
+            out += g[m]
         return np.where(r <= self.hi[-1], out * np.exp(p0 * np.log(x)) / r, 0.0)
+
+    def _laplacian_coef(self) -> np.ndarray:
+        """``coef[m] (p0 + m)^2``: the terms of :meth:`laplacian` per piece."""
+        m = np.arange(self.coef.shape[0])[:, None]
+        return self.coef * (self.p0[None, :] + m) ** 2
 
     def r_dG(self, r: np.ndarray) -> np.ndarray:
         """``r dG/dr`` (right-hand limit at knots), zero beyond the last knot."""
@@ -270,11 +277,20 @@ def _hankel_below_range(q: np.ndarray, pieces: _RadialPieces, grids: _Grids) -> 
     return -2.0 * np.pi * (kn + lap)
 
 
+def _near_weight(t: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """``J0(t)``, and ``-(1 - J0(t))`` below ``t = 1`` (its power series): one ``J0`` pass."""
+    out = special.j0(t)
+    small = t < 1.0
+    if np.any(small):
+        out[small] = -one_minus_j0(t[small])
+    return out
+
+
 def _hankel_within_range(q: np.ndarray, pieces: _RadialPieces, grids: _Grids,
                          T: float) -> np.ndarray:
     """``C`` for ``q r_end >= 1``: ``r G'(1/q)``, the knots, panels below ``T``, series above."""
     near = _laplacian_quadrature(
-        q, pieces, lambda t, r: np.where(t < 1.0, -one_minus_j0(t), special.j0(t)),
+        q, pieces, _near_weight,
         np.minimum(q * pieces.hi[-1], T), grids)
     # f above t = T in the form of oscillatory_terms: r f(r) -> "q C(q)" with
     # c_top = 1 / hi^2, alpha = p0 - 2 and g_m = coef_m (p0 + m)^2
