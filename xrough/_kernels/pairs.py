@@ -217,10 +217,22 @@ def _sq_rows(u: np.ndarray, i0: int, i1: int) -> np.ndarray:
     two passes.
     """
     ny = u.shape[-2] - 1
-    ri = slice(ny - i0, ny - i1 if ny - i1 >= 0 else None, -1)
-    e = u[..., ri, :] - u[..., i0:i1, :]
+    e = u[..., _reversed_rows(ny, i0, i1), :] - u[..., i0:i1, :]
     e += u[..., ny:ny + 1, :]
     return e
+
+
+def _add_sq_rows(b: np.ndarray, u: np.ndarray, i0: int, i1: int) -> None:
+    """Add :func:`_sq_rows` to ``b`` in place (three passes, no temporary)."""
+    ny = u.shape[-2] - 1
+    b += u[..., _reversed_rows(ny, i0, i1), :]
+    b -= u[..., i0:i1, :]
+    b += u[..., ny:ny + 1, :]
+
+
+def _reversed_rows(ny: int, i0: int, i1: int) -> slice:
+    """Rows ``ny - i`` for ``i = i0..i1-1``."""
+    return slice(ny - i0, ny - i1 if ny - i1 >= 0 else None, -1)
 
 
 def folded_pair_sums(h: np.ndarray, ks: tuple[int, ...], *, periodic: bool,
@@ -484,19 +496,23 @@ def _fold_columns(x: np.ndarray, m: int, workers: int) -> np.ndarray:
 
 
 def _folded_row_block(plane: np.ndarray, i0: int, i1: int, ks, fshape, workers, *,
-                      scale: float = 1.0, offset=0.0):
+                      scale: float = 1.0, offset=0.0, overwrite: bool = False):
     """Rows ``i0:i1`` of the folded inverse: DCT-I along the rows, lags ``0..kx``, weighted.
 
     ``plane`` holds rows ``0..m0/2`` of the columns' folded inverse (the real quarter);
     the weights are the distinct signed lags per folded lag over the transformed points.
-    Returns ``(scale * inverse + offset / 4)`` weighted: ``offset`` is a number or an
-    array of the block's shape (four times the term). A folded lag off the axes (and off
-    half a periodic length) has four signed lags: a factor 4 with the scale, the rows and
-    columns of fewer halved (two passes over the block; three with an array).
+    Returns ``(scale * inverse + offset / 4)`` weighted: ``offset`` is a number, or a
+    function that adds four times the term to the block in place. A folded lag off the
+    axes (and off half a periodic length) has four signed lags: a factor 4 with the
+    scale, the rows and columns of fewer halved (two passes over the block). With
+    ``overwrite`` the block is transformed in the plane's memory (a plane read once).
     """
-    b = sfft.dct(plane[i0:i1], type=1, axis=-1, workers=workers)[:, :ks[1] + 1]
+    b = sfft.dct(plane[i0:i1], type=1, axis=-1, workers=workers,
+                 overwrite_x=overwrite)[:, :ks[1] + 1]
     b *= 4.0 * scale / np.prod(fshape)
-    if np.ndim(offset) or offset:
+    if callable(offset):
+        offset(b)
+    elif offset:
         b += offset
     for axis, (m, k) in enumerate(zip(fshape, ks)):
         single = np.flatnonzero(lag_multiplicity(m, k, True) == 1)
@@ -691,7 +707,7 @@ def _periodic_binned(h, exponent, binner, *, ks, fshape, workers):
 
     def block(i0, i1, threads):
         return _folded_row_block(quarter, i0, i1, ks, fshape, threads, scale=-2.0,
-                                 offset=8.0 * zero)
+                                 offset=8.0 * zero, overwrite=True)
 
     sums = binner(block, ks[0] + 1)
     if scale_after:
@@ -741,7 +757,8 @@ def _open_binned(h, exponent, binner, *, ks, fshape, workers):
 
     def block(i0, i1, threads):
         return _folded_row_block(quarter, i0, i1, ks, fshape, threads, scale=-2.0,
-                                 offset=_sq_rows(u, i0, i1))
+                                 offset=lambda b: _add_sq_rows(b, u, i0, i1),
+                                 overwrite=True)
 
     return binner(block, ks[0] + 1)
 
@@ -794,12 +811,13 @@ def _masked_binned(h, exponent, binner, *, ks, fshape, workers):
     empty = np.zeros((ks[0] + 1, ks[1] + 1), dtype=bool)  # lags without pairs
 
     def count_block(i0, i1, threads):
-        c = np.rint(_folded_row_block(counts_q, i0, i1, ks, fshape, threads))
+        c = np.rint(_folded_row_block(counts_q, i0, i1, ks, fshape, threads,
+                                      overwrite=True))
         empty[i0:i1] = c == 0
         return c
 
     def sum_block(i0, i1, threads):
-        s = _folded_row_block(sums_q, i0, i1, ks, fshape, threads)
+        s = _folded_row_block(sums_q, i0, i1, ks, fshape, threads, overwrite=True)
         s[empty[i0:i1]] = 0.0  # no pairs: only round-off was there
         return s
 
