@@ -419,3 +419,21 @@ def test_no_fit_loses_a_cutoff_it_needs(rough_seeds):
     chi2 = np.array([float(fit.reduced_chi2) for _, fit, _ in rough_seeds])
     assert np.all(np.abs(hurst - 0.5) < 0.1), hurst
     assert np.all(chi2 < 1.0), chi2
+
+
+@pytest.mark.parametrize("edit", ["drop_row", "rename_dim", "scalar"])
+def test_an_edited_parameter_covariance_is_named_in_a_clear_error(rough_seeds, edit):
+    """A fit whose ``parameter_covariance`` a user has cut, renamed or replaced fails at
+    once with a message naming the variable and the shape it needs, not inside
+    ``apply_ufunc``; dropping the variable leaves a fitted gradient without its error."""
+    _, fit, _ = rough_seeds[0]
+    cov = fit.parameter_covariance
+    bad = {"drop_row": cov.isel(cov_i=slice(0, 3)),
+           "rename_dim": cov.rename(cov_j="k"),
+           "scalar": cov.isel(cov_i=0, cov_j=0)}[edit]
+    edited = fit.drop_vars(["parameter_covariance", "cov_i", "cov_j"]).assign(
+        parameter_covariance=bad)
+    with pytest.raises(ValueError, match=r"parameter_covariance.*dims \('cov_i', 'cov_j'\)"):
+        xrough.gradient_from_fit(edited, [1.0, 10.0])
+    g = xrough.gradient_from_fit(fit.drop_vars("parameter_covariance"), [1.0, 10.0])
+    assert np.all(np.isfinite(g)) and "gbar_std" not in g.coords

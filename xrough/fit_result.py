@@ -26,6 +26,7 @@ from pint.facets.plain import PlainUnit
 
 from . import units as u
 from ._kernels.fitting import (
+    COVARIANCE_PARAMETERS,
     FLAGS,
     MODELS,
     PARAMETERS,
@@ -157,10 +158,24 @@ def read_fit(params: xr.Dataset) -> FitReading:
     missing = [v for v in (*needed, "dr_ref") if v not in params.variables]
     if missing:
         raise ValueError(f"params lacks {missing}; pass the Dataset returned by fit_acf")
+    if COVARIANCE in params.variables:
+        _check_covariance(params[COVARIANCE])
     return FitReading(params=params, model=model,
                       lateral=_length_unit(params, "lambda_r"),
                       height=_length_unit(params, "sigma_h"),
                       g_unit=u.units_of(params["G_sa"], what="G_sa"))
+
+
+def _check_covariance(cov: xr.DataArray) -> None:
+    """Raise a clear error for a ``parameter_covariance`` not of the shape a fit makes."""
+    n = len(COVARIANCE_PARAMETERS)
+    dims = {d: cov.sizes.get(d) for d in COVARIANCE_DIMS}
+    if any(size != n for size in dims.values()):
+        raise ValueError(
+            f"params[{COVARIANCE!r}] must have dims {COVARIANCE_DIMS} of {n} each (the "
+            f"covariance of {', '.join(COVARIANCE_PARAMETERS)}), got dims "
+            f"{dict(cov.sizes)}; pass the Dataset returned by fit_acf, or drop the "
+            "variable (the fitted gradient then states no error of its own)")
 
 
 def rolloff_shapes(params: xr.Dataset) -> xr.DataArray:
