@@ -7,6 +7,7 @@ import numpy as np
 from .._kernels import binning, tiles
 from .._kernels.pairs import (
     binned_map_sums,
+    extremes,
     few_points_message,
     folded_pair_sums,
     map_kernel_applies,
@@ -39,7 +40,7 @@ def fft_kernel(h: np.ndarray, *, plan: Plan, workers: int, progress,
     try:
         for b in range(flat.shape[0]):
             if map_kernel_applies(plan.shape, plan.ks, plan.periodic):
-                exponents[b], complete = map_exponent(flat[b], b, batch)
+                exponents[b], complete = map_exponent(flat[b], b, batch, workers)
                 sums[b], counts[b], nvalid[b] = _binned_sums(flat[b], int(exponents[b]),
                                                              plan, workers, directional,
                                                              complete)
@@ -120,7 +121,8 @@ def split_directions(sums: np.ndarray, nb: int) -> tuple[np.ndarray, ...]:
                                 axis=-1) for d in range(3))
 
 
-def map_exponent(h: np.ndarray, index: int, batch: tuple[int, ...]) -> tuple[int, bool]:
+def map_exponent(h: np.ndarray, index: int, batch: tuple[int, ...],
+                 workers: int = 1) -> tuple[int, bool]:
     """Return the exponent of :func:`scaled_map` (no scaled copy) and whether the map is whole.
 
     Whether the map has no NaN comes from the same two passes.
@@ -130,7 +132,7 @@ def map_exponent(h: np.ndarray, index: int, batch: tuple[int, ...]) -> tuple[int
     ValueError
         Infinite heights, or fewer than 2 valid points (naming the map of a stack).
     """
-    top, bottom = np.max(h), np.min(h)  # NaN if any point is missing
+    top, bottom = extremes(h, workers)  # NaN if any point is missing
     complete = not (np.isnan(top) or np.isnan(bottom))
     if not complete:
         top, bottom = np.fmax.reduce(h, axis=None), np.fmin.reduce(h, axis=None)
