@@ -164,7 +164,8 @@ def _sq_terms_nonperiodic(h2: np.ndarray, ks: tuple[int, ...]) -> np.ndarray:
         e = cs[..., n - i] + cs[..., n:n + 1] - cs[..., i]
         return e * lag_multiplicity(n, k, False)
     ny, nx = h2.shape[-2:]
-    e = _sq_rows(sq_table([(0, ny, h2)], ny, nx, ks[1], h2.shape[:-2]), 0, ks[0] + 1)
+    e = np.zeros(h2.shape[:-2] + (ks[0] + 1, ks[1] + 1))
+    _add_sq_rows(e, sq_table([(0, ny, h2)], ny, nx, ks[1], h2.shape[:-2]), 0, ks[0] + 1)
     e *= lag_multiplicity(ny, ks[0], False)[:, None] / 2
     e *= lag_multiplicity(nx, ks[1], False)
     return e
@@ -210,20 +211,12 @@ def sq_table(blocks, ny: int, nx: int, kx: int, batch: tuple[int, ...] = (),
     return cumulative_rows(u)
 
 
-def _sq_rows(u: np.ndarray, i0: int, i1: int) -> np.ndarray:
-    """Return rows ``i0:i1`` of the folded ``h(r)^2 + h(r+d)^2`` sums (unweighted).
+def _add_sq_rows(b: np.ndarray, u: np.ndarray, i0: int, i1: int) -> None:
+    """Add rows ``i0:i1`` of the folded ``h(r)^2 + h(r+d)^2`` sums (unweighted) to ``b``.
 
     From the table of :func:`sq_table`, ``(..., ny + 1, kx + 1)``: views, no gathers,
-    two passes.
+    three passes, no temporary.
     """
-    ny = u.shape[-2] - 1
-    e = u[..., _reversed_rows(ny, i0, i1), :] - u[..., i0:i1, :]
-    e += u[..., ny:ny + 1, :]
-    return e
-
-
-def _add_sq_rows(b: np.ndarray, u: np.ndarray, i0: int, i1: int) -> None:
-    """Add :func:`_sq_rows` to ``b`` in place (three passes, no temporary)."""
     ny = u.shape[-2] - 1
     b += u[..., _reversed_rows(ny, i0, i1), :]
     b -= u[..., i0:i1, :]
