@@ -1,7 +1,12 @@
 """What the stitched UNCD G measures, what it bridges, and how far levelling goes.
 
 The three UNCD measurements (TEM profile, AFM map, stylus profile; detrended as their
-metadata say) are stitched as a DataTree, as ``tree.rough.acf(unit="nm")``. Printed:
+metadata say) are stitched as a DataTree, as ``tree.rough.acf(unit="nm")``. Parts 1-3
+stitch the G as measured (``reliable=False``: the tips meta.yml states not applied, so
+that the AFM takes part); part 0 with them applied (the default). Printed:
+
+0. with the stated tips (default): the windows and their rules, what is left out, the
+   gaps and the fit of the stitched G;
 
 1. the lag ranges no window covers (``uncovered_dr_min/max``) and the bins around them;
 2. the level factors with the standard errors of their logarithms, for the AFM heights as
@@ -96,11 +101,30 @@ def synthetic() -> None:
           f"{float(e_all.v_el) / float(e_gap.v_el) - 1:+.3f}")
 
 
+def with_tips() -> None:
+    """The stitched UNCD G with the tips meta.yml states (the default, reliable=True)."""
+    G, caught = stitched(uncd_tree(UNCD), unit="nm")
+    print("UNCD, stated tips applied (default):")
+    print(f"  windows: {G.attrs['windows']}")
+    print(f"  rules: {G.attrs['window_rules']}")
+    print(f"  left out: {G.attrs['left_out'] or '-'}; G quality: {G.attrs.get('quality')}")
+    print(f"  remarks: {G.attrs.get('quality_remarks', '')}")
+    for lo, hi in zip(G.attrs["uncovered_dr_min"], G.attrs["uncovered_dr_max"]):
+        print(f"  uncovered: {lo:.4g}-{hi:.4g} {G.attrs['uncovered_dr_units']}")
+    print(f"  warnings: {sorted({c for c, _ in caught})}")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fit = G.rough.fit()
+    print(f"  fit: H = {float(fit.hurst):.3f} +- {float(fit.hurst_std):.3f} "
+          f"({fit.attrs.get('quality')}: {fit.attrs.get('quality_notes', '')[:160]})")
+
+
 def main() -> None:
     if UNCD.is_dir():
+        with_tips()
         for scale in (1.0, 2.0):
-            G, caught = stitched(uncd_tree(UNCD, scale), unit="nm")
-            print(f"UNCD, AFM heights x {scale:g}:")
+            G, caught = stitched(uncd_tree(UNCD, scale), unit="nm", reliable=False)
+            print(f"UNCD as measured (reliable=False), AFM heights x {scale:g}:")
             for lo, hi in zip(G.attrs["uncovered_dr_min"], G.attrs["uncovered_dr_max"]):
                 dr = G.dr.values
                 print(f"  uncovered: {lo:.4g}-{hi:.4g} {G.attrs['uncovered_dr_units']} "

@@ -1,7 +1,8 @@
 r"""One G(dr) over many decades from several instruments (stitching).
 
 Each instrument resolves G only inside its reliability window: above a few pixels (or its
-lateral resolution, tip cutoff) and below a fraction of its scan size. Measurements of one
+lateral resolution, or the cutoff of the tip its file states, as ``acf()`` applies it)
+and below a fraction of its scan size. Measurements of one
 surface by several instruments (TEM profiles, AFM maps, stylus profiles...) cover
 different windows; stitching brings their G to one length unit and one log grid of lag
 bins and combines them where they overlap.
@@ -52,7 +53,7 @@ from ._kernels.binning import check_points_per_decade, log_bin_edges, log_bins
 from ._kernels.checks import require_positive
 from .acf import result_attrs
 from .correlation import height_difference_acf
-from .preprocess import reliability_window
+from .preprocess import TIP_SAFETY_FACTOR, _tip_cutoff, reliability_window, stated_tip_radius
 from .topography import grid_of
 
 __all__ = [
@@ -175,10 +176,17 @@ def _require_curve(name: str, da: xr.DataArray) -> None:
 
 
 def _window_of(name: str, da: xr.DataArray, override, lunit: str, min_pixels: float,
-               long_fraction: float) -> tuple[float, float, str]:
-    """Window of one measurement in its own lateral unit, with the rule that set it."""
+               long_fraction: float, *, tips: bool = True) -> tuple:
+    """Window of one measurement in its own lateral unit, with the rule that set it.
+
+    Returns ``(dr_min, dr_max, rule, said)``. ``said`` may hold a ``"remark"`` (the short
+    end raised by a stated tip, or a stated tip not applied to a lazy map) and
+    ``"left_out"`` (why the measurement is left out: its stated tip resolves no lag of its
+    window; ``dr_min`` and ``dr_max`` are then ``None``). See :func:`_stated_tip_limit`.
+    """
     lo, hi = reliability_window(da) if ("x" in da.coords or "dr" in da.coords) else (None,
                                                                                     None)
+    recorded_lo = lo is not None
     rule_lo = rule_hi = "reliable_dr (recorded)"
     if _is_acf(da):
         _require_curve(name, da)
@@ -199,16 +207,82 @@ def _window_of(name: str, da: xr.DataArray, override, lunit: str, min_pixels: fl
         if not isinstance(override, (tuple, list)) or len(override) != 2:
             raise ValueError(f"windows[{name!r}] must be a pair (dr_min, dr_max), got "
                              f"{override!r}")
-        if override[0] is not None:
-            lo = u.length_in(override[0], lunit, what=f"windows[{name!r}][0]")
-            rule_lo = "windows= override"
         if override[1] is not None:
             hi = u.length_in(override[1], lunit, what=f"windows[{name!r}][1]")
             rule_hi = "windows= override"
+    said: dict[str, str] = {}
+    # a topography without a recorded short end whose metadata state a tip: the tip rule
+    # sets it, as acf() does by default (reliable=True; xrough.preprocess.tip_window)
+    stated = (None if recorded_lo or _is_acf(da) or not tips
+              else stated_tip_radius(da.attrs))
+    given_lo = override is not None and override[0] is not None
+    if stated is not None and given_lo:
+        rule_lo = (f"windows= override (the tip radius {stated[0]} stated in the file, attr "
+                   f"{stated[1]!r}, not applied)")
+    elif stated is not None:
+        lo, rule_lo, said = _stated_tip_limit(
+            name, da, stated, lo=lo, rule_lo=rule_lo, hi=hi, rule_hi=rule_hi, lunit=lunit,
+            min_pixels=min_pixels, long_fraction=long_fraction,
+            override=override is not None)
+        if "left_out" in said:
+            return None, None, "", said
+    if given_lo:
+        lo = u.length_in(override[0], lunit, what=f"windows[{name!r}][0]")
+        if stated is None:
+            rule_lo = "windows= override"
     if not 0 < lo < hi:
         raise ValueError(f"measurement {name!r}: empty window dr_min={lo:g} >= dr_max={hi:g} "
                          f"{lunit} ({rule_lo}; {rule_hi})")
-    return float(lo), float(hi), f"dr_min: {rule_lo}; dr_max: {rule_hi}"
+    return float(lo), float(hi), f"dr_min: {rule_lo}; dr_max: {rule_hi}", said
+
+
+def _stated_tip_limit(name: str, da: xr.DataArray, stated: tuple[str, str], *, lo: float,
+                      rule_lo: str, hi: float, rule_hi: str, lunit: str, min_pixels: float,
+                      long_fraction: float, override: bool) -> tuple:
+    """Short end of the window of a topography whose metadata state a tip radius.
+
+    The tip rule of :func:`xrough.reliable` (the cutoff of :func:`xrough.preprocess.
+    tip_window`, which :func:`xrough.height_difference_acf` applies by default) on the map,
+    against the default short end ``lo``: the larger of the two. Returns ``(dr_min, rule,
+    said)`` (see :func:`_window_of`): a remark where the tip raised the short end; where
+    the cutoff is not below ``hi`` the measurement is left out (``"left_out"``), unless
+    ``windows=`` names it (``override``): then a ValueError asks for its ``dr_min``. A lazy
+    (dask) map keeps ``lo``, with a remark that the tip was not applied.
+    """
+    radius, key = stated
+    said_tip = f"the tip radius {radius} stated in the file (attr {key!r})"
+    if _is_lazy(da):
+        return lo, f"{rule_lo} ({said_tip} not applied: lazy map)", {"remark": (
+            f"{name!r}: {said_tip} is not applied: the map is lazy (dask) and the tip rule "
+            "reads all of it, while the window must be known before compute; its window "
+            f"starts at {lo:.4g} {lunit} ({rule_lo}). To apply the tip, record the window "
+            f"first: xrough.reliable(topography, tip_radius={radius!r}, "
+            f"min_pixels={min_pixels:g}, long_fraction={long_fraction:g}) (this computes the "
+            "map)")}
+    cut, _ = _tip_cutoff(da, grid_of(da), u.length_in(radius, lunit, what=f"attr {key!r}"),
+                         TIP_SAFETY_FACTOR)
+    if cut is None:
+        return lo, f"{rule_lo} ({said_tip} follows every scale of the map)", {}
+    if cut <= lo:
+        return lo, f"{rule_lo} (above the cutoff {cut:.4g} {lunit} of {said_tip})", {}
+    rule = (f"tip rule (xrough.reliable, curvature above -{TIP_SAFETY_FACTOR:g}/R) of "
+            f"{said_tip}: cutoff {cut:.4g} {lunit}")
+    if cut >= hi:
+        why = (f"{said_tip} resolves no lag of its window: the cutoff of the tip rule, "
+               f"{cut:.4g} {lunit}, is not below the window's long end {hi:.4g} {lunit} "
+               f"({rule_hi})")
+        if override:
+            raise ValueError(f"measurement {name!r}: {why}; give windows[{name!r}] a dr_min "
+                             "to stitch it")
+        return None, rule, {"left_out": (
+            f"measurement {name!r} left out of the stitch: {why}: its G at every lag is "
+            f"shaped by the tip, not the surface; windows={{{name!r}: (dr_min, dr_max)}} "
+            "stitches it in a window of your choice, reliable=False every measurement as "
+            "measured")}
+    return cut, rule, {"remark": (
+        f"{name!r}: G from {cut:.4g} {lunit}, not from {lo:.4g} {lunit} ({rule_lo}): "
+        f"{said_tip} resolves no finer lag (tip rule of xrough.reliable, as acf() applies "
+        "it)")}
 
 
 # ------------------------------------------------------------------------------ re-bin
@@ -318,8 +392,9 @@ def stitch_curves(
     points_per_decade : float
         Common log bins, centred on ``10**(k / points_per_decade)`` in ``unit``.
     windows : mapping of str to (dr_min, dr_max), optional
-        Per-measurement window overriding the recorded or default one (numbers in the
-        measurement's lateral unit, or strings/Quantities; ``None`` keeps a limit).
+        Per-measurement window overriding the recorded, stated-tip or default one (numbers
+        in the measurement's lateral unit, or strings/Quantities; ``None`` keeps a limit).
+        A ``dr_min`` here wins over a stated tip, also one that resolves no lag.
     unit, height_unit : str, optional
         Common lateral and height units (default: those of the first measurement).
     min_pixels : float
@@ -331,21 +406,35 @@ def stitch_curves(
         Compute the G of several topographies in parallel threads (dask.delayed).
     **acf_kwargs
         Passed to :func:`xrough.height_difference_acf` (e.g. ``direction``,
-        ``estimator``); not ``bins``, ``dr_min``, ``dr_max`` or ``pool``.
+        ``estimator``); not ``bins``, ``dr_min``, ``dr_max`` or ``pool``. ``reliable``
+        (default True) applies the tip or stylus radius a topography's metadata state, as
+        for ``acf()`` (see Notes); ``reliable=False`` stitches every G as measured.
 
     Returns
     -------
     xarray.Dataset
         On dims ``(measurement, dr)``: ``G``, ``standard_error`` (height unit squared) and
         ``pair_count``; NaN (count 0) outside each window. Coords ``dr_min``, ``dr_max``
-        (windows in the common unit) per measurement, and attrs naming the window rules.
+        (windows in the common unit) and ``window_rule`` (what set them) per measurement;
+        attrs ``window_rules`` (the rules in one string), ``left_out`` (the measurements
+        left out because their stated tip resolves no lag, ``", "``-joined; ``""`` when
+        none), with ``quality`` questionable and ``quality_notes`` saying why when one is,
+        and ``quality_remarks`` naming the windows a stated tip cut (or a tip stated by a
+        lazy map, not applied).
 
     Raises
     ------
     ValueError
-        An empty window, windows for unknown measurements, disallowed ``acf_kwargs``.
+        An empty window (also a ``windows=`` entry without ``dr_min`` for a measurement
+        whose stated tip resolves no lag), windows for unknown measurements, disallowed
+        ``acf_kwargs``, every measurement left out.
     TypeError
         Measurements that are not DataArrays.
+
+    Warns
+    -----
+    xrough.QualityWarning
+        Once per measurement left out (its name, the stated tip radius and why).
 
     See Also
     --------
@@ -359,6 +448,18 @@ def stitch_curves(
     fall into one common bin are averaged with pair-count weights. Either way the value at
     the pair-weighted mean lag of the bin is then moved to the bin centre along the local
     log-log slope of the measurement's own curve, so that all curves refer to the same lag.
+
+    *Windows from stated tips.* A topography without ``reliable_dr_min`` whose metadata
+    state a tip or stylus radius (:func:`xrough.preprocess.stated_tip_radius`: a file's
+    ``Stylus`` header, a ``meta.yml`` description) gets the cutoff of the tip rule of
+    :func:`xrough.reliable` as the short end of its window when that lies above
+    ``min_pixels`` pixels: the cutoff :func:`xrough.height_difference_acf` records by
+    default (:func:`xrough.preprocess.tip_window`). Where the cutoff is not below the
+    window's long end, the tip resolves no lag of the measurement and it is left out
+    (unless ``windows=`` gives its ``dr_min``). The tip rule reads the whole map: on a lazy
+    (dask) topography it is not applied (the window must be known before compute), and a
+    remark says how to apply it (:func:`xrough.reliable` with the tip radius first).
+    A precomputed G keeps the window it records.
     """
     items = _as_mapping(measurements)
     windows = _checked_windows(windows, items, acf_kwargs)
@@ -368,8 +469,16 @@ def stitch_curves(
     u.as_length_unit(lunit, what="unit")
     u.as_length_unit(hunit, what="height_unit")
     ppd = check_points_per_decade(points_per_decade)
+    tips = bool(acf_kwargs.pop("reliable", True))  # the tip windows are set here, once
     plans = {name: _plan_measurement(name, da, windows.get(name), lunit, hunit, min_pixels,
-                                     long_fraction) for name, da in items.items()}
+                                     long_fraction, tips) for name, da in items.items()}
+    left_out = {n: p["said"]["left_out"] for n, p in plans.items() if "left_out" in p["said"]}
+    if len(left_out) == len(plans):
+        raise ValueError("every measurement is left out of the stitch: "
+                         + "; ".join(left_out.values()))
+    plans = {n: p for n, p in plans.items() if n not in left_out}
+    items = {n: da for n, da in items.items() if n not in left_out}
+    acf_kwargs = {**acf_kwargs, "reliable": False}
     centres, edges = log_bins(min(p["lo"] for p in plans.values()),
                               max(p["hi"] for p in plans.values()), ppd)
     # one graph for all measurements: lazy where any input is, else computed at once
@@ -384,7 +493,30 @@ def stitch_curves(
         meta.append(_measurement_meta(name, da, attrs, plans[name]["f"]))
     packed = (dsa.stack if in_graph else np.stack)(rows, axis=1)  # (3, measurement, dr)
     ds = _curves_dataset(packed, centres, plans, meta, lunit=lunit, hunit=hunit, ppd=ppd)
+    ds = _tip_findings(ds, left_out, [p["said"]["remark"] for p in plans.values()
+                                      if "remark" in p["said"]])
     return ds.compute() if in_graph and not lazy else ds
+
+
+def _tip_findings(ds: xr.Dataset, left_out: dict[str, str], remarks: list[str]) -> xr.Dataset:
+    """Record what the stated tips did on the curves.
+
+    ``attrs["left_out"]`` (names), ``quality_remarks`` (windows raised by a tip, tips not
+    applied to lazy maps) and, for each measurement left out, a questionable mark with its
+    note and one :class:`xrough.QualityWarning` naming it, its tip radius and why.
+    """
+    ds.attrs["left_out"] = ", ".join(left_out)
+    for note in left_out.values():
+        ds = quality.mark(ds, note, what="stitch_curves")
+    if remarks:
+        ds.attrs["quality_remarks"] = _joined(ds.attrs.get("quality_remarks", ""), remarks)
+    return ds
+
+
+def _joined(old: str, new: list[str]) -> str:
+    """``"; "``-join the notes ``new`` onto ``old``, each once."""
+    parts = [n for n in str(old).split(quality.SEPARATOR) if n]
+    return quality.SEPARATOR.join(parts + [n for n in new if n and n not in parts])
 
 
 def _checked_windows(windows, items: dict, acf_kwargs: dict) -> dict:
@@ -404,16 +536,21 @@ def _checked_windows(windows, items: dict, acf_kwargs: dict) -> dict:
 
 
 def _plan_measurement(name: str, da: xr.DataArray, override, lunit: str, hunit: str,
-                      min_pixels: float, long_fraction: float) -> dict:
+                      min_pixels: float, long_fraction: float, tips: bool = True) -> dict:
     """Window of one measurement in the common unit, with the factors to reach it.
 
     ``f`` converts its lags to ``lunit``, ``g_factor`` its G to ``hunit`` squared; ``lo``
-    and ``hi`` are its window in ``lunit`` and ``rule`` says what set them.
+    and ``hi`` are its window in ``lunit`` and ``rule`` says what set them; ``said`` what
+    a stated tip did (:func:`_window_of`: a ``"remark"``, or ``"left_out"`` when the
+    measurement is left out, and then no window).
     """
     own = _lateral_unit(da)
-    lo, hi, rule = _window_of(name, da, override, own, min_pixels, long_fraction)
+    lo, hi, rule, said = _window_of(name, da, override, own, min_pixels, long_fraction,
+                                    tips=tips)
+    if lo is None:
+        return dict(said=said)
     f = u.conversion_factor(own, lunit)
-    return dict(f=f, lo=lo * f, hi=hi * f, rule=rule,
+    return dict(f=f, lo=lo * f, hi=hi * f, rule=rule, said=said,
                 g_factor=u.conversion_factor(_height_unit(da), hunit) ** 2)
 
 
@@ -476,6 +613,8 @@ def _curves_dataset(packed, centres: np.ndarray, plans: dict, meta: list[dict], 
                     "units": lunit, "long_name": "long end of the reliable window"}),
                 "pixel_size": per_measurement("pixel_size", {"units": lunit}),
                 "scan_size": per_measurement("scan_size", {"units": lunit}),
+                "window_rule": ("measurement", [plans[n]["rule"] for n in names], {
+                    "long_name": "what set the reliable window"}),
                 "kind": per_measurement("kind"),
                 "source": per_measurement("source"),
                 "source_sha256": per_measurement("source_sha256", {
@@ -758,7 +897,8 @@ def stitch(
     points_per_decade : float
         Common log bins per decade.
     windows : mapping of str to (dr_min, dr_max), optional
-        Per-measurement reliable windows overriding the recorded/default ones.
+        Per-measurement reliable windows overriding the recorded, stated-tip or default
+        ones (:func:`stitch_curves`).
     threshold : float
         ``|z|`` of the mismatch diagnostic above which a pair disagrees.
     warn : bool
@@ -773,16 +913,20 @@ def stitch(
         combines the curves as they are, which leaves a step where a window begins.
     **kwargs
         Passed to :func:`stitch_curves` (``unit``, ``height_unit``, ``min_pixels``,
-        ``long_fraction``, ``parallel``, options of :func:`xrough.height_difference_acf`).
+        ``long_fraction``, ``parallel``, ``reliable``, options of
+        :func:`xrough.height_difference_acf`).
 
     Returns
     -------
     xarray.DataArray
         ``G`` on the common ``dr`` (bins covered by no window dropped) with coords
         ``standard_error``, ``pair_count`` (sum over measurements), ``n_measurements``;
-        attrs ``stitched`` (1), ``stitched_from`` (names), ``sources``, the windows, the
-        weighting rule, ``pixel_size`` and ``scan_size`` (finest pixel, largest scan),
-        the mismatch summary (``mismatch_pairs``, ``mismatch_ratio``, ``mismatch_z``),
+        attrs ``stitched`` (1), ``stitched_from`` (names), ``left_out`` (measurements
+        whose stated tip resolves no lag: then ``quality`` questionable, the note in
+        ``quality_notes``), ``sources``, the windows and ``window_rules`` (what set each;
+        ``quality_remarks`` names those a stated tip cut), the weighting rule,
+        ``pixel_size`` and ``scan_size`` (finest pixel, largest scan), the mismatch summary
+        (``mismatch_pairs``, ``mismatch_ratio``, ``mismatch_z``),
         ``level_factors`` (per measurement, in the order of ``stitched_from``; all 1 with
         ``level=False``), ``level_factor_errors`` (standard errors of their logarithms,
         :func:`level_factors`), ``level_factor_bound`` and ``reliable_dr_min/max`` (the
@@ -877,6 +1021,23 @@ def stitch(
     out = quality.mark_curves(out, xr.DataArray(code), what="stitch", notes=text, warn=False)
     if text and warn:
         quality.warn(text, LevelFactorWarning)
+    return _carry_findings(out, curves)
+
+
+def _carry_findings(out: xr.DataArray, curves: xr.Dataset) -> xr.DataArray:
+    """Give the stitched G what :func:`stitch_curves` found before any value was computed.
+
+    Measurements left out (their stated tip resolves no lag; their notes, questionable,
+    warned by :func:`stitch_curves`) and the remarks on windows cut by a tip. Remarks are
+    set directly: a lazy G gets no ``quality`` attr from them (:data:`STITCH_DIAGNOSTICS`).
+    """
+    level, notes = curves.attrs.get("quality", "good"), curves.attrs.get("quality_notes", "")
+    if level != "good" and notes:
+        out = quality.mark(out, notes, level=level, what="stitch", warn=False)
+    remarks = [n for n in str(curves.attrs.get("quality_remarks", "")).split(
+        quality.SEPARATOR) if n]
+    if remarks:
+        out.attrs["quality_remarks"] = _joined(out.attrs.get("quality_remarks", ""), remarks)
     return out
 
 
@@ -922,6 +1083,7 @@ def _stitched_attrs(curves: xr.Dataset, *, level: bool, diagnostics: dict,
         "windows": "; ".join(f"{n}: {lo:.4g}-{hi:.4g} {lunit}" for n, lo, hi in
                              zip(names, curves.dr_min.values, curves.dr_max.values)),
         "window_rules": curves.attrs.get("window_rules", ""),
+        "left_out": str(curves.attrs.get("left_out", "")),
         "weighting": "inverse-variance mean of ln G, weights (G_i / standard_error_i)^2",
         "levelling": (f"each G times a factor fitted next to the seams (level_factors), "
                       f"at most {LEVEL_FACTOR_BOUND:g} or 1/{LEVEL_FACTOR_BOUND:g} "
