@@ -154,8 +154,14 @@ def test_sur_file_spectrum_fit_is_not_stuck():
     where eq. 36 gives 15; restarted, the spectrum fits better than eq. 36 (measured 10.3,
     rms misfit 9 %), and the largest miss is rated."""
     topo = xrough.open_topography(_needs("sur-2.sur")).rough.detrend()
+    with pytest.warns(xrough.QualityWarning, match="the regions of the map disagree"):
+        G = topo.rough.acf()
+    # the restarts, on G with its Gaussian errors (its quarters scatter up to 66 times
+    # beyond them: with those errors H is not determined, tests/test_real_data.py)
+    G = G.assign_coords(standard_error=(G.standard_error / G.error_inflation).assign_attrs(
+        G.standard_error.attrs))
     with pytest.warns(xrough.QualityWarning, match=r"misses G by 3.8\d times"):
-        fit = xrough.fit_acf(topo.rough.acf())
+        fit = xrough.fit_acf(G)
     assert float(fit.reduced_chi2) < float(fit.reduced_chi2_eq36)
     assert float(fit.rms_misfit) < 0.1
     # but its roll-off plateaus where G still rises: 3.8 times below G at the largest lags

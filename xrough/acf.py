@@ -306,26 +306,57 @@ ERROR_OF_SURFACE = (
     "included")
 #: ... and where it does not (a stitched or model G).
 #: ... and where none is computed: G states no map geometry.
+#: ... and where the regions of the map scatter beyond that model (:data:`INFLATION`).
+ERROR_OF_REGIONS = (
+    "the surface: the scatter of G between the map's four quarters where they disagree "
+    "beyond the finite-area errors of a Gaussian surface with the spectrum of G (coordinate "
+    "error_inflation of G), those errors elsewhere, with their covariance between bins, "
+    "propagated linearly; the theory's own error (Persson's against the solver) is not "
+    "included")
 ERROR_OF_NONE = ("none: G states no map geometry (lag_geometry, scan_size, pixel_size) for "
                  "the covariance of its bins, e.g. a stitched or model G")
+
+
+def error_of(model: dict | None) -> str:
+    """Say what the ``_std`` of a result from G with :func:`error_model` ``model`` is."""
+    if model is None:
+        return ERROR_OF_NONE
+    return ERROR_OF_REGIONS if "inflation" in model else ERROR_OF_SURFACE
+
+
 ERROR_OF_BINS = ("G's bins taken as independent, with their standard_error: G states no "
                  "map geometry (lag_geometry, scan_size, pixel_size) for their covariance")
+
+
+#: Coordinate of G: the factor by which its ``standard_error`` exceeds the Gaussian
+#: finite-area error, where the regions of the map disagree (``correlation._regions``).
+INFLATION = "error_inflation"
 
 
 def error_model(G: xr.DataArray) -> dict | None:
     """Return the map geometry the finite-area errors of G need, or None when G has none.
 
     From G's attrs: ``lag_geometry``, ``scan_size`` and ``pixel_size`` (in the unit of
-    ``dr``, as the estimator wrote them) and ``pooled_count`` (maps pooled into G); the
-    keywords of :func:`xrough._kernels.uncertainty.relative_covariance`.  A stitched or
-    model G states none.
+    ``dr``, as the estimator wrote them) and ``pooled_count`` (maps pooled into G), and
+    from its coordinate :data:`INFLATION` (where the regions of the map scatter beyond
+    the Gaussian model; the largest over the curves of a stack; read from a computed G
+    only) ``inflation``: the keywords of
+    :func:`xrough._kernels.uncertainty.relative_covariance`.  A stitched or model G
+    states none.
     """
     geometry = G.attrs.get("lag_geometry")
     size, pixel = G.attrs.get("scan_size"), G.attrs.get("pixel_size")
     if geometry not in ("radial", "axis", "profile") or not size or not pixel:
         return None
-    return {"size": float(size), "pixel": float(pixel), "geometry": geometry,
-            "n_maps": int(G.attrs.get("pooled_count", 1))}
+    out = {"size": float(size), "pixel": float(pixel), "geometry": geometry,
+           "n_maps": int(G.attrs.get("pooled_count", 1))}
+    inflation = G.coords.get(INFLATION)
+    if inflation is not None and inflation.chunks is None:
+        k = np.asarray(inflation.transpose(..., "dr").values, dtype=float)
+        k = np.nanmax(k.reshape(-1, k.shape[-1]), axis=0) if k.size else k
+        if np.any(k > 1.0):  # the regions of a map scatter beyond the Gaussian model
+            out["inflation"] = tuple(np.where(np.isfinite(k), k, 1.0).tolist())
+    return out
 
 
 def lag_coord(values: np.ndarray, unit: str, *, name: str = "dr",

@@ -110,7 +110,8 @@ def _simulated_stress_acf(pressure: xr.DataArray, lunit: str, periodic: bool,
     """``<p(r) p(r + dr)>`` per load from the pressure field's own G (Pa^2)."""
     field = pressure.copy()
     field.attrs = {"units": "m", "periodic": int(periodic)}  # Pa stored as "m"
-    G_p = height_difference_acf(field, progress=False, **acf_kwargs)
+    with quality.quiet():  # a tool for the stress ACF: its own verdicts are not the user's
+        G_p = height_difference_acf(field, progress=False, **acf_kwargs)
     to_pa2 = u.conversion_factor(G_p.attrs["units"], "m2")
     mean_sq = (pressure**2).mean(("y", "x"))
     return mean_sq - G_p * to_pa2

@@ -155,12 +155,13 @@ def energy_curve(g, *, dr, a_c) -> np.ndarray:
     return np.concatenate([[total, below / total, above / total], cum])
 
 
-def energy_std_curve(g, *, dr, size, pixel, geometry, n_maps) -> np.ndarray:
+def energy_std_curve(g, *, dr, size, pixel, geometry, n_maps, inflation=None) -> np.ndarray:
     """Statistical standard deviation of ``int G / r^2 dr`` (per unit ``E*/4``).
 
     The finite-area errors of G's bins with their full covariance
     (:func:`~xrough._kernels.uncertainty.relative_covariance`, from the spectrum of G for
-    a map of ``size`` with pixels ``pixel``), propagated linearly; shape ``(1,)``.
+    a map of ``size`` with pixels ``pixel``, raised by ``inflation`` where the regions of
+    the map disagree), propagated linearly; shape ``(1,)``.
     """
     def total(values):
         return AcfCurve(dr, values, None).cumulative_g_over_r2(np.array([np.inf]))[0]
@@ -168,7 +169,7 @@ def energy_std_curve(g, *, dr, size, pixel, geometry, n_maps) -> np.ndarray:
     if not np.all(np.isfinite(g)):
         return np.array([np.nan])
     cov = relative_covariance(dr, g, size=size, pixel=pixel, geometry=geometry,
-                              n_maps=n_maps)
+                              n_maps=n_maps, inflation=inflation)
     return propagated_std(total, g, cov)
 
 

@@ -41,7 +41,7 @@ from .hankel import PowerLawInterpolant, profile_spectrum_kernel
 from .spectrum_of_acf import smooth_acf_kernel, spectrum_from_acf_kernel
 
 __all__ = ["g_covariance", "g_variance", "covariance_from_acf", "finite_area_variance",
-           "relative_covariance", "propagated_std"]
+           "relative_covariance", "propagated_std", "regional_scatter"]
 
 
 def _interpolator(dr: np.ndarray, g: np.ndarray):
@@ -467,16 +467,28 @@ PREDICTION_PER_DECADE = 10.0
 
 
 def relative_covariance(dr: np.ndarray, g: np.ndarray, *, size: float, pixel: float,
-                        geometry: str, n_maps: int = 1) -> np.ndarray:
+                        geometry: str, n_maps: int = 1,
+                        inflation: tuple[float, ...] | np.ndarray | None = None) -> np.ndarray:
     """Covariance of ``ln G`` bin by bin: :func:`covariance_from_acf` over ``g_i g_j``.
 
     ``n_maps``: independent maps pooled into ``g`` (the covariance of one over their
-    number).  Bins that are not finite and positive get zero rows; a G with fewer than
-    four usable bins, or whose spectrum cannot be formed, gives NaN.  The fit, the energy
-    and the gradient of one G ask for the same covariance: the last few are kept (a
-    copy is returned).
+    number).  ``inflation``: per bin, the factor by which G's standard error exceeds its
+    Gaussian finite-area value (:func:`regional_scatter`: the regions of the map scatter
+    more than a Gaussian surface's would); the covariance becomes ``K S K`` with ``K =
+    diag(inflation)``, its correlations unchanged.  Bins that are not finite and positive
+    get zero rows; a G with fewer than four usable bins, or whose spectrum cannot be
+    formed, gives NaN.  The fit, the energy and the gradient of one G ask for the same
+    covariance: the last few are kept (a copy is returned).
     """
     dr, g = np.asarray(dr, dtype=float), np.asarray(g, dtype=float)
+    if inflation is not None:
+        k = np.asarray(inflation, dtype=float)
+        if k.shape != dr.shape:
+            raise ValueError(f"inflation has {k.size} values for {dr.size} bins of G")
+        cov = relative_covariance(dr, g, size=size, pixel=pixel, geometry=geometry,
+                                  n_maps=n_maps)
+        k = np.where(np.isfinite(k) & (k > 1.0), k, 1.0)
+        return cov * np.outer(k, k)
     if not (np.isfinite(pixel) and pixel > 0):
         return np.full((dr.size, dr.size), np.nan)
     # unit-free key (lags in pixels, G over its median, rounded to 12 digits): the same G
@@ -539,3 +551,61 @@ def propagated_std(f, g: np.ndarray, rel_cov: np.ndarray, step: float = 1e-6) ->
         J[:, i] = (np.atleast_1d(f(gi)) - f0) / step
     with np.errstate(invalid="ignore"):
         return np.sqrt(np.maximum(np.einsum("ki,ij,kj->k", J, rel_cov, J), 0.0))
+
+
+#: The regions of a map disagree when the scatter of their G at some judged lag exceeds
+#: their finite-area error by more than this factor in variance (a standard deviation 3
+#: times the model's).  Measured (``benchmarks/calibration_real.py``, and the quarters
+#: of 72 self-affine maps of 256^2 and 512^2, H 0.3-0.8, open and periodic, lambda_r
+#: from L/8 to 2 L): at most 3.8 on the synthetic maps (the 99.9 % point of chi^2 with
+#: three degrees of freedom over three is 5.4; the lags are correlated); 34-3e6 on eight
+#: of the eleven instrument maps.
+REGIONS_DISAGREE = 9.0
+
+
+def regional_scatter(g_regions, g, se, *, judged, area_ratio) -> np.ndarray:
+    """Scatter of G between regions of one map against its Gaussian finite-area error.
+
+    ``g_regions``: ``(n, nb)``, G of ``n`` disjoint regions of the map (NaN where a region
+    has no pairs or the lag is not judged); ``g``, ``se``: G of the whole map and its
+    Gaussian standard error (``nb``); ``judged``: the lags where the regions hold enough
+    pairs (bool, ``nb``); ``area_ratio``: the map's area over a region's, so that a
+    region's Gaussian error is ``se sqrt(area_ratio)`` (the finite-area variance goes as
+    one over the area; within 10 % of a region's own up to a quarter of its side,
+    measured on self-affine maps).
+
+    Returns ``(2, nb)``: the ratio ``r^2`` of the regions' variance about their mean to
+    their Gaussian variance (about 1 for a stationary Gaussian surface; NaN where not
+    judged), and the factor ``k >= 1`` by which G's error is to be raised: where some
+    judged lag has ``r^2 >`` :data:`REGIONS_DISAGREE`, ``k`` is the regions' scatter of
+    the mean over the whole map's Gaussian error, ``std(g_regions) / sqrt(n) / se``, at
+    least 1, on every judged lag, and beyond the last judged lag the value there; else 1.
+    """
+    g, se = np.asarray(g, dtype=float), np.asarray(se, dtype=float)
+    # relative to G's largest value: G near the float range squares without overflow
+    scale = np.nanmax(np.abs(g), initial=0.0) if np.any(np.isfinite(g)) else 0.0
+    scale = scale if np.isfinite(scale) and scale > 0 else 1.0
+    gr = np.asarray(g_regions, dtype=float) / scale
+    g, se = g / scale, se / scale
+    n = gr.shape[0]
+    out = np.full((2, g.size), np.nan)
+    out[1] = 1.0
+    ok = np.asarray(judged, dtype=bool) & np.all(np.isfinite(gr), axis=0) & (se > 0)
+    if n < 2 or not ok.any():
+        return out
+    with np.errstate(invalid="ignore", divide="ignore"):
+        var = np.var(gr, axis=0, ddof=1)
+        r2 = var / (se**2 * area_ratio)
+        k = np.sqrt(var / n) / se
+    out[0, ok] = r2[ok]
+    if not np.nanmax(r2[ok]) > REGIONS_DISAGREE:
+        return out
+    k = np.where(ok & np.isfinite(k), np.maximum(k, 1.0), np.nan)
+    last = np.flatnonzero(ok)[-1]
+    k[last + 1:] = k[last]
+    # lags inside the judged range that a region missed: the nearest judged value below
+    idx = np.where(np.isfinite(k), np.arange(k.size), 0)
+    np.maximum.accumulate(idx, out=idx)
+    k = np.where(np.isfinite(k), k, k[idx])
+    out[1] = np.where(np.isfinite(k), k, 1.0)
+    return out

@@ -20,6 +20,7 @@ from ._choice import choose_estimator, choose_for_target, report_choice, target_
 from ._fft import fft_kernel, split_directions
 from ._plan import Plan, check_bin_width, plan
 from ._random import check_n_pairs, map_seeds, random_kernel
+from ._regions import judge_regions, quarters
 from ._result import g_result, g_unit
 from ._tiled import height_difference_acf_tiled
 
@@ -214,7 +215,8 @@ def height_difference_acf(
         raise ValueError(f"estimator must be one of {ESTIMATORS}, got {estimator!r}")
     options = dict(bins=bins, points_per_decade=points_per_decade, bin_width=bin_width,
                    dr_min=dr_min, dr_max=dr_max)
-    run = dict(direction=direction, pool=pool, workers=workers, progress=progress)
+    run: dict[str, Any] = dict(direction=direction, pool=pool, workers=workers,
+                               progress=progress)
     if target_error is not None:
         return _for_target(topography, target_error, estimator=estimator, n_pairs=n_pairs,
                            seed=seed, options=options, memory_limit=memory_limit, **run)
@@ -274,8 +276,12 @@ def _pool_dims(da: xr.DataArray, grid: Grid, pool) -> tuple[str, ...]:
 
 
 def _in_memory(da: xr.DataArray, grid: Grid, estimator: str, *, n_pairs, seed, options,
-               direction, pool, workers, progress) -> xr.DataArray:
-    """G by all pairs (``'fft'``) or random pairs, one map at a time, pooled on request."""
+               direction, pool, workers, progress, judge: bool = True) -> xr.DataArray:
+    """G by all pairs (``'fft'``) or random pairs, one map at a time, pooled on request.
+
+    ``judge``: check the directions and the regions of a radial G of a map
+    (:mod:`._anisotropy`, :mod:`._regions`).
+    """
     p = plan(grid, direction=direction, **options)
     require_whole_maps(da, grid, purpose="G")
     pool_dims = _pool_dims(da, grid, pool)
@@ -287,7 +293,7 @@ def _in_memory(da: xr.DataArray, grid: Grid, estimator: str, *, n_pairs, seed, o
         workers = workers if workers is not None else (os.cpu_count() or 1)
         # G along each axis too, for the check of directions: of a computed map only (a
         # lazy G is not judged, so its graph carries nothing for it)
-        directional = p.directional and da.chunks is None
+        directional = judge and p.directional and da.chunks is None
         sums = _apply(fft_kernel, da, p, kwargs={"plan": p, "workers": workers,
                                                  "progress": progress,
                                                  "directional": directional},
@@ -318,10 +324,41 @@ def _in_memory(da: xr.DataArray, grid: Grid, estimator: str, *, n_pairs, seed, o
         estimator="random pairs" if random else "fft (all pairs)", direction=direction,
         geometry=p.geometry, bins=options["bins"],
         points_per_decade=options["points_per_decade"], **extra)
+    regions = quarters(da, grid) if (judge and not random and p.directional
+                                     and not pool_dims) else None
+    if regions is not None:  # do the regions of the map agree? (lazy where G is)
+        G = judge_regions(G, edges=p.edges, grid=grid, region_g=lambda window: [
+            _region_g(q, p.edges, window, workers=workers) for q in regions])
     if found is None:
         return G
     codes, note, _ = found  # one verdict per curve (quality_flag), said once
     return quality.mark_curves(G, codes, what="height_difference_acf", notes=note)
+
+
+def _region_g(region: xr.DataArray, edges: np.ndarray, window: float, *,
+              workers) -> xr.DataArray:
+    """G of one region of a map (an open map) on the bins ``edges`` that end by ``window``.
+
+    No errors, no check of directions: the sums of an open FFT padded by ``window``.
+    """
+    grid = grid_of(region)
+    p = plan(grid, direction="radial", bins=edges[edges <= window * (1 + 1e-12)],
+             points_per_decade=10, bin_width=None, dr_min=None, dr_max=None)
+    sums = _apply(_region_kernel, region, p, kwargs={"plan": p, "workers": workers})
+    g = _g_parts(sums, grid, p, random=False, errors=False)[0]
+    return g.assign_coords(dr=("dr", p.dr))
+
+
+def _region_kernel(h: np.ndarray, *, plan: Plan, workers) -> np.ndarray:
+    """:func:`fft_kernel` of the regions of maps: a region without 2 valid points has none."""
+    batch, maps = plan.maps(h)
+    nb = int(plan.keep.sum())
+    out = np.zeros((maps.shape[0], 3 * nb + 2))
+    for i, m in enumerate(maps):
+        if np.count_nonzero(np.isfinite(m)) >= 2:  # else no pairs: G is NaN there
+            out[i] = fft_kernel(m, plan=plan, workers=workers, progress=False,
+                                directional=False)
+    return out.reshape(batch + (out.shape[-1],))
 
 
 def _apply(kernel, da: xr.DataArray, p: Plan, *args, kwargs: dict,
