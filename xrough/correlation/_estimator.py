@@ -342,7 +342,10 @@ def _region_g(region: xr.DataArray, edges: np.ndarray, window: float, *,
     No errors, no check of directions: the sums of an open FFT padded by ``window``.
     """
     grid = grid_of(region)
-    p = plan(grid, direction="radial", bins=edges[edges <= window * (1 + 1e-12)],
+    edges = edges[edges <= window * (1 + 1e-12)].copy()
+    edges[0] *= 1 - 1e-9  # the first lag of the map at its edge: the region's spacing
+    # (from its own coordinates) may differ from the map's in the last digit
+    p = plan(grid, direction="radial", bins=edges,
              points_per_decade=10, bin_width=None, dr_min=None, dr_max=None)
     sums = _apply(_region_kernel, region, p, kwargs={"plan": p, "workers": workers})
     g = _g_parts(sums, grid, p, random=False, errors=False)[0]

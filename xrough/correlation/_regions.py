@@ -75,10 +75,10 @@ def judge_regions(G: xr.DataArray, *, edges: np.ndarray, grid: Grid,
             drop=True), dtype=np.int8), what="height_difference_acf")
         return G.assign_coords({quality.FLAG: flag})
     parts = region_g(window)
-    full_bin = np.searchsorted(edges, G.dr.values, side="right") - 1
+    full_bin = _bin_of(G.dr.values, edges)
     placed = []
     for part in parts:
-        own_bin = np.searchsorted(edges, part.dr.values, side="right") - 1
+        own_bin = _bin_of(part.dr.values, edges)
         where = np.searchsorted(full_bin, own_bin)
         ok = (where < nb) & (full_bin[np.minimum(where, nb - 1)] == own_bin)
         index = np.full(nb, -1)
@@ -132,6 +132,11 @@ def judge_regions(G: xr.DataArray, *, edges: np.ndarray, grid: Grid,
             "regions")
     new.attrs.update(regions_ratio_max=ratio, error_inflation_max=kmax)
     return quality.mark_curves(new, codes, what="height_difference_acf", notes=note)
+
+
+def _bin_of(dr: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Bin of each mean lag (a lag at an edge, to round-off, in the bin above it)."""
+    return np.searchsorted(edges, np.asarray(dr) * (1 + 1e-9), side="right") - 1
 
 
 def _place(values: np.ndarray, *, index: np.ndarray) -> np.ndarray:

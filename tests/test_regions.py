@@ -1,0 +1,154 @@
+"""The regions of a map: G of its quarters against their finite-area error.
+
+A map whose quarters scatter beyond the Gaussian finite-area error of G is not what that
+error describes; its ``standard_error`` (and every error derived from G) becomes the
+quarters' scatter, and G says why (``xrough.correlation._regions``).
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import xrough
+from conftest import data_path
+from xrough._kernels.uncertainty import REGIONS_DISAGREE, regional_scatter
+
+
+def _surface(seed=1, n=256, unit="nm", **kw):
+    topo = xrough.self_affine_surface(hurst=0.7, lambda_r=f"{n // 4} nm", lambda_s="4 nm",
+                                      size=f"{n} nm", n=n, rms_gradient=0.2, seed=seed,
+                                      unit="nm", **kw)
+    topo.attrs["periodic"] = 0
+    return topo if unit == "nm" else xrough.convert_units(topo, unit, lateral=unit)
+
+
+def _banded(seed=1, n=256):
+    """A self-affine map whose first quarter of rows is three times as rough (a band)."""
+    topo = _surface(seed, n)
+    gain = np.where(np.arange(n) < n // 4, 3.0, 1.0)[:, None]
+    return topo.copy(data=topo.values * gain)
+
+
+def _acf(topo, **kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        return topo.rough.acf(**kw)
+
+
+def test_regional_scatter_against_the_sample_variance():
+    """r^2 is the quarters' sample variance over the quarter's Gaussian variance (the
+    whole map's times the area ratio); the factor the regions' error of the mean over the
+    map's error, held beyond the judged lags, 1 where no lag disagrees."""
+    rng = np.random.default_rng(0)
+    g = np.array([1.0, 2.0, 3.0, 4.0, 5.0])
+    se = np.array([0.01, 0.02, 0.03, 0.04, 0.05])
+    regions = g + rng.normal(size=(4, 5)) * np.array([1.0, 2.0, 3.0, 4.0, 5.0]) * 0.5
+    judged = np.array([True, True, True, False, False])
+    r2, k = regional_scatter(regions, g, se, judged=judged, area_ratio=4.0)
+    var = regions.var(axis=0, ddof=1)
+    np.testing.assert_allclose(r2[:3], var[:3] / (4.0 * se[:3] ** 2), rtol=1e-12)
+    assert np.all(np.isnan(r2[3:]))
+    expected = np.maximum(np.sqrt(var[:3] / 4) / se[:3], 1.0)
+    np.testing.assert_allclose(k[:3], expected, rtol=1e-12)
+    np.testing.assert_allclose(k[3:], expected[2], rtol=1e-12)  # held beyond
+    # regions within their errors: nothing raised
+    quiet = g + rng.normal(size=(4, 5)) * se * 2.0 * 0.5
+    r2, k = regional_scatter(quiet, g, se, judged=judged, area_ratio=4.0)
+    assert np.nanmax(r2) < REGIONS_DISAGREE and np.all(k == 1.0)
+    # G near the float range: no overflow (computed relative to G)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        r2_big, k_big = regional_scatter(regions * 1e300, g * 1e300, se * 1e300,
+                                         judged=judged, area_ratio=4.0)
+    r2, k = regional_scatter(regions, g, se, judged=judged, area_ratio=4.0)
+    np.testing.assert_allclose(r2_big[:3], r2[:3], rtol=1e-10)
+    np.testing.assert_allclose(k_big, k, rtol=1e-10)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_a_stationary_map_keeps_its_gaussian_errors(seed):
+    """Self-affine Gaussian maps: the quarters agree (the largest variance ratio over 72
+    such maps was 3.8, the threshold 9), G is not marked, error_inflation is 1."""
+    G = _acf(_surface(seed))
+    assert "quality" not in G.attrs and int(G.quality_flag) == 0
+    np.testing.assert_array_equal(G.error_inflation.values, 1.0)
+    assert "regions_ratio_max" not in G.attrs
+
+
+def test_a_banded_map_is_questionable_and_its_errors_are_the_regions_scatter():
+    """A band of rows three times as rough: the quarters disagree, G says so (one
+    warning naming the regions), standard_error is the Gaussian one times the factor,
+    and the errors of the fit, the gradient and the energy grow with it."""
+    topo = _banded()
+    with pytest.warns(xrough.QualityWarning, match="the regions of the map disagree"):
+        G = topo.rough.acf()
+    assert G.attrs["quality"] == "questionable" and int(G.quality_flag) == 1
+    k = G.error_inflation.values
+    assert k.min() >= 1.0 and k.max() > 3.0
+    assert G.attrs["error_inflation_max"] == pytest.approx(k.max())
+    # the same G with its Gaussian errors
+    plain = G.assign_coords(standard_error=(G.standard_error / G.error_inflation)
+                            .assign_attrs(G.standard_error.attrs)).drop_vars(
+        ["error_inflation", "quality_flag"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        e_reg = G.rough.energy(E_star="25 MPa")
+        e_gauss = plain.rough.energy(E_star="25 MPa")
+        g_reg, g_gauss = G.rough.gradient(), plain.rough.gradient()
+    assert float(e_reg.v_el) == pytest.approx(float(e_gauss.v_el), rel=1e-12)
+    assert float(e_reg.v_el_std) > 2.0 * float(e_gauss.v_el_std)
+    assert float(g_reg.gbar_std[0]) > 2.0 * float(g_gauss.gbar_std[0])
+
+
+def test_the_verdict_is_the_same_in_every_unit_and_with_dask():
+    """nm against m, and a dask stack against numpy: the same flag, factor and errors."""
+    topo = _banded()
+    G_nm = _acf(topo)
+    G_m = _acf(xrough.convert_units(topo, "m", lateral="m"))
+    np.testing.assert_allclose(G_m.error_inflation.values, G_nm.error_inflation.values,
+                               rtol=1e-9)
+    assert int(G_m.quality_flag) == int(G_nm.quality_flag) == 1
+    stack = xr.concat([topo, _surface(2)], dim="scan").assign_attrs(topo.attrs)
+    eager = _acf(stack)
+    lazy = _acf(stack.chunk({"scan": 1}))
+    assert lazy.quality_flag.chunks is not None and lazy.error_inflation.chunks is not None
+    assert eager.quality_flag.values.tolist() == [1, 0]
+    computed = lazy.compute()
+    assert computed.quality_flag.values.tolist() == [1, 0]
+    assert xrough.quality.worst(lazy) == "questionable"
+    np.testing.assert_allclose(computed.error_inflation.values,
+                               eager.error_inflation.values, rtol=1e-12)
+    np.testing.assert_allclose(computed.standard_error.values,
+                               eager.standard_error.values, rtol=1e-10)
+
+
+def test_a_map_with_missing_points_and_a_small_map():
+    """An empty quarter (NaN) has no G and leaves the verdict to the others; a map whose
+    quarters are narrower than 16 pixels is not judged (no error_inflation)."""
+    topo = _surface(4)
+    holed = topo.where((topo.y > 130) | (topo.x > 130))  # the first quarter missing
+    G = _acf(holed)
+    assert np.all(np.isfinite(G.error_inflation.values))
+    small = _acf(_surface(5, n=24))
+    assert "error_inflation" not in small.coords
+
+
+@pytest.mark.data
+def test_the_halves_of_a_real_map_agree_within_their_errors():
+    """nid-1.nid (a scan-start band): its halves along y gave gbar at one pixel 59 of
+    their stated errors apart; with the regions' errors they agree within 3, and each
+    half says why its errors are wide."""
+    topo = xrough.open_topography(data_path("instruments", "nid-1.nid"))
+    parts = []
+    for half in (slice(0, 128), slice(128, 256)):
+        part = topo.isel(y=half).rough.detrend(mode="plane")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            G = part.rough.acf()
+            gbar = G.rough.gradient()
+        assert any("the regions of the map disagree" in str(w.message) for w in caught)
+        parts.append((float(gbar[0]), float(gbar.gbar_std[0])))
+    (a, sa), (b, sb) = parts
+    assert abs(a - b) / np.hypot(sa, sb) < 3.0, parts
