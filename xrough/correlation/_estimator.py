@@ -327,8 +327,8 @@ def _in_memory(da: xr.DataArray, grid: Grid, estimator: str, *, n_pairs, seed, o
     regions = quarters(da, grid) if (judge and not random and p.directional
                                      and not pool_dims) else None
     if regions is not None:  # do the regions of the map agree? (lazy where G is)
-        G = judge_regions(G, edges=p.edges, grid=grid, region_g=lambda window: [
-            _region_g(q, p.edges, window, workers=workers) for q in regions])
+        G = judge_regions(G, edges=p.edges, grid=grid, region_g=lambda window: _region_g(
+            regions, p.edges, window, workers=workers))
     if found is None:
         return G
     codes, note, _ = found  # one verdict per curve (quality_flag), said once
@@ -337,7 +337,7 @@ def _in_memory(da: xr.DataArray, grid: Grid, estimator: str, *, n_pairs, seed, o
 
 def _region_g(region: xr.DataArray, edges: np.ndarray, window: float, *,
               workers) -> xr.DataArray:
-    """G of one region of a map (an open map) on the bins ``edges`` that end by ``window``.
+    """G of regions of a map (open maps) on the bins ``edges`` that end by ``window``.
 
     No errors, no check of directions: the sums of an open FFT padded by ``window``.
     """

@@ -38,10 +38,11 @@ WINDOW = 0.25
 MIN_SIDE = 16
 
 
-def quarters(da: xr.DataArray, grid: Grid) -> list[xr.DataArray] | None:
-    """Return the four quarters of each map of ``da`` (open maps, whatever the whole).
+def quarters(da: xr.DataArray, grid: Grid) -> xr.DataArray | None:
+    """Return the four quarters of each map of ``da`` along a new dim ``region``.
 
-    None when a quarter would be narrower than :data:`MIN_SIDE` pixels.
+    Open maps (whatever the whole), on the coordinates of the first; None when a quarter
+    would be narrower than :data:`MIN_SIDE` pixels.
     """
     dy, dx = grid.dims
     ny, nx = da.sizes[dy], da.sizes[dx]
@@ -51,21 +52,23 @@ def quarters(da: xr.DataArray, grid: Grid) -> list[xr.DataArray] | None:
     for sy in (slice(0, ny // 2), slice(ny // 2, 2 * (ny // 2))):
         for sx in (slice(0, nx // 2), slice(nx // 2, 2 * (nx // 2))):
             q = da.isel({dy: sy, dx: sx})
-            q.attrs = {**q.attrs, "periodic": 0}
-            out.append(q)
-    return out
+            out.append(q if not out else q.assign_coords({dy: out[0][dy], dx: out[0][dx]}))
+    stacked = xr.concat(out, dim="region", coords="minimal", compat="override",
+                        join="override")
+    stacked.attrs = {**da.attrs, "periodic": 0}
+    return stacked
 
 
 def judge_regions(G: xr.DataArray, *, edges: np.ndarray, grid: Grid,
-                  region_g: Callable[[float], list[xr.DataArray]]) -> xr.DataArray:
+                  region_g: Callable[[float], xr.DataArray]) -> xr.DataArray:
     """G with the verdict of its regions: errors raised and marked where they disagree.
 
     ``G``: the labelled G of whole maps (dim ``dr``, coord ``standard_error``; lazy
-    allowed); ``edges``: its bin edges (lateral unit); ``region_g(window)``: G of each
-    quarter on dim ``dr`` (its own mean lags) up to ``window``.  Returns G with
-    coordinate :data:`INFLATION` (1 where the quarters agree), ``standard_error`` times
-    it, and per curve the flag questionable where they disagree (with the note and the
-    attrs ``regions_ratio_max`` and ``error_inflation_max`` when computed).
+    allowed); ``edges``: its bin edges (lateral unit); ``region_g(window)``: G of the
+    quarters (dim ``region``, and ``dr``: their own mean lags) up to ``window``.  Returns
+    G with coordinate :data:`INFLATION` (1 where the quarters agree), ``standard_error``
+    times it, and per curve the flag questionable where they disagree (with the note and
+    the attrs ``regions_ratio_max`` and ``error_inflation_max`` when computed).
     """
     side = min(n // 2 * d for n, d in zip(grid.shape, grid.spacing))
     window = WINDOW * side
@@ -74,22 +77,18 @@ def judge_regions(G: xr.DataArray, *, edges: np.ndarray, grid: Grid,
         flag = quality.flag_coord(xr.zeros_like(G.isel(dr=0, drop=True).reset_coords(
             drop=True), dtype=np.int8), what="height_difference_acf")
         return G.assign_coords({quality.FLAG: flag})
-    parts = region_g(window)
+    part = region_g(window)
     full_bin = _bin_of(G.dr.values, edges)
-    placed = []
-    for part in parts:
-        own_bin = _bin_of(part.dr.values, edges)
-        where = np.searchsorted(full_bin, own_bin)
-        ok = (where < nb) & (full_bin[np.minimum(where, nb - 1)] == own_bin)
-        index = np.full(nb, -1)
-        index[where[ok]] = np.flatnonzero(ok)
-        placed.append(xr.apply_ufunc(
-            _place, part, input_core_dims=[["dr"]], output_core_dims=[["dr"]],
-            exclude_dims={"dr"}, dask="parallelized", output_dtypes=[float],
-            dask_gufunc_kwargs={"output_sizes": {"dr": nb}}, kwargs={"index": index},
-            keep_attrs=False).drop_vars([c for c in part.coords if c != "dr"],
-                                        errors="ignore"))
-    regions = xr.concat(placed, dim="region")
+    own_bin = _bin_of(part.dr.values, edges)
+    where = np.searchsorted(full_bin, own_bin)
+    ok = (where < nb) & (full_bin[np.minimum(where, nb - 1)] == own_bin)
+    index = np.full(nb, -1)
+    index[where[ok]] = np.flatnonzero(ok)
+    regions = xr.apply_ufunc(
+        _place, part.reset_coords(drop=True).drop_vars("dr"), input_core_dims=[["dr"]],
+        output_core_dims=[["dr"]], exclude_dims={"dr"}, dask="parallelized",
+        output_dtypes=[float], dask_gufunc_kwargs={"output_sizes": {"dr": nb}},
+        kwargs={"index": index}, keep_attrs=False)
     if regions.chunks is not None:
         regions = regions.chunk({"region": -1})
     se = G.standard_error.reset_coords(drop=True).drop_vars("dr", errors="ignore")
