@@ -302,26 +302,13 @@ def gap_note(spec, depends: str) -> str:
 ERROR_OF_SURFACE = (
     "the surface: the scatter between maps of the same size of a Gaussian surface with "
     "the spectrum of G (finite-area errors of G with their covariance between bins, "
-    "propagated linearly); the theory's own error (Persson's against the solver) is not "
-    "included")
+    "propagated linearly), raised to the scatter between the map's four quarters where "
+    "they disagree beyond it (G's coordinate error_inflation); the theory's own error "
+    "(Persson's against the solver) is not included")
 #: ... and where it does not (a stitched or model G).
 #: ... and where none is computed: G states no map geometry.
-#: ... and where the regions of the map scatter beyond that model (:data:`INFLATION`).
-ERROR_OF_REGIONS = (
-    "the surface: the scatter of G between the map's four quarters where they disagree "
-    "beyond the finite-area errors of a Gaussian surface with the spectrum of G (coordinate "
-    "error_inflation of G), those errors elsewhere, with their covariance between bins, "
-    "propagated linearly; the theory's own error (Persson's against the solver) is not "
-    "included")
 ERROR_OF_NONE = ("none: G states no map geometry (lag_geometry, scan_size, pixel_size) for "
                  "the covariance of its bins, e.g. a stitched or model G")
-
-
-def error_of(model: dict | None) -> str:
-    """Say what the ``_std`` of a result from G with :func:`error_model` ``model`` is."""
-    if model is None:
-        return ERROR_OF_NONE
-    return ERROR_OF_REGIONS if "inflation" in model else ERROR_OF_SURFACE
 
 
 ERROR_OF_BINS = ("G's bins taken as independent, with their standard_error: G states no "
