@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -41,7 +42,7 @@ from .fit_result import read_fit, rolloff_shapes
 from .fitting import fit_acf
 from .gradient import rms_gradient
 from .memo import by_content
-from .preprocess import reliability_window
+from .preprocess import LagWindow, lag_window, reliability_window
 from .spectra import spectrum_input
 from .units import QuantityLike
 
@@ -54,6 +55,15 @@ _ENERGY = "[mass] / [time] ** 2"
 _PRESSURE = "[pressure]"
 #: Share of v_el from a continuation of G beyond the data above which v_el is questionable.
 EXTRAPOLATED = 0.25
+#: Share of a result (v_el, the energy at the patch radius) from lags below the
+#: instrument's window (reliable_dr_min) above which it is questionable. The same as
+#: EXTRAPOLATED: G below the window is measured but shaped by the tip or the optics (mostly
+#: lowered: a tip cannot follow valleys curved beyond its radius), which tells no more
+#: about the surface than the continuation below the first lag that EXTRAPOLATED rates;
+#: without a window the share below it is exactly extrapolated_below. Measured
+#: (benchmarks/window_shares.py): dektak-1.csv 32 % and the UNCD stylus 84 % of v_el come
+#: from below their windows (1.55 and 2.07 um), both questionable.
+BELOW_WINDOW = EXTRAPOLATED
 #: Relative change of v_el between the bridge over a gap of G and its alternatives above
 #: which v_el is questionable.
 BRIDGED = 0.1
@@ -122,6 +132,8 @@ def _laplacian(G: xr.DataArray):
     G_si, error = _si(G, spec)
     dr = spec.dr * spec.to_m
     lo, hi = reliability_window(G)
+    if lag_window(G, spec.dr).empty is not None:  # nothing inside: every result fails
+        lo = hi = None
     window = (0.0 if lo is None else lo * spec.to_m, np.inf if hi is None else hi * spec.to_m)
     parts = {"part": 3, "dr": spec.dr.size}
     if error is None:
@@ -179,21 +191,30 @@ def _derivative_checks(why: xr.DataArray, spec: AcfSpec, window: bool = True) ->
 
 
 def _outside_window(ds: xr.Dataset, G: xr.DataArray, spec: AcfSpec) -> tuple:
-    """NaN every variable of ``ds`` at lags outside G's reliable window; the remark."""
-    lo, hi = reliability_window(G)
-    if lo is None and hi is None:
-        return ds, None
-    dr = xr.DataArray(spec.dr, dims="dr")
-    outside = (dr < (lo if lo is not None else -np.inf)) | (
-        dr > (hi if hi is not None else np.inf))
-    if not bool(outside.any()):
-        return ds, None
+    """NaN every variable of ``ds`` at lags outside G's reliable window; the checks.
+
+    A remark names the lags (NaN by design); a window that holds no lag of G fails the
+    result (:func:`_no_lag`).
+    """
+    window = lag_window(G, spec.dr)
+    if not window.recorded or not window.outside.any():
+        return ds, []
+    outside = xr.DataArray(window.outside, dims="dr")
     ds = _blank(ds, outside, lambda v: "dr" in v.dims)
-    rule = G.attrs.get("reliable_rule", "reliable_dr_min / reliable_dr_max in G's attrs")
-    note = (f"NaN{_lag_runs(spec.dr, outside.values, spec.unit_str)}: outside the lag "
-            f"range the instrument resolves ({rule}); acf(reliable=False) or "
+    if window.empty is not None:
+        return ds, [_no_lag(window)]
+    note = (f"NaN{_lag_runs(spec.dr, window.outside, spec.unit_str)}: outside the lag "
+            f"range the instrument resolves ({window.said}); acf(reliable=False) or "
             "G.attrs without reliable_dr_min/max keeps them")
-    return ds, (xr.DataArray(True), "good", note)
+    return ds, [(xr.DataArray(True), "good", note)]
+
+
+def _no_lag(window: LagWindow) -> tuple:
+    """Return the :func:`_rate` check of a window that holds no lag of G: failed.
+
+    One note for every result of such a G (a report says it once).
+    """
+    return (xr.DataArray(True), "failed", window.no_lag_note)
 
 
 def _unresolved(G_si: xr.DataArray, error: xr.DataArray | None, spec: AcfSpec,
@@ -254,37 +275,84 @@ def _own_coords(G: xr.DataArray) -> dict:
 
 
 def _rate(result, checks, *, what: str, G, inherited=()):
-    """Rate a result per curve: ``checks`` are ``(mask, level, note)``, one mask per curve.
+    """Rate a result per curve: ``checks`` are ``(mask, level, note[, variables])``.
 
     A curve gets the worst level of the checks its mask fires and of its inputs: ``G``
     (its own marks: directions that differ, a stated tip that resolves no lag, a missed
     target error) and the ``inherited`` ones (a gradient or fit with their own
-    ``quality_flag``); on numpy results the notes of the checks that fired (and the
-    inputs' notes) are joined and warned once.
+    ``quality_flag``: the input itself, or ``(input, variables, name)``); on numpy results
+    the notes of the checks that fired (and the inputs' notes) are joined and warned once.
+
+    A failed check or input with ``variables`` fails only those variables of a Dataset
+    (what depends on it): they are NaN (numpy) and the curve is questionable, with a note
+    naming them; only when every float variable of the result has failed is the curve
+    failed. Without ``variables`` a failure fails the whole curve.
     """
-    inherited = (G, *inherited)
-    codes = xr.DataArray(np.int8(0))
+    # Any: numpy's stubs do not know DataArray.__array_ufunc__ (np.maximum gives a DataArray)
+    codes: Any = xr.DataArray(np.int8(0))
     notes: list[str] = []
     remarks: list[str] = []  # notes of checks at level "good" (no warning)
-    lazy = any(mask.chunks is not None for mask, _, _ in checks)
-    for mask, level, note in checks:
-        codes = np.maximum(codes, xr.where(mask, np.int8(quality.level_code(level)),
-                                           np.int8(0)))
+    lazy = any(check[0].chunks is not None for check in checks)
+    floats = ([n for n, v in result.data_vars.items() if np.issubdtype(v.dtype, np.floating)]
+              if isinstance(result, xr.Dataset) else [])
+    partial: dict = {}  # variable -> where an input it depends on failed
+    said: list[str] = []  # which variables are NaN because of what (numpy)
+
+    def some(variables) -> list | None:
+        """Pick the float variables of a partial failure (None: the whole curve)."""
+        if variables is None or not floats:
+            return None
+        chosen = [n for n in floats if n in variables]
+        return None if set(chosen) >= set(floats) else chosen
+
+    def failed_part(mask, chosen, because: str | None) -> xr.DataArray:
+        for name in chosen:
+            partial[name] = partial[name] | mask if name in partial else mask
+        if because and chosen and mask.chunks is None and bool(mask.any()):
+            others = [n for n in floats if n not in chosen]
+            names = (", ".join(map(str, chosen)) if len(chosen) <= len(others) else
+                     f"every variable but {', '.join(map(str, others))}")
+            said.append(f"{names} NaN: {because} (the other variables do not depend on "
+                        "it)")
+        return xr.where(mask, np.int8(quality.level_code("questionable")), np.int8(0))
+
+    for mask, level, note, *variables in checks:
+        code = quality.level_code(level)
+        chosen = some(variables[0] if variables else None)
+        if code == quality.level_code("failed") and chosen is not None:
+            codes = np.maximum(codes, failed_part(mask, chosen, None))
+        else:
+            codes = np.maximum(codes, xr.where(mask, np.int8(code), np.int8(0)))
         if not lazy and bool(mask.any()):
             (remarks if level == "good" else notes).append(note)
-    for source in inherited:
+    for item in (G, *inherited):
+        source, variables, name = item if isinstance(item, tuple) else (item, None, "")
         if source is None:
             continue
-        # numpy's stubs do not know DataArray.__array_ufunc__ (a DataArray comes back)
-        codes = np.maximum(codes, quality.flag_of(source))  # type: ignore[assignment]
-        said = source.attrs.get("quality_notes")
-        if said and not any(said in note for note in notes):  # one cause, one note
-            notes.append(said)
+        flag = quality.flag_of(source)
+        chosen = some(variables)
+        if chosen is not None:
+            failed_here = flag >= quality.level_code("failed")
+            flag = xr.where(failed_here, np.int8(0), flag)
+            codes = np.maximum(codes, failed_part(failed_here, chosen, f"{name} failed"))
+        codes = np.maximum(codes, flag)
+        told = source.attrs.get("quality_notes")
+        if told and not any(told in note for note in notes):  # one cause, one note
+            notes.append(told)
+    if partial and set(partial) >= set(floats):  # every variable failed somewhere
+        everything = functools.reduce(lambda a, b: a & b, (partial[n] for n in floats))
+        codes = np.maximum(codes, xr.where(everything, np.int8(2), np.int8(0)))
     failed = codes >= quality.level_code("failed")
     # a failed curve's numbers mean nothing: NaN (lazy results: the flag says it; a mask
     # from the flag would make every variable depend on every other)
     if not lazy and bool(failed.any()):
         result = _nan_where(result, failed)
+    if not lazy:
+        for name, mask in partial.items():
+            if mask.chunks is None and bool(mask.any()):
+                result = _blank(result, mask, lambda v, n=name: v.name == n)
+    if not (not lazy and codes.chunks is None and bool(failed.all())):
+        notes = said + notes  # which variables are NaN, unless all are
     out = quality.mark_curves(result, codes.astype(np.int8), what=what,
                               notes=quality.SEPARATOR.join(notes))
     if out[quality.FLAG].ndim == 0:  # one curve: its remarks too (many: the flags only)
@@ -404,11 +472,15 @@ def elastic_energy(G: xr.DataArray, *, E_star: QuantityLike,
     ac = (positive if a_c is None else
           u.array_in(a_c, spec.length_unit, what="a_c", noun="patch radii", positive=True))
     G_si, _ = _si(G, spec)
-    res = _per_curve(k.energy_curve, G_si, out={"k": ac.size + 3}, dr=spec.dr * spec.to_m,
-                     a_c=ac * spec.to_m)
+    window = lag_window(G, spec.dr)
+    edge = _window_edge(window, positive)
+    res = _per_curve(k.energy_curve, G_si, out={"k": ac.size + 4}, dr=spec.dr * spec.to_m,
+                     a_c=np.append(ac, edge) * spec.to_m)
     quarter = E / 4
-    part = {"v_el": quarter * res.isel(k=0), "below": res.isel(k=1), "above": res.isel(k=2),
-            "patch": quarter * res.isel(k=slice(3, None)).rename(k="a_c")}
+    total = res.isel(k=0)
+    part = {"v_el": quarter * total, "below": res.isel(k=1), "above": res.isel(k=2),
+            "patch": quarter * res.isel(k=slice(3, -1)).rename(k="a_c"),
+            "window": res.isel(k=-1) / total}
     model = error_model(G)
     if model:  # lengths in m, as G_si
         model.update(size=model["size"] * spec.to_m, pixel=model["pixel"] * spec.to_m)
@@ -432,13 +504,18 @@ def elastic_energy(G: xr.DataArray, *, E_star: QuantityLike,
             "extrapolated_above": part["above"].assign_attrs(
                 units="1", long_name="share of v_el from beyond the largest dr (flat "
                 "continuation)"),
+            "v_el_below_window": part["window"].assign_attrs(
+                units="1", long_name="share of v_el from lags below reliable_dr_min, which "
+                "the instrument does not resolve (the continuation below the first lag "
+                "included; without a window: below the first lag, as extrapolated_below)"),
         },
         coords={**_own_coords(G), **lag_coord(ac, spec.unit_str, name="a_c",
                                                long_name="patch radius")},
         attrs=result_attrs(G, E_star=E, E_star_units="Pa"),
     )
     ds, bridged = _bridged_energy(ds, G_si, spec)
-    return _rate(ds, bridged + [
+    return _rate(ds, bridged + _window_share(part["window"], window, spec, "v_el",
+                                          "v_el_below_window") + [
         (part["below"] > EXTRAPOLATED, "questionable",
          f"more than {EXTRAPOLATED:.0%} of v_el comes from below the smallest lag, where G "
          "is continued as a smooth surface's a dr^2 + b dr^4: the energy is set by scales "
@@ -448,6 +525,45 @@ def elastic_energy(G: xr.DataArray, *, E_star: QuantityLike,
         (part["above"] > EXTRAPOLATED, "questionable",
          f"more than {EXTRAPOLATED:.0%} of v_el comes from beyond the largest lag, where G "
          "is continued flat: measure larger scales")], what="elastic_energy", G=G)
+
+
+def _window_edge(window: LagWindow, lags: np.ndarray) -> float:
+    """Where the lags the instrument resolves begin: ``reliable_dr_min``, else the first lag.
+
+    ``inf`` when the window holds no lag (nothing is resolved).
+    """
+    if window.empty is not None:
+        return np.inf
+    return float(window.lo) if window.lo is not None else float(lags[0])
+
+
+def _window_share(share: xr.DataArray, window: LagWindow, spec: AcfSpec, what: str,
+                  variable: str) -> list:
+    """Return the :func:`_rate` checks of the share of ``what`` below ``reliable_dr_min``.
+
+    Questionable above :data:`BELOW_WINDOW`; said as a remark below it; failed when the
+    window holds no lag (every value NaN). None without a recorded window (the share is
+    then that of the continuation below the first lag, which its own check rates).
+    """
+    if window.empty is not None:
+        return [_no_lag(window)]
+    if window.lo is None:
+        return []
+    where = (f"lags below reliable_dr_min = {window.lo:.4g} {spec.unit_str}, the smallest "
+             f"lag the instrument resolves ({window.said})")
+    values = np.asarray(share.values if share.chunks is None else [], dtype=float)
+    values = values[np.isfinite(values)]
+    pct = ("a share" if not values.size else f"{values.min():.0%}" if
+           np.isclose(values.min(), values.max(), atol=0.005) else
+           f"{values.min():.0%} to {values.max():.0%}")
+    return [
+        (share > BELOW_WINDOW, "questionable",
+         f"{pct} of {what} (variable {variable}) comes from {where}, more than "
+         f"{BELOW_WINDOW:.0%}: G there is shaped by the instrument (a tip cannot follow "
+         "valleys curved more sharply than its radius, which mostly lowers G), so the "
+         "result rests on scales the data do not resolve (v_el there is at best a lower "
+         "bound): measure with a sharper tip or a finer lateral resolution"),
+        (share <= BELOW_WINDOW, "good", f"{pct} of {what} ({variable}) comes from {where}")]
 
 
 def _bridged_energy(ds: xr.Dataset, G_si: xr.DataArray, spec: AcfSpec) -> tuple:
@@ -663,6 +779,15 @@ PERSSON_VARIABLES = ("p_star", "a_r", "a_ri", "sigma_c", "sigma_quick", "G_sigma
                      "Gamma_sigma", "Gamma_sigma_sa", "Gamma_sigma_51", "G_du")
 #: The outputs that need a fit of G (eq. 42: the roll-off law beyond the lags' reach).
 _NEED_FIT = ("sigma_quick",)
+#: The outputs that need gbar (eq. 26), with their errors: p_star and a_r (eq. 29), a_ri
+#: (eq. 50), sigma_c = p0 / a_r (eq. 39/40), and through W[a_r] (eq. 49) or gbar(0) the
+#: stress ACFs (eq. 30/48, 47, 51) and G_du (eq. 34). sigma_quick (eq. 41/42) needs the fit
+#: and G only. A failed input blanks only what needs it (:func:`_rate`). (The Laplacian of
+#: G, eq. 24, which G_sigma and Gamma_sigma also need, has checks per lag only: NaN there,
+#: questionable; and a G flat from its first lag fails every output, gbar too.)
+_NEED_GRADIENT = tuple(
+    f"{name}{suffix}" for name in PERSSON_VARIABLES if name not in _NEED_FIT
+    for suffix in ("", "_std", "_model_error"))
 
 
 def _gradient_on(gradient: xr.DataArray, G: xr.DataArray, spec: AcfSpec) -> xr.DataArray:
@@ -864,12 +989,14 @@ def persson(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike, theory: 
     ds = _blank(ds, flat, lambda v: True)
     checks += derivative + [unresolved]  # per curve, no p0 dim
     ds, window = _outside_window(ds, G, spec)
-    checks += [window] if window else []
+    checks += window
     gap = gap_note(spec, _GAP_PERSSON)  # said with the rest: one warning
     checks += [(xr.DataArray(True), "questionable", gap)] if gap else []
     return _rate(ds, checks, what="persson", G=G, inherited=(
-        gradient if set(wanted) - {"sigma_quick"} else None,
-        fit if set(_NEED_FIT) & set(wanted) else None))
+        (gradient if set(wanted) - {"sigma_quick"} else None, _NEED_GRADIENT,
+         "the rms gradient gbar (eq. 26) they need"),
+        (fit if set(_NEED_FIT) & set(wanted) else None, _NEED_FIT,
+         "the fit of G it needs (eq. 42: the roll-off law)")))
 
 
 @dataclass(frozen=True)
@@ -1208,10 +1335,16 @@ def patch_radius(G: xr.DataArray, *, E_star: QuantityLike, gamma: QuantityLike) 
     res = _per_curve(k.patch_radius_curve, G_si, out={"k": 3}, dr=spec.dr * spec.to_m,
                      E_star=E, gamma=gam)
     v_full = res.isel(k=2)
-    res = res.isel(k=slice(0, 2)) / spec.to_m
     unit = spec.unit_str
-    a_c, upper = res.isel(k=0), res.isel(k=1)
     lags = spec.dr[spec.dr > 0]
+    window = lag_window(G, spec.dr)
+    share = xr.apply_ufunc(
+        _share_below, G_si, res.isel(k=0), input_core_dims=[["dr"], []],
+        vectorize=True, dask="parallelized", output_dtypes=[float], keep_attrs=False,
+        kwargs={"dr": spec.dr * spec.to_m,
+                "edge": _window_edge(window, lags) * spec.to_m})
+    res = res.isel(k=slice(0, 2)) / spec.to_m
+    a_c, upper = res.isel(k=0), res.isel(k=1)
     ds = xr.Dataset(
         {"a_c": a_c.assign_attrs(
             units=unit, long_name="adhesive patch radius",
@@ -1222,12 +1355,17 @@ def patch_radius(G: xr.DataArray, *, E_star: QuantityLike, gamma: QuantityLike) 
          "v_el": v_full.assign_attrs(
             units="J m-2", long_name="elastic energy per area of full contact",
             equation="eq. 16 (a_c is inf where gamma >= v_el: the surfaces stick "
-            "everywhere)")},
+            "everywhere)"),
+         "a_c_below_window": share.assign_attrs(
+            units="1", long_name="share of v_el(a_c), the elastic energy that balances "
+            "gamma at a_c (eq. 44/46; v_el where a_c is inf), from lags below "
+            "reliable_dr_min, which the instrument does not resolve (without a window: "
+            "below the first lag; 1 where a_c lies below the window)")},
         coords=_own_coords(G),
         attrs=result_attrs(G, E_star=E, E_star_units="Pa", gamma=gam, gamma_units="J m-2"))
     finite = np.isfinite(a_c)
     ds = mark_gaps(ds, spec, what="patch_radius", depends=_GAP_PATCH, level=_past(upper, spec))
-    return _rate(ds, [
+    return _rate(ds, _patch_window(a_c, upper, share, window, spec) + [
         (np.isinf(a_c), "good",
          f"a_c = inf: gamma = {gam:.3g} J m-2 exceeds the elastic energy of full contact "
          f"v_el ({_span(v_full.where(np.isinf(a_c)))} J m-2, variable v_el), so no patch "
@@ -1240,3 +1378,50 @@ def patch_radius(G: xr.DataArray, *, E_star: QuantityLike, gamma: QuantityLike) 
          "a_c lies below the smallest lag of G: it is the root of G's continuation "
          "there (a dr^2 + b dr^4, in closed form), not of data: measure finer scales to "
          "confirm it")], what="patch_radius", G=G)
+
+
+def _share_below(g, a, *, dr, edge) -> float:
+    """Share of ``int_0^a G / r^2 dr`` (eq. 44; ``a = inf``: eq. 16) from ``r < edge``.
+
+    One curve, through :func:`xrough._kernels.contact.energy_curve`; NaN for a NaN ``a``.
+    """
+    a = float(a)
+    if not a > 0:
+        return np.nan
+    cum = k.energy_curve(g, dr=dr, a_c=np.array([min(edge, a), a]))[3:]
+    return float(cum[0] / cum[1]) if cum[1] > 0 else np.nan
+
+
+def _patch_window(a_c: xr.DataArray, upper: xr.DataArray, share: xr.DataArray,
+                  window: LagWindow, spec: AcfSpec) -> list:
+    """Return the :func:`_rate` checks of a patch radius against the window.
+
+    A radius below ``reliable_dr_min`` is not resolved: failed (NaN), with the radius in
+    the note. The share of ``v_el(a_c)`` from below the window is rated as that of
+    :func:`elastic_energy` (:data:`BELOW_WINDOW`); a radius beyond ``reliable_dr_max``
+    rests on lags the instrument does not resolve either: questionable.
+    """
+    if window.empty is not None or window.lo is None and window.hi is None:
+        return [_no_lag(window)] if window.empty is not None else []
+    unit = spec.unit_str
+    checks = []
+    if window.lo is not None:
+        below = np.isfinite(a_c) & (a_c < window.lo)
+        found = ""
+        if a_c.chunks is None and bool(below.any()):
+            found = f" (a_c = {_span(a_c.where(below))} {unit})"
+        checks.append((below, "failed", (
+            f"the patch radius{found} lies below reliable_dr_min = {window.lo:.4g} {unit}, "
+            f"the smallest lag the instrument resolves ({window.said}): it is the root of "
+            "G where the instrument shapes it (a tip that cannot follow the valleys "
+            "lowers G, so the true radius is smaller still, not resolved by these data), "
+            "so NaN: measure with a sharper tip or a finer lateral resolution")))
+        checks += _window_share(share.where(~below), window, spec,
+                                "the elastic energy v_el(a_c) that balances gamma",
+                                "a_c_below_window")
+    if window.hi is not None and window.hi < spec.dr[-1]:
+        checks.append((np.isfinite(upper) & (upper > window.hi), "questionable", (
+            f"a_c (or its upper estimate) lies beyond reliable_dr_max = {window.hi:.4g} "
+            f"{unit}, the largest lag the instrument resolves ({window.said}): v_el(a_c) "
+            "integrates G where it is not reliable: measure larger scans")))
+    return checks

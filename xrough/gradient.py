@@ -46,6 +46,7 @@ from .fit_result import gradient_from_fit
 from .fitting import describe_problems, fit_acf, prepare_fit
 from .memo import by_content
 from .models import model_attrs
+from .preprocess import lag_window
 from .spectra import acf_samples, check_spectrum_options, spectrum_input, spectrum_lags
 from .units import QuantityLike
 
@@ -205,6 +206,10 @@ def _rms_gradient(G: xr.DataArray, method: str, fit: xr.Dataset | None) -> xr.Da
     out = out.drop_vars([c for c in out.coords if c not in out.dims and c != "dr"
                          and c != "gradient_method"], errors="ignore")
     out = out.assign_coords(gbar_std=_gradient_std(out, Gl, errors, method, fit_rel))
+    window = lag_window(G, dr)
+    if window.recorded:  # lags outside the instrument's window: NaN, as in persson
+        inside = xr.DataArray(~window.outside, dims="dr")
+        out = out.where(inside).assign_coords(gbar_std=out["gbar_std"].where(inside))
     level = level.reset_coords(drop=True)
     out.name = "gbar"
     attrs = {"units": "1", "long_name": "scale-dependent rms gradient",
@@ -213,11 +218,33 @@ def _rms_gradient(G: xr.DataArray, method: str, fit: xr.Dataset | None) -> xr.Da
              "method": method}
     attrs.update(extra_attrs)
     out.attrs = result_attrs(G, **attrs)
-    out = quality.mark_curves(out, level, what=f"rms_gradient (method {method!r})",
-                              notes=notes)
-    return mark_gaps(out, spec, what=f"rms_gradient (method {method!r})", depends=_GAP,
+    what = f"rms_gradient (method {method!r})"
+    if window.empty is not None:  # no lag resolved: failed, said with the rest (one warning)
+        level = xr.where(level < 2, np.int8(2), level).astype(np.int8)
+        notes = quality.SEPARATOR.join(n for n in (notes, window.no_lag_note) if n)
+    out = quality.mark_curves(out, level, what=what, notes=notes)
+    out = _mark_window(out, window, spec.unit_str, what)
+    return mark_gaps(out, spec, what=what, depends=_GAP,
                      level="good" if out.attrs["method"] in ("simple", "fit") else
                      "questionable")
+
+
+def _mark_window(out: xr.DataArray, window, unit: str, what: str) -> xr.DataArray:
+    """Say which lags are NaN outside the instrument's window (a remark naming them).
+
+    ``window`` is :func:`xrough.preprocess.lag_window` of G. A window that holds no lag of
+    G leaves nothing: the caller rates that failed.
+    """
+    if window.empty is not None or not window.recorded or not window.outside.any():
+        return out
+    dr = out["dr"].values
+    below = dr < (-np.inf if window.lo is None else window.lo)
+    runs = [f"{dr[m].min():.4g} to {dr[m].max():.4g}"
+            for m in (window.outside & below, window.outside & ~below) if m.any()]
+    return quality.mark(out, (
+        f"NaN at dr = {' and '.join(runs)} {unit}: outside the lag range the instrument "
+        f"resolves ({window.said}); acf(reliable=False) or G.attrs without "
+        "reliable_dr_min/max keeps them"), level="good", what=what)
 
 
 def _gradient_std(gbar: xr.DataArray, Gl: xr.DataArray, errors: dict | None,

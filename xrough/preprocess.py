@@ -36,6 +36,7 @@ lag range last, on the cleaned map.
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -56,6 +57,9 @@ __all__ = [
     "mask_outliers",
     "reliable",
     "reliability_window",
+    "lag_window",
+    "LagWindow",
+    "NO_WINDOW",
     "stated_tip_radius",
     "tip_window",
 ]
@@ -748,7 +752,9 @@ def tip_window(topography: xr.DataArray) -> tuple[xr.DataArray, str | None]:
     (xarray.DataArray, str or None)
         The topography (with the window, or unchanged), and ``None``, or what to say when
         the stated tip resolves no lag of the map (the tip rule's window would be empty):
-        the topography is then returned unchanged.
+        the topography is then returned with its heights and window unchanged, and
+        ``reliable_rule`` = :data:`NO_WINDOW` + why (read by :func:`lag_window`: the
+        contact results of its G fail).
 
     Examples
     --------
@@ -769,11 +775,15 @@ def tip_window(topography: xr.DataArray) -> tuple[xr.DataArray, str | None]:
     try:
         out = reliable(topography, tip_radius=radius)
     except ValueError as err:
-        return topography, (
-            f"the tip radius {radius} stated in the file (attr {key!r}) resolves no lag of "
-            f"this map ({err}): G at every lag is shaped by the tip, not the surface: "
-            "measure with a sharper tip or a larger scan, or acf(reliable=False) to take "
-            "G as it is")
+        why = f"the tip radius {radius} stated in the file (attr {key!r}) resolves no lag " \
+              f"of this map ({err})"
+        # no reliable_dr_min/max: every lag stays in G; reliable_rule (carried to G and its
+        # results, acf.PROVENANCE) says that the window is empty (lag_window reads it)
+        unchanged = topography.copy(deep=False)
+        unchanged.attrs = {**topography.attrs, "reliable_rule": NO_WINDOW + why}
+        return unchanged, (
+            f"{why}: G at every lag is shaped by the tip, not the surface: measure with a "
+            "sharper tip or a larger scan, or acf(reliable=False) to take G as it is")
     out.attrs["reliable_rule"] += (f"; the tip radius {radius} as stated in the file "
                                    f"(attr {key!r})")
     return out, None
@@ -819,3 +829,97 @@ def reliability_window(obj: xr.DataArray) -> tuple[float | None, float | None]:
         factor = u.conversion_factor(stored, current)
     return (None if lo is None else float(lo) * factor,
             None if hi is None else float(hi) * factor)
+
+
+#: Start of ``reliable_rule`` when a rule found no lag the instrument resolves (a stated tip
+#: too blunt for the scan, :func:`tip_window`); no ``reliable_dr_min/max`` come with it.
+NO_WINDOW = "none: "
+
+
+@dataclass(frozen=True)
+class LagWindow:
+    """Which lags of a G lie in the instrument's window (:func:`lag_window`).
+
+    Attributes
+    ----------
+    lo, hi : float or None
+        ``reliable_dr_min`` / ``reliable_dr_max`` in the unit of the lags (None: not set).
+    outside : numpy.ndarray of bool
+        Per lag: outside ``[lo, hi]``.
+    empty : str or None
+        Why no lag (``dr > 0``) lies inside the window, in words; None when some lag does
+        (or when no window is recorded).
+    rule : str
+        How the window was found (``reliable_rule``, or a generic text).
+    """
+
+    lo: float | None
+    hi: float | None
+    outside: np.ndarray
+    empty: str | None
+    rule: str
+
+    @property
+    def recorded(self) -> bool:
+        """A window (or a rule that found none) is recorded."""
+        return self.lo is not None or self.hi is not None or self.empty is not None
+
+    @property
+    def said(self) -> str:
+        """``rule`` for a quality note: its ``"; "`` (the notes' separator) as ``", "``."""
+        return self.rule.replace("; ", ", ")
+
+    @property
+    def no_lag_note(self) -> str:
+        """The note of every result of a G whose window holds no lag (``empty`` said)."""
+        why = (self.empty or "").replace("; ", ", ")
+        return (f"{why}: no lag of G is resolved, so every number that rests on G (rms "
+                "gradient, elastic energy, contact area and stress, patch radius) is NaN: "
+                "measure with a sharper tip (a finer lateral resolution) or a larger scan, "
+                "or take G as it is with acf(reliable=False)")
+
+
+def lag_window(obj: xr.DataArray, dr: np.ndarray | None = None) -> LagWindow:
+    """Read the instrument's window of a G (or a result of it) against its lags ``dr``.
+
+    Parameters
+    ----------
+    obj : xarray.DataArray
+        A G (or any DataArray whose attrs carry the window, :func:`reliability_window`).
+    dr : numpy.ndarray, optional
+        The lags, in the unit of ``obj``'s ``dr`` coordinate (default: that coordinate).
+
+    Returns
+    -------
+    LagWindow
+
+    Examples
+    --------
+    >>> import numpy as np, xarray as xr
+    >>> dr = np.array([1.0, 2.0, 4.0, 8.0])
+    >>> G = xr.DataArray(dr, dims="dr", coords={"dr": ("dr", dr, {"units": "um"})},
+    ...                  attrs={"units": "um2", "reliable_dr_min": 3.0,
+    ...                         "reliable_dr_units": "um"})
+    >>> w = lag_window(G)
+    >>> w.outside.tolist(), w.empty
+    ([True, True, False, False], None)
+    >>> lag_window(G.assign_attrs(reliable_dr_min=9.0)).empty[:42]
+    'no lag of G lies in the window 9 to inf um'
+    """
+    lo, hi = reliability_window(obj)
+    lags = np.asarray(obj["dr"].values if dr is None else dr, dtype=float)
+    unit = obj["dr"].attrs.get("units", "") if "dr" in obj.coords else ""
+    rule = str(obj.attrs.get("reliable_rule", "reliable_dr_min / reliable_dr_max in G's "
+                                              "attrs"))
+    outside = (lags < (-np.inf if lo is None else lo)) | (lags > (np.inf if hi is None else hi))
+    empty = None
+    if lo is None and hi is None:
+        if rule.startswith(NO_WINDOW):
+            empty = rule[len(NO_WINDOW):]
+            outside = np.ones(lags.shape, dtype=bool)
+    elif not np.any(~outside & (lags > 0)):
+        empty = (f"no lag of G lies in the window {lo if lo is not None else 0:.4g} to "
+                 f"{hi if hi is not None else np.inf:.4g} {unit} that the instrument "
+                 f"resolves ({rule}); G's lags are {lags[lags > 0].min():.4g} to "
+                 f"{lags.max():.4g} {unit}")
+    return LagWindow(lo=lo, hi=hi, outside=outside, empty=empty, rule=rule)

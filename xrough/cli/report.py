@@ -1,8 +1,11 @@
 """``xrough report``: the contact mechanics of topography files, as a table.
 
 Each file's G is fitted and run through the elastic energy, Persson theory (reported at
-the smallest lag where it is determined) and, with ``--gamma``, the adhesive patch
-radius; the results are archived and drawn.
+the smallest lag where it is determined, inside the lag range the instrument resolves:
+``reliable_dr_min/max``, from a tip or stylus radius the file states) and, with
+``--gamma``, the adhesive patch radius; the results are archived and drawn. A file whose
+window holds no lag (a tip too blunt for the scan) gets no scale-dependent number: its
+rms gradient, Persson theory, energy and patch radius are failed, and the reason is said.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from .. import units as u
 from .._version import __version__
 from ..io.archive import save_analysis
 from ..plot import display_unit, pyplot
+from ..preprocess import LagWindow, lag_window
 from ..quality import notes_of, warn, worst
 from ._common import (
     EXIT_OK,
@@ -27,6 +31,7 @@ from ._common import (
     output,
     show,
     show_errors,
+    text,
     write_atomic,
 )
 from ._files import add_acf_options, add_file_options, measure_all
@@ -98,7 +103,8 @@ def _analysis(E_star: float, p0: float, gamma: float | None):
                  "energy": G.rough.energy(E_star=E_star)}
         if gamma is not None:
             found["patch"] = G.rough.patch_radius(E_star=E_star, gamma=gamma)
-        steepest = float(gbar.max())
+        finite_gbar = gbar.values[np.isfinite(gbar.values)]
+        steepest = float(finite_gbar.max()) if finite_gbar.size else 0.0
         if steepest > _STEEPEST:
             warn(f"rms gradient {steepest:.3g}: steeper than any measured surface "
                  "(a slope of 84 degrees is 10); are the heights in the unit the file "
@@ -127,48 +133,74 @@ def _sticks(patch: xr.Dataset) -> str:
     return f"none: sticks everywhere (v_el {v_el:.3g} < gamma {gamma:.3g} J/m2)"
 
 
-def _cells(m: dict, at: xr.Dataset, gbar_there: xr.DataArray) -> tuple[str, ...]:
-    """Return a row of the table: each number in its unit, rated by its quality."""
+def _cells(m: dict, at: xr.Dataset | None, gbar_there: xr.DataArray | None,
+           window: LagWindow) -> tuple[str, ...]:
+    """Return a row of the table: each number in its unit, rated by its quality.
+
+    ``at``: Persson theory at the smallest lag inside the window where it is determined
+    (None: no such lag, and no scale-dependent number is printed).
+    """
     r = m["results"]
     fit, energy = r["fit"], r["energy"]
     levels = {key: level for key, (level, _) in _quality(r).items()}
     lf, lp = levels["fit"], levels["persson"]
     patch = ("-" if "patch" not in r else
              _rated(show(r["patch"].a_c, none=_sticks(r["patch"])), levels["patch"]))
+    if at is None or gbar_there is None:
+        none = "none: no lag in the window" if window.empty is not None else "none"
+        grad = _rated("none", levels["gradient"])
+        area = stress = _rated("none", lp)
+        where = none
+    else:
+        grad = _rated(show_errors(gbar_there, _coord(gbar_there, "gbar_std")),
+                      levels["gradient"])
+        area = _rated(show_errors(at.a_r, at.get("a_r_std"), at.get("a_r_model_error")), lp)
+        stress = _rated(show_errors(at.sigma_c, at.get("sigma_c_std"),
+                                    at.get("sigma_c_model_error")), lp)
+        where = show(at.dr)
     return (m["name"], _rated(show(fit.sigma_h, none="no plateau"), lf),
             _rated(f"{float(fit.hurst):.3f}+-{float(fit.hurst_std):.3f}", lf),
-            _rated(show(fit.lambda_r, none="no roll-off"), lf),
-            _rated(show_errors(gbar_there, _coord(gbar_there, "gbar_std")),
-                   levels["gradient"]),
+            _rated(show(fit.lambda_r, none="no roll-off"), lf), grad,
             _rated(show_errors(energy.v_el, energy.get("v_el_std")), levels["energy"]),
-            _rated(show_errors(at.a_r, at.get("a_r_std"), at.get("a_r_model_error")), lp),
-            _rated(show_errors(at.sigma_c, at.get("sigma_c_std"),
-                               at.get("sigma_c_model_error")), lp),
-            show(at.dr), patch)
+            area, stress, where, patch)
 
 
-def _record(m: dict, at: xr.Dataset, gbar_there: xr.DataArray) -> dict:
-    """Return the same row for JSON, numbers with their units."""
+def _record(m: dict, at: xr.Dataset | None, gbar_there: xr.DataArray | None,
+            window: LagWindow) -> dict:
+    """Return the same row for JSON, numbers with their units (null where none)."""
     r = m["results"]
     fit = r["fit"]
+    nothing = {"value": None, "units": None}
     return {
         "name": m["name"], "file": m["file"], "detrend": m["detrend"],
         "warnings": m["warnings"],
         "quality": {key: {"level": level, "notes": notes}
                     for key, (level, notes) in _quality(r).items()},
+        "window": _window_record(r["G"], window),
         "sigma_h": {**number(fit.sigma_h), "std": finite(fit.sigma_h_std)},
         "hurst": {**number(fit.hurst), "std": finite(fit.hurst_std)},
         "lambda_r": {**number(fit.lambda_r), "std": finite(fit.lambda_r_std)},
-        "rms_gradient": {**number(gbar_there),
-                         "std": _finite_of(_coord(gbar_there, "gbar_std"))},
-        "v_el": {**number(r["energy"].v_el), "std": _finite_of(r["energy"].get("v_el_std"))},
-        "a_r": {**number(at.a_r), "std": _finite_of(at.get("a_r_std")),
-                "model_error": _finite_of(at.get("a_r_model_error"))},
-        "sigma_c": {**number(at.sigma_c), "std": _finite_of(at.get("sigma_c_std")),
-                    "model_error": _finite_of(at.get("sigma_c_model_error"))},
-        "at_dr": number(at.dr),
+        "rms_gradient": nothing if gbar_there is None else {
+            **number(gbar_there), "std": _finite_of(_coord(gbar_there, "gbar_std"))},
+        "v_el": {**number(r["energy"].v_el), "std": _finite_of(r["energy"].get("v_el_std")),
+                 "below_window": _finite_of(r["energy"].get("v_el_below_window"))},
+        "a_r": nothing if at is None else {
+            **number(at.a_r), "std": _finite_of(at.get("a_r_std")),
+            "model_error": _finite_of(at.get("a_r_model_error"))},
+        "sigma_c": nothing if at is None else {
+            **number(at.sigma_c), "std": _finite_of(at.get("sigma_c_std")),
+            "model_error": _finite_of(at.get("sigma_c_model_error"))},
+        "at_dr": nothing if at is None else number(at.dr),
         "patch_radius": number(r["patch"].a_c) if "patch" in r else None,
     }
+
+
+def _window_record(G: xr.DataArray, window: LagWindow) -> dict:
+    """Give the instrument's window for JSON: its limits, its rule, why it holds no lag."""
+    unit = G["dr"].attrs.get("units")
+    return {"dr_min": None if window.lo is None else number(window.lo, unit),
+            "dr_max": None if window.hi is None else number(window.hi, unit),
+            "rule": G.attrs.get("reliable_rule"), "no_lag": window.empty}
 
 
 def _coord(da: xr.DataArray, name: str) -> xr.DataArray | None:
@@ -181,11 +213,54 @@ def _finite_of(da: xr.DataArray | None) -> float | None:
     return None if da is None else finite(da)
 
 
+def _at(m: dict) -> tuple[xr.Dataset | None, xr.DataArray | None, LagWindow]:
+    """Persson theory and gbar at the finest determined lag inside the window (or None).
+
+    Persson theory and the gradient are NaN outside the instrument's window, so its
+    finest determined lag lies inside it; when no lag is determined (a window that holds
+    no lag, a failed result) there is none, and no number is taken from the first lag.
+    """
+    r = m["results"]
+    window = lag_window(r["G"])
+    contact = r["persson"]
+    determined = (np.isfinite(contact.a_r.values) & np.isfinite(contact.sigma_c.values)
+                  & ~window.outside)
+    if window.empty is not None or not determined.any():
+        return None, None, window
+    at = finest(contact)
+    return at, r["gradient"].sel(dr=float(at.dr), method="nearest"), window
+
+
 def _row(m: dict) -> tuple[tuple[str, ...], dict]:
     """Return a row of the report table and its JSON record, at the finest determined lag."""
-    at = finest(m["results"]["persson"])
-    gbar_there = m["results"]["gradient"].sel(dr=float(at.dr), method="nearest")
-    return _cells(m, at, gbar_there), _record(m, at, gbar_there)
+    at, gbar_there, window = _at(m)
+    return _cells(m, at, gbar_there, window), _record(m, at, gbar_there, window)
+
+
+def _window_lines(measured: list[dict]) -> list[str]:
+    """Say, per measurement with a recorded window, which lags its instrument resolves."""
+    lines = []
+    for m in measured:
+        G = m["results"]["G"]
+        window = lag_window(G)
+        if not window.recorded:
+            continue
+        if window.empty is not None:
+            lines.append(f"  {m['name']}: no lag: {window.empty}; so no rms gradient, "
+                         "elastic energy, contact area or patch radius (failed)")
+            continue
+        unit = G["dr"].attrs.get("units", "")
+        lo = "its first lag" if window.lo is None else text(window.lo, unit)
+        hi = "its last lag" if window.hi is None else text(window.hi, unit)
+        share = m["results"]["energy"].get("v_el_below_window")
+        said = ("" if share is None or window.lo is None or not np.isfinite(float(share))
+                else f"; {float(share):.0%} of v_el comes from lags below it")
+        at = _at(m)[0]
+        where = ("no lag inside it determines Persson theory" if at is None else
+                 f"rms grad, a_r and sigma_c at {show(at.dr)}, the smallest lag inside it "
+                 "where Persson theory is determined")
+        lines.append(f"  {m['name']}: lags from {lo} to {hi} ({window.rule}): {where}{said}")
+    return lines
 
 
 # ---------------------------------------------------------------------- figure
@@ -280,9 +355,15 @@ def _print_table(measured: list[dict], rows: list[tuple[str, ...]], parameters: 
     if notes:
         print("quality (a number marked ? is questionable; failed: it means nothing):")
         print("\n".join(notes))
+    windows = _window_lines(measured)
+    if windows:
+        print("resolution (the lag range the instrument resolves; numbers from outside it "
+              "are not findings; --all-lags ignores it):")
+        print("\n".join(windows))
     print(f"detrend before G: {', '.join(modes)} (--detrend to change); sigma_h from the "
           "fit of G (info gives the rms height of the heights); rms grad, a_r and sigma_c "
-          "at the finest resolution where Persson theory is determined (column 'at dr'); "
+          "at the finest resolution inside the instrument's window where Persson theory "
+          "is determined (column 'at dr'; none: no such lag); "
           "+-: one standard deviation of a map of this size (stat) and the theory's own "
           "error against the contact solver (model: Persson's a_r is below the exact area "
           "by about this much, sigma_c above); "
