@@ -67,7 +67,9 @@ from ._kernels.fitting import (
     EQ36_OUTPUTS,
     H_BOUNDS,
     HURST_MARGIN,
+    HURST_SEPARATION,
     HURST_STD_MAX,
+    MIN_BINS_PER_PARAMETER,
     MISFIT_FAILED,
     MISFIT_QUESTIONABLE,
     MISS_FACTOR,
@@ -107,7 +109,9 @@ _SPECTRUM_EQ = ("eq. 9 of the {rolloff} model spectrum (eq. 35): G(dr) = (1/2pi)
                 "C(q) [1 - J0(q dr)], G -> G_sa (dr/dr_ref)^(2H) for lambda_s << dr << "
                 "lambda_r")
 _CUTOFFS = ("a cutoff counts as resolved when eps = (lambda_s/dr_min)^(2H) (eta = "
-            "(dr_max/lambda_r)^(2-2H)) exceeds 2 standard deviations; otherwise it is "
+            "(dr_max/lambda_r)^(2-2H)) exceeds 2 standard deviations, or (lambda_r) "
+            "when the refit without it misses G by more than 3 times in a bin where the "
+            "fit with it does not; otherwise it is "
             "removed and the rest refitted: lambda_s_resolved = 0 reports lambda_s as the "
             "upper bound dr_min (2 std(eps))^(1/(2H)); lambda_r_resolved = 0 reports "
             "lambda_r = sigma_h = C_r = inf (lambda_r = lambda_0 when given)")
@@ -243,7 +247,22 @@ def _problem_text(name: str, v: dict) -> str:
     if name == "failed_fit":
         found = f" = {v['misfit']:.2g}" if one else ""
         return (f"the model does not describe G (rms misfit of ln G{found} > "
-                f"{MISFIT_FAILED:g}): its parameters are NaN")
+                f"{MISFIT_FAILED:g}, a factor e^{MISFIT_FAILED:g} in a typical bin, whatever "
+                "the standard errors): its parameters are NaN")
+    if name == "hurst_pinned":
+        return (f"the data do not determine H: the fit sits at the bound of its search "
+                f"({H_BOUNDS[0]:g} or {H_BOUNDS[1]:g}; H ended within {HURST_MARGIN:g} of "
+                f"it and less than {HURST_SEPARATION:g} standard deviations from it), so "
+                "H and the parameters that depend on it are NaN (a G that follows no "
+                "power law dr^(2H) with 0 < H < 1: a tilt or a curvature, G ~ dr^2, or a "
+                "plateau): look at the plot, detrend, or fit a narrower dr range")
+    if name == "too_few_bins":
+        found = (f"{v['n_bins']:.0f} bins for {v['n_free']:.0f} free parameters"
+                 if one and "n_free" in v else "too few bins")
+        return (f"{found} (fewer than {MIN_BINS_PER_PARAMETER:g} per parameter): some "
+                "parameter rests on one bin or none, the fit interpolates G rather than "
+                "measures it, and its parameters are NaN; measure a larger map or a "
+                "longer profile, or fix parameters")
     if name == "misses_data":
         found = f"{v['factor']:.3g} times" if one else f"more than {MISS_FACTOR:g} times"
         return (f"the model misses G by {found} in a bin it fits (plot G with "
@@ -283,6 +302,10 @@ def _problem_text(name: str, v: dict) -> str:
     return "the fit gave no finite H, chi^2 or sigma_h: its parameters are NaN"
 
 
+#: A problem whose note another one says, stronger, when both are found.
+_SAID_BY = {"poor_fit": "failed_fit", "hurst_at_bound": "hurst_pinned"}
+
+
 def describe_problems(bits: int, numbers: dict | None = None) -> str:
     """Say in words what the problem bits of a fit (variable ``fit_problems``) mean.
 
@@ -291,8 +314,8 @@ def describe_problems(bits: int, numbers: dict | None = None) -> str:
     bits : int
         Bit k set for problem k of :data:`xrough._kernels.fitting.PROBLEMS`.
     numbers : dict, optional
-        ``chi2``, ``misfit``, ``chi2_eq36`` and ``weighted`` of one fit, quoted in the
-        text.
+        ``chi2``, ``misfit``, ``factor``, ``hurst``, ``chi2_eq36``, ``n_bins``,
+        ``n_free`` and ``weighted`` of one fit, quoted in the text.
 
     Returns
     -------
@@ -305,13 +328,18 @@ def describe_problems(bits: int, numbers: dict | None = None) -> str:
     'H is within 0.05 of its bound '
     """
     names = [name for k, name in enumerate(PROBLEMS) if int(bits) >> k & 1]
-    if "failed_fit" in names and "poor_fit" in names:
-        names.remove("poor_fit")
+    for said, by in _SAID_BY.items():
+        if said in names and by in names:
+            names.remove(said)
     return quality.SEPARATOR.join(_problem_text(name, numbers or {}) for name in names)
 
 
-def _fit_notes(ds: xr.Dataset, bits: np.ndarray, model: str, weighted: bool) -> str:
-    """Describe computed fits: the numbers of one fit, or the count of curves per problem."""
+def _fit_notes(ds: xr.Dataset, bits: np.ndarray, model: str, weighted: bool,
+               n_free: int) -> str:
+    """Describe computed fits: the numbers of one fit, or the count of curves per problem.
+
+    ``n_free``: the free parameters of each fit (the amplitude included).
+    """
     bits = np.asarray(bits, dtype=np.int64)
     if bits.ndim == 0:
         eq36 = float(ds.reduced_chi2_eq36) if model == "spectrum" else np.nan
@@ -319,12 +347,13 @@ def _fit_notes(ds: xr.Dataset, bits: np.ndarray, model: str, weighted: bool) -> 
                                              "misfit": float(ds.rms_misfit),
                                              "factor": float(ds.max_misfit_factor),
                                              "hurst": float(ds.hurst),
+                                             "n_bins": int(ds.n_bins), "n_free": n_free,
                                              "chi2_eq36": eq36, "weighted": weighted})
     parts = []
-    failed = bits >> PROBLEMS.index("failed_fit") & 1
     for k, name in enumerate(PROBLEMS):
-        hit = int(np.count_nonzero((bits >> k & 1) & (1 - failed if name == "poor_fit"
-                                                       else 1)))
+        said = (bits >> PROBLEMS.index(_SAID_BY[name]) & 1 if name in _SAID_BY
+                else np.zeros_like(bits))
+        hit = int(np.count_nonzero((bits >> k & 1) & (1 - said)))
         if hit:
             parts.append(f"{hit} of {bits.size} curves: " + describe_problems(1 << k))
     return quality.SEPARATOR.join(parts)
@@ -497,7 +526,9 @@ def fit_acf(
     the other three.
 
     *Unresolved cutoffs.*  A cutoff is resolved when its ``eps`` (``eta``) exceeds twice
-    its standard deviation.  Otherwise the data cannot tell it from no cutoff: it is set
+    its standard deviation, or (the roll-off) when the refit without it misses G by more
+    than 3 times in a bin where the fit with it does not: the plot shows the plateau.
+    Otherwise the data cannot tell it from no cutoff: it is set
     to none (``lambda_s = 0``, ``lambda_r = inf``) and the rest refitted.  Then
     ``lambda_s_resolved = 0`` and ``lambda_s`` is the upper bound
     ``dr_min (2 std(eps))^(1/(2H))`` (about 98 % one-sided) with NaN std: no ballistic
@@ -508,18 +539,23 @@ def fit_acf(
     standard deviations of the other parameters include the freedom of the unresolved
     cutoff (its column of ``J``), e.g. a ``lambda_s`` just below the data.
 
-    *Checks* (docs/quality.md).  A fit is questionable when its reduced chi^2 exceeds
-    10 and its rms misfit of ``ln G`` 10 % (failed above 20 %; unweighted: failed above
-    20 %, nothing questionable), when ``H`` ends on a bound, when (spectrum) eq. 36 fits
-    with a 3 times smaller reduced chi^2 (the note recommends ``model='eq36'``; the
-    model asked for is kept), or when a resolved ``lambda_r`` lies more than 10 times
-    beyond the largest lag; it has failed when its cutoffs leave no self-affine range
-    inside the lags.  A cutoff more than a decade outside the lags counts as unresolved,
-    and an unresolved ``lambda_s`` whose upper bound lies beyond the lags is NaN.  A
-    poor first fit of the spectrum (reduced chi^2 above 10 or above that of eq. 36)
-    restarts from the 3 best points of a grid of ``H``, ``ln eta``, ``ln eps`` and keeps
-    the best: with cutoffs one decade apart the start from eq. 36 can end in a local
-    minimum (``H`` near 0.1, ``lambda_s`` beyond ``lambda_r``).
+    *Checks* (docs/quality.md).  A fit is questionable when its rms misfit of ``ln G``
+    exceeds 10 % (or, weighted, its reduced chi^2 20 with a misfit above 2 %), when ``H``
+    ends within 0.05 of a bound, when (spectrum) eq. 36 fits with a 3 times smaller
+    reduced chi^2 (the note recommends ``model='eq36'``; the model asked for is kept),
+    or when a resolved ``lambda_r`` lies more than 10 times beyond the largest lag.  It
+    has failed (parameters NaN) when its rms misfit exceeds 20 %, whatever its chi^2;
+    when its cutoffs leave no self-affine range inside the lags; when a free ``H`` sits
+    at its bound (within 0.05 of it and less than 2 standard deviations from it: the
+    data do not determine H); or when it has fewer than 2 bins per free parameter.  A
+    cutoff more than a decade outside the lags counts as unresolved, unless G shows it:
+    a roll-off whose removal leaves the model more than 3 times off G in a bin, where
+    with it the model is not, is kept (the plateau of a map whose bins at the largest
+    lags have wide errors).  An unresolved ``lambda_s`` whose upper bound lies beyond
+    the lags is NaN.  A poor first fit of the spectrum (reduced chi^2 above 10 or above
+    that of eq. 36) restarts from the 3 best points of a grid of ``H``, ``ln eta``,
+    ``ln eps`` and keeps the best: with cutoffs one decade apart the start from eq. 36
+    can end in a local minimum (``H`` near 0.1, ``lambda_s`` beyond ``lambda_r``).
 
     *Roll-off shape.*  With ``rolloff='auto'`` both shapes are fitted to the same bins and
     compared by Akaike's information criterion of the weighted log residuals (AIC =
@@ -896,7 +932,8 @@ def _fit_dataset(setup: FitSetup, out: xr.DataArray) -> xr.Dataset:
             "units": lat_s, "long_name": "long-wavelength cutoff of the model (inf: none)"}))
     lazy = part["quality"].chunks is not None
     notes = "" if lazy else _fit_notes(ds, ds["fit_problems"].values, setup.model,
-                                       setup.weighted)
+                                       setup.weighted,
+                                       int(np.count_nonzero(np.isnan(setup.fixed))) + 1)
     ds = quality.mark_curves(ds, part["quality"], what=f"fit_acf (model {setup.model!r})",
                              notes=notes)
     return mark_gaps(ds, setup.acf, what="fit_acf", level="good", depends="the fit uses "

@@ -94,6 +94,8 @@ PROBLEM_LEVELS = {
     "misses_data": 1,           # model and G differ by more than MISS_FACTOR in a bin
     "sigma_h_below_data": 1,    # 2 sigma_h^2 below G (G <= 2 sigma_h^2 on any surface)
     "cutoff_undetermined": 1,   # a resolved cutoff's standard deviation exceeds its value
+    "hurst_pinned": 2,          # H at its bound: not 2 std (HURST_SEPARATION) inside it
+    "too_few_bins": 2,          # fewer than MIN_BINS_PER_PARAMETER bins per free parameter
 }
 PROBLEMS = tuple(PROBLEM_LEVELS)
 #: A fit is poor (questionable) when its rms misfit of ln G exceeds MISFIT_QUESTIONABLE
@@ -101,9 +103,13 @@ PROBLEMS = tuple(PROBLEM_LEVELS)
 #: 5 %), or, weighted, when its reduced chi^2 exceeds CHI2_ALONE (the model misses G by
 #: more than 4.5 standard errors rms: the standard errors are lower bounds, so a large map
 #: whose model is right by 1 % must not reach it; correct models of synthetic maps give
-#: 0.02 to 0.12).  A fit whose misfit exceeds MISFIT_FAILED (20 %) and whose reduced chi^2
-#: exceeds CHI2_QUESTIONABLE (unweighted: always) has failed.  See docs/quality.md for the
-#: measurements behind them.
+#: 0.02 to 0.12).  A fit whose misfit exceeds MISFIT_FAILED (20 %: the model is off G by a
+#: factor e^0.2 = 1.22 in a typical bin, gbar ~ G^(1/2) and the contact results by more
+#: than 10 %, the tolerance of the calibration's gbar; and the fitted curve no longer
+#: follows the measured one, so its parameters describe neither) has failed, whatever
+#: its reduced chi^2: wide standard errors (a profile of 76 to 134 points, 30 to 80 % per
+#: bin) make a 50 to 70 % misfit look like chi^2 = 2 to 3.5, but then the data do not
+#: pin the model either.  See docs/quality.md for the measurements behind them.
 CHI2_QUESTIONABLE, CHI2_ALONE = 10.0, 20.0
 MISFIT_QUESTIONABLE, MISFIT_FAILED = 0.1, 0.2
 #: ... but not when the misfit is below MISFIT_NEGLIGIBLE (2 %: gbar moves by < 1 %),
@@ -113,9 +119,25 @@ MISFIT_NEGLIGIBLE = 0.02
 #: what a reader of the plot would call a fit, whatever the rms (the weights are smallest
 #: where a model of the wrong shape misses most: at the largest lags).
 MISS_FACTOR = 3.0
-#: A free H closer than this to its bound (H_BOUNDS) is on it: the data ask for an
-#: exponent outside 0 < H < 1 (a tilt, a form, a plateau) or do not determine it.
+#: A free H closer than this to its bound (H_BOUNDS) is near it (questionable): the data
+#: may ask for an exponent outside 0 < H < 1 (a tilt, a form, a plateau).
 HURST_MARGIN = 0.05
+#: ... and pinned there (failed: H and every fitted parameter NaN) when, within that
+#: margin, it lies less than HURST_SEPARATION standard deviations from the bound: the data
+#: do not tell H from the bound where the search stopped (al3d-1: H = 0.01 +- 0.25, plu-1:
+#: 0.041 +- 0.16), or the search stopped on it (a G ~ dr^2 of a tilt asks for H > 1).  Two
+#: standard deviations, the test that tells a resolved cutoff from none (_SIGNIFICANCE);
+#: an exponent measured near the bound (the exact G of H = 0.05: 0.05 +- 2e-14) stays a
+#: measurement, questionable by HURST_MARGIN.
+HURST_SEPARATION = 2.0
+#: A fit of fewer bins than this many per free parameter has failed: each parameter is
+#: set by a feature of the curve (the amplitude by a level, H by a slope, a cutoff by a
+#: bend), which takes two bins at least, so below that some parameter rests on one bin or
+#: on none and the fit interpolates rather than measures; with n < 2 p the residuals also
+#: keep fewer degrees of freedom than the fit has parameters.  The 4 x 7 points of
+#: sdf-1.sdf give 7 bins for 4 parameters (H = 0.155 +- 8.6); with fewer bins than
+#: parameters + 1 (xyz-1.txt, 4 x 4 points: 4 bins) the fit is refused (_check_count).
+MIN_BINS_PER_PARAMETER = 2
 #: The other model is "clearly better" when its reduced chi^2 is this many times smaller.
 OTHER_BETTER = 3.0
 #: A cutoff more than this factor outside the fitted lags is an extrapolation.
@@ -398,7 +420,8 @@ def fit_eq36_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, unit, c
                               dr_max=x[-1] * dr_ref, sigma_h=sigma_h, lambda_r=lam,
                               lambda_s=0.0, r_ok=s > 0, s_ok=False,
                               hurst_free=bool(free[1]), hurst_std=stds[2],
-                              max_factor=max_factor, g_max=_g_max(G_sel, w, weighted))
+                              max_factor=max_factor, g_max=_g_max(G_sel, w, weighted),
+                              n_bins=n, n_free=p)
     if code == 2 and check:  # the numbers mean nothing (but a fixed value stays)
         keep = np.array([np.isfinite(fixed[2]), False, not free[1], not free[2], False])
         values[~keep], stds[~keep] = np.nan, np.nan
@@ -669,7 +692,7 @@ class _ShapeProblem:
         self.free, self.n, p, self.x, G_sel, self.G_ref, self.w, self.sel = _fit_data(
             G, se, dr=dr, use=use, dr_ref=dr_ref, weighted=weighted, fixed=fixed, unit=unit,
             what="the model spectrum")
-        self.dof = self.n - p
+        self.p, self.dof = p, self.n - p
         self.index = {int(k): i for i, k in enumerate(np.flatnonzero(self.free))}
         self.ly = np.log(G_sel / self.G_ref)
         self.g_max = _g_max(G_sel, self.w, weighted)
@@ -844,14 +867,17 @@ class _ShapeProblem:
         misfit = float(r @ r) / expected if expected > 0 else np.inf
         return A @ (J.T @ noise @ J) @ A * max(1.0, misfit)
 
-    def drop_unresolved(self, theta, active, cov_free) -> bool:
-        """Set the cutoffs the data do not resolve to none; whether one moved."""
+    def drop_unresolved(self, theta, active, cov_free, seen=(False,) * 4) -> bool:
+        """Set the cutoffs the data do not resolve to none; whether one moved.
+
+        ``seen``: cutoffs the fit needs (:meth:`needs`), kept whatever their std.
+        """
         lr, ls = self.cutoffs(theta)
         # a cutoff beyond a decade outside the lags is an extrapolation: not resolved
         far = {2: lr > OUTSIDE * self.x_hi, 3: ls < self.x_lo / OUTSIDE}
         moved = False
         for k in (2, 3):
-            if not active[k] or (k == 2 and np.isfinite(self.lam_0)):
+            if not active[k] or seen[k] or (k == 2 and np.isfinite(self.lam_0)):
                 continue
             i = self.index[k]
             v, s = np.exp(theta[k]), np.sqrt(max(cov_free[i, i], 0.0))
@@ -859,6 +885,28 @@ class _ShapeProblem:
                 moved |= theta[k] > _LN_FLOOR + 1e-9
                 theta[k], active[k] = _LN_FLOOR, False
         return moved
+
+    def needs(self, theta, without) -> bool:
+        """Whether the fit ``theta`` needs the roll-off that the refit ``without`` it lost.
+
+        The test that dropped it is on the standard deviation of ``eta``, linear in it:
+        right for a roll-off near none, not for one inside the lags (``eta`` of order 1,
+        G changed by that much at the largest lag), whose std it overstates.  The roll-off
+        is needed when the refit without it is worse by more than the same two standard
+        deviations in chi^2 (a likelihood ratio, scaled as the covariance is), or when
+        it misses G by more than MISS_FACTOR in a bin where the fit with it does not: a
+        reader of the plot sees the plateau, whatever the chi^2.  The std and the chi^2
+        are scaled by the misfit of the whole curve, and the roll-off's bins (the largest
+        lags) have the widest errors: di-1.di (512^2, plane removed) levels off at its
+        9.8 nm rms height, but the misfit of its first lags (reduced chi^2 13, where its
+        scan axes differ) hid its roll-off (1.6 std, chi^2 worse by 1.7 times 13 without
+        it), and the fit became a power law 3.8 times above G at the largest lag.
+        """
+        r, r_without = self.residuals(theta), self.residuals(without)
+        rss = float(r @ r)
+        scale = max(1.0, rss / self.dof) if self.weighted else rss / self.dof
+        return (float(r_without @ r_without) - rss > _SIGNIFICANCE**2 * scale
+                or _max_factor(r_without, self.w) > MISS_FACTOR >= _max_factor(r, self.w))
 
     def solve(self, theta):
         """Optimise from ``theta``, refitting after dropping cutoffs the data do not resolve.
@@ -874,18 +922,25 @@ class _ShapeProblem:
             theta, active, cov_free, chi2 = self.outcomes[hit.k]
             return theta.copy(), active.copy(), cov_free, chi2
         r_end = self.residuals(theta)
-        moved, rss = True, np.inf
-        for k in range(3):
-            if moved and k > 0:
-                # a refit after a cutoff was dropped may start where G ignores lambda_s
-                theta = self.optimise(self.released(theta, active), active)
+        rss, seen = np.inf, np.zeros(4, dtype=bool)
+        # each pass drops a cutoff at least, or keeps the roll-off G shows: 4 suffice
+        for _ in range(4):
             cov_free, chi2 = self.covariance(theta)
             if self.weighted and chi2 * self.dof - rss > _LOST_CHI2:  # it needed the cutoff
                 self.lost.add(theta.tobytes())
             rss = chi2 * self.dof
-            moved = self.drop_unresolved(theta, active, cov_free)
-            if not moved:
+            dropped, left = theta.copy(), active.copy()
+            if not self.drop_unresolved(dropped, left, cov_free, seen):
+                active = left  # a cutoff already at none is no longer active
                 break
+            # a refit after a cutoff was dropped may start where G ignores lambda_s
+            refit = self.optimise(self.released(dropped, left), left)
+            if active[2] and not left[2] and self.needs(theta, refit):
+                seen[2] = True  # G shows the plateau: keep the roll-off, drop the rest
+                continue
+            theta, active = refit, left
+        else:  # not reached (three passes at most), but the covariance must be theta's
+            cov_free, chi2 = self.covariance(theta)
         if np.all(np.isfinite(r_end)):
             self.ends.append((r_end, float(r_end @ r_end)))
             self.outcomes.append((theta.copy(), active.copy(), cov_free, chi2))
@@ -1066,7 +1121,8 @@ def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, rel_cov=None,
                               r_ok=resolved_r and free[2], s_ok=resolved_s and free[3],
                               hurst_free=bool(free[1]), chi2_other=chi2_eq36,
                               hurst_std=std[2], max_factor=max_factor,
-                              g_max=problem.g_max, cutoff_std=(std[3], std[4]))
+                              g_max=problem.g_max, cutoff_std=(std[3], std[4]),
+                              n_bins=problem.n, n_free=problem.p)
     cov = _reference_covariance(problem, theta, cov_free, resolved_r, resolved_s)
     if code == 2:  # the numbers mean nothing (but a fixed value stays what it was)
         keep = np.array([False, False, not free[1], not free[2], not free[3], False])
@@ -1087,7 +1143,8 @@ def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, rel_cov=None,
 def fit_problems(chi2, rms_misfit, hurst, *, weighted, dr_min, dr_max, sigma_h, lambda_r,
                  lambda_s, r_ok, s_ok, hurst_free, chi2_other=np.inf,
                  hurst_std=np.nan, max_factor=1.0, g_max=0.0,
-                 cutoff_std=(np.nan, np.nan)) -> tuple[int, int]:
+                 cutoff_std=(np.nan, np.nan), n_bins=np.inf,
+                 n_free=0) -> tuple[int, int]:
     """Return the problems of one fit (bits of :data:`PROBLEMS`) and its quality code.
 
     Code 0 good, 1 questionable, 2 failed (see :mod:`xrough.quality`).  ``dr_min``,
@@ -1099,20 +1156,28 @@ def fit_problems(chi2, rms_misfit, hurst, *, weighted, dr_min, dr_max, sigma_h, 
     ``sigma_h^2``), which no surface exceeds by ``2 sigma_h^2`` (``G = sigma_h^2 - C(dr)``,
     ``|C| <= sigma_h^2``); ``cutoff_std``: the standard deviations of ``lambda_r`` and
     ``lambda_s`` (a resolved cutoff with one beyond its value is not determined: zero
-    lies within one error).  Thresholds: :data:`CHI2_QUESTIONABLE`, :data:`CHI2_ALONE`,
-    :data:`MISFIT_QUESTIONABLE`, :data:`MISFIT_FAILED`, :data:`MISS_FACTOR`,
-    :data:`HURST_MARGIN`, :data:`OTHER_BETTER`, :data:`OUTSIDE`, :data:`HURST_STD_MAX`.
+    lies within one error); ``n_bins``, ``n_free``: the bins fitted and the free
+    parameters (the amplitude included).  Thresholds: :data:`CHI2_QUESTIONABLE`,
+    :data:`CHI2_ALONE`, :data:`MISFIT_QUESTIONABLE`, :data:`MISFIT_FAILED`,
+    :data:`MISS_FACTOR`, :data:`HURST_MARGIN`, :data:`HURST_SEPARATION`,
+    :data:`OTHER_BETTER`, :data:`OUTSIDE`, :data:`HURST_STD_MAX`,
+    :data:`MIN_BINS_PER_PARAMETER`.
     """
     found = set()
     if rms_misfit > MISFIT_QUESTIONABLE or (
             weighted and chi2 > CHI2_ALONE and rms_misfit > MISFIT_NEGLIGIBLE):
         found.add("poor_fit")
-    if rms_misfit > MISFIT_FAILED and (chi2 > CHI2_QUESTIONABLE or not weighted):
+    if rms_misfit > MISFIT_FAILED:
         found.add("failed_fit")
     if max_factor > MISS_FACTOR:
         found.add("misses_data")
     if hurst_free and not (H_BOUNDS[0] + HURST_MARGIN < hurst < H_BOUNDS[1] - HURST_MARGIN):
         found.add("hurst_at_bound")
+        if np.isfinite(hurst) and not (min(hurst - H_BOUNDS[0], H_BOUNDS[1] - hurst)
+                                       >= HURST_SEPARATION * hurst_std):
+            found.add("hurst_pinned")
+    if n_bins < MIN_BINS_PER_PARAMETER * n_free:
+        found.add("too_few_bins")
     if chi2 > CHI2_QUESTIONABLE and chi2_other * OTHER_BETTER < chi2:
         found.add("other_model_better")
     if (r_ok and lambda_r <= dr_min) or (s_ok and lambda_s >= dr_max) or (
