@@ -481,9 +481,14 @@ def _curvature_kernel(h, **kwargs):
     return k.min_curvature(check_finite(h), **kwargs)
 
 
-def _tip_cutoff(topography: xr.DataArray, grid: Grid, tip_radius: float,
+def tip_cutoff(topography: xr.DataArray, grid: Grid, tip_radius: float,
                 safety_factor: float) -> tuple[float | None, str]:
-    """Stencil length below which tips of radius R cannot follow the curvature."""
+    """Return the stencil length below which a tip of radius R cannot follow the curvature.
+
+    The tip rule of :func:`reliable` (``tip_radius`` and ``safety_factor`` in the lateral
+    unit of ``grid``), shared with :func:`xrough.stitch`: ``(cutoff, how)``, the cutoff
+    ``None`` when no stencil of the map resolves the tip.
+    """
     nd = len(grid.dims)
     hfactor = u.conversion_factor(grid.height_unit, grid.lateral_unit)
     target = -safety_factor / tip_radius
@@ -646,7 +651,7 @@ def reliable(
     notes = []
     if tip_radius is not None:
         radius = u.length_in(tip_radius, lunit, what="tip_radius")
-        cut, text = _tip_cutoff(topography, grid, radius, float(safety_factor))
+        cut, text = tip_cutoff(topography, grid, radius, float(safety_factor))
         if cut is None:
             notes.append(text)
         else:

@@ -53,7 +53,7 @@ from ._kernels.binning import check_points_per_decade, log_bin_edges, log_bins
 from ._kernels.checks import require_positive
 from .acf import result_attrs
 from .correlation import height_difference_acf
-from .preprocess import TIP_SAFETY_FACTOR, _tip_cutoff, reliability_window, stated_tip_radius
+from .preprocess import TIP_SAFETY_FACTOR, reliability_window, stated_tip_radius, tip_cutoff
 from .topography import grid_of
 
 __all__ = [
@@ -259,7 +259,7 @@ def _stated_tip_limit(name: str, da: xr.DataArray, stated: tuple[str, str], *, l
             f"first: xrough.reliable(topography, tip_radius={radius!r}, "
             f"min_pixels={min_pixels:g}, long_fraction={long_fraction:g}) (this computes the "
             "map)")}
-    cut, _ = _tip_cutoff(da, grid_of(da), u.length_in(radius, lunit, what=f"attr {key!r}"),
+    cut, _ = tip_cutoff(da, grid_of(da), u.length_in(radius, lunit, what=f"attr {key!r}"),
                          TIP_SAFETY_FACTOR)
     if cut is None:
         return lo, f"{rule_lo} ({said_tip} follows every scale of the map)", {}
