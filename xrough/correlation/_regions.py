@@ -48,7 +48,7 @@ def quarters(da: xr.DataArray, grid: Grid) -> xr.DataArray | None:
     ny, nx = da.sizes[dy], da.sizes[dx]
     if min(ny, nx) // 2 < MIN_SIDE:
         return None
-    out = []
+    out: list[xr.DataArray] = []
     for sy in (slice(0, ny // 2), slice(ny // 2, 2 * (ny // 2))):
         for sx in (slice(0, nx // 2), slice(nx // 2, 2 * (nx // 2))):
             q = da.isel({dy: sy, dx: sx})
