@@ -24,6 +24,7 @@ from collections import OrderedDict
 from collections.abc import Callable
 from typing import Any, Generic, ParamSpec, Protocol, TypeVar, cast
 
+import xarray as xr
 from dask.base import tokenize
 
 from . import quality
@@ -49,6 +50,17 @@ class _Memoized(Protocol, Generic[_P, _R]):
     cache_info: Callable[[], dict[str, int]]
 
     def __call__(self, *args: _P.args, **kwargs: _P.kwargs) -> _R: ...
+
+
+def _unflagged(value: Any) -> Any:
+    """Return ``value`` without its ``quality_flag`` coordinate, for the key.
+
+    G's verdict is a function of its data, and :func:`xrough.acf.read_acf` drops it: it
+    does not make another G.
+    """
+    if isinstance(value, (xr.DataArray, xr.Dataset)) and quality.FLAG in value.coords:
+        return value.drop_vars(quality.FLAG)
+    return value
 
 
 def _copy(result: Any) -> Any:
@@ -110,7 +122,8 @@ def by_content(maxsize: int = 32) -> Callable[[Callable[_P, _R]], _Memoized[_P, 
         def key_of(args, kwargs) -> str:  # f(G) and f(G, model="spectrum") are one call
             bound = signature.bind(*args, **kwargs)
             bound.apply_defaults()
-            return tokenize(func.__module__, func.__qualname__, bound.arguments)
+            return tokenize(func.__module__, func.__qualname__,
+                            {k: _unflagged(v) for k, v in bound.arguments.items()})
 
         @functools.wraps(func)
         def wrapper(*args, **kwargs):
