@@ -320,6 +320,31 @@ ERROR_OF_BINS = ("G's bins taken as independent, with their standard_error: G st
 INFLATION = "error_inflation"
 
 
+def bin_error(G: xr.DataArray) -> xr.DataArray:
+    """Return G's ``standard_error`` as a weight of its bins against each other.
+
+    Where the regions of the map disagree, ``standard_error`` is their scatter: the
+    G of one region lies above another's over a range of lags at once, which widens the
+    error of every result (through :func:`error_model`) but says nothing of how one bin
+    scatters about its neighbours. The weights of the fits and the smoothing of G's
+    derivatives take the finite-area error, ``standard_error`` over :data:`INFLATION`,
+    so that the regions change the errors of results, not their values.
+
+    Examples
+    --------
+    >>> import xarray as xr
+    >>> G = xr.DataArray([1.0, 2.0], dims="dr", coords={
+    ...     "standard_error": ("dr", [0.2, 0.6], {"units": "nm2"}),
+    ...     "error_inflation": ("dr", [2.0, 3.0])})
+    >>> bin_error(G).values.tolist(), bin_error(G).attrs["units"]
+    ([0.1, 0.2], 'nm2')
+    """
+    se = G.coords["standard_error"]
+    if INFLATION not in G.coords:
+        return se
+    return (se / G.coords[INFLATION]).assign_attrs(se.attrs).reset_coords(drop=True)
+
+
 def error_model(G: xr.DataArray) -> dict | None:
     """Return the map geometry the finite-area errors of G need, or None when G has none.
 

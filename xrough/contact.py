@@ -31,6 +31,7 @@ from .acf import (
     ERROR_OF_NONE,
     ERROR_OF_SURFACE,
     AcfSpec,
+    bin_error,
     error_model,
     gap_note,
     lag_coord,
@@ -100,7 +101,7 @@ def _si(G: xr.DataArray, spec: AcfSpec) -> tuple[xr.DataArray, xr.DataArray | No
     G = G.transpose(..., "dr")
     error = None
     if "standard_error" in G.coords:
-        se = G.coords["standard_error"]  # in G's unit unless it says otherwise
+        se = bin_error(G)  # in G's unit unless it says otherwise
         factor = (spec.to_m2 if "units" not in se.attrs else u.conversion_factor(
             u.units_of(se, what="coordinate 'standard_error'"), "m**2"))
         error = _strip(se.broadcast_like(G).transpose(..., "dr")) * factor

@@ -89,6 +89,7 @@ from .acf import (
     ERROR_OF_BINS,
     ERROR_OF_SURFACE,
     AcfSpec,
+    bin_error,
     error_model,
     mark_gaps,
     read_acf,
@@ -723,7 +724,7 @@ def _weighting(G: xr.DataArray, lateral: PlainUnit, weights: str | None) -> tupl
     if weights not in ("standard_error", None):
         raise ValueError(f"weights must be 'standard_error' or None, got {weights!r}")
     if weights == "standard_error" and "standard_error" in G.coords:
-        se_da = G.coords["standard_error"]
+        se_da = bin_error(G)
         se_factor = u.conversion_factor(_area_unit(se_da, "coordinate 'standard_error'"),
                                         lateral**2)
         return (True, "standard_error (1/standard error of ln G)",
