@@ -153,3 +153,45 @@ def test_the_halves_of_a_real_map_agree_within_their_errors():
         parts.append((float(gbar[0]), float(gbar.gbar_std[0])))
     (a, sa), (b, sb) = parts
     assert abs(a - b) / np.hypot(sa, sb) < 4.0, parts
+
+
+def test_the_fit_and_the_gradient_of_a_questionable_g_are_questionable():
+    """What makes G questionable (its regions disagree) holds for what is drawn from it:
+    the fit and the gradient carry G's flag and notes, each with one warning; their
+    values are those of G with its Gaussian errors (the regions change errors only)."""
+    G = _acf(_banded())
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        fit = G.rough.fit()
+    said = [w for w in caught if issubclass(w.category, xrough.QualityWarning)]
+    assert len(said) == 1 and "the regions of the map disagree" in str(said[0].message)
+    assert fit.attrs["quality"] != "good" and int(fit.quality_flag) >= 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        gbar = G.rough.gradient()
+        plain = G.assign_coords(standard_error=(G.standard_error / G.error_inflation)
+                                .assign_attrs(G.standard_error.attrs)).drop_vars(
+            ["error_inflation", "quality_flag"])
+        fit_plain = plain.rough.fit()
+    assert gbar.attrs["quality"] == "questionable"
+    assert "the regions of the map disagree" in gbar.attrs["quality_notes"]
+    assert float(fit.hurst) == pytest.approx(float(fit_plain.hurst), rel=1e-9)
+    # wider (measured 0.139 against 0.115: the sandwich of the plain fit already widens
+    # by the misfit that the band leaves beyond the Gaussian errors)
+    assert float(fit.hurst_std) > 1.1 * float(fit_plain.hurst_std)
+
+
+@pytest.mark.data
+def test_a_map_of_too_few_points_has_no_gradient_and_no_contact_area():
+    """sdf-1.sdf (4 x 7 points, 7 bins for a fit of 4 parameters): the fit fails (too few
+    bins), and so do the gradient and Persson theory (a_r was 0.38 +- 0.04 from the
+    ballistic form), each saying why."""
+    topo = xrough.open_topography(data_path("instruments", "sdf-1.sdf")).rough.detrend()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        G = topo.rough.acf()
+        gbar = G.rough.gradient()
+        contact = G.rough.persson(E_star="25 MPa", p0="0.1 MPa")
+    assert gbar.attrs["quality"] == "failed" and np.all(np.isnan(gbar.values))
+    assert "too few bins" in gbar.attrs["quality_notes"]
+    assert contact.attrs["quality"] == "failed" and np.all(np.isnan(contact.a_r.values))

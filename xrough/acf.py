@@ -334,8 +334,8 @@ def bin_error(G: xr.DataArray) -> xr.DataArray:
     --------
     >>> import xarray as xr
     >>> G = xr.DataArray([1.0, 2.0], dims="dr", coords={
-    ...     "standard_error": ("dr", [0.2, 0.6], {"units": "nm2"}),
-    ...     "error_inflation": ("dr", [2.0, 3.0])})
+    ...     "standard_error": ("dr", [0.2, 0.8], {"units": "nm2"}),
+    ...     "error_inflation": ("dr", [2.0, 4.0])})
     >>> bin_error(G).values.tolist(), bin_error(G).attrs["units"]
     ([0.1, 0.2], 'nm2')
     """

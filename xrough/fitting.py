@@ -51,8 +51,10 @@ is read (its units, the G and the gradient it implies) by :mod:`xrough.fit_resul
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar, cast
 
 import numpy as np
 import xarray as xr
@@ -252,7 +254,7 @@ def _problem_text(name: str, v: dict) -> str:
                 "the standard errors): its parameters are NaN")
     if name == "hurst_pinned":
         return (f"the data do not determine H: the fit sits at the bound of its search "
-                f"({H_BOUNDS[0]:g} or {H_BOUNDS[1]:g}; H ended within {HURST_MARGIN:g} of "
+                f"({H_BOUNDS[0]:g} or {H_BOUNDS[1]:g}, H ended within {HURST_MARGIN:g} of "
                 f"it and less than {HURST_SEPARATION:g} standard deviations from it), so "
                 "H and the parameters that depend on it are NaN (a G that follows no "
                 "power law dr^(2H) with 0 < H < 1: a tilt or a curvature, G ~ dr^2, or a "
@@ -363,8 +365,31 @@ def _fit_notes(ds: xr.Dataset, bits: np.ndarray, model: str, weighted: bool,
 # --------------------------------------------------------------------------------------
 # public functions
 # --------------------------------------------------------------------------------------
-@by_content()
+_F = TypeVar("_F", bound=Callable[..., xr.Dataset])
+
+
+def _rated_as_its_g(func: _F) -> _F:
+    """Rate a fit at least as questionable as the G it fits (:func:`quality.inherit`).
+
+    Outside the memo (:func:`by_content`, whose key ignores G's flag): the fit kept for
+    a G is the same whoever asked, and each caller's G rates what it gets.
+    """
+    @functools.wraps(func)
+    def wrapper(G, *args, **kwargs):
+        fit = func(G, *args, **kwargs)
+        if not isinstance(G, xr.DataArray):
+            return fit
+        what = f"fit_acf (model {kwargs.get('model', 'spectrum')!r})"
+        return quality.inherit(fit, G, what=what)
+
+    for name in ("peek", "cache_clear", "cache_info"):
+        setattr(wrapper, name, getattr(func, name))
+    return cast(_F, wrapper)
+
+
 @u.accepts_quantified
+@_rated_as_its_g
+@by_content()
 def fit_acf(
     G: xr.DataArray,
     *,

@@ -160,7 +160,8 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto",
         raise ValueError(f"method must be one of {GRADIENT_METHODS}, got {method!r}")
     if fit is None and method == "auto":
         fit = fit_acf.peek(G)  # the fit of this G that the chain has made, if any
-    return _rms_gradient(G, method, fit)
+    # at least as questionable as G (outside the memo, whose key ignores G's flag)
+    return quality.inherit(_rms_gradient(G, method, fit), G, what="rms_gradient")
 
 
 @by_content()
@@ -329,6 +330,13 @@ def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec,
         uses_fit = (code == 1) | (code == 3)
         given = quality.flag_of(params)
         level = xr.where(uses_fit, np.maximum(level, given), level).astype(np.int8)
+    if params is not None and "fit_problems" in params:  # too few bins: no gradient at all
+        few = (params["fit_problems"].reset_coords(drop=True).astype(np.int64)
+               & kernels.TOO_FEW_BINS) != 0
+        void = few & (code == 2)
+        out = out.where(~void)
+        level = xr.where(void, np.int8(2), level).astype(np.int8)
+        bits = xr.where(void, params["fit_problems"].reset_coords(drop=True), bits)
     info: dict = {}
     notes = ""
     if code.chunks is None:  # computed: say which route, and why
@@ -367,6 +375,9 @@ def _route_reason(code: int, n_exact: int, n_valid: int, bits: int, level: int,
     fit_text = ("the given fit failed (see its quality_notes)" if given else
                 "failed: " + describe_problems(bits) if bits > 0 else
                 "not possible (fewer than 5 lags)" if bits < 0 else "failed")
+    if level == 2 and bits > 0:  # too few bins: no route gives a gradient
+        return (f"{reason}; fit: {fit_text}; G has too few bins for any estimate of "
+                "gbar (NaN): measure a larger map")
     where = "the other lags" if taken == "exact+simple" else "every lag"
     return (f"{reason}; fit: {fit_text}; so the ballistic approximation sqrt(4 G)/dr on "
             f"{where}, which holds only where G ~ dr^2 (dr well below lambda_s) and "

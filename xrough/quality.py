@@ -42,7 +42,7 @@ import xarray as xr
 
 __all__ = ["LEVELS", "QualityWarning", "FLAG", "SEPARATOR", "level_code", "worst", "mark",
            "mark_curves", "flag_coord", "flag_of", "notes_of", "warn", "user_stacklevel",
-           "recorded"]
+           "recorded", "inherit"]
 
 #: The levels, best first; the integer code of a level is its index.
 LEVELS = ("good", "questionable", "failed")
@@ -512,3 +512,35 @@ def mark_curves(obj, codes, *, what: str, notes: str = "", warn: bool = True):
         if warn:
             _warn(what, LEVELS[code], notes)
     return out
+
+
+def inherit(result, source, *, what: str):
+    """Rate ``result`` per curve at least as its input ``source``, up to questionable.
+
+    What made the input questionable (G's regions or directions that disagree, a tip that
+    resolves no lag) holds for every result drawn from it: the result gets the input's
+    flag (a failed input counts as questionable: the result's own checks decide whether
+    its numbers mean anything) and, on a computed result, its notes and one warning.
+
+    Examples
+    --------
+    >>> import warnings, xarray as xr
+    >>> G = xr.DataArray([1.0], dims="dr", attrs={"quality": "questionable",
+    ...                                           "quality_notes": "regions disagree"})
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("ignore")
+    ...     fit = inherit(xr.Dataset({"hurst": 0.5}), G, what="fit_acf")
+    >>> fit.attrs["quality"], fit.attrs["quality_notes"]
+    ('questionable', 'regions disagree')
+    """
+    if FLAG not in source.coords and source.attrs.get("quality", "good") == "good":
+        return result
+    codes = np.minimum(flag_of(source), np.int8(level_code("questionable")))
+    notes = SEPARATOR.join(n for n in notes_of(source)
+                           if f"quality per curve in coordinate {FLAG}" not in n)
+    # one warning per result: a result that has warned at this level already says the
+    # input's notes in its attrs only
+    lazy = getattr(codes, "chunks", None) is not None or (
+        FLAG in result.coords and result[FLAG].chunks is not None)
+    said = not lazy and level_code(worst(result)) >= int(np.max(codes))
+    return mark_curves(result, codes, what=what, notes=notes, warn=not said)

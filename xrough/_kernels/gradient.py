@@ -18,6 +18,7 @@ from scipy.optimize import isotonic_regression
 from .acf_curve import require_acf
 from .binning import log_range
 from .fitting import (
+    PROBLEMS,
     SPECTRUM_OUTPUTS,
     fit_covariance,
     fit_spectrum_kernel,
@@ -364,6 +365,11 @@ def auto_gradient(g, se, noise, fitted=None, fitted_std=None, *, dr, exact: dict
     return (with_even_start(gbar, dr, g), *rest)
 
 
+#: The fit's problem bit of a G with too few bins for its parameters: the ballistic form on
+#: such a G (sdf-1.sdf, 4 x 7 points) gives numbers that mean nothing.
+TOO_FEW_BINS = 1 << PROBLEMS.index("too_few_bins")
+
+
 def _auto_route(g, se, noise, fitted, fitted_std, *, dr, exact, fit, fit_gradient):
     """:func:`auto_gradient` before its even start."""
     valid = np.isfinite(g) & (dr > 0)
@@ -384,6 +390,8 @@ def _auto_route(g, se, noise, fitted, fitted_std, *, dr, exact, fit, fit_gradien
             return (np.where(covered, out, np.where(valid, fitted, np.nan)), std, 3, n_exact,
                     bits, fit_code)
         return np.where(valid, fitted, np.nan), std, 1, n_exact, bits, fit_code
+    if not use_exact and bits > 0 and bits & TOO_FEW_BINS:
+        return none, none, 2, n_exact, bits, 2  # no gradient: G has too few bins for any
     simple = simple_gradient(dr, g)
     if use_exact:
         gbar = np.where(covered, out, np.where(valid, simple, np.nan))
