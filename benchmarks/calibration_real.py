@@ -14,7 +14,7 @@ and the whole map and every part goes, on its own, through the chain that
 ``xrough report`` runs by default (:mod:`xrough.cli.report`): the file as
 :func:`xrough.open_topography` reads it (the UNCD AFM map with the height scale and tip of
 its container's ``meta.yml``, which the reader finds itself), the plane removed by the
-report's own ``_detrend(topo, "auto")`` (split first, then each part detrended), and::
+report's own ``detrend_as_asked(topo, "auto")`` (split first, then each part detrended), and::
 
     G = topo.rough.acf()                                   # default options
     fit = G.rough.fit()
@@ -85,7 +85,7 @@ import numpy as np
 
 import xrough
 from xrough.cli._common import finest
-from xrough.cli._files import _detrend
+from xrough.cli._files import detrend_as_asked
 from xrough.quality import QualityWarning, notes_of, worst
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
@@ -185,7 +185,7 @@ def chain(topo) -> dict:
         out["notes"][name] = [" ".join(n.split()) for n in notes_of(res[name])]
 
     def G():
-        clean, _ = _detrend(topo, "auto")
+        clean, _ = detrend_as_asked(topo, "auto")
         return clean.rough.acf()
 
     step("G", G)

@@ -9,6 +9,7 @@ import xarray as xr
 
 import xrough
 from xrough import (
+    cleaning,
     contact,
     correlation,
     fitting,
@@ -39,6 +40,7 @@ METHODS = {
         "detrend": preprocess.detrend,
         "fit_trend": preprocess.fit_trend,
         "mask_outliers": preprocess.mask_outliers,
+        "cleaning_sensitivity": cleaning.cleaning_sensitivity,
         "reliable": preprocess.reliable,
         "reliability_window": preprocess.reliability_window,
         "solve_contact": solver.solve_contact,
@@ -181,6 +183,7 @@ TOPOGRAPHY_CALLS = [
     ("detrend", (), {"mode": "curvature"}),
     ("fit_trend", (), {}),
     ("mask_outliers", (), {"threshold": 3.0}),
+    ("cleaning_sensitivity", (), {"E_star": E_STAR, "p0": P0}),
     ("reliable", (), {"short_cutoff": "20 nm", "long_cutoff": "200 nm"}),
     ("solve_contact", (), {"E_star": E_STAR, "p0": P0}),
     ("compare_with_simulation", (), {"E_star": E_STAR, "p0": P0, "theory": "persson"}),

@@ -19,6 +19,7 @@ from . import (
     units,
 )
 from ._version import __version__
+from .cleaning import cleaning_sensitivity
 from .contact import (
     elastic_energy,
     patch_radius,
@@ -97,6 +98,7 @@ __all__ = [
     "gradient_from_spectrum",
     "height_difference_acf",
     "mask_outliers",
+    "cleaning_sensitivity",
     "model_acf",
     "model_spectrum",
     "open_analysis",

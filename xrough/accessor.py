@@ -20,6 +20,7 @@ from typing import Any
 import xarray as xr
 
 from . import (
+    cleaning,
     contact,
     correlation,
     fitting,
@@ -114,6 +115,7 @@ class RoughDataArrayAccessor:
     detrend = _forward(preprocess.detrend)
     fit_trend = _forward(preprocess.fit_trend)
     mask_outliers = _forward(preprocess.mask_outliers)
+    cleaning_sensitivity = _forward(cleaning.cleaning_sensitivity)
     reliable = _forward(preprocess.reliable)
     reliability_window = _forward(preprocess.reliability_window)
     solve_contact = _forward(solver.solve_contact)

@@ -233,7 +233,7 @@ def open_file(path: str, args: argparse.Namespace) -> xr.DataArray:
 # ------------------------------------------------------------------ measuring
 
 
-def _detrend(topo: xr.DataArray, mode: str) -> tuple[xr.DataArray, str]:
+def detrend_as_asked(topo: xr.DataArray, mode: str) -> tuple[xr.DataArray, str]:
     """Detrend by ``mode`` (``auto``: a plane, which is a line for a profile).
 
     Returns the topography and what was removed, in the words of ``--detrend``: ``none``,
@@ -264,7 +264,7 @@ def _measure(path: str, name: str, args: argparse.Namespace,
             warnings.simplefilter("always")
             topo = open_file(path, args)
             _check_lags(path, topo, args.direction)
-            topo, how = _detrend(topo, args.detrend)
+            topo, how = detrend_as_asked(topo, args.detrend)
             G = topo.rough.acf(direction=args.direction,
                                points_per_decade=args.points_per_decade,
                                reliable=not args.all_lags)

@@ -12,16 +12,18 @@ from __future__ import annotations
 
 import argparse
 import re
+import warnings
 
 import numpy as np
 import xarray as xr
 
 from .. import units as u
 from .._version import __version__
+from ..cleaning import CHOICES, cleaning_sensitivity
 from ..io.archive import save_analysis
 from ..plot import display_unit, pyplot
 from ..preprocess import LagWindow, lag_window
-from ..quality import notes_of, warn, worst
+from ..quality import QualityWarning, mark, notes_of, warn, worst
 from ._common import (
     EXIT_OK,
     emit_json,
@@ -34,7 +36,13 @@ from ._common import (
     text,
     write_atomic,
 )
-from ._files import add_acf_options, add_file_options, measure_all
+from ._files import (
+    add_acf_options,
+    add_file_options,
+    detrend_as_asked,
+    measure_all,
+    open_file,
+)
 
 #: The physical options: dimension and an example with its unit.
 QUANTITIES = {"--E-star": ("[pressure]", "25MPa"), "--p0": ("[pressure]", "0.1MPa"),
@@ -59,6 +67,10 @@ def add_parser(sub, **common) -> None:
     p.add_argument("--p0", required=True, help="mean pressure with its unit, e.g. 0.1MPa")
     p.add_argument("--gamma", help="work of adhesion with its unit, e.g. 50mJ/m2; adds "
                    "the adhesive patch radius")
+    p.add_argument("--compare-cleaning", action="store_true", dest="compare_cleaning",
+                   help="for each map, run the chain again with the heights levelled line "
+                   "by line and with the outliers masked; a result that one of them moves "
+                   "beyond its errors is marked ? with both values (three times the cost)")
     p.set_defaults(func=run)
 
 
@@ -192,6 +204,7 @@ def _record(m: dict, at: xr.Dataset | None, gbar_there: xr.DataArray | None,
             "model_error": _finite_of(at.get("sigma_c_model_error"))},
         "at_dr": nothing if at is None else number(at.dr),
         "patch_radius": number(r["patch"].a_c) if "patch" in r else None,
+        "cleaning": _cleaning_record(m),
     }
 
 
@@ -370,6 +383,45 @@ def _print_table(measured: list[dict], rows: list[tuple[str, ...]], parameters: 
           f"{parameters}")
 
 
+#: The result of a row that each quantity of :func:`cleaning_sensitivity` comes from.
+_CLEANED = {"gbar": "gradient", "v_el": "energy", "a_r": "persson", "hurst": "fit"}
+
+
+def _compare_cleaning(m: dict, args: argparse.Namespace, E_star: float, p0: float) -> None:
+    """Run the chain of a map with the other cleanings; mark what they move (in place).
+
+    The reference is the cleaning the report used (``--detrend``); the others are a line
+    per scan line and the outliers masked (:data:`xrough.cleaning.CHOICES`). A profile
+    has no scan lines to compare: it is left as it is.
+    """
+    if m["topography"].ndim != 2:
+        return
+    raw = open_file(m["file"], args)
+    used = m["detrend"]
+    choices = {f"as reported ({used})": lambda t: detrend_as_asked(t, args.detrend)[0],
+               **{name: clean for name, clean in CHOICES.items() if name != used}}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", QualityWarning)
+        found = cleaning_sensitivity(raw, E_star=E_star, p0=p0, choices=choices)
+    m["cleaning"] = found
+    for q, key in _CLEANED.items():
+        moved = [note for note in notes_of(found) if note.startswith(f"{q} depends")]
+        if moved and key in m["results"]:
+            m["results"][key] = mark(m["results"][key], moved[0], what=key, warn=False)
+
+
+def _cleaning_record(m: dict) -> dict | None:
+    """Return the comparison of cleanings for JSON (None when it was not asked for)."""
+    found = m.get("cleaning")
+    if found is None:
+        return None
+    return {"at_dr": number(found.dr), "choices": {
+        str(c): {q: {"value": _finite_of(found[q].sel(choice=c)),
+                     "std": _finite_of(found[f"{q}_std"].sel(choice=c)),
+                     "z": _finite_of(found[f"z_{q}"].sel(choice=c))}
+                 for q in _CLEANED} for c in found.choice.values}}
+
+
 def _emit(out, png, E_star: float, p0: float, gamma: float | None, records) -> None:
     emit_json({"xrough_version": __version__, "output": str(out), "figure": str(png),
                "parameters": {"E_star": number(E_star, "Pa"), "p0": number(p0, "Pa"),
@@ -384,6 +436,9 @@ def run(args: argparse.Namespace) -> int:
     out = output(args.output)
     png = out.with_suffix(".png")
     measured = measure_all(args, _analysis(E_star, p0, gamma))
+    if getattr(args, "compare_cleaning", False):
+        for m in measured:
+            _compare_cleaning(m, args, E_star, p0)
     rows, records = zip(*(_row(m) for m in measured))
     parameters = f"E_star={args.E_star}, p0={args.p0}, gamma={args.gamma}"
     save_analysis(out, {m["name"]: m["results"] for m in measured},
