@@ -269,14 +269,9 @@ def merged(rows):
 
 
 # ---------------------------------------------------------------------------------------
-def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--quick", action="store_true", help="13 maps of 128^2, one seed")
-    parser.add_argument("--no-real", action="store_true", help="skip the real files")
-    args = parser.parse_args(argv)
-    t0 = time.perf_counter()
+def _synthetic(quick: bool) -> None:
     print("synthetic family (truth known):")
-    rows, totals = calibrate_synthetic(args.quick)
+    rows, totals = calibrate_synthetic(quick)
     print("\n| result | maps | match the truth | false alarms (mark on a match) | "
           "misses (good, but off) |")
     print("|---|---|---|---|---|")
@@ -288,6 +283,18 @@ def main(argv=None):
     for (r, names), v in merged(rows):
         extra = f" (+{len(names) - 1} notes always with it)" if len(names) > 1 else ""
         print(f"| {r} | {names[0]}{extra} | {len(v['maps'])} | {v['false alarm']} |")
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="13 maps of 128^2, one seed")
+    parser.add_argument("--no-real", action="store_true", help="skip the real files")
+    parser.add_argument("--real-only", action="store_true",
+                        help="the real files only (no synthetic family)")
+    args = parser.parse_args(argv)
+    t0 = time.perf_counter()
+    if not args.real_only:
+        _synthetic(args.quick)
     if not args.no_real and DATA.exists():
         print("\nreal files (no truth): what fires")
         print("\n| file | fit | gradient | energy | stress_acf | persson | patch |")
