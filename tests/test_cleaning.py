@@ -69,12 +69,14 @@ def test_line_offsets_make_the_result_depend_on_the_levelling():
 
 
 def test_the_comparison_is_the_same_in_every_unit():
-    """nm against m: the same z (to 1e-6), the lag in the map's unit."""
+    """nm against m: the same z (to 1e-5: H comes from an iterative fit, which lands
+    within 3.5e-6 of itself in the other unit under the oldest supported scipy), the lag
+    in the map's unit."""
     topo = _with_line_offsets(_surface())
     nm = _compare(topo)
     m = _compare(xrough.convert_units(topo, "m", lateral="m"))
     for q in QUANTITIES:
-        np.testing.assert_allclose(m[f"z_{q}"].values, nm[f"z_{q}"].values, rtol=1e-6,
+        np.testing.assert_allclose(m[f"z_{q}"].values, nm[f"z_{q}"].values, rtol=1e-5,
                                    atol=1e-9)
     assert float(m.dr) == pytest.approx(1e-9) and m.dr.attrs["units"] == "m"
 

@@ -12,7 +12,7 @@ import pytest
 import xarray as xr
 
 import xrough
-from conftest import data_path
+from conftest import data_path, needs_bridge
 from xrough._kernels.uncertainty import REGIONS_DISAGREE, regional_scatter
 
 
@@ -136,6 +136,7 @@ def test_a_map_with_missing_points_and_a_small_map():
 
 
 @pytest.mark.data
+@needs_bridge  # .nid is read through SurfaceTopography
 def test_the_halves_of_a_real_map_agree_within_their_errors():
     """nid-1.nid (a scan-start band): its halves along y gave gbar at one pixel 59 of
     their stated errors apart (0.036 against 0.0056: one holds the band). With the
