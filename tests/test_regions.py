@@ -103,7 +103,8 @@ def test_a_banded_map_is_questionable_and_its_errors_are_the_regions_scatter():
 
 
 def test_the_verdict_is_the_same_in_every_unit_and_with_dask():
-    """nm against m, and a dask stack against numpy: the same flag, factor and errors."""
+    """nm against m, and a dask stack against numpy: the same flag, factor and errors,
+    those of G and those of the fit, the gradient and the energy drawn from it."""
     topo = _banded()
     G_nm = _acf(topo)
     G_m = _acf(xrough.convert_units(topo, "m", lateral="m"))
@@ -122,6 +123,17 @@ def test_the_verdict_is_the_same_in_every_unit_and_with_dask():
                                eager.error_inflation.values, rtol=1e-12)
     np.testing.assert_allclose(computed.standard_error.values,
                                eager.standard_error.values, rtol=1e-10)
+    # the errors of what is drawn from G, curve by curve (the stationary map keeps its
+    # Gaussian error) and lazily
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        for of in (lambda g: g.rough.fit().hurst_std,
+                   lambda g: g.rough.gradient().gbar_std.isel(dr=0),
+                   lambda g: g.rough.energy(E_star="25 MPa").v_el_std):
+            np.testing.assert_allclose(of(lazy).compute().values, of(eager).values,
+                                       rtol=1e-6)
+            single = float(of(_acf(_surface(2))))
+            assert float(of(eager)[1]) == pytest.approx(single, rel=1e-6)
 
 
 def test_a_map_with_missing_points_and_a_small_map():

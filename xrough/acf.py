@@ -349,26 +349,31 @@ def error_model(G: xr.DataArray) -> dict | None:
     """Return the map geometry the finite-area errors of G need, or None when G has none.
 
     From G's attrs: ``lag_geometry``, ``scan_size`` and ``pixel_size`` (in the unit of
-    ``dr``, as the estimator wrote them) and ``pooled_count`` (maps pooled into G), and
-    from its coordinate :data:`INFLATION` (where the regions of the map scatter beyond
-    the Gaussian model; the largest over the curves of a stack; read from a computed G
-    only) ``inflation``: the keywords of
-    :func:`xrough._kernels.uncertainty.relative_covariance`.  A stitched or model G
-    states none.
+    ``dr``, as the estimator wrote them) and ``pooled_count`` (maps pooled into G): the
+    keywords of :func:`xrough._kernels.uncertainty.relative_covariance` but one, the
+    factor of the regions, which each curve has its own (:func:`inflation_of`).  A
+    stitched or model G states none.
     """
     geometry = G.attrs.get("lag_geometry")
     size, pixel = G.attrs.get("scan_size"), G.attrs.get("pixel_size")
     if geometry not in ("radial", "axis", "profile") or not size or not pixel:
         return None
-    out = {"size": float(size), "pixel": float(pixel), "geometry": geometry,
-           "n_maps": int(G.attrs.get("pooled_count", 1))}
-    inflation = G.coords.get(INFLATION)
-    if inflation is not None and inflation.chunks is None:
-        k = np.asarray(inflation.transpose(..., "dr").values, dtype=float)
-        k = np.nanmax(k.reshape(-1, k.shape[-1]), axis=0) if k.size else k
-        if np.any(k > 1.0):  # the regions of a map scatter beyond the Gaussian model
-            out["inflation"] = tuple(np.where(np.isfinite(k), k, 1.0).tolist())
-    return out
+    return {"size": float(size), "pixel": float(pixel), "geometry": geometry,
+            "n_maps": int(G.attrs.get("pooled_count", 1))}
+
+
+def inflation_of(G: xr.DataArray) -> xr.DataArray | None:
+    """Return G's :data:`INFLATION` per curve (dims of G, ``dr`` last), or None.
+
+    The factor by which the regions of each map raise the errors of G's bins: an input
+    of every kernel that propagates G's covariance (the keyword ``inflation`` of
+    :func:`xrough._kernels.uncertainty.relative_covariance`), curve by curve and lazy
+    where G is.
+    """
+    if INFLATION not in G.coords:
+        return None
+    k = G.coords[INFLATION].broadcast_like(G).transpose(..., "dr")
+    return k.reset_coords(drop=True).drop_vars("dr", errors="ignore")
 
 
 def lag_coord(values: np.ndarray, unit: str, *, name: str = "dr",

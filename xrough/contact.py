@@ -34,6 +34,7 @@ from .acf import (
     bin_error,
     error_model,
     gap_note,
+    inflation_of,
     lag_coord,
     mark_gaps,
     read_acf,
@@ -106,6 +107,11 @@ def _si(G: xr.DataArray, spec: AcfSpec) -> tuple[xr.DataArray, xr.DataArray | No
             u.units_of(se, what="coordinate 'standard_error'"), "m**2"))
         error = _strip(se.broadcast_like(G).transpose(..., "dr")) * factor
     return _strip(G) * spec.to_m2, error
+
+
+def _energy_std(g, inflation, **kwargs):
+    """:func:`~xrough._kernels.contact.energy_std_curve` of one curve and its factor."""
+    return k.energy_std_curve(g, inflation=inflation, **kwargs)
 
 
 def _per_curve(func, *arrays, out: dict[str, int] | None = None, **kwargs):
@@ -485,8 +491,10 @@ def elastic_energy(G: xr.DataArray, *, E_star: QuantityLike,
     model = error_model(G)
     if model:  # lengths in m, as G_si
         model.update(size=model["size"] * spec.to_m, pixel=model["pixel"] * spec.to_m)
-    std = (quarter * _per_curve(k.energy_std_curve, G_si, out={"one": 1},
-                                dr=spec.dr * spec.to_m, **model).isel(one=0)
+    factor = inflation_of(G)  # the regions' factor, curve by curve
+    std = (quarter * _per_curve(
+        _energy_std, G_si, xr.ones_like(G_si) if factor is None else factor,
+        out={"one": 1}, dr=spec.dr * spec.to_m, **model).isel(one=0)
            if model else xr.full_like(part["v_el"], np.nan))
     ds = xr.Dataset(
         {

@@ -93,6 +93,7 @@ from .acf import (
     AcfSpec,
     bin_error,
     error_model,
+    inflation_of,
     mark_gaps,
     read_acf,
     result_attrs,
@@ -790,11 +791,22 @@ def prepare_fit(G: xr.DataArray, *, model: str = "spectrum", dr_min: Any = None,
 
 
 def _fit_curves(setup: FitSetup) -> xr.DataArray:
-    """Fit every curve: the kernel's outputs on the dim ``fit_output``."""
+    """Fit every curve: the kernel's outputs on the dim ``fit_output``.
+
+    Each curve's covariance carries its own regions' factor (:func:`inflation_of`).
+    """
     G, se = setup.inputs()
+    factor = inflation_of(setup.G)
+    kernel = setup.kernel
+
+    def per_curve(g, s, kk, **kw):
+        if kw.get("errors"):
+            kw = {**kw, "errors": {**kw["errors"], "inflation": kk}}
+        return kernel(g, s, **kw)
+
     return xr.apply_ufunc(
-        setup.kernel, G, se,
-        input_core_dims=[["dr"], ["dr"]], output_core_dims=[["fit_output"]],
+        per_curve, G, se, xr.ones_like(G) if factor is None else factor,
+        input_core_dims=[["dr"], ["dr"], ["dr"]], output_core_dims=[["fit_output"]],
         vectorize=True, dask="parallelized", output_dtypes=[float],
         dask_gufunc_kwargs={"output_sizes": {"fit_output": len(setup.outputs)}},
         kwargs=setup.options, keep_attrs=False,

@@ -37,6 +37,7 @@ from .acf import (
     ERROR_OF_NONE,
     ERROR_OF_SURFACE,
     error_model,
+    inflation_of,
     lag_coord,
     mark_gaps,
     read_acf,
@@ -206,7 +207,8 @@ def _rms_gradient(G: xr.DataArray, method: str, fit: xr.Dataset | None) -> xr.Da
     out = out.transpose(..., "dr").assign_coords(G["dr"].coords)
     out = out.drop_vars([c for c in out.coords if c not in out.dims and c != "dr"
                          and c != "gradient_method"], errors="ignore")
-    out = out.assign_coords(gbar_std=_gradient_std(out, Gl, errors, method, fit_rel))
+    out = out.assign_coords(gbar_std=_gradient_std(out, Gl, errors, method, fit_rel,
+                                                   inflation_of(G)))
     window = lag_window(G, dr)
     if window.recorded:  # lags outside the instrument's window: NaN, as in persson
         inside = xr.DataArray(~window.outside, dims="dr")
@@ -249,19 +251,23 @@ def _mark_window(out: xr.DataArray, window, unit: str, what: str) -> xr.DataArra
 
 
 def _gradient_std(gbar: xr.DataArray, Gl: xr.DataArray, errors: dict | None,
-                  method: str, fit_rel: xr.DataArray | None) -> xr.Variable:
+                  method: str, fit_rel: xr.DataArray | None,
+                  factor: xr.DataArray | None) -> xr.Variable:
     """Build the coordinate ``gbar_std``, the statistical error of gbar (NaN where gbar is).
 
-    ``fit_rel``: the relative error of gbar on the lags where the fitted model gives it.
+    ``fit_rel``: the relative error of gbar on the lags where the fitted model gives it;
+    ``factor``: the regions' factor on G's errors per curve (:func:`inflation_of`).
     """
     if errors is None:
         std, error_of = xr.full_like(gbar, np.nan), ERROR_OF_NONE
     else:
         gbar_or_none = _strip(gbar) if method == "auto" else xr.full_like(Gl, np.nan)
-        values = [Gl, gbar_or_none, xr.full_like(Gl, np.nan) if fit_rel is None else fit_rel]
+        values = [Gl, gbar_or_none, xr.full_like(Gl, np.nan) if fit_rel is None else fit_rel,
+                  xr.ones_like(Gl) if factor is None else factor]
         std = xr.apply_ufunc(
-            lambda g, gb, f, **kw: kernels.gradient_std(
-                g, gb if method == "auto" else None, f, **kw),  # auto: its even start
+            lambda g, gb, f, kk, errors, **kw: kernels.gradient_std(
+                g, gb if method == "auto" else None, f,  # auto: its even start
+                errors={**errors, "inflation": kk}, **kw),
             *values, input_core_dims=[["dr"]] * len(values),
             output_core_dims=[["dr"]],
             kwargs={"dr": Gl["dr"].values, "errors": errors, "ballistic": method == "simple",
@@ -311,15 +317,21 @@ def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec,
     if fitted.chunks is None and Gl.chunks is not None:
         fitted, fitted_std = fitted.chunk(), fitted_std.chunk()
 
-    def kernel(g, s, n, f, fs):
+    def kernel(g, s, n, f, fs, kk):
+        own = fit  # the fit of this curve carries its regions' factor
+        if fit is not None and fit.get("errors"):
+            own = {**fit, "errors": {**fit["errors"], "inflation": kk}}
         return kernels.auto_gradient(g, s, n, None if params is None else f,
                                      None if params is None else fs, dr=dr,
-                                     exact=_EXACT_DEFAULTS, fit=fit,
+                                     exact=_EXACT_DEFAULTS, fit=own,
                                      fit_gradient=fit_gradient)
 
+    factor = inflation_of(G)
+    factor = xr.ones_like(Gl) if factor is None else factor
     out, fit_rel, code, n_exact, bits, level = xr.apply_ufunc(
         kernel, Gl, se, noise, fitted.transpose(*Gl.dims), fitted_std.transpose(*Gl.dims),
-        input_core_dims=[["dr"]] * 5, output_core_dims=[["dr"], ["dr"], [], [], [], []],
+        factor, input_core_dims=[["dr"]] * 6,
+        output_core_dims=[["dr"], ["dr"], [], [], [], []],
         vectorize=True, dask="parallelized",
         output_dtypes=[float, float, np.int8, np.int64, np.int16, np.int8], keep_attrs=False)
     code = code.assign_attrs(
