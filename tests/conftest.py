@@ -51,3 +51,17 @@ def data_path(*parts):
     if not path.exists():
         pytest.skip(f"measurement data not available: {path.name}")
     return path
+
+
+def uncd_measurements() -> dict:
+    """The three UNCD measurements as its meta.yml describes them, detrended as it says
+    (TEM: mean, AFM: plane, stylus: curvature); skips when the data are absent."""
+    import xrough
+
+    folder = data_path("uncd")
+    tem = xrough.open_topography(folder / "80_Scale10.472_FIXEDv2p1_D7eHXiT.asc",
+                                 resample=True, unit="nm")
+    afm = xrough.open_topography(folder / "gain_control_uncd_35_z03tr3R.001")
+    sty = xrough.open_topography(folder / "uncd_stylus_300um_5mar_3_k0HpKJt.txt", unit="mm")
+    return {"TEM": tem.rough.detrend(mode="mean"), "AFM": afm.rough.detrend(mode="plane"),
+            "stylus": sty.rough.detrend(mode="curvature")}

@@ -7,7 +7,7 @@ import pytest
 import xarray as xr
 
 import xrough
-from conftest import data_path
+from conftest import uncd_measurements
 from xrough.stitching import (
     LevelFactorWarning,
     StitchingMismatchWarning,
@@ -288,14 +288,7 @@ def test_stitched_G_feeds_fit_and_persson(curves):
 
 @pytest.mark.data
 def test_uncd_stitched():
-    folder = data_path("uncd")
-    tem = xrough.open_topography(folder / "80_Scale10.472_FIXEDv2p1_D7eHXiT.asc",
-                                 resample=True, unit="nm")
-    afm = xrough.open_topography(folder / "gain_control_uncd_35_z03tr3R.001")
-    sty = xrough.open_topography(folder / "uncd_stylus_300um_5mar_3_k0HpKJt.txt", unit="mm")
-    # detrend modes of meta.yml: height = mean / plane, curvature for the stylus
-    meas = {"TEM": tem.rough.detrend(mode="mean"), "AFM": afm.rough.detrend(mode="plane"),
-            "stylus": sty.rough.detrend(mode="curvature")}
+    meas = uncd_measurements()  # detrend modes of meta.yml
     # the G as measured (reliable=False: the tips the container states not applied, which
     # leave the AFM out and start the stylus at 2.07 um, tests/test_stitching_windows.py):
     # three instruments, TEM and AFM overlapping

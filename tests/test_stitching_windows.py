@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import xrough
-from conftest import data_path
+from conftest import uncd_measurements
 from xrough.preprocess import reliability_window, reliable
 from xrough.stitching import stitch, stitch_curves
 
@@ -172,13 +172,7 @@ def test_uncd_tips_set_the_windows():
     """UNCD as meta.yml describes it: the AFM's 26 nm tip resolves no lag of its 100 nm
     scan (left out, questionable, one warning naming it); the stylus starts where acf()
     puts its limit (tip 5 um: 2.07 um, measured), not at 4 pixels (0.40 um)."""
-    folder = data_path("uncd")
-    tem = xrough.open_topography(folder / "80_Scale10.472_FIXEDv2p1_D7eHXiT.asc",
-                                 resample=True, unit="nm")
-    afm = xrough.open_topography(folder / "gain_control_uncd_35_z03tr3R.001")
-    sty = xrough.open_topography(folder / "uncd_stylus_300um_5mar_3_k0HpKJt.txt", unit="mm")
-    meas = {"TEM": tem.rough.detrend(mode="mean"), "AFM": afm.rough.detrend(mode="plane"),
-            "stylus": sty.rough.detrend(mode="curvature")}
+    meas = uncd_measurements()  # detrend modes of meta.yml
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         curves = stitch_curves(meas, unit="nm")
