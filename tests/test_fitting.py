@@ -391,10 +391,11 @@ def test_dr_range_and_weights_option():
 def _stacked(fits: list, model: str) -> xr.Dataset:
     """Single fits on a ``scan`` dim, as a vectorised fit gives them: per-curve flags."""
     codes = xr.DataArray([int(f.quality_flag) for f in fits], dims="scan")
-    out = xr.concat([f.drop_vars("quality_flag") for f in fits], dim="scan")
+    out = xr.concat([xrough.quality.unrated(f) for f in fits], dim="scan")
     out.attrs.pop("quality")
     out.attrs["quality_notes"] = ""
-    return xrough.quality.mark_curves(out, codes, what=f"fit_acf (model {model!r})")
+    return xrough.quality.mark_curves(out, codes, what=f"fit_acf (model {model!r})",
+                                      reason="fit")
 
 
 def test_numpy_and_dask_agree(backend):

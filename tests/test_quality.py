@@ -43,7 +43,7 @@ def _g(values, dr, se=None, unit="um") -> xr.DataArray:
 # ------------------------------------------------------------------- the convention
 def test_mark_sets_attrs_raises_the_flag_and_warns_once():
     da = xr.DataArray([1.0, 2.0], dims="dr")
-    da = quality.mark_curves(da, xr.DataArray(0), what="thing")
+    da = quality.mark_curves(da, xr.DataArray(0), what="thing", reason="input")
     assert da.attrs["quality"] == "good" and da.attrs["quality_notes"] == ""
     with pytest.warns(xrough.QualityWarning, match="^thing: questionable: no plateau$"):
         marked = quality.mark(da, "no plateau", what="thing")
@@ -242,7 +242,7 @@ def test_gradient_from_a_failed_fit_is_not_used():
     with pytest.warns(xrough.QualityWarning, match="the given fit failed"):
         gbar = xrough.rms_gradient(G, fit=fit)
     assert gbar.attrs["method"] == "exact+simple"
-    with pytest.warns(xrough.QualityWarning, match="from the fit of G"):
+    with pytest.warns(xrough.QualityWarning, match="the fit of G gives no finite gradient"):
         only_fit = xrough.rms_gradient(G, method="fit", fit=fit)
     assert only_fit.attrs["quality"] == "failed" and np.all(np.isnan(only_fit.values))
 
@@ -381,6 +381,6 @@ def test_mark_curves_keeps_scalar_coords_attrs_under_keep_attrs_false():
         dr_ref=((), 10.0, {"units": "nm"}),
         **{quality.FLAG: quality.flag_coord(0, what="G")})
     with xr.set_options(keep_attrs=False):
-        out = quality.mark_curves(ds, xr.DataArray(np.int8(0)), what="fit")
+        out = quality.mark_curves(ds, xr.DataArray(np.int8(0)), what="fit", reason="fit")
     assert out["dr_ref"].attrs == {"units": "nm"}
     assert int(out[quality.FLAG]) == 0

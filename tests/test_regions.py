@@ -91,7 +91,7 @@ def test_a_banded_map_is_questionable_and_its_errors_are_the_regions_scatter():
     # the same G with its Gaussian errors
     plain = G.assign_coords(standard_error=(G.standard_error / G.error_inflation)
                             .assign_attrs(G.standard_error.attrs)).drop_vars(
-        ["error_inflation", "quality_flag"])
+        "error_inflation").pipe(xrough.quality.unrated)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", xrough.QualityWarning)
         e_reg = G.rough.energy(E_star="25 MPa")
@@ -119,6 +119,12 @@ def test_the_verdict_is_the_same_in_every_unit_and_with_dask():
     computed = lazy.compute()
     assert computed.quality_flag.values.tolist() == [1, 0]
     assert xrough.quality.worst(lazy) == "questionable"
+    # why, per map, lazily and the same as numpy's: the regions, and nothing else
+    assert lazy.quality_reasons.chunks is not None
+    bit = xrough.quality.reason_bit("regions_disagree")
+    assert eager.quality_reasons.values.tolist() == [bit, 0]
+    assert computed.quality_reasons.values.tolist() == [bit, 0]
+    assert xrough.quality.reasons_of(lazy) == ["regions_disagree"]
     np.testing.assert_allclose(computed.error_inflation.values,
                                eager.error_inflation.values, rtol=1e-12)
     np.testing.assert_allclose(computed.standard_error.values,
@@ -134,6 +140,18 @@ def test_the_verdict_is_the_same_in_every_unit_and_with_dask():
                                        rtol=1e-6)
             single = float(of(_acf(_surface(2))))
             assert float(of(eager)[1]) == pytest.approx(single, rel=1e-6)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        # what is drawn from the banded map says why it is questionable, lazily too
+        for of in (lambda g: g.rough.fit(), lambda g: g.rough.gradient(),
+                   lambda g: g.rough.energy(E_star="25 MPa"),
+                   lambda g: g.rough.persson(E_star="25 MPa", p0="0.1 MPa")):
+            got_eager, got_lazy = of(eager), of(lazy).compute()
+            np.testing.assert_array_equal(got_lazy.quality_flag.values,
+                                          got_eager.quality_flag.values)
+            np.testing.assert_array_equal(got_lazy.quality_reasons.values,
+                                          got_eager.quality_reasons.values)
+            assert int(got_eager.quality_reasons[0]) & bit, got_eager.quality_reasons
 
 
 def test_a_map_with_missing_points_and_a_small_map():
@@ -184,7 +202,7 @@ def test_the_fit_and_the_gradient_of_a_questionable_g_are_questionable():
         gbar = G.rough.gradient()
         plain = G.assign_coords(standard_error=(G.standard_error / G.error_inflation)
                                 .assign_attrs(G.standard_error.attrs)).drop_vars(
-            ["error_inflation", "quality_flag"])
+            "error_inflation").pipe(xrough.quality.unrated)
         fit_plain = plain.rough.fit()
     assert gbar.attrs["quality"] == "questionable"
     assert "the regions of the map disagree" in gbar.attrs["quality_notes"]

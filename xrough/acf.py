@@ -210,7 +210,7 @@ def read_acf(G: xr.DataArray, *, what: str = "G", single: bool = False,
     (False, 'nm')
     """
     spec = check_acf(G, what=what, single=single, min_bins=min_bins)
-    return G.drop_vars(quality.FLAG, errors="ignore"), spec
+    return quality.unrated(G), spec
 
 
 def _gaps(attrs: dict, length_unit: PlainUnit, what: str) -> np.ndarray:

@@ -278,7 +278,7 @@ def _own_attrs(func):
 def _own_coords(G: xr.DataArray) -> dict:
     """G's coords that are not per bin (extra dims, scalars such as gradient_method)."""
     return {c: v for c, v in G.coords.items()
-            if "dr" not in v.dims and c != quality.FLAG}
+            if "dr" not in v.dims and c not in (quality.FLAG, quality.REASON)}
 
 
 def _rate(result, checks, *, what: str, G, inherited=()):
@@ -332,11 +332,14 @@ def _rate(result, checks, *, what: str, G, inherited=()):
             codes = np.maximum(codes, xr.where(mask, np.int8(code), np.int8(0)))
         if not lazy and bool(mask.any()):
             (remarks if level == "good" else notes).append(note)
+    own = codes  # the result's own checks (the inputs' reasons are theirs)
+    reasons = []
     for item in (G, *inherited):
         source, variables, name = item if isinstance(item, tuple) else (item, None, "")
         if source is None:
             continue
         flag = quality.flag_of(source)
+        reasons.append(quality.reasons_from(source))
         chosen = some(variables)
         if chosen is not None:
             failed_here = flag >= quality.level_code("failed")
@@ -360,8 +363,11 @@ def _rate(result, checks, *, what: str, G, inherited=()):
                 result = _blank(result, mask, lambda v, n=name: v.name == n)
     if not (not lazy and codes.chunks is None and bool(failed.all())):
         notes = said + notes  # which variables are NaN, unless all are
-    out = quality.mark_curves(result, codes.astype(np.int8), what=what,
+    out = quality.mark_curves(result, codes.astype(np.int8), what=what, reason="contact",
                               notes=quality.SEPARATOR.join(notes))
+    bits = functools.reduce(np.bitwise_or, reasons, xr.where(
+        own > 0, np.int16(quality.reason_bit("contact")), np.int16(0)))
+    out = quality.add_reasons(out.drop_vars(quality.REASON), bits)
     if out[quality.FLAG].ndim == 0:  # one curve: its remarks too (many: the flags only)
         for remark in remarks:
             out = quality.mark(out, remark, level="good", what=what)
@@ -474,7 +480,7 @@ def elastic_energy(G: xr.DataArray, *, E_star: QuantityLike,
     1.0
     """
     E = u.positive_si(E_star, _PRESSURE, what="E_star")
-    G, spec = read_acf(G)
+    rated, (G, spec) = G, read_acf(G)  # rated: G with its own verdict, for _rate
     positive = spec.dr[spec.dr > 0]
     ac = (positive if a_c is None else
           u.array_in(a_c, spec.length_unit, what="a_c", noun="patch radii", positive=True))
@@ -533,7 +539,7 @@ def elastic_energy(G: xr.DataArray, *, E_star: QuantityLike,
          "lower bound"),
         (part["above"] > EXTRAPOLATED, "questionable",
          f"more than {EXTRAPOLATED:.0%} of v_el comes from beyond the largest lag, where G "
-         "is continued flat: measure larger scales")], what="elastic_energy", G=G)
+         "is continued flat: measure larger scales")], what="elastic_energy", G=rated)
 
 
 def _window_edge(window: LagWindow, lags: np.ndarray) -> float:
@@ -701,7 +707,7 @@ def stress_acf(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike | None
         out = ds["G_sigma"]
         out.attrs = {**ds.attrs, **out.attrs}  # provenance, E_star, theory and the variable's
         return out
-    G, spec = read_acf(G)
+    rated, (G, spec) = G, read_acf(G)  # rated: G with its own verdict, for _rate
     G_si, error = _si(G, spec)
     lap, why, _ = _laplacian(G)
     full = (E / 2) ** 2 * lap
@@ -718,7 +724,7 @@ def stress_acf(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike | None
     return _rate(out, [(few, "questionable", "fewer than 5 valid bins: the Laplacian is "
                         "that of the log-log polygon through them, not of a smoothed G; "
                         "use more points per decade"), *_derivative_checks(why, spec),
-                       unresolved], what="stress_acf", G=G)
+                       unresolved], what="stress_acf", G=rated)
 
 
 @u.accepts_quantified
@@ -946,7 +952,7 @@ def persson(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike, theory: 
     wanted = _persson_variables(theory, kappa, variables)
     E = u.positive_si(E_star, _PRESSURE, what="E_star")
     p0s = u.positive_si(p0, _PRESSURE, what="p0", many=True)
-    G, spec = read_acf(G)
+    rated, (G, spec) = G, read_acf(G)  # rated: G with its own verdict, for _rate
     G = G.transpose(..., "dr")
     G_si, error = _si(G, spec)
     run = _PerssonRun(G=G, spec=spec, G_si=G_si, error=error, E=E, kappa=float(kappa),
@@ -962,9 +968,10 @@ def persson(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike, theory: 
         if gradient is None:
             with quality.quiet():  # their notes are this result's: it warns once
                 if set(_NEED_FIT) & set(wanted) and gradient_method in ("auto", "fit"):
-                    fit = fit_acf(G) if fit is None else fit  # one fit for both
+                    # of the rated G: its verdict and reasons are theirs
+                    fit = fit_acf(rated) if fit is None else fit  # one fit for both
                 gradient = rms_gradient(
-                    G, method=gradient_method,
+                    rated, method=gradient_method,
                     fit=fit if gradient_method in ("auto", "fit") else None)
         method = str(gradient.attrs.get("method", "given"))
         area = _contact_area(run, gradient)
@@ -973,7 +980,7 @@ def persson(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike, theory: 
     if "sigma_quick" in wanted:
         if fit is None:
             with quality.quiet():
-                fit = fit_acf(G)
+                fit = fit_acf(rated)
         out["sigma_quick"] = _sigma_quick(run, fit)
     if "G_sigma" in wanted or "Gamma_sigma" in wanted:
         assert area is not None  # every variable but sigma_quick has it
@@ -1001,7 +1008,7 @@ def persson(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike, theory: 
     checks += window
     gap = gap_note(spec, _GAP_PERSSON)  # said with the rest: one warning
     checks += [(xr.DataArray(True), "questionable", gap)] if gap else []
-    return _rate(ds, checks, what="persson", G=G, inherited=(
+    return _rate(ds, checks, what="persson", G=rated, inherited=(
         (gradient if set(wanted) - {"sigma_quick"} else None, _NEED_GRADIENT,
          "the rms gradient gbar (eq. 26) they need"),
         (fit if set(_NEED_FIT) & set(wanted) else None, _NEED_FIT,
@@ -1339,7 +1346,7 @@ def patch_radius(G: xr.DataArray, *, E_star: QuantityLike, gamma: QuantityLike) 
     """
     E = u.positive_si(E_star, _PRESSURE, what="E_star")
     gam = u.positive_si(gamma, _ENERGY, what="gamma")
-    G, spec = read_acf(G)
+    rated, (G, spec) = G, read_acf(G)  # rated: G with its own verdict, for _rate
     G_si, _ = _si(G, spec)
     res = _per_curve(k.patch_radius_curve, G_si, out={"k": 3}, dr=spec.dr * spec.to_m,
                      E_star=E, gamma=gam)
@@ -1386,7 +1393,7 @@ def patch_radius(G: xr.DataArray, *, E_star: QuantityLike, gamma: QuantityLike) 
         (finite & (a_c < lags[0]), "questionable",
          "a_c lies below the smallest lag of G: it is the root of G's continuation "
          "there (a dr^2 + b dr^4, in closed form), not of data: measure finer scales to "
-         "confirm it")], what="patch_radius", G=G)
+         "confirm it")], what="patch_radius", G=rated)
 
 
 def _share_below(g, a, *, dr, edge) -> float:

@@ -973,6 +973,6 @@ def _fit_dataset(setup: FitSetup, out: xr.DataArray) -> xr.Dataset:
                                        setup.weighted,
                                        int(np.count_nonzero(np.isnan(setup.fixed))) + 1)
     ds = quality.mark_curves(ds, part["quality"], what=f"fit_acf (model {setup.model!r})",
-                             notes=notes)
+                             reason="fit", notes=notes)
     return mark_gaps(ds, setup.acf, what="fit_acf", level="good", depends="the fit uses "
                      "the measured bins only; over the gap G is bridged by the fitted model")

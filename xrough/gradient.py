@@ -161,8 +161,28 @@ def rms_gradient(G: xr.DataArray, *, method: str = "auto",
         raise ValueError(f"method must be one of {GRADIENT_METHODS}, got {method!r}")
     if fit is None and method == "auto":
         fit = fit_acf.peek(G)  # the fit of this G that the chain has made, if any
-    # at least as questionable as G (outside the memo, whose key ignores G's flag)
-    return quality.inherit(_rms_gradient(G, method, fit), G, what="rms_gradient")
+    # at least as questionable as G and, where it is used, the fit (outside the memo,
+    # whose key ignores their ratings)
+    out = quality.inherit(_rms_gradient(G, method, fit), G, what="rms_gradient")
+    if fit is not None and method in ("fit", "auto"):
+        out = quality.inherit(out, _rating_where_used(fit, out), what="rms_gradient")
+    return out
+
+
+def _rating_where_used(fit: xr.Dataset, gbar: xr.DataArray) -> xr.DataArray:
+    """Give the fit's rating on the curves whose gradient it gives (all, or route 1/3)."""
+    used = xr.DataArray(True)
+    if "gradient_method" in gbar.coords:
+        code = gbar["gradient_method"].reset_coords(drop=True)
+        used = (code == 1) | (code == 3)
+    flag = xr.where(used, quality.flag_of(fit), np.int8(0)).astype(np.int8)
+    coords = {quality.FLAG: quality.flag_coord(flag, what="fit_acf")}
+    if quality.REASON in fit.coords:
+        reasons = fit[quality.REASON].reset_coords(drop=True)
+        coords[quality.REASON] = quality.reasons_coord(xr.where(used, reasons, 0))
+    proxy = xr.zeros_like(coords[quality.FLAG].variable, dtype=float)
+    return xr.DataArray(proxy, attrs={
+        "quality_notes": fit.attrs.get("quality_notes", "")}).assign_coords(coords)
 
 
 @by_content()
@@ -194,9 +214,10 @@ def _rms_gradient(G: xr.DataArray, method: str, fit: xr.Dataset | None) -> xr.Da
             out = out.drop_vars("gbar_std")
         if params.attrs.get("model") != "spectrum":
             extra_attrs["equation"] = "eq. 37/38 with the fit of eq. 36"
-        if quality.FLAG in params.coords:
-            level = quality.flag_of(params)
-            notes = "from the fit of G: " + params.attrs.get("quality_notes", "")
+        # a fit without finite parameters gives no gradient: failed (the fit's own
+        # rating and notes join outside the memo, in rms_gradient)
+        level = xr.where(out.isnull().all("dr"), np.int8(2), level).astype(np.int8)
+        notes = "the fit of G gives no finite gradient on any lag"
     elif method == "exact":
         out = xr.apply_ufunc(kernels.exact_on_lags, Gl, _noise(G),
                              kwargs={"dr": dr, **_EXACT_DEFAULTS}, **common)
@@ -225,7 +246,7 @@ def _rms_gradient(G: xr.DataArray, method: str, fit: xr.Dataset | None) -> xr.Da
     if window.empty is not None:  # no lag resolved: failed, said with the rest (one warning)
         level = xr.where(level < 2, np.int8(2), level).astype(np.int8)
         notes = quality.SEPARATOR.join(n for n in (notes, window.no_lag_note) if n)
-    out = quality.mark_curves(out, level, what=what, notes=notes)
+    out = quality.mark_curves(out, level, what=what, reason="gradient", notes=notes)
     out = _mark_window(out, window, spec.unit_str, what)
     return mark_gaps(out, spec, what=what, depends=_GAP,
                      level="good" if out.attrs["method"] in ("simple", "fit") else
@@ -338,10 +359,7 @@ def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec,
         long_name="route of the rms gradient per curve", units="1",
         **quality.cf_flags(kernels.AUTO_METHODS, np.int8))
     out = out.assign_coords(gradient_method=code)
-    if params is not None and quality.FLAG in params.coords:  # the given fit's own rating
-        uses_fit = (code == 1) | (code == 3)
-        given = quality.flag_of(params)
-        level = xr.where(uses_fit, np.maximum(level, given), level).astype(np.int8)
+    # the given fit's own rating is applied outside the memo (rms_gradient)
     if params is not None and "fit_problems" in params:  # too few bins: no gradient at all
         few = (params["fit_problems"].reset_coords(drop=True).astype(np.int64)
                & kernels.TOO_FEW_BINS) != 0
@@ -363,11 +381,6 @@ def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec,
             info["equation"] = _EQUATIONS[taken]
             if taken != "exact":
                 info["fallback_reason"] = str(reasons)
-            if params is not None and int(level) and code in (1, 3):
-                # the fit's own notes, each as it said it (so that a result that also
-                # quotes the fit, or a report, can say each once)
-                notes = quality.SEPARATOR.join(
-                    [notes, *quality.notes_of(params)])
     return out, fit_rel, info, level, notes
 
 

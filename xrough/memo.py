@@ -53,13 +53,13 @@ class _Memoized(Protocol, Generic[_P, _R]):
 
 
 def _unflagged(value: Any) -> Any:
-    """Return ``value`` without its ``quality_flag`` coordinate, for the key.
+    """Return ``value`` without its rating (``quality_flag``, its reasons), for the key.
 
     G's verdict is a function of its data, and :func:`xrough.acf.read_acf` drops it: it
     does not make another G.
     """
-    if isinstance(value, (xr.DataArray, xr.Dataset)) and quality.FLAG in value.coords:
-        return value.drop_vars(quality.FLAG)
+    if isinstance(value, (xr.DataArray, xr.Dataset)):
+        return quality.unrated(value)
     return value
 
 

@@ -942,7 +942,8 @@ def tip_check(curvature: xr.DataArray, *, tip_radius: QuantityLike,
                  + " and ".join(p for p in parts if p)
                  + ": at these scales the map may show the tip's shape, not the surface's; "
                    "leave them out of G with reliable(tip_radius=...)")
-    out = quality.mark_curves(out, codes, what="scale_dependent_curvature", notes=notes)
+    out = quality.mark_curves(out, codes, what="scale_dependent_curvature",
+                              reason="beyond_tip", notes=notes)
     if single and not flag.values.any():
         out = quality.mark(out, f"{told}: no scale is curved beyond it (the rms curvature "
                                 f"stays below 1/R, the most negative above "

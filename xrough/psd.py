@@ -360,4 +360,5 @@ def _result(topography, grid: Grid, packed: xr.DataArray, *, kind, window, n_mod
             "window; if they are scattered, C is low by about the missing fraction where "
             "it is large and has a floor of about (missing fraction) sigma_h^2 dA where "
             "it is small (docs/psd.md)")
-    return quality.mark_curves(C, codes, what="power_spectrum", notes=note)
+    return quality.mark_curves(C, codes, what="power_spectrum",
+                               reason="few_valid_points", notes=note)

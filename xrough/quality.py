@@ -17,6 +17,13 @@ coordinate ``quality_flag``
     the level per curve as an ``int8`` (0 good, 1 questionable, 2 failed; CF
     ``flag_values``/``flag_meanings``), on the extra dims of the result (0-d for one
     curve); computed with the result, so it is lazy where the result is.
+coordinate ``quality_reasons``
+    which check set that level, per curve: a CF bit mask (``flag_masks``/
+    ``flag_meanings``, the words of :data:`REASONS`), on the same dims and as lazy as the
+    flag; the same for a dask result and its numpy twin (whose notes give the numbers), so
+    that the verdict of each map of a stack, or of a lazy map, says why
+    (:func:`reasons_of`). Carried from input to result (a fit of a G whose regions
+    disagree says ``regions_disagree``).
 :class:`QualityWarning`
     emitted once per marked result, naming the result, the problem and what to do.
 
@@ -40,14 +47,32 @@ import dask.array as dsa
 import numpy as np
 import xarray as xr
 
-__all__ = ["LEVELS", "QualityWarning", "FLAG", "SEPARATOR", "level_code", "worst", "mark",
-           "mark_curves", "flag_coord", "flag_of", "notes_of", "warn", "user_stacklevel",
-           "recorded", "inherit"]
+__all__ = ["LEVELS", "QualityWarning", "FLAG", "REASON", "REASONS", "SEPARATOR",
+           "level_code", "worst", "mark", "mark_curves", "flag_coord", "flag_of", "notes_of",
+           "reasons_of", "unrated", "warn", "user_stacklevel", "recorded", "inherit"]
 
 #: The levels, best first; the integer code of a level is its index.
 LEVELS = ("good", "questionable", "failed")
 #: Name of the per-curve flag coordinate.
 FLAG = "quality_flag"
+#: Name of the per-curve coordinate of the reasons (a bit mask).
+REASON = "quality_reasons"
+#: The checks that rate a result per curve, one bit each (bit k: the k-th word), and what
+#: each means; the notes of a computed result give the numbers.
+REASONS = {
+    "regions_disagree": "G of the map's four quarters scatters beyond their finite-area "
+                        "error (not a stationary surface: a band, drift, particle, scratch)",
+    "anisotropic": "G along the two axes of the map differs beyond its errors",
+    "above_target_error": "G's relative standard error exceeds the target asked for",
+    "few_valid_points": "too few valid points for the spectrum",
+    "beyond_tip": "curvature beyond the tip's: the map may show the tip, not the surface",
+    "fit": "the fit does not describe G or is not determined (see variable fit_problems)",
+    "gradient": "the rms gradient's own checks (route, resolution, plateau, the fit it "
+                "uses)",
+    "contact": "the contact result's own checks (inputs failed, outside the model's range)",
+    "stitch_levels": "the stitched measurements' levels differ beyond their errors",
+    "input": "an input of the result was rated so (its notes say why)",
+}
 #: Separator of the notes in ``attrs["quality_notes"]``.
 SEPARATOR = "; "
 
@@ -286,6 +311,88 @@ def notes_of(obj: xr.DataArray | xr.Dataset) -> list[str]:
     return [n for n in text.split(SEPARATOR) if n]
 
 
+def reasons_of(obj: xr.DataArray | xr.Dataset) -> list[str]:
+    """Return the words of :data:`REASONS` that rate any curve of a result (computed).
+
+    Read from the ``quality_reasons`` coordinate (computed if lazy): the same for a dask
+    result and its numpy twin.  Per curve, decode the coordinate with its CF
+    ``flag_masks`` (or ``result.quality_reasons & mask``).
+
+    Examples
+    --------
+    >>> import warnings, xarray as xr
+    >>> G = xr.DataArray([[1.0], [2.0]], dims=("scan", "dr"))
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("ignore")
+    ...     G = mark_curves(G, xr.DataArray([0, 1], dims="scan"), what="G",
+    ...                     reason="regions_disagree")
+    >>> reasons_of(G), G.quality_reasons.values.tolist()
+    (['regions_disagree'], [0, 1])
+    """
+    if REASON not in obj.coords:
+        return []
+    bits = np.bitwise_or.reduce(np.asarray(obj[REASON].values, dtype=np.int64).ravel())
+    return [w for k, w in enumerate(REASONS) if int(bits) >> k & 1]
+
+
+def reason_bit(reason: str) -> int:
+    """Return the bit of a word of :data:`REASONS` (``reason_bit("anisotropic") == 2``)."""
+    if reason not in REASONS:
+        raise ValueError(f"quality reason must be one of {list(REASONS)}, got {reason!r}")
+    return 1 << list(REASONS).index(reason)
+
+
+def unrated(obj):
+    """Return ``obj`` without its per-curve rating (``quality_flag``, ``quality_reasons``).
+
+    A verdict is a function of the data: dropped where a result is taken as an input
+    anew or compared as a key.
+    """
+    return obj.drop_vars([FLAG, REASON], errors="ignore")
+
+
+def reasons_coord(bits) -> xr.DataArray:
+    """Build the ``quality_reasons`` coordinate from bit masks (lazy allowed).
+
+    ``int16`` with CF ``flag_masks`` and ``flag_meanings`` (the words of
+    :data:`REASONS`).
+
+    Examples
+    --------
+    >>> reasons_coord([0, 1]).attrs["flag_meanings"].split()[0]
+    'regions_disagree'
+    """
+    da = bits if isinstance(bits, xr.DataArray) else xr.DataArray(np.asarray(bits))
+    da = da.astype(np.int16)
+    da.attrs = {"long_name": "checks that rate the result per curve (bit mask)",
+                "units": "1", **cf_flags(REASONS, np.int16, masks=True)}
+    da.name = REASON
+    return da
+
+
+def rate_curves(obj, codes, *, what: str, reason: str):
+    """Set the per-curve coordinates of ``obj``: the flag and the reasons, nothing else.
+
+    ``quality_flag`` becomes the worse of its codes and ``codes``; ``quality_reasons``
+    gains the bit of ``reason`` where ``codes`` is not good (lazy where they are).  No
+    attrs, no warning (:func:`mark_curves` adds them).
+    """
+    codes = codes if isinstance(codes, xr.DataArray) else xr.DataArray(np.asarray(codes))
+    codes = codes.reset_coords(drop=True)
+    new = xr.where(codes > 0, np.int16(reason_bit(reason)), np.int16(0))
+    if FLAG in obj.coords:
+        # the flag alone, without the scalar coordinates it carries out of a Dataset
+        # (dr_ref, lambda_0 of a fit): under keep_attrs=False (contact's functions)
+        # np.maximum would strip their attrs, and assign_coords below would put them back
+        # on the result without units
+        codes = np.maximum(obj[FLAG].reset_coords(drop=True), codes)
+    if REASON in obj.coords:
+        new = np.bitwise_or(obj[REASON].reset_coords(drop=True).astype(np.int16),
+                            new.astype(np.int16))
+    return obj.assign_coords({FLAG: flag_coord(codes, what=what),
+                              REASON: reasons_coord(new)})
+
+
 def flag_coord(codes, *, what: str) -> xr.DataArray:
     """Build the ``quality_flag`` coordinate from integer codes (0, 1, 2; lazy allowed).
 
@@ -436,7 +543,8 @@ def _own_output_layers(obj):
     return fresh(obj)
 
 
-def mark_curves(obj, codes, *, what: str, notes: str = "", warn: bool = True):
+def mark_curves(obj, codes, *, what: str, reason: str, notes: str = "",
+                warn: bool = True):
     """Attach the per-curve level codes of a result; rate a single computed curve.
 
     The ``quality_flag`` coordinate becomes the worse of its codes and ``codes`` (lazy
@@ -457,6 +565,9 @@ def mark_curves(obj, codes, *, what: str, notes: str = "", warn: bool = True):
         0, 1 or 2 per curve (dims: the extra dims of ``obj``; 0-d for one curve).
     what : str
         The result named in the warning and the flag's ``long_name``.
+    reason : str
+        The check, a word of :data:`REASONS`: set in ``quality_reasons`` where ``codes``
+        is not good.
     notes : str
         What was found (``"; "``-joined), used when the worst code is not 0.
     warn : bool
@@ -472,27 +583,19 @@ def mark_curves(obj, codes, *, what: str, notes: str = "", warn: bool = True):
     >>> G = xr.DataArray([1.0, 2.0], dims="dr")
     >>> with warnings.catch_warnings():
     ...     warnings.simplefilter("ignore")
-    ...     r = mark_curves(G, xr.DataArray(2), what="fit", notes="no plateau")
+    ...     r = mark_curves(G, xr.DataArray(2), what="fit", reason="fit",
+    ...                     notes="no plateau")
     >>> r.attrs["quality"], r.attrs["quality_notes"], int(r.quality_flag)
     ('failed', 'no plateau', 2)
     >>> many = xr.DataArray([[1.0, 2.0], [1.0, 2.0]], dims=("scan", "dr"))
     >>> with warnings.catch_warnings():
     ...     warnings.simplefilter("ignore")
-    ...     r = mark_curves(many, xr.DataArray([0, 2], dims="scan"), what="fit")
+    ...     r = mark_curves(many, xr.DataArray([0, 2], dims="scan"), what="fit",
+    ...                     reason="fit")
     >>> worst(r), r.quality_flag.values.tolist()
     ('failed', [0, 2])
     """
-    codes = codes if isinstance(codes, xr.DataArray) else xr.DataArray(np.asarray(codes))
-    out = _own_output_layers(obj)
-    if FLAG in out.coords:
-        # the flag alone, without the scalar coordinates it carries out of a Dataset
-        # (dr_ref, lambda_0 of a fit): under keep_attrs=False (contact's functions)
-        # np.maximum would strip their attrs, and assign_coords below would put them back
-        # on the result without units
-        old = out[FLAG]
-        old = old.reset_coords(drop=True)
-        codes = np.maximum(old, codes)
-    out = out.assign_coords({FLAG: flag_coord(codes, what=what)})
+    out = rate_curves(_own_output_layers(obj), codes, what=what, reason=reason)
     flag = out[FLAG]
     if flag.ndim or flag.chunks is not None:
         out.attrs["quality_notes"] = _join(
@@ -543,4 +646,31 @@ def inherit(result, source, *, what: str):
     lazy = getattr(codes, "chunks", None) is not None or (
         FLAG in result.coords and result[FLAG].chunks is not None)
     said = not lazy and level_code(worst(result)) >= int(np.max(codes))
-    return mark_curves(result, codes, what=what, notes=notes, warn=not said)
+    before = result[REASON].reset_coords(drop=True) if REASON in result.coords else None
+    out = mark_curves(result, codes, what=what, reason="input", notes=notes, warn=not said)
+    # the input's reasons are the result's (a G's regions), else "input"
+    out = out.drop_vars(REASON)
+    if before is not None:
+        out = out.assign_coords({REASON: reasons_coord(before)})
+    return add_reasons(out, reasons_from(source))
+
+
+def reasons_from(source) -> xr.DataArray:
+    """Return the reason bits a result takes from its input ``source``, per curve (int16).
+
+    The input's own reasons where it is rated and says why, else the bit of ``"input"``
+    where it is rated (by attrs only, say); 0 where it is good.
+    """
+    codes = flag_of(source)
+    given = (source[REASON].reset_coords(drop=True).astype(np.int16)
+             if REASON in source.coords else xr.DataArray(np.int16(0)))
+    return xr.where(codes > 0, xr.where(given != 0, given, np.int16(reason_bit("input"))),
+                    np.int16(0)).astype(np.int16)
+
+
+def add_reasons(obj, bits):
+    """Return ``obj`` with ``bits`` or-ed into its ``quality_reasons`` coordinate."""
+    if REASON in obj.coords:
+        bits = np.bitwise_or(obj[REASON].reset_coords(drop=True).astype(np.int16),
+                             bits.astype(np.int16))
+    return obj.assign_coords({REASON: reasons_coord(bits)})

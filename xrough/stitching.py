@@ -1018,7 +1018,8 @@ def stitch(
                      "or mark what depends on it", StitchingGapWarning)
     text = "" if lazy else "; ".join(_unexplained_factors(names, factors[0], factors[1],
                                                             threshold))
-    out = quality.mark_curves(out, xr.DataArray(code), what="stitch", notes=text, warn=False)
+    out = quality.mark_curves(out, xr.DataArray(code), what="stitch",
+                              reason="stitch_levels", notes=text, warn=False)
     if text and warn:
         quality.warn(text, LevelFactorWarning)
     return _carry_findings(out, curves)

@@ -301,7 +301,8 @@ def report_choice(G: xr.DataArray, choice: Choice, target: float) -> xr.DataArra
              "map's own and no estimator lowers it (a larger map, more maps pooled or a "
              "narrower dr range do); see coordinate achieved_error")
     unreachable = target <= choice.floor  # known from the shape: one warning says so
-    G = quality.mark_curves(G, (rel > target).astype(np.int8), what=what, notes=notes,
+    G = quality.mark_curves(G, (rel > target).astype(np.int8), what=what,
+                            reason="above_target_error", notes=notes,
                             warn=not unreachable)
     if unreachable:
         G = quality.mark(G, choice.reason, level="questionable", what=what)

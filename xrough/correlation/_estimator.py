@@ -332,7 +332,8 @@ def _in_memory(da: xr.DataArray, grid: Grid, estimator: str, *, n_pairs, seed, o
     if found is None:
         return G
     codes, note, _ = found  # one verdict per curve (quality_flag), said once
-    return quality.mark_curves(G, codes, what="height_difference_acf", notes=note)
+    return quality.mark_curves(G, codes, what="height_difference_acf", reason="anisotropic",
+                              notes=note)
 
 
 def _region_g(region: xr.DataArray, edges: np.ndarray, window: float, *,

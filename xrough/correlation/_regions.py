@@ -74,9 +74,9 @@ def judge_regions(G: xr.DataArray, *, edges: np.ndarray, grid: Grid,
     window = WINDOW * side
     nb = G.sizes["dr"]
     if np.count_nonzero(edges <= window * (1 + 1e-12)) < 2:  # no bin to judge
-        flag = quality.flag_coord(xr.zeros_like(G.isel(dr=0, drop=True).reset_coords(
-            drop=True), dtype=np.int8), what="height_difference_acf")
-        return G.assign_coords({quality.FLAG: flag})
+        return quality.rate_curves(G, xr.zeros_like(G.isel(dr=0, drop=True).reset_coords(
+            drop=True), dtype=np.int8), what="height_difference_acf",
+            reason="regions_disagree")
     part = region_g(window)
     full_bin = _bin_of(G.dr.values, edges)
     own_bin = _bin_of(part.dr.values, edges)
@@ -115,8 +115,8 @@ def judge_regions(G: xr.DataArray, *, edges: np.ndarray, grid: Grid,
                        "disagree beyond their finite-area errors; 1 where they agree"})})
     if new.chunks is not None or not int(codes.max()):  # lazy, or the regions agree:
         # the verdict per curve (lazy where G is), and in the attrs only a finding
-        flag = quality.flag_coord(codes, what="height_difference_acf")
-        return new.assign_coords({quality.FLAG: flag})
+        return quality.rate_curves(new, codes, what="height_difference_acf",
+                                   reason="regions_disagree")
     ratio = float(np.sqrt(worst_r2.max()))
     kmax = float(k.max())
     hit = (r2 > REGIONS_DISAGREE).any([d for d in r2.dims if d != "dr"]).values
@@ -130,7 +130,8 @@ def judge_regions(G: xr.DataArray, *, edges: np.ndarray, grid: Grid,
             "follows it; look at the map and crop or mask what differs, or measure more "
             "regions")
     new.attrs.update(regions_ratio_max=ratio, error_inflation_max=kmax)
-    return quality.mark_curves(new, codes, what="height_difference_acf", notes=note)
+    return quality.mark_curves(new, codes, what="height_difference_acf",
+                               reason="regions_disagree", notes=note)
 
 
 def _bin_of(dr: np.ndarray, edges: np.ndarray) -> np.ndarray:
