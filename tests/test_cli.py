@@ -81,12 +81,13 @@ def table(text):
 
 
 CELL = re.compile(r"^(?P<value>\S+)(?: \+-(?P<stat>\S+) \(stat\))?"
-                  r"(?: \+-(?P<model>\S+) \(model\))?(?: (?P<unit>.+))?$")
+                  r"(?:, exact (?P<exact>\S+) \[(?P<lower>\S+), (?P<upper>\S+)\])?"
+                  r"(?: (?P<unit>.+))?$")
 
 
 def cell(printed):
-    """The parts of a printed ``"17.8 +-3 (stat) +-0.5 (model) mJ/m²"``: value, stat,
-    model (None if not printed) and unit ("" for dimensionless)."""
+    """The parts of a printed ``"17.8 +-3 (stat), exact 14 [12, 16] MPa"``: value, stat,
+    exact, lower, upper (None if not printed) and unit ("" for dimensionless)."""
     parts = CELL.match(printed).groupdict()
     parts["unit"] = parts["unit"] or ""
     return parts
@@ -155,7 +156,7 @@ def test_report_numbers_agree_with_the_api_in_their_printed_units(files, report)
         assert agrees(printed, value, value.attrs.get("units", "1")), (column, printed)
         checked += 1
     assert checked >= 7
-    # the errors beside them: one standard deviation (stat) and the model error
+    # beside them: one standard deviation (stat) and the expected exact value, its bounds
     errors = api_errors(files / "afm.nc")
     for (column, part), value in errors.items():
         assert agrees(rows["afm"][column], abs(float(value)), value.attrs.get("units", "1"),
@@ -172,8 +173,9 @@ def api_errors(path):
     gbar = G.rough.gradient()
     return {("v_el", "stat"): G.rough.energy(E_star=E_STAR).v_el_std,
             ("rms grad", "stat"): gbar.gbar_std.sel(dr=float(at.dr)).assign_attrs(units="1"),
-            ("a_r", "stat"): at.a_r_std, ("a_r", "model"): at.a_r_model_error,
-            ("sigma_c", "stat"): at.sigma_c_std, ("sigma_c", "model"): at.sigma_c_model_error}
+            **{(name, part): at[f"{name}{suffix}"] for name in ("a_r", "sigma_c")
+               for part, suffix in (("stat", "_std"), ("exact", "_exact"),
+                                    ("lower", "_exact_lower"), ("upper", "_exact_upper"))}}
 
 
 def test_sigma_h_is_printed_in_the_height_unit(report):

@@ -171,7 +171,8 @@ def test_persson_is_vectorised_over_p0_and_skips_unrequested_work():
         xr.testing.assert_allclose(ds.isel(p0=k).drop_vars("p0"), one.drop_vars("p0"))
     only = G.rough.persson(E_star=25e6, p0=1e6, variables=("a_r",),
                            gradient_method="simple")
-    assert list(only.data_vars) == ["a_r", "a_r_std", "a_r_model_error"]  # with its errors
+    assert list(only.data_vars) == ["a_r", "a_r_std", "a_r_model_error", "a_r_exact",
+                                    "a_r_exact_lower", "a_r_exact_upper"]  # with its errors
     gbar = G.rough.gradient(method="simple")
     again = G.rough.persson(E_star=25e6, p0=1e6, gradient=gbar)
     assert again.attrs["gradient_method"] == "simple"
@@ -338,6 +339,15 @@ def _assert_finite_or_flagged(ds):
         values = ds[name].values
         if name.endswith("_std") and ds[name].attrs["error_of"].startswith("none"):
             continue  # a model G states no map geometry: no statistical error, said so
+        if name.endswith(("_model_error", "_exact", "_exact_lower", "_exact_upper")):
+            # outside the solver study: NaN, and the variable says when (one curve: a
+            # remark too)
+            theory = ds[name.split("_model")[0].split("_exact")[0]].values
+            if np.isnan(values[np.isfinite(theory)]).any():
+                assert "NaN below p*" in ds[name].attrs["error_of"], name
+                if ds["quality_flag"].ndim == 0:
+                    assert "is NaN at some lags" in ds.attrs["quality_remarks"], name
+            continue
         if name in ("G_sigma", "Gamma_sigma") and np.isnan(values).any():
             assert xrough.quality.worst(ds) == "questionable"
             notes = ds.attrs["quality_notes"]  # several p0: the flag per curve only

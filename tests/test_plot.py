@@ -402,7 +402,7 @@ def test_questionable_curves_are_drawn_as_such():
     assert good.attrs["quality"] == "good"
     ax = good.rough.plot(variables=["a_r"])[0]
     assert ax.lines[0].get_linestyle() == "-"
-    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["model error"]
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["expected exact"]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", xrough.QualityWarning)
         bad = xrough.quality.mark(good, "a test of the marks", what="persson")
@@ -410,17 +410,19 @@ def test_questionable_curves_are_drawn_as_such():
     assert ax.lines[0].get_linestyle() == "--"
     assert ax.lines[0].get_markerfacecolor() == "none"
     assert [t.get_text() for t in ax.get_legend().get_texts()] == ["questionable",
-                                                                   "model error"]
+                                                                   "expected exact"]
 
 
 def test_persson_plots_its_errors_as_bands_not_panels():
-    """a_r_std is a filled band of one standard deviation around a_r, a_r_model_error a
-    hatched one from a_r to the exact area it implies; neither gets a panel."""
+    """a_r_std is a filled band of one standard deviation around a_r; a_r_exact, where a
+    contact solver is expected, a dotted line in the hatched band of a_r_exact_lower to
+    _upper; none of them gets a panel."""
     topo = xrough.self_affine_surface(hurst=0.8, lambda_r=32.0, lambda_s=4.0, size=128.0,
                                       n=128, rms_gradient=0.1, unit="nm", seed=0)
     ds = topo.rough.acf().rough.persson(E_star="25 MPa", p0="0.15 MPa")
+    errors = ("_std", "_model_error", "_exact", "_exact_lower", "_exact_upper")
     everything = ds.rough.plot(variables=[n for n in ds.data_vars
-                                          if not n.endswith(("_std", "_model_error"))])
+                                          if not n.endswith(errors)])
     assert len(everything) == 10  # errors are bands, not panels
     axes = ds.rough.plot()  # by default the area and the stress, readably titled
     assert [ax.get_title() for ax in axes] == ["contact area a_r (eq. 29)",
@@ -432,12 +434,16 @@ def test_persson_plots_its_errors_as_bands_not_panels():
     ax = axes[0]
     filled, hatched = ax.collections[0], ax.collections[1]
     assert hatched.get_hatch() == "///" and not filled.get_hatch()
-    y, std, model = ds.a_r.values, ds.a_r_std.values, ds.a_r_model_error.values
-    k = int(np.flatnonzero(np.isfinite(std) & np.isfinite(model))[0])
+    y, std = ds.a_r.values, ds.a_r_std.values
+    exact, lo, hi = (ds[f"a_r{s}"].values for s in errors[2:])
+    k = int(np.flatnonzero(np.isfinite(std) & np.isfinite(exact))[0])
     top = filled.get_paths()[0].vertices[:, 1]
     assert np.isclose(top, y[k] + std[k]).any()
     edges = hatched.get_paths()[0].vertices[:, 1]
-    assert np.isclose(edges, y[k] - model[k]).any()  # the exact area: above a_r
+    assert np.isclose(edges, lo[k]).any() and np.isclose(edges, hi[k]).any()
+    dotted = [ln for ln in ax.lines if ln.get_linestyle() == ":"]
+    assert len(dotted) == 1 and dotted[0].get_label() == "expected exact"
+    assert np.isclose(dotted[0].get_ydata()[k], exact[k]) and exact[k] > y[k]
 
 
 @pytest.mark.parametrize("name", ["x3p-2.x3p", "spot_1-1000nm.ibw", "nid-1.nid",

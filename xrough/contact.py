@@ -22,11 +22,11 @@ import xarray as xr
 from . import quality
 from . import units as u
 from ._kernels import contact as k
+from ._kernels import model_error as me
 from ._kernels.acf_curve import DETERMINED, FLAT_SLOPE
 from ._kernels.contact import KAPPA_PERSSON
 from ._kernels.gaps import bridge_energy
 from ._kernels.hankel import acf_from_spectrum_kernel
-from ._kernels.model_error import AREA_ERROR_PRESSURES, AREA_ERROR_RANGE, area_model_error
 from .acf import (
     ERROR_OF_NONE,
     ERROR_OF_SURFACE,
@@ -792,6 +792,9 @@ def stress_acf_from_spectrum(C: xr.DataArray, dr: QuantityLike, *,
 
 PERSSON_VARIABLES = ("p_star", "a_r", "a_ri", "sigma_c", "sigma_quick", "G_sigma",
                      "Gamma_sigma", "Gamma_sigma_sa", "Gamma_sigma_51", "G_du")
+#: The variables of the theory's own error beside ``a_r``, ``a_ri`` and ``sigma_c``: the
+#: expected theory - exact, the expected exact value and its one-sigma interval.
+MODEL_ERROR_SUFFIXES = ("_model_error", "_exact", "_exact_lower", "_exact_upper")
 #: The outputs that need a fit of G (eq. 42: the roll-off law beyond the lags' reach).
 _NEED_FIT = ("sigma_quick",)
 #: The outputs that need gbar (eq. 26), with their errors: p_star and a_r (eq. 29), a_ri
@@ -802,7 +805,7 @@ _NEED_FIT = ("sigma_quick",)
 #: questionable; and a G flat from its first lag fails every output, gbar too.)
 _NEED_GRADIENT = tuple(
     f"{name}{suffix}" for name in PERSSON_VARIABLES if name not in _NEED_FIT
-    for suffix in ("", "_std", "_model_error"))
+    for suffix in ("", "_std", *MODEL_ERROR_SUFFIXES))
 
 
 def _gradient_on(gradient: xr.DataArray, G: xr.DataArray, spec: AcfSpec) -> xr.DataArray:
@@ -956,7 +959,7 @@ def persson(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike, theory: 
     G = G.transpose(..., "dr")
     G_si, error = _si(G, spec)
     run = _PerssonRun(G=G, spec=spec, G_si=G_si, error=error, E=E, kappa=float(kappa),
-                      theory=theory, wanted=wanted,
+                      theory=theory, wanted=wanted, unlike_study=_unlike_study(rated),
                       p0=xr.DataArray(np.atleast_1d(p0s), dims="p0"),
                       dr_m=xr.DataArray(spec.dr * spec.to_m, dims="dr"))
     out: dict[str, xr.DataArray] = {}
@@ -1005,7 +1008,7 @@ def persson(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike, theory: 
     ds = _blank(ds, flat, lambda v: True)
     checks += derivative + [unresolved]  # per curve, no p0 dim
     ds, window = _outside_window(ds, G, spec)
-    checks += window
+    checks += window + _no_exact(ds, run)
     gap = gap_note(spec, _GAP_PERSSON)  # said with the rest: one warning
     checks += [(xr.DataArray(True), "questionable", gap)] if gap else []
     return _rate(ds, checks, what="persson", G=rated, inherited=(
@@ -1027,6 +1030,8 @@ class _PerssonRun:
     kappa: float
     theory: str
     wanted: tuple[str, ...]
+    #: per curve: a map unlike the solver study's (regions or directions disagree)
+    unlike_study: xr.DataArray
     p0: xr.DataArray
     dr_m: xr.DataArray
 
@@ -1146,49 +1151,110 @@ def _area_vars(run: _PerssonRun, area: _ContactArea) -> dict[str, xr.DataArray]:
     return out
 
 
-#: What the ``_model_error`` of an area or stress is, in words.
+#: What the model error of an area or stress is, in words.
 _MODEL_ERROR = (
-    "the theory's own error: the expected difference theory - exact solution, from the "
-    "boundary-element validation of docs/validation.md (xrough/data/persson_area_error.csv: "
-    "mean over H = 0.5, 0.8 and bandwidths lambda_r / lambda_s = 16-256 at this p*, "
-    "interpolated in ln p*); spread between those configurations: attr model_error_spread "
-    "(relative); not statistical, it does not shrink with the map size")
+    "the theory's own error, expected from the boundary-element study of "
+    "benchmarks/model_error_study.py (xrough/data/persson_area_error.csv: H 0.1-0.95, sharp "
+    "and smooth roll-offs and short cutoffs, lambda_s 2-16 px, bandwidths 4-256, "
+    "p* 1e-4-0.5), as a function of p* and of G's local exponents at this lag "
+    "(xrough._kernels.model_error); <name>_exact is the expected exact solution for this "
+    "map, <name>_exact_lower / _upper its one-sigma interval (the solver's spread about "
+    "the expectation, not statistical: it does not shrink with the map size; an exact "
+    "area at most 1); NaN below "
+    f"p* = {me.P_STAR_RANGE[0]:g}, where G's local exponents lie outside the study's, and "
+    "where G's regions or directions disagree (the study's surfaces are stationary, "
+    "isotropic and Gaussian)")
 
 
 def _model_errors(run: _PerssonRun, area: _ContactArea, out: dict) -> dict:
-    """``a_r``, ``a_ri`` and ``sigma_c``'s ``_model_error`` (theory - solver), those asked for."""
+    """Give the theory's own error of ``a_r``, ``a_ri`` and ``sigma_c``, those asked for.
+
+    ``<name>_model_error`` (theory - expected exact), ``<name>_exact`` and its one-sigma
+    interval ``<name>_exact_lower`` / ``_upper``, from :func:`me.area_model_error` at each
+    lag's ``p*`` and G's local exponents there.
+    """
     wanted = [name for name in ("a_r", "a_ri", "sigma_c") if name in out]
     if not wanted:
         return {}
     persson_kappa = bool(np.isclose(run.kappa, KAPPA_PERSSON, rtol=1e-9))
-    lo, hi = AREA_ERROR_RANGE
+    shape = _shape_of(run.G)
     made = {}
-    for name in wanted:
-        which = "a_ri" if name == "a_ri" else "a_r"
-        rel = xr.apply_ufunc(lambda p, a=which: area_model_error(p, a)[0], area.p_star,
-                             dask="parallelized", output_dtypes=[float])
-        # a / a_exact - 1 = rel: theory - exact = a rel / (1 + rel); sigma_c = p0 / a_r
-        error = (out[name] * rel / (1 + rel) if name != "sigma_c" else -out[name] * rel)
+
+    @functools.cache
+    def exact_area(which: str) -> tuple[xr.DataArray, ...]:
+        """Give the expected exact area and its bounds: ln(a / a_exact) = bias, <= 1."""
+        bias, spread = xr.apply_ufunc(
+            functools.partial(me.area_model_error, area=which,
+                              periodic=bool(run.G.attrs.get("periodic", 0))), area.p_star,
+            *(shape.sel(feature=f, drop=True) for f in me.FEATURES),
+            dask="parallelized", output_dtypes=[float, float], output_core_dims=[[], []])
         if not persson_kappa:
-            error = xr.full_like(error, np.nan)
-        note = (_MODEL_ERROR + f"; beyond p* = {lo:g}-{hi:g} held or falling to 0 at full "
-                "contact" if persson_kappa else
-                f"none: the validation table is for Persson's kappa = {KAPPA_PERSSON:.4f}, "
-                f"not {run.kappa:.4g}")
-        made[f"{name}_model_error"] = error.where(np.isfinite(out[name])).assign_attrs(
-            units=out[name].attrs["units"],
-            long_name=f"model error of {name} (theory - exact, expected)",
-            error_of=note, model_error_spread=_spread_text(which) if persson_kappa else "none")
+            bias = xr.full_like(bias, np.nan)
+        bias = bias.where(~run.unlike_study)  # a map unlike the study's: no correction
+        a = area.a_ri if which == "a_ri" else area.a_r
+        return tuple(np.minimum(a * np.exp(-bias + s * spread), 1.0) for s in (0, -1, 1))
+
+    for name in wanted:
+        exact, lower, upper = exact_area("a_ri" if name == "a_ri" else "a_r")
+        if name == "sigma_c":  # p0 / a_r
+            exact, lower, upper = run.p0 / exact, run.p0 / upper, run.p0 / lower
+        value = out[name]
+        units = value.attrs["units"]
+        note = (_MODEL_ERROR if persson_kappa else
+                f"none: the solver study is for Persson's kappa = {KAPPA_PERSSON:.4f}, not "
+                f"{run.kappa:.4g}")
+        finite = np.isfinite(value)
+        for suffix, data, long_name in (
+                ("_model_error", value - exact, "model error of {} (theory - expected exact)"),
+                ("_exact", exact, "expected exact {} (theory corrected by the solver study)"),
+                ("_exact_lower", lower, "lower one-sigma bound of the exact {}"),
+                ("_exact_upper", upper, "upper one-sigma bound of the exact {}")):
+            made[name + suffix] = data.where(finite).assign_attrs(
+                units=units, long_name=long_name.format(name), error_of=note)
     return made
 
 
-def _spread_text(which: str) -> str:
-    """Say the spread of the model error between the table's configurations."""
-    p, spread = AREA_ERROR_PRESSURES, area_model_error(AREA_ERROR_PRESSURES, which)[1]
-    return (f"{spread.max():.2f} (p* = {p[np.argmax(spread)]:g}) to {spread.min():.2f} "
-            f"(p* = {p[np.argmin(spread)]:g}) of the exact value's relative difference, "
-            "between the table's configurations (xrough._kernels.model_error."
-            "area_model_error gives it at any p*)")
+#: The reasons of G's rating that put a map outside the solver study's surfaces
+#: (stationary, isotropic, Gaussian): on such real maps the model error does not hold
+#: (benchmarks/model_error_real.py).
+UNLIKE_STUDY = ("regions_disagree", "anisotropic")
+
+
+def _unlike_study(G: xr.DataArray) -> xr.DataArray:
+    """Per curve: G's reasons say its map is not stationary or not isotropic (bool)."""
+    if quality.REASON not in G.coords:
+        return xr.DataArray(False)
+    bits = functools.reduce(np.bitwise_or, map(quality.reason_bit, UNLIKE_STUDY))
+    return (G[quality.REASON].reset_coords(drop=True).astype(np.int64) & bits) != 0
+
+
+def _no_exact(ds: xr.Dataset, run: _PerssonRun) -> list:
+    """Remark where the theory has a value but no expected exact one (per curve)."""
+    name = next((n for n in ("a_r", "a_ri", "sigma_c") if f"{n}_exact" in ds), None)
+    if name is None:
+        return []
+    missing = ds[name].notnull() & ds[f"{name}_exact"].isnull()
+    missing = missing.any([d for d in ("dr", "p0") if d in missing.dims])
+    why = (f"p* is below {me.P_STAR_RANGE[0]:g}, G's shape (its local exponents and "
+           "range, xrough._kernels.model_error.FEATURES) lies outside the solver study's, "
+           "or G's regions or directions disagree (a map unlike the study's stationary, "
+           "isotropic Gaussian surfaces: on such real maps the solver's area differs from "
+           "the corrected one by 20-70 %, benchmarks/model_error_real.py)"
+           if np.isclose(run.kappa, KAPPA_PERSSON, rtol=1e-9) else
+           f"the solver study is for Persson's kappa = {KAPPA_PERSSON:.4f}")
+    return [(missing, "good", f"{name}_exact (the expected exact value) is NaN at some lags "
+             f"where {name} is not: {why}; Persson's value stands without it there")]
+
+
+def _shape_of(G: xr.DataArray) -> xr.DataArray:
+    """G's local exponents at each lag (:func:`me.features_on_lags`), dim ``feature``."""
+    dr = G["dr"].values
+    return xr.apply_ufunc(
+        lambda g: me.features_on_lags(dr, g), _strip(G).reset_coords(drop=True),
+        input_core_dims=[["dr"]], output_core_dims=[["feature", "dr"]], vectorize=True,
+        dask="parallelized", output_dtypes=[float],
+        dask_gufunc_kwargs={"output_sizes": {"feature": len(me.FEATURES)}},
+    ).assign_coords(feature=list(me.FEATURES))
 
 
 def _sigma_quick(run: _PerssonRun, fit: xr.Dataset) -> xr.DataArray:

@@ -322,8 +322,9 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True,
     """Log-log plot of a function of ``dr`` or ``q``, with its errors as bands.
 
     The statistical error (coordinate ``standard_error`` or ``<name>_std``) is a filled
-    band of one standard deviation, a model error (coordinate ``<name>_model_error``,
-    theory - exact) a hatched one from the value to where the exact solution is expected.
+    band of one standard deviation; the exact solution a theory is expected to miss
+    (coordinates ``<name>_exact``, ``<name>_exact_lower`` and ``_upper`` of
+    :func:`xrough.persson`) a dotted line in a hatched band of its one-sigma interval.
 
     Extra dims (e.g. ``scan``) give one line each. Lines and bands break at NaN bins and
     at the uncovered bins of a stitched G. A curve whose ``quality_flag`` is questionable
@@ -358,9 +359,11 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True,
         line = stacked.isel(_line=k)
         x = np.asarray(line[dim].values, dtype=float)
         y = np.asarray(line.values, dtype=float)
-        se, model = (_error_of(line, kind) if error else None for kind in ("std", "model"))
+        se = _error_of(line, "std") if error else None
+        exact = _exact_of(line) if error else None
         breaks = _gap_breaks(da, dim, x)
-        x, (y, *rest) = _with_gaps(x, [y] + [e for e in (se, model) if e is not None], breaks)
+        x, (y, *rest) = _with_gaps(x, [y] + [e for e in (se, *(exact or ())) if e is not None],
+                                   breaks)
         label = user_label if k == 0 else None
         if extra:
             index = ", ".join(_coord_text(d, line[d].item(), _coord_units(da, d))
@@ -381,11 +384,12 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True,
             se = rest.pop(0)
             lo = np.maximum(y - se, BAND_FLOOR * y) if log_y else y - se
             ax.fill_between(x, lo, y + se, color=ln.get_color(), alpha=0.25, linewidth=0)
-        if model is not None:  # theory - exact: the exact solution lies at y - model
-            exact = y - rest.pop(0)
-            ax.fill_between(x, np.minimum(y, exact), np.maximum(y, exact), facecolor="none",
-                            edgecolor=ln.get_color(), hatch="///", alpha=0.35, linewidth=0,
-                            label="model error" if k == 0 else None)
+        if exact is not None:  # where a contact solver is expected, and its interval
+            mid, lo, hi = rest[:3]
+            ax.fill_between(x, lo, hi, facecolor="none", edgecolor=ln.get_color(),
+                            hatch="///", alpha=0.35, linewidth=0)
+            ax.plot(x, mid, linestyle=":", color=ln.get_color(),
+                    label="expected exact" if k == 0 else None)
             marked = True
     log_axis(ax.xaxis)
     if log_y:
@@ -399,7 +403,9 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True,
 
 
 #: Coordinates (or Dataset variables) that hold a result's errors, by kind.
-_ERRORS = {"std": ("standard_error", "{name}_std"), "model": ("{name}_model_error",)}
+_ERRORS = {"std": ("standard_error", "{name}_std")}
+#: Variables beside a theory's value: its expected exact value and that one's interval.
+_EXACT = ("_exact", "_exact_lower", "_exact_upper")
 
 
 def _error_of(da: xr.DataArray, kind: str) -> np.ndarray | None:
@@ -412,9 +418,18 @@ def _error_of(da: xr.DataArray, kind: str) -> np.ndarray | None:
     return None
 
 
+def _exact_of(da: xr.DataArray) -> tuple[np.ndarray, ...] | None:
+    """Return the expected exact value of ``da`` and its bounds (None: none, or all NaN)."""
+    names = [f"{da.name}{suffix}" for suffix in _EXACT]
+    if not all(n in da.coords and da.coords[n].dims == da.dims for n in names):
+        return None
+    values = tuple(np.asarray(da.coords[n].values, dtype=float) for n in names)
+    return values if np.isfinite(values[0]).any() else None
+
+
 def _is_error(name: Hashable) -> bool:
     """Whether a Dataset variable is the error of another (drawn as its band)."""
-    return isinstance(name, str) and name.endswith(("_std", "_model_error"))
+    return isinstance(name, str) and name.endswith(("_std", "_model_error", *_EXACT))
 
 
 @_units.accepts_quantified
@@ -428,7 +443,7 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None, ax=None,
     :data:`PANEL_TITLES`, linear where they span less than a decade) unless ``variables``
     names others. A variable's errors are drawn as bands in
     its panel, not as panels of their own: ``<name>_std`` (one standard deviation, filled)
-    and ``<name>_model_error`` (theory - exact: hatched from the value to where the exact
+    and ``<name>_exact`` (a dotted line in the hatched band of its interval: where the exact
     solution is expected). A fit (:func:`xrough.fit_acf`) goes to
     :func:`plot_fit` (with ``G``: the data under the model) and a patch radius
     (:func:`xrough.patch_radius`) to :func:`plot_patch_radius`, each in one panel.
@@ -504,7 +519,7 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None, ax=None,
                          "pass one per variable, or choose them with variables=[...]")
     for name, ax in zip(names, flat):
         da = ds[name]
-        bands = {e: ds[e] for e in (f"{name}_std", f"{name}_model_error")
+        bands = {e: ds[e] for e in (f"{name}_std", *(name + s for s in _EXACT))
                  if e in ds.data_vars and ds[e].dims == da.dims}
         plot_loglog(da.assign_coords(bands), ax=ax, short_range_linear=_is_persson(ds))
         ax.set_title(PANEL_TITLES.get(name, name) if _is_persson(ds) else name)

@@ -143,11 +143,14 @@ def show(da: xr.DataArray, *, none: str = "inf", digits: int = 4) -> str:
 
 
 def show_errors(value: xr.DataArray, std: xr.DataArray | None = None,
-                model: xr.DataArray | None = None, *, digits: int = 3) -> str:
-    """Format a 0-d result with its statistical and model errors, in the value's prefix.
+                exact: tuple[xr.DataArray, xr.DataArray, xr.DataArray] | None = None, *,
+                digits: int = 3) -> str:
+    """Format a 0-d result with its statistical error and the expected exact value.
 
-    ``0.213 +-0.002 (stat) +-0.05 (model)``: each error that is given and finite (the model
-    error as its magnitude: its sign is in the archive and the JSON).
+    ``0.0213 +-0.0002 (stat), exact 0.031 [0.029, 0.033]``: the standard deviation where it
+    is given and finite, and ``exact = (expected, lower, upper)`` (the value a contact
+    solver would give and its one-sigma interval, :func:`xrough.persson`) where finite;
+    all in the value's prefix, the unit once at the end.
     """
     x = float(value)
     if not np.isfinite(x):
@@ -155,11 +158,13 @@ def show_errors(value: xr.DataArray, std: xr.DataArray | None = None,
     q = _compact(x, units_of(value))  # dimensionless ones already as plain numbers
     scale = q.magnitude / x if x else 1.0
     unit = "" if q.dimensionless else f" {q.units:~P}"
-    parts = [f"{x * scale:.{digits}g}"]
-    for err, label in ((std, "stat"), (model, "model")):
-        if err is not None and np.isfinite(float(err)):
-            parts.append(f"+-{abs(float(err)) * scale:.2g} ({label})")
-    return " ".join(parts) + unit
+    text = f"{x * scale:.{digits}g}"
+    if std is not None and np.isfinite(float(std)):
+        text += f" +-{abs(float(std)) * scale:.2g} (stat)"
+    if exact is not None and all(np.isfinite(float(v)) for v in exact):
+        mid, lo, hi = (float(v) * scale for v in exact)
+        text += f", exact {mid:.{digits - 1}g} [{lo:.{digits - 1}g}, {hi:.{digits - 1}g}]"
+    return text + unit
 
 
 def finite(value: SupportsFloat) -> float | None:

@@ -166,15 +166,32 @@ def _cells(m: dict, at: xr.Dataset | None, gbar_there: xr.DataArray | None,
     else:
         grad = _rated(show_errors(gbar_there, _coord(gbar_there, "gbar_std")),
                       levels["gradient"])
-        area = _rated(show_errors(at.a_r, at.get("a_r_std"), at.get("a_r_model_error")), lp)
-        stress = _rated(show_errors(at.sigma_c, at.get("sigma_c_std"),
-                                    at.get("sigma_c_model_error")), lp)
+        area = _rated(show_errors(at.a_r, at.get("a_r_std"), _exact(at, "a_r")), lp)
+        stress = _rated(show_errors(at.sigma_c, at.get("sigma_c_std"), _exact(at, "sigma_c")),
+                        lp)
         where = show(at.dr)
     return (m["name"], _rated(show(fit.sigma_h, none="no plateau"), lf),
             _rated(f"{float(fit.hurst):.3f}+-{float(fit.hurst_std):.3f}", lf),
             _rated(show(fit.lambda_r, none="no roll-off"), lf), grad,
             _rated(show_errors(energy.v_el, energy.get("v_el_std")), levels["energy"]),
             area, stress, where, patch)
+
+
+def _exact(at: xr.Dataset, name: str
+           ) -> tuple[xr.DataArray, xr.DataArray, xr.DataArray] | None:
+    """Give the expected exact value of ``name`` and its one-sigma bounds, if any."""
+    names = [f"{name}_exact", f"{name}_exact_lower", f"{name}_exact_upper"]
+    if not all(n in at for n in names):
+        return None
+    return at[names[0]], at[names[1]], at[names[2]]
+
+
+def _exact_record(at: xr.Dataset, name: str) -> dict:
+    """Give the same for JSON: the theory's model error and the expected exact value."""
+    return {"model_error": _finite_of(at.get(f"{name}_model_error")),
+            "exact": {"value": _finite_of(at.get(f"{name}_exact")),
+                      "lower": _finite_of(at.get(f"{name}_exact_lower")),
+                      "upper": _finite_of(at.get(f"{name}_exact_upper"))}}
 
 
 def _record(m: dict, at: xr.Dataset | None, gbar_there: xr.DataArray | None,
@@ -198,10 +215,10 @@ def _record(m: dict, at: xr.Dataset | None, gbar_there: xr.DataArray | None,
                  "below_window": _finite_of(r["energy"].get("v_el_below_window"))},
         "a_r": nothing if at is None else {
             **number(at.a_r), "std": _finite_of(at.get("a_r_std")),
-            "model_error": _finite_of(at.get("a_r_model_error"))},
+            **_exact_record(at, "a_r")},
         "sigma_c": nothing if at is None else {
             **number(at.sigma_c), "std": _finite_of(at.get("sigma_c_std")),
-            "model_error": _finite_of(at.get("sigma_c_model_error"))},
+            **_exact_record(at, "sigma_c")},
         "at_dr": nothing if at is None else number(at.dr),
         "patch_radius": number(r["patch"].a_c) if "patch" in r else None,
         "cleaning": _cleaning_record(m),
@@ -377,9 +394,11 @@ def _print_table(measured: list[dict], rows: list[tuple[str, ...]], parameters: 
           "fit of G (info gives the rms height of the heights); rms grad, a_r and sigma_c "
           "at the finest resolution inside the instrument's window where Persson theory "
           "is determined (column 'at dr'; none: no such lag); "
-          "+-: one standard deviation of a map of this size (stat) and the theory's own "
-          "error against the contact solver (model: Persson's a_r is below the exact area "
-          "by about this much, sigma_c above); "
+          "+-: one standard deviation of a map of this size (stat); a_r and sigma_c are "
+          "Persson theory's, which misses the exact contact: 'exact' is what a contact "
+          "solver is expected to give on this map, [its one-sigma interval], from the "
+          "theory's error in a solver study as a function of p* and of G's shape "
+          "(none: outside the study); "
           f"{parameters}")
 
 
