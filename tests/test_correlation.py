@@ -489,6 +489,44 @@ def test_the_direction_check_forms_the_axis_errors_only_where_the_ratio_asks(mon
     assert calls == ["radial", "axis", "axis"] and G.attrs["quality"] == "questionable"
 
 
+def test_oblique_grooves_are_anisotropic_though_G_x_equals_G_y():
+    """Grooves at 45 degrees (h = sin(2 pi (x + y) / 16 px) plus isotropic roughness): G
+    along x and along y agree, but along the anti-diagonal the grooves do not change h,
+    so G there sees only the roughness. Flagged once, by the diagonals; the diagonal sums
+    are those of a direct loop over pairs, on a map with NaN; the same ratios in um."""
+    import warnings
+
+    from xrough.correlation._anisotropy import diagonal_g
+
+    rough = xrough.self_affine_surface(hurst=0.8, lambda_r="32 nm", lambda_s="4 nm",
+                                       size="256 nm", n=256, rms_gradient=0.05, seed=3,
+                                       unit="nm")
+    h = (rough + 2.0 * np.sin(2 * np.pi * (rough.x + rough.y) / 16.0)).assign_attrs(
+        rough.attrs).transpose("y", "x")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        G = h.rough.acf()
+    said = [w for w in caught if "anisotropic" in str(w.message) or "diagonals" in
+            str(w.message)]
+    assert len(said) == 1 and "two diagonals" in str(said[0].message)
+    assert "anisotropy_ratio_min" not in G.attrs  # G_x = G_y
+    assert G.attrs["anisotropy_diagonal_ratio_max"] > 10
+    assert xrough.quality.reasons_of(G) == ["anisotropic"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        G_um = h.rough.convert_units("um").rough.acf()
+    assert G_um.attrs["anisotropy_diagonal_ratio_max"] == pytest.approx(
+        G.attrs["anisotropy_diagonal_ratio_max"], rel=1e-9)
+    values = h.values.copy()
+    values[np.random.default_rng(0).random(values.shape) < 0.1] = np.nan
+    g1, g2 = diagonal_g(values, np.array([1, 5]))
+    for j, k in enumerate((1, 5)):
+        d1 = values[k:, k:] - values[:-k, :-k]
+        d2 = values[k:, :-k] - values[:-k, k:]
+        assert g1[j] == pytest.approx(0.5 * np.nanmean(d1**2), rel=1e-12)
+        assert g2[j] == pytest.approx(0.5 * np.nanmean(d2**2), rel=1e-12)
+
+
 def test_grooves_are_anisotropic_in_any_unit_and_their_axis_lags_are_exact():
     """Grooves along y (h = sin(2 pi x / 16 px) plus isotropic roughness): G along x
     oscillates with the grooves, G along y sees only the roughness.  Flagged with one

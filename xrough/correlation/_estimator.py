@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import os
 from dataclasses import replace
 from typing import Any
@@ -15,7 +16,7 @@ from .. import units as u
 from .._kernels.pairs import g_from_packed, pool
 from ..preprocess import tip_window
 from ..topography import Grid, grid_of, require_whole_maps
-from ._anisotropy import anisotropy
+from ._anisotropy import anisotropy, combine, diagonal_anisotropy
 from ._choice import choose_estimator, choose_for_target, report_choice, target_value
 from ._fft import fft_kernel, split_directions
 from ._plan import Plan, check_bin_width, plan
@@ -310,10 +311,19 @@ def _in_memory(da: xr.DataArray, grid: Grid, estimator: str, *, n_pairs, seed, o
     if len(parts) == 3 and G.chunks is None:  # G along y and x: the verdict (eager only)
         axis = replace(p, lag_axes=1)
         # their errors only where the ratio alone leaves the band (most maps: nowhere)
-        found = anisotropy(*(_g_parts(part, grid, axis, random=False, errors=False)[0]
-                             for part in parts[1:]), dr=p.dr, grid=grid,
-                           errors=lambda: tuple(_g_parts(part, grid, axis, random=False)[2]
-                                                for part in parts[1:]))
+        axes = [_g_parts(part, grid, axis, random=False, errors=False)[0]
+                for part in parts[1:]]
+
+        @functools.cache
+        def errors() -> tuple:  # of G along y and x, computed once if either check asks
+            return tuple(_g_parts(part, grid, axis, random=False)[2] for part in parts[1:])
+
+        def rel_error() -> np.ndarray:  # of G along x, for the diagonals
+            return np.asarray((errors()[1] / axes[1]).transpose(..., "dr").values)
+
+        found = combine(anisotropy(*axes, dr=p.dr, grid=grid, errors=errors),
+                        None if pool_dims else diagonal_anisotropy(
+                            da, grid=grid, dr=p.dr, rel_error=rel_error))
         if found is not None:
             extra.update(found[2])
     G = g_result(
