@@ -521,3 +521,38 @@ def test_no_expected_exact_value_for_a_map_unlike_the_study():
         assert np.all(np.isnan(p[name].values)), name
     assert "regions or directions disagree" in p.attrs["quality_remarks"]
     assert "anisotropic" in xrough.quality.reasons_of(p)
+
+
+# ------------------------------------------------------------------- the patch radius
+@pytest.mark.parametrize("gamma", ["0.1 mJ/m^2", "0.03 mJ/m^2"])
+def test_patch_radius_std_matches_the_scatter_over_seeds(gamma):
+    """a_c_std and a_c_upper_std (G's covariance through the roots of eq. 44/46) against
+    the scatter of a_c over 30 seeds (256^2 periodic maps, H 0.5, lambda_r = L/2): within
+    0.75-1.3 as the other errors (measured 0.92-0.93 at both gamma)."""
+    radii, stds = [], []
+    for seed in range(SEEDS):
+        G = surface(seed, hurst=0.5, ratio=2.0).rough.acf()
+        p = G.rough.patch_radius(E_star=E_STAR, gamma=gamma)
+        radii.append([float(p.a_c), float(p.a_c_upper)])
+        stds.append([float(p.a_c_std), float(p.a_c_upper_std)])
+    ratio = np.mean(stds, axis=0) / np.std(radii, axis=0, ddof=1)
+    assert np.all((0.75 < ratio) & (ratio < 1.3)), ratio
+
+
+def test_patch_radius_std_units_and_where_there_is_none():
+    """The same a_c_std in nm and um (as lengths); NaN with error_of 'none' for a G with
+    no map geometry (a model G) and where a_c is infinite (the surfaces stick)."""
+    topo = surface(2)
+    base = topo.rough.acf().rough.patch_radius(E_star=E_STAR, gamma="0.1 mJ/m^2")
+    other = xrough.convert_units(topo, "um", lateral="um").rough.acf().rough.patch_radius(
+        E_star=E_STAR, gamma="1e-4 J/m^2")
+    assert other.a_c_std.attrs["units"] == "um"
+    np.testing.assert_allclose(float(other.a_c_std) * 1e3, float(base.a_c_std), rtol=1e-5)
+    assert 0 < float(base.a_c_std) < float(base.a_c)
+    sticks = topo.rough.acf().rough.patch_radius(E_star=E_STAR, gamma="1 J/m^2")
+    assert np.isinf(float(sticks.a_c)) and np.isnan(float(sticks.a_c_std))
+    C = xrough.model_spectrum(hurst=0.8, lambda_r="1 um", lambda_s="10 nm",
+                              rms_gradient=0.5, unit="nm")
+    model = xrough.acf_from_spectrum(C, dr_min="1 nm", dr_max="10 um").rough.patch_radius(
+        E_star=E_STAR, gamma="0.1 J/m^2")
+    assert np.isnan(float(model.a_c_std)) and model.a_c_std.attrs["error_of"].startswith("none")

@@ -1427,13 +1427,24 @@ def patch_radius(G: xr.DataArray, *, E_star: QuantityLike, gamma: QuantityLike) 
                 "edge": _window_edge(window, lags) * spec.to_m})
     res = res.isel(k=slice(0, 2)) / spec.to_m
     a_c, upper = res.isel(k=0), res.isel(k=1)
+    std = _patch_std(G, G_si, spec, E=E, gamma=gam)
+    error_of = (ERROR_OF_SURFACE + " (propagated through the roots of eq. 44/46, "
+                "linearised; NaN where a_c is inf)") if std is not None else ERROR_OF_NONE
+    if std is None:
+        std = xr.full_like(res, np.nan)
     ds = xr.Dataset(
         {"a_c": a_c.assign_attrs(
             units=unit, long_name="adhesive patch radius",
             equation="eq. 46: gamma = v_el(a_c) + E* G(a_c) / (8 a_c)"),
+         "a_c_std": std.isel(k=0).assign_attrs(
+            units=unit, long_name="statistical standard deviation of a_c",
+            error_of=error_of),
          "a_c_upper": res.isel(k=1).assign_attrs(
             units=unit, long_name="adhesive patch radius, upper estimate",
             equation="eq. 44: gamma = v_el(a_c)"),
+         "a_c_upper_std": std.isel(k=1).assign_attrs(
+            units=unit, long_name="statistical standard deviation of a_c_upper",
+            error_of=error_of),
          "v_el": v_full.assign_attrs(
             units="J m-2", long_name="elastic energy per area of full contact",
             equation="eq. 16 (a_c is inf where gamma >= v_el: the surfaces stick "
@@ -1460,6 +1471,28 @@ def patch_radius(G: xr.DataArray, *, E_star: QuantityLike, gamma: QuantityLike) 
          "a_c lies below the smallest lag of G: it is the root of G's continuation "
          "there (a dr^2 + b dr^4, in closed form), not of data: measure finer scales to "
          "confirm it")], what="patch_radius", G=rated)
+
+
+def _patch_std(G: xr.DataArray, G_si: xr.DataArray, spec: AcfSpec, *, E: float,
+               gamma: float) -> xr.DataArray | None:
+    """Give ``[a_c_std, a_c_upper_std]`` (dim ``k``, in G's length unit).
+
+    None: G states no map geometry (a model or stitched G), so no statistical error.
+    """
+    model = error_model(G)
+    if not model:
+        return None
+    model.update(size=model["size"] * spec.to_m, pixel=model["pixel"] * spec.to_m)
+    factor = inflation_of(G)  # the regions' factor, curve by curve
+    std = _per_curve(_patch_std_curve, G_si,
+                     xr.ones_like(G_si) if factor is None else factor, out={"k": 2},
+                     dr=spec.dr * spec.to_m, E_star=E, gamma=gamma, **model)
+    return std / spec.to_m
+
+
+def _patch_std_curve(g, inflation, **kwargs):
+    """:func:`~xrough._kernels.contact.patch_radius_std_curve` of one curve, its factor."""
+    return k.patch_radius_std_curve(g, inflation=inflation, **kwargs)
 
 
 def _share_below(g, a, *, dr, edge) -> float:

@@ -173,6 +173,31 @@ def energy_std_curve(g, *, dr, size, pixel, geometry, n_maps, inflation=None) ->
     return propagated_std(total, g, cov)
 
 
+def patch_radius_std_curve(g, *, dr, E_star, gamma, size, pixel, geometry, n_maps,
+                           inflation=None) -> np.ndarray:
+    """Statistical standard deviations of ``[a_c, a_c upper]`` of one curve (m).
+
+    The finite-area errors of G's bins with their full covariance (as
+    :func:`energy_std_curve`) propagated linearly through the roots of
+    :func:`patch_radius_curve`; NaN where a radius is infinite (the surfaces stick
+    everywhere: no root to move) or G is not finite.
+    """
+    if not np.all(np.isfinite(g)):
+        return np.array([np.nan, np.nan])
+
+    def radii(values):
+        return patch_radius_curve(values, dr=dr, E_star=E_star, gamma=gamma)[:2]
+
+    finite = np.isfinite(radii(g))
+    if not finite.any():
+        return np.array([np.nan, np.nan])
+    cov = relative_covariance(dr, g, size=size, pixel=pixel, geometry=geometry,
+                              n_maps=n_maps, inflation=inflation)
+    with np.errstate(invalid="ignore"):
+        std = propagated_std(radii, g, cov)
+    return np.where(finite, std, np.nan)
+
+
 def first_decade_slope(g, error=None, *, dr) -> float:
     """Log-log slope of one G over its first decade of lags (:class:`AcfCurve`).
 

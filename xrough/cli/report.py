@@ -156,8 +156,11 @@ def _cells(m: dict, at: xr.Dataset | None, gbar_there: xr.DataArray | None,
     fit, energy = r["fit"], r["energy"]
     levels = {key: level for key, (level, _) in _quality(r).items()}
     lf, lp = levels["fit"], levels["persson"]
-    patch = ("-" if "patch" not in r else
-             _rated(show(r["patch"].a_c, none=_sticks(r["patch"])), levels["patch"]))
+    patch = ("-" if "patch" not in r else _rated(
+        show_errors(r["patch"].a_c, r["patch"].get("a_c_std"))
+        if np.isfinite(float(r["patch"].a_c)) else show(r["patch"].a_c,
+                                                        none=_sticks(r["patch"])),
+        levels["patch"]))
     if at is None or gbar_there is None:
         none = "none: no lag in the window" if window.empty is not None else "none"
         grad = _rated("none", levels["gradient"])
@@ -220,7 +223,8 @@ def _record(m: dict, at: xr.Dataset | None, gbar_there: xr.DataArray | None,
             **number(at.sigma_c), "std": _finite_of(at.get("sigma_c_std")),
             **_exact_record(at, "sigma_c")},
         "at_dr": nothing if at is None else number(at.dr),
-        "patch_radius": number(r["patch"].a_c) if "patch" in r else None,
+        "patch_radius": {**number(r["patch"].a_c),
+                         "std": _finite_of(r["patch"].get("a_c_std"))} if "patch" in r else None,
         "cleaning": _cleaning_record(m),
     }
 
