@@ -142,6 +142,15 @@ def show(da: xr.DataArray, *, none: str = "inf", digits: int = 4) -> str:
     return text(float(da), units_of(da), none=none, digits=digits)
 
 
+def exact_of(at: xr.Dataset, name: str
+             ) -> tuple[xr.DataArray, xr.DataArray, xr.DataArray] | None:
+    """Give the expected exact value of ``name`` and its one-sigma bounds, if any."""
+    names = [f"{name}_exact", f"{name}_exact_lower", f"{name}_exact_upper"]
+    if not all(n in at for n in names):
+        return None
+    return at[names[0]], at[names[1]], at[names[2]]
+
+
 def show_errors(value: xr.DataArray, std: xr.DataArray | None = None,
                 exact: tuple[xr.DataArray, xr.DataArray, xr.DataArray] | None = None, *,
                 digits: int = 3) -> str:
@@ -163,7 +172,7 @@ def show_errors(value: xr.DataArray, std: xr.DataArray | None = None,
         text += f" +-{abs(float(std)) * scale:.2g} (stat)"
     if exact is not None and all(np.isfinite(float(v)) for v in exact):
         mid, lo, hi = (float(v) * scale for v in exact)
-        text += f", exact {mid:.{digits - 1}g} [{lo:.{digits - 1}g}, {hi:.{digits - 1}g}]"
+        text += f", exact {mid:#.{digits - 1}g} [{lo:#.{digits - 1}g}, {hi:#.{digits - 1}g}]"
     return text + unit
 
 

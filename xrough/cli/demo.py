@@ -19,7 +19,17 @@ from ..io.netcdf import write as write_netcdf
 from ..plot import display_unit, pyplot
 from ..spectra import acf_from_spectrum, model_spectrum
 from ..synthetic import self_affine_surface
-from ._common import EXIT_OK, CLIError, finest, output, show, text, write_atomic
+from ._common import (
+    EXIT_OK,
+    CLIError,
+    exact_of,
+    finest,
+    output,
+    show,
+    show_errors,
+    text,
+    write_atomic,
+)
 
 #: Grid limits: below 64 points the short cutoff (4 pixels) passes the roll-off.
 _N = (64, 8192)
@@ -137,13 +147,17 @@ def _print_table(r: dict, args: argparse.Namespace) -> None:
         ("roll-off wavelength lambda_r (fit)", show(fit.lambda_r, none="no roll-off"),
          text(2, "um")),
         ("elastic energy of full contact", show(r["energy"].v_el), ""),
-        (f"contact area at dr = {show(at.dr)}", show(at.a_r), ""),
-        (f"contact stress at dr = {show(at.dr)}", show(at.sigma_c), ""),
+        (f"contact area (Persson) at dr = {show(at.dr)}",
+         show_errors(at.a_r, exact=exact_of(at, "a_r")), ""),
+        (f"contact stress (Persson) at dr = {show(at.dr)}",
+         show_errors(at.sigma_c, exact=exact_of(at, "sigma_c")), ""),
         (f"adhesive patch radius (gamma = {_GAMMA.replace('^2', '²')})", show(r["patch"].a_c), ""),
     ]
-    print(f"\n{'quantity':<40} {'from G':>20} {'model':>10}")
+    print(f"\n{'quantity':<42} {'from G':>36} {'model':>10}")
     for name, value, model in rows:
-        print(f"{name:<40} {value:>20} {model:>10}")
+        print(f"{name:<42} {value:>36} {model:>10}")
+    print("exact: what a contact solver is expected to give on this surface [one sigma], "
+          "from Persson theory's error in a solver study")
 
 
 def run(args: argparse.Namespace) -> int:

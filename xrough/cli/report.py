@@ -27,6 +27,7 @@ from ..quality import QualityWarning, mark, notes_of, warn, worst
 from ._common import (
     EXIT_OK,
     emit_json,
+    exact_of,
     finest,
     finite,
     number,
@@ -169,8 +170,8 @@ def _cells(m: dict, at: xr.Dataset | None, gbar_there: xr.DataArray | None,
     else:
         grad = _rated(show_errors(gbar_there, _coord(gbar_there, "gbar_std")),
                       levels["gradient"])
-        area = _rated(show_errors(at.a_r, at.get("a_r_std"), _exact(at, "a_r")), lp)
-        stress = _rated(show_errors(at.sigma_c, at.get("sigma_c_std"), _exact(at, "sigma_c")),
+        area = _rated(show_errors(at.a_r, at.get("a_r_std"), exact_of(at, "a_r")), lp)
+        stress = _rated(show_errors(at.sigma_c, at.get("sigma_c_std"), exact_of(at, "sigma_c")),
                         lp)
         where = show(at.dr)
     return (m["name"], _rated(show(fit.sigma_h, none="no plateau"), lf),
@@ -178,15 +179,6 @@ def _cells(m: dict, at: xr.Dataset | None, gbar_there: xr.DataArray | None,
             _rated(show(fit.lambda_r, none="no roll-off"), lf), grad,
             _rated(show_errors(energy.v_el, energy.get("v_el_std")), levels["energy"]),
             area, stress, where, patch)
-
-
-def _exact(at: xr.Dataset, name: str
-           ) -> tuple[xr.DataArray, xr.DataArray, xr.DataArray] | None:
-    """Give the expected exact value of ``name`` and its one-sigma bounds, if any."""
-    names = [f"{name}_exact", f"{name}_exact_lower", f"{name}_exact_upper"]
-    if not all(n in at for n in names):
-        return None
-    return at[names[0]], at[names[1]], at[names[2]]
 
 
 def _exact_record(at: xr.Dataset, name: str) -> dict:
