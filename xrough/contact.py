@@ -109,6 +109,24 @@ def _si(G: xr.DataArray, spec: AcfSpec) -> tuple[xr.DataArray, xr.DataArray | No
     return _strip(G) * spec.to_m2, error
 
 
+def _laplacian_std(G: xr.DataArray, G_si: xr.DataArray, error: xr.DataArray | None,
+                   spec: AcfSpec) -> xr.DataArray:
+    """Give the standard deviation of the Laplacian of G on its lags (NaN: no map geometry)."""
+    model = error_model(G)
+    if not model:
+        return xr.full_like(G_si, np.nan)
+    model.update(size=model["size"] * spec.to_m, pixel=model["pixel"] * spec.to_m)
+    lo, hi = reliability_window(G)
+    window = (0.0 if lo is None else lo * spec.to_m, np.inf if hi is None else hi * spec.to_m)
+    factor = inflation_of(G)
+    return _per_curve(
+        lambda g, e, f, **kw: k.laplacian_std_curve(g, None if np.all(np.isnan(e)) else e,
+                                                    f, **kw),
+        G_si, xr.full_like(G_si, np.nan) if error is None else error,
+        xr.ones_like(G_si) if factor is None else factor,
+        dr=spec.dr * spec.to_m, window=window, **model)
+
+
 def _energy_std(g, inflation, **kwargs):
     """:func:`~xrough._kernels.contact.energy_std_curve` of one curve and its factor."""
     return k.energy_std_curve(g, inflation=inflation, **kwargs)
@@ -711,8 +729,14 @@ def stress_acf(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike | None
     G_si, error = _si(G, spec)
     lap, why, _ = _laplacian(G)
     full = (E / 2) ** 2 * lap
+    std = _laplacian_std(G, G_si, error, spec)
     out = full.transpose(..., "dr").assign_coords(
         {**_own_coords(G), **lag_coord(spec.dr, spec.unit_str)})
+    out = out.assign_coords(G_sigma_std=(
+        ((E / 2) ** 2 * std).where(lap.notnull()).transpose(..., "dr").assign_attrs(
+            units="Pa2", long_name="statistical standard deviation of G_sigma",
+            error_of=(ERROR_OF_SURFACE + " (propagated through the smoothing spline of "
+                      "ln G, linearised)") if error_model(G) else ERROR_OF_NONE)))
     out.name = "G_sigma"
     out.attrs = result_attrs(G, units="Pa2", long_name="stress autocorrelation function",
                              derivative=_DERIVATIVE,

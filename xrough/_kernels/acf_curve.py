@@ -208,9 +208,13 @@ class AcfCurve:
         Lags (> 0, increasing) and G values (> 0 where finite).
     error : ndarray, optional
         Standard error of G per bin (weights of the smoothing spline).
+    smoothing : {'auto', 'fixed'}
+        The smoothing spline's choice (:meth:`_smooth`), or its fixed length alone (the
+        response of a curve that chose it to small changes of G: one fit, not two).
     """
 
-    def __init__(self, dr: np.ndarray, g: np.ndarray, error: np.ndarray | None = None):
+    def __init__(self, dr: np.ndarray, g: np.ndarray, error: np.ndarray | None = None,
+                 smoothing: str = "auto"):
         dr = np.asarray(dr, dtype=float)
         g = np.asarray(g, dtype=float)
         ok = np.isfinite(g) & (g > 0) & (dr > 0)
@@ -226,6 +230,7 @@ class AcfCurve:
         self._pchip = PchipInterpolator(self.x, self.y)
         self.a, self.b = self._even_start()
         self._spline: BSpline | None = None
+        self.smoothing = smoothing
 
     def _even_start(self) -> tuple[float, float]:
         """Return ``(a, b)`` of ``G = a r^2 + b r^4`` below the first sample (module docstring)."""
@@ -302,7 +307,7 @@ class AcfCurve:
             lam = density * (SMOOTHING_DECADES * np.log(10)) ** 4
             fixed = make_smoothing_spline(self.x, self.y, w=w, lam=lam)
             self._spline = fixed
-            if w is not None:
+            if w is not None and self.smoothing == "auto":
                 gcv = make_smoothing_spline(self.x, self.y, w=w)
                 if _roughness(gcv, self.x) < _roughness(fixed, self.x):
                     self._spline = gcv

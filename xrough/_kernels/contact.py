@@ -241,6 +241,36 @@ def laplacian_curve(g, error, *, dr, window=(0.0, np.inf)) -> np.ndarray:
     return out
 
 
+def laplacian_std_curve(g, error, inflation, *, dr, window=(0.0, np.inf), size, pixel,
+                        geometry, n_maps) -> np.ndarray:
+    """Statistical standard deviation of :func:`laplacian_curve`'s Laplacian, per lag.
+
+    The finite-area covariance of G's bins (as :func:`energy_std_curve`) propagated
+    linearly through the smoothing spline of the lags inside ``window`` (its weights, the
+    standard errors, held; its smoothing the fixed length: where G's noise makes the
+    spline smooth more, this is an upper bound); NaN outside the window, at ``dr = 0``
+    and where G is not finite.
+    """
+    g = np.asarray(g, dtype=float)
+    inside = ~((dr > 0) & ((dr < window[0]) | (dr > window[1])))
+    out = np.full(dr.size, np.nan)
+    g_in, dr_in = g[inside], dr[inside]
+    if not np.all(np.isfinite(g_in)) or np.count_nonzero(dr_in > 0) < 5:
+        return out
+    err = None if error is None else np.asarray(error, dtype=float)[inside]
+    infl = None if inflation is None else np.asarray(inflation, dtype=float)[inside]
+    lags = dr_in[dr_in > 0]
+    require_acf(dr_in, g_in)
+
+    def lap(values):  # the fixed-length spline's response: one fit per lag, not two
+        return AcfCurve(dr_in, values, err, smoothing="fixed").laplacian(lags)
+
+    cov = relative_covariance(dr_in, g_in, size=size, pixel=pixel, geometry=geometry,
+                              n_maps=n_maps, inflation=infl)
+    out[np.flatnonzero(inside)[dr_in > 0]] = propagated_std(lap, g_in, cov)
+    return out
+
+
 def smooth_tail(lap, g, *, dr, steep: float = STEEP_DECAY) -> np.ndarray:
     """Remove the roll-off ringing of the full-contact stress ACF (paper, section 3.7).
 
