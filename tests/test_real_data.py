@@ -836,6 +836,7 @@ def test_stitched_G_spans_the_instruments(chains):
 
 
 @pytest.mark.data
+@needs_bridge
 def test_oblique_texture_of_al3d_says_it_is_anisotropic():
     """al3d-1.al3d: G along x and along y agree, G along the two diagonals differs by a
     factor 2 at lags of 1-4 pixels (measured 0.49): the map is rated anisotropic, and
