@@ -109,22 +109,43 @@ def _si(G: xr.DataArray, spec: AcfSpec) -> tuple[xr.DataArray, xr.DataArray | No
     return _strip(G) * spec.to_m2, error
 
 
+def _error_inputs(G: xr.DataArray, G_si: xr.DataArray, spec: AcfSpec
+                  ) -> tuple[dict, xr.DataArray]:
+    """Give what the kernels that propagate G's covariance need, in SI as ``G_si``.
+
+    The map geometry of :func:`xrough.acf.error_model` with its lengths in m (empty: G
+    states none, so there is no statistical error) and the regions' inflation factor
+    curve by curve (ones where the regions agree or were not judged).
+    """
+    model = error_model(G) or {}
+    if model:
+        model.update(size=model["size"] * spec.to_m, pixel=model["pixel"] * spec.to_m)
+    factor = inflation_of(G)
+    return model, xr.ones_like(G_si) if factor is None else factor
+
+
+def _window_si(G: xr.DataArray, spec: AcfSpec) -> tuple[float, float]:
+    """Give the instrument's reliable lag range of G in m.
+
+    None recorded: 0 to inf; also when it holds no lag of G (every result fails then).
+    """
+    lo, hi = reliability_window(G)
+    if lag_window(G, spec.dr).empty is not None:
+        lo = hi = None
+    return (0.0 if lo is None else lo * spec.to_m, np.inf if hi is None else hi * spec.to_m)
+
+
 def _laplacian_std(G: xr.DataArray, G_si: xr.DataArray, error: xr.DataArray | None,
                    spec: AcfSpec) -> xr.DataArray:
     """Give the standard deviation of the Laplacian of G on its lags (NaN: no map geometry)."""
-    model = error_model(G)
+    model, factor = _error_inputs(G, G_si, spec)
     if not model:
         return xr.full_like(G_si, np.nan)
-    model.update(size=model["size"] * spec.to_m, pixel=model["pixel"] * spec.to_m)
-    lo, hi = reliability_window(G)
-    window = (0.0 if lo is None else lo * spec.to_m, np.inf if hi is None else hi * spec.to_m)
-    factor = inflation_of(G)
     return _per_curve(
         lambda g, e, f, **kw: k.laplacian_std_curve(g, None if np.all(np.isnan(e)) else e,
                                                     f, **kw),
-        G_si, xr.full_like(G_si, np.nan) if error is None else error,
-        xr.ones_like(G_si) if factor is None else factor,
-        dr=spec.dr * spec.to_m, window=window, **model)
+        G_si, xr.full_like(G_si, np.nan) if error is None else error, factor,
+        dr=spec.dr * spec.to_m, window=_window_si(G, spec), **model)
 
 
 def _energy_std(g, inflation, **kwargs):
@@ -156,10 +177,7 @@ def _laplacian(G: xr.DataArray):
     G, spec = read_acf(G)
     G_si, error = _si(G, spec)
     dr = spec.dr * spec.to_m
-    lo, hi = reliability_window(G)
-    if lag_window(G, spec.dr).empty is not None:  # nothing inside: every result fails
-        lo = hi = None
-    window = (0.0 if lo is None else lo * spec.to_m, np.inf if hi is None else hi * spec.to_m)
+    window = _window_si(G, spec)
     parts = {"part": 3, "dr": spec.dr.size}
     if error is None:
         res = _per_curve(lambda g, dr, window: k.laplacian_curve(g, None, dr=dr, window=window),
@@ -512,13 +530,9 @@ def elastic_energy(G: xr.DataArray, *, E_star: QuantityLike,
     part = {"v_el": quarter * total, "below": res.isel(k=1), "above": res.isel(k=2),
             "patch": quarter * res.isel(k=slice(3, -1)).rename(k="a_c"),
             "window": res.isel(k=-1) / total}
-    model = error_model(G)
-    if model:  # lengths in m, as G_si
-        model.update(size=model["size"] * spec.to_m, pixel=model["pixel"] * spec.to_m)
-    factor = inflation_of(G)  # the regions' factor, curve by curve
-    std = (quarter * _per_curve(
-        _energy_std, G_si, xr.ones_like(G_si) if factor is None else factor,
-        out={"one": 1}, dr=spec.dr * spec.to_m, **model).isel(one=0)
+    model, factor = _error_inputs(G, G_si, spec)
+    std = (quarter * _per_curve(_energy_std, G_si, factor, out={"one": 1},
+                                dr=spec.dr * spec.to_m, **model).isel(one=0)
            if model else xr.full_like(part["v_el"], np.nan))
     ds = xr.Dataset(
         {
@@ -1503,13 +1517,10 @@ def _patch_std(G: xr.DataArray, G_si: xr.DataArray, spec: AcfSpec, *, E: float,
 
     None: G states no map geometry (a model or stitched G), so no statistical error.
     """
-    model = error_model(G)
+    model, factor = _error_inputs(G, G_si, spec)
     if not model:
         return None
-    model.update(size=model["size"] * spec.to_m, pixel=model["pixel"] * spec.to_m)
-    factor = inflation_of(G)  # the regions' factor, curve by curve
-    std = _per_curve(_patch_std_curve, G_si,
-                     xr.ones_like(G_si) if factor is None else factor, out={"k": 2},
+    std = _per_curve(_patch_std_curve, G_si, factor, out={"k": 2},
                      dr=spec.dr * spec.to_m, E_star=E, gamma=gamma, **model)
     return std / spec.to_m
 
