@@ -14,8 +14,11 @@ corrected one ``a_r_exact / a_exact - 1`` (median and largest), and ``z = ln(a_e
 a_r_exact) / spread`` (median, and the share within 1 and 2 sigma); then the same over the
 whole set, for ``a_r``, ``a_ri`` and ``sigma_c`` (``sigma_c = p0 / a_r``: its z is ``a_r``'s
 with the sign turned). Loads where fewer than 100 pixels touch are left out (the solver's
-area then measures the grid). The runs are those of the study (cached in
-``<out>/runs``; about 1 minute of solving on two cores when not cached).
+area then measures the grid). The stress ACF ``G_sigma`` (eq. 30/48) the same way, its
+fluctuating part ``F = G_sigma - p0^2`` at every lag its model covers (``G_sigma_exact``, from
+``xrough/data/persson_stress_error.csv.gz``), per class and by lag. The runs are those of
+the study (cached in ``<out>/runs``; about 1 minute of solving on two cores when not
+cached).
 
 Usage::
 
@@ -58,6 +61,24 @@ def evaluate(table: list[dict]) -> dict:
     return out
 
 
+def evaluate_stress(table: list[dict]) -> dict:
+    """Per row of the stress table: Persson's error of ``F = G_sigma - p0^2``, the
+    corrected one and z, at every lag the model covers."""
+    col = {k: np.array([r[k] for r in table]) for k in study.STRESS_COLUMNS}
+    bias, spread = me.stress_model_error(
+        col["p_star"], col["p_star_0"], col["decay"], *(col[f] for f in me.FEATURES),
+        periodic=col["open"].astype(float) == 0)
+    ok = np.isfinite(bias)
+    cls = np.array([f"H {h:g} {ro} roll-off, {co} cutoff, ls {ls:g} px, bw {bw:g}"
+                    + (", open" if op else "") for h, ro, co, ls, bw, op in zip(
+                        *(col[k] for k in ("hurst", "rolloff", "cutoff", "lambda_s_px",
+                                           "bandwidth", "open")))])
+    return {"class": cls[ok], "lag_px": col["lag_px"][ok],
+            "G_sigma": {"theory": np.exp(col["ln_ratio"][ok]) - 1,
+                        "corrected": np.exp(col["ln_ratio"][ok] - bias[ok]) - 1,
+                        "z": (bias[ok] - col["ln_ratio"][ok]) / spread[ok]}}
+
+
 def summary(z: np.ndarray, corrected: np.ndarray, theory: np.ndarray) -> str:
     ok = np.isfinite(z)
     z, c = z[ok], np.abs(corrected[ok])
@@ -93,6 +114,22 @@ def main(argv=None) -> dict:
     print("quantity | " + HEAD.replace("\n", "\n---|"))
     for name in ("a_r", "a_ri", "sigma_c"):
         print(f"{name} | " + summary(*(res[name][k] for k in ("z", "corrected", "theory"))))
+    stress = evaluate_stress(tables["heldout_stress"])
+    print("\nheld-out G_sigma, its fluctuating part F = G_sigma - p0^2 at every lag the model "
+          "covers: |F / F_exact - 1| of the theory and of the expected exact value; z = "
+          "ln(F_exact / expected) / spread\n")
+    print("class | " + HEAD.replace("\n", "\n---|"))
+    for c in dict.fromkeys(stress["class"]):
+        idx = stress["class"] == c
+        print(f"{c} | " + summary(*(stress["G_sigma"][k][idx]
+                                    for k in ("z", "corrected", "theory"))))
+    for lo, hi in ((1, 1.01), (1.01, 4), (4, np.inf)):
+        idx = (stress["lag_px"] >= lo) & (stress["lag_px"] < hi)
+        print(f"lags {lo:g}-{hi:g} px | " + summary(*(stress["G_sigma"][k][idx]
+                                                    for k in ("z", "corrected", "theory"))))
+    print("G_sigma, all | " + summary(*(stress["G_sigma"][k]
+                                        for k in ("z", "corrected", "theory"))))
+    res["G_sigma"] = stress
     return res
 
 

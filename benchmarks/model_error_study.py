@@ -37,12 +37,14 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import gzip
 import itertools
 import time
 import warnings
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import NamedTuple
+from unittest import mock
 
 import numpy as np
 import xarray as xr
@@ -55,6 +57,7 @@ GBAR = 0.1  # rms gradient of every surface
 LOADS = (1e-4, 3e-4, 1e-3, 3e-3, 0.01, 0.03, 0.1, 0.2, 0.5)  # reduced pressures p*
 MIN_PIXELS = 100  # contact pixels below which a load is not used
 TABLE = Path(__file__).resolve().parents[1] / "xrough" / "data" / "persson_area_error.csv"
+STRESS_TABLE = TABLE.with_name("persson_stress_error.csv.gz")
 
 
 class Case(NamedTuple):
@@ -126,34 +129,76 @@ def surface(case: Case) -> xr.DataArray:
     return xrough.topography(h, spacing=1.0, unit="nm", periodic=not case.open)
 
 
-def run(case: Case, out: Path) -> xr.Dataset:
-    """Persson's areas from the map's G against the solver at every load (cached)."""
-    path = out / "runs" / f"{case.name}.nc"
-    if path.exists():
-        return xr.load_dataset(path)
-    topo = surface(case)
-    t0 = time.perf_counter()
-    with warnings.catch_warnings():
+def theory(topo: xr.DataArray) -> xr.Dataset:
+    """Persson's side of one surface: G, the loads and the theory at every lag.
+
+    Recomputed from the surface (``--refresh-theory``) when the package changes; the
+    solver's side of a cached run is kept.
+    """
+    # the theory as it is, without the correction this study builds (whose table it
+    # writes: the first run has none to read)
+    with warnings.catch_warnings(), mock.patch.object(xrough.contact, "_stress_model_errors",
+                                                      lambda *args: {}):
         warnings.simplefilter("ignore")  # the study reads the numbers, not the verdicts
         G = topo.rough.acf()
-        unit = xrough.persson(G, E_star=E_STAR, p0=1.0, variables=("p_star",))
-        p_unit = unit.p_star.values
-        finest = int(np.flatnonzero(np.isfinite(p_unit))[0])
-        p0 = np.asarray(LOADS) / p_unit[finest]  # p* at the finest lag = LOADS
-        theory = xrough.persson(G, E_star=E_STAR, p0=p0, variables=("p_star", "a_r", "a_ri"))
-        theory = theory.isel(dr=finest)
-        sim = xrough.solve_contact(topo, E_star=E_STAR, p0=p0, progress=False)
-    ds = xr.Dataset(
-        {"p_star": ("load", theory.p_star.values), "a_r": ("load", theory.a_r.values),
-         "a_ri": ("load", theory.a_ri.values),
-         "contact_area": ("load", sim.contact_area.values),
-         "contact_pixels": ("load", np.round(sim.contact_area.values * case.n**2)),
-         "converged": ("load", sim.converged.values.astype(np.int8)),
-         "G": ("dr", G.values)},
-        coords={"dr": G["dr"].values},
-        attrs={**case._asdict(), "open": int(case.open), "n": case.n,
-               "finest_lag": float(G["dr"][finest]),
-               "seconds": time.perf_counter() - t0})
+        p_unit = xrough.persson(G, E_star=E_STAR, p0=1.0, variables=("p_star",)).p_star
+        finest = int(np.flatnonzero(np.isfinite(p_unit.values))[0])
+        p0 = np.asarray(LOADS) / float(p_unit[finest])  # p* at the finest lag = LOADS
+        lagged = xrough.persson(G, E_star=E_STAR, p0=p0,
+                                variables=("p_star", "a_r", "a_ri", "G_sigma"))
+    at = lagged.isel(dr=finest)
+    return xr.Dataset(
+        {"p_star": ("load", at.p_star.values), "a_r": ("load", at.a_r.values),
+         "a_ri": ("load", at.a_ri.values), "G": ("dr", G.values), "p0": ("load", p0),
+         # the stress ACF of eq. 30/48 at every lag of G, and p* there
+         "p_star_dr": (("load", "dr"), lagged.p_star.values),
+         "G_sigma": (("load", "dr"), lagged.G_sigma.values)},
+        coords={"dr": G["dr"].values}, attrs={"finest_lag": float(G["dr"][finest])})
+
+
+def stress_acf_of(pressure: np.ndarray, *, periodic: bool) -> np.ndarray:
+    """The solver's stress ACF ``<p(r) p(r + dr)>`` per load on G's lags (Pa^2).
+
+    ``<p^2> - G_p(dr)``, ``G_p`` the height-difference ACF of the pressure field computed
+    as G is (the same bins: the map has the same size).
+    """
+    out = []
+    for field in pressure:
+        as_map = xrough.topography(field, spacing=1.0, unit="nm", periodic=periodic)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            out.append(np.mean(field**2) - as_map.rough.acf().values)
+    return np.array(out)
+
+
+def run(case: Case, out: Path, refresh: bool = False) -> xr.Dataset:
+    """Persson's areas and stress ACF from the map's G against the solver at every load.
+
+    Cached in ``out/runs``; ``refresh`` recomputes the theory's side of a cached run.
+    """
+    path = out / "runs" / f"{case.name}.nc"
+    if path.exists():
+        ds = xr.load_dataset(path)
+        if refresh or "p0" not in ds:
+            ds = ds.drop_vars([v for v in ("p_star", "a_r", "a_ri", "G", "p0", "p_star_dr",
+                                           "G_sigma") if v in ds])
+            ds = xr.merge([ds, theory(surface(case))], combine_attrs="override")
+            ds.to_netcdf(path)
+        return ds
+    topo = surface(case)
+    t0 = time.perf_counter()
+    ds = theory(topo)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sim = xrough.solve_contact(topo, E_star=E_STAR, p0=ds.p0.values, progress=False)
+    ds = ds.assign(
+        contact_area=("load", sim.contact_area.values),
+        contact_pixels=("load", np.round(sim.contact_area.values * case.n**2)),
+        converged=("load", sim.converged.values.astype(np.int8)),
+        G_sigma_exact=(("load", "dr"), stress_acf_of(sim.pressure.values,
+                                                     periodic=not case.open)))
+    ds.attrs.update({**case._asdict(), "open": int(case.open), "n": case.n,
+                     "seconds": time.perf_counter() - t0})
     path.parent.mkdir(parents=True, exist_ok=True)
     ds.to_netcdf(path)
     return ds
@@ -178,12 +223,60 @@ def rows(which: str, runs: list[xr.Dataset]) -> list[dict]:
     return out
 
 
-def write_csv(path: Path, table: list[dict], header: str) -> None:
-    lines = ["# " + line for line in header.splitlines()] + [",".join(COLUMNS)]
+STRESS_COLUMNS = ("hurst", "rolloff", "cutoff", "lambda_s_px", "bandwidth", "ratio_l", "open",
+                  "seed", "lag_px", *model_error.FEATURES, "p_star", "p_star_0", "decay",
+                  "ln_ratio")
+
+
+def stress_rows(runs: list[xr.Dataset]) -> list[dict]:
+    """One row per surface, load and lag: Persson's stress ACF against the solver's.
+
+    ``ln_ratio = ln(F / F_exact)`` of the fluctuating parts ``F = G_sigma - p0^2``;
+    ``decay``, Persson's ``F`` over its value at the first lag where it has one. Loads
+    with fewer than :data:`MIN_PIXELS` contact pixels or not converged, and lags where a
+    value or G's shape is missing or either ``F`` is not positive, are left out.
+    """
+    out = []
+    for ds in runs:
+        dr = ds["dr"].values
+        shape = model_error.features_on_lags(dr, ds["G"].values)
+        for i in range(ds.sizes["load"]):
+            if ds.contact_pixels.values[i] < MIN_PIXELS or not ds.converged.values[i]:
+                continue
+            p0sq = float(ds.p0.values[i]) ** 2
+            theory = ds.G_sigma.values[i] - p0sq
+            exact = ds.G_sigma_exact.values[i] - p0sq
+            first = np.flatnonzero(np.isfinite(theory) & (dr > 0))
+            if first.size == 0:
+                continue
+            decay = theory / theory[first[0]]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ln_ratio = np.log(theory / exact)
+            ok = (np.isfinite(ln_ratio) & np.all(np.isfinite(shape), axis=0)
+                  & np.isfinite(ds.p_star_dr.values[i]) & (dr > 0))
+            for j in np.flatnonzero(ok):
+                row = {k: ds.attrs[k] for k in STRESS_COLUMNS[:8]}
+                row.update({"lag_px": float(dr[j]),
+                            **dict(zip(model_error.FEATURES, map(float, shape[:, j]))),
+                            "p_star": float(ds.p_star_dr.values[i, j]),
+                            "p_star_0": float(ds.p_star.values[i]),
+                            "decay": float(decay[j]), "ln_ratio": float(ln_ratio[j])})
+                out.append(row)
+    return out
+
+
+def write_csv(path: Path, table: list[dict], header: str, columns=COLUMNS,
+              digits: int = 6) -> None:
+    """Write ``table`` as CSV with ``header`` as comments (gzip for a ``.gz`` path)."""
+    lines = ["# " + line for line in header.splitlines()] + [",".join(columns)]
     for r in table:
-        lines.append(",".join(f"{r[c]:.6g}" if isinstance(r[c], float) else str(r[c])
-                              for c in COLUMNS))
-    path.write_text("\n".join(lines) + "\n")
+        lines.append(",".join(f"{r[c]:.{digits}g}" if isinstance(r[c], float) else str(r[c])
+                              for c in columns))
+    text = "\n".join(lines) + "\n"
+    if path.suffix == ".gz":  # no time stamp: the same table gives the same bytes
+        path.write_bytes(gzip.compress(text.encode(), mtime=0))
+    else:
+        path.write_text(text)
 
 
 HEADER = """\
@@ -198,6 +291,17 @@ local slope of ln G over ln dr from the lag to twice it; h_wide, the same from t
 eight times it."""
 
 
+STRESS_HEADER = """\
+Persson's stress ACF G_sigma (eq. 30/48, W = a_r) from G against the solver's at every lag.
+Made by: python benchmarks/model_error_study.py --write-table (build set, 3 seeds).
+The surfaces and loads of persson_area_error.csv (loads with at least 100 contact pixels);
+the solver's stress ACF <p(r) p(r + dr)> from its pressure field, binned as G. ln_ratio =
+ln(F / F_exact) of the fluctuating parts F = G_sigma - p0^2; decay, Persson's F over its
+value at the first lag where it has one; p_star_0, p* at the map's finest lag; p_star and
+G's features (h_local, h_wide, range:
+xrough._kernels.model_error.features_on_lags) at the lag (lag_px, in pixels)."""
+
+
 def main(argv=None) -> dict:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", default="model-error-study", help="output directory")
@@ -205,7 +309,10 @@ def main(argv=None) -> dict:
     p.add_argument("--seeds", type=int, default=3, help="seeds per surface")
     p.add_argument("--jobs", type=int, default=1, help="surfaces solved at once")
     p.add_argument("--write-table", action="store_true",
-                   help=f"write the build set to {TABLE.relative_to(TABLE.parents[2])}")
+                   help=f"write the build set to {TABLE.relative_to(TABLE.parents[2])} "
+                   f"and {STRESS_TABLE.name}")
+    p.add_argument("--refresh-theory", action="store_true",
+                   help="recompute Persson's side of cached runs (after the package changed)")
     args = p.parse_args(argv)
     out = Path(args.out)
     sets = ("build", "heldout") if args.set == "both" else (args.set,)
@@ -214,15 +321,21 @@ def main(argv=None) -> dict:
         todo = cases(which, args.seeds)
         t0 = time.perf_counter()
         with ProcessPoolExecutor(args.jobs) as pool:
-            runs = list(pool.map(run, todo, itertools.repeat(out)))
+            runs = list(pool.map(run, todo, itertools.repeat(out),
+                                 itertools.repeat(args.refresh_theory)))
         solved = sum(ds.attrs["seconds"] for ds in runs)
         print(f"{which}: {len(runs)} surfaces, {solved / 60:.1f} min of solving "
               f"({(time.perf_counter() - t0) / 60:.1f} min now)")
         tables[which] = rows(which, runs)
         write_csv(out / f"{which}.csv", tables[which], HEADER)
+        tables[f"{which}_stress"] = stress_rows(runs)
+        write_csv(out / f"{which}_stress.csv.gz", tables[f"{which}_stress"], STRESS_HEADER,
+                  STRESS_COLUMNS, digits=4)
     if args.write_table:
         write_csv(TABLE, tables["build"], HEADER)
-        print(f"wrote {TABLE}")
+        write_csv(STRESS_TABLE, tables["build_stress"], STRESS_HEADER, STRESS_COLUMNS,
+                  digits=4)
+        print(f"wrote {TABLE} and {STRESS_TABLE.name}")
     return tables
 
 

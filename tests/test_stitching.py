@@ -274,7 +274,9 @@ def test_stress_acf_of_stitched_maps_has_no_seam(hurst):
                                  np.log(Gs.values)))
     sel = (S.dr.values >= 2) & (S.dr.values <= n / 8)
     err = (S.values - ref)[sel] / var
-    assert np.abs(err).max() < 0.03, err
+    # the first lag of the fine map's window is rough already: NaN by design (a remark)
+    assert np.isfinite(err[1:]).all() and "the first lag" in S.attrs["quality_remarks"]
+    assert np.nanmax(np.abs(err)) < 0.03, err
 
 
 def test_stitched_G_feeds_fit_and_persson(curves):

@@ -23,7 +23,7 @@ from . import quality
 from . import units as u
 from ._kernels import contact as k
 from ._kernels import model_error as me
-from ._kernels.acf_curve import DETERMINED, FLAT_SLOPE
+from ._kernels.acf_curve import DETERMINED, FIRST_LAG_SMOOTH, FLAT_SLOPE
 from ._kernels.contact import KAPPA_PERSSON
 from ._kernels.gaps import bridge_energy
 from ._kernels.hankel import acf_from_spectrum_kernel
@@ -135,9 +135,15 @@ def _window_si(G: xr.DataArray, spec: AcfSpec) -> tuple[float, float]:
     return (0.0 if lo is None else lo * spec.to_m, np.inf if hi is None else hi * spec.to_m)
 
 
-def _laplacian_std(G: xr.DataArray, G_si: xr.DataArray, error: xr.DataArray | None,
-                   spec: AcfSpec) -> xr.DataArray:
-    """Give the standard deviation of the Laplacian of G on its lags (NaN: no map geometry)."""
+@by_content()
+def _laplacian_std(G: xr.DataArray) -> xr.DataArray:
+    """Give the standard deviation of the Laplacian of G on its lags (NaN: no map geometry).
+
+    Kept by content, as :func:`_laplacian`: :func:`stress_acf` and :func:`persson` of one
+    G compute it once.
+    """
+    G, spec = read_acf(G)
+    G_si, error = _si(G.transpose(..., "dr"), spec)
     model, factor = _error_inputs(G, G_si, spec)
     if not model:
         return xr.full_like(G_si, np.nan)
@@ -157,11 +163,12 @@ def _per_curve(func, *arrays, out: dict[str, int] | None = None, **kwargs):
     """Apply ``func`` to each curve (core dim dr); output core dims ``out`` (default dr)."""
     out_dims = [["dr"]] if out is None else [list(out)]
     sizes = {} if out is None else dict(out)
+    # a curve is its bins (tens to hundreds): one chunk along dr whatever the inputs had
+    gufunc: dict = {"allow_rechunk": True, **({"output_sizes": sizes} if sizes else {})}
     return xr.apply_ufunc(
         func, *arrays, input_core_dims=[["dr"]] * len(arrays), output_core_dims=out_dims,
         vectorize=True, dask="parallelized", output_dtypes=[float],
-        dask_gufunc_kwargs={"output_sizes": sizes} if sizes else {}, kwargs=kwargs,
-        keep_attrs=False)
+        dask_gufunc_kwargs=gufunc, kwargs=kwargs, keep_attrs=False)
 
 
 @by_content()
@@ -215,6 +222,11 @@ def _derivative_checks(why: xr.DataArray, spec: AcfSpec, window: bool = True) ->
             "and pixel noise or a scan that differs along its fast and slow axes makes G "
             "zig-zag between them): the stress ACF there is a property of the pixels, not "
             "of the surface"),
+        k.ROUGH_START: (
+            "the Laplacian of G (eq. 24) is not determined{span}, the first lag (NaN "
+            f"there): G's log-log slope from its first to its second lag is below "
+            f"{FIRST_LAG_SMOOTH:g}, so the surface is rough at the first lag already and "
+            "the curvature of G there depends on what lies below it, which no lag holds"),
         k.OUTSIDE_WINDOW: (
             "the Laplacian of G (eq. 24) is NaN{span}: outside the reliable lag range "
             "(reliable_dr_min / reliable_dr_max in G's attrs) that the instrument resolves"),
@@ -228,7 +240,8 @@ def _derivative_checks(why: xr.DataArray, spec: AcfSpec, window: bool = True) ->
         if why.chunks is None:
             span = _lag_runs(spec.dr, np.asarray(hit.any([d for d in hit.dims if d != "dr"])),
                              unit)
-        level = "good" if code == k.OUTSIDE_WINDOW else "questionable"
+        # NaN by design: outside the window, or at a first lag where G is rough (a remark)
+        level = "questionable" if code == k.UNDETERMINED else "good"
         checks.append((hit.any("dr"), level, text.format(span=span)))
     return checks
 
@@ -736,14 +749,15 @@ def stress_acf(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike | None
         ds = persson(G, E_star=E, p0=p0, theory=theory, gradient=gradient, kappa=kappa,
                      gradient_method=gradient_method, variables=("G_sigma",),
                      smooth_full=smooth_full)
-        out = ds["G_sigma"]
+        out = ds["G_sigma"].assign_coords(  # its errors beside it, drawn as bands
+            {name: ds[name] for name in ds.data_vars if str(name).startswith("G_sigma_")})
         out.attrs = {**ds.attrs, **out.attrs}  # provenance, E_star, theory and the variable's
         return out
     rated, (G, spec) = G, read_acf(G)  # rated: G with its own verdict, for _rate
     G_si, error = _si(G, spec)
     lap, why, _ = _laplacian(G)
     full = (E / 2) ** 2 * lap
-    std = _laplacian_std(G, G_si, error, spec)
+    std = _laplacian_std(G)
     out = full.transpose(..., "dr").assign_coords(
         {**_own_coords(G), **lag_coord(spec.dr, spec.unit_str)})
     out = out.assign_coords(G_sigma_std=(
@@ -1252,6 +1266,64 @@ def _model_errors(run: _PerssonRun, area: _ContactArea, out: dict) -> dict:
     return made
 
 
+def _stress_model_errors(run: _PerssonRun, area: _ContactArea, g_sigma: xr.DataArray
+                         ) -> dict:
+    """Give the theory's own error of ``G_sigma`` (eq. 30/48, ``W = a_r``).
+
+    The fluctuating part ``F = G_sigma - p0^2`` corrected by
+    :func:`me.stress_model_error` at each lag's ``p*``, lag in pixels, decay of ``F`` and
+    G's shape there: ``G_sigma_exact = p0^2 + F exp(-bias)`` and its one-sigma interval
+    (``bias -+ spread``). NaN for the modified theory, another ``kappa``, and where the
+    map is unlike the study's.
+    """
+    note = _MODEL_ERROR_STRESS
+    if run.theory != "persson" or not np.isclose(run.kappa, KAPPA_PERSSON, rtol=1e-9):
+        note = (f"none: the solver study is for the original theory (W = a_r) with Persson's "
+                f"kappa = {KAPPA_PERSSON:.4f}")
+    p0sq = run.p0**2
+    fluct = g_sigma - p0sq
+    first, p_star_0 = (xr.apply_ufunc(_first_finite, v, input_core_dims=[["dr"]],
+                                      dask="parallelized", output_dtypes=[float],
+                                      dask_gufunc_kwargs={"allow_rechunk": True})
+                       for v in (fluct, area.p_star))  # dr: tens of lags, one chunk
+    shape = _shape_of(run.G)
+    bias, spread = xr.apply_ufunc(
+        functools.partial(me.stress_model_error,
+                          periodic=bool(run.G.attrs.get("periodic", 0))),
+        area.p_star, p_star_0, fluct / first, *(shape.sel(feature=f, drop=True)
+                                                for f in me.FEATURES),
+        dask="parallelized", output_dtypes=[float, float], output_core_dims=[[], []])
+    if note is not _MODEL_ERROR_STRESS:
+        bias = xr.full_like(bias, np.nan)
+    bias = bias.where(~run.unlike_study)
+    exact, lower, upper = (p0sq + fluct * np.exp(-bias + k_ * spread) for k_ in (0, -1, 1))
+    finite = np.isfinite(g_sigma)
+    made = {}
+    for suffix, data, long_name in (
+            ("_model_error", g_sigma - exact, "model error of G_sigma (theory - expected "
+             "exact)"),
+            ("_exact", exact, "expected exact G_sigma (theory corrected by the solver study)"),
+            ("_exact_lower", lower, "lower one-sigma bound of the exact G_sigma"),
+            ("_exact_upper", upper, "upper one-sigma bound of the exact G_sigma")):
+        made["G_sigma" + suffix] = data.where(finite).assign_attrs(
+            units="Pa2", long_name=long_name, error_of=note)
+    return made
+
+
+#: What the model error of the stress ACF is, in words.
+_MODEL_ERROR_STRESS = (
+    "the theory's own error, expected from the boundary-element study of "
+    "benchmarks/model_error_study.py (xrough/data/persson_stress_error.csv.gz: the "
+    "surfaces of the area's study, the solver's stress ACF <p(r) p(r + dr)> binned as G): "
+    "ln(F / F_exact) of the fluctuating part F = G_sigma - p0^2 as a function of p* at "
+    "the lag and at the finest lag and of G's local exponents at the lag; G_sigma_exact "
+    "is the "
+    "expected exact stress ACF, G_sigma_exact_lower / _upper its one-sigma interval (the "
+    "solver's spread, not statistical); NaN below "
+    f"p* = {me.P_STAR_RANGE[0]:g}, where F has fallen below {me.DECAY_MIN:g} of its first "
+    "value, outside the study's shapes of G, and where G's regions or directions disagree")
+
+
 #: The reasons of G's rating that put a map outside the solver study's surfaces
 #: (stationary, isotropic, Gaussian): on such real maps the model error does not hold
 #: (benchmarks/model_error_real.py).
@@ -1316,10 +1388,23 @@ def _stress_vars(run: _PerssonRun, area: _ContactArea, smooth_full: bool):
     Returns the variables, the per-``p0`` checks and the per-curve checks of the Laplacian.
     """
     lap, why, _ = _laplacian(run.G)
+    lap_std = _laplacian_std(run.G)
     if smooth_full:
+        lap_std = _per_curve(k.smooth_tail_std, lap_std, lap, run.G_si, dr=run.dr_m.values)
         lap = _per_curve(k.smooth_tail, lap, run.G_si, dr=run.dr_m.values)
     full = (run.E / 2) ** 2 * lap
     g_sigma = run.p0**2 + full * area.weight
+    # its statistical error: the Laplacian's (G's covariance through the spline) and W's
+    # (gbar's, through a_r), independent as a first approximation
+    full_std = (run.E / 2) ** 2 * lap_std
+
+    def weighted(p_star):
+        a_r = k.contact_area(p_star, run.kappa)
+        a_ri = k.improved_area(p_star, a_r) if run.theory != "persson" else None
+        return full * k.weighting(run.theory, a_r, a_ri)
+
+    g_sigma_std = np.hypot(area.weight * full_std,
+                           _std_of(full * area.weight, weighted, area))
     negative = g_sigma < 0  # <s(r) s(r+dr)> of compressive stresses is never < 0
     checks = [(negative.any("dr"), "questionable",
                "G_sigma < 0 at some lags (set NaN): the stress ACF of a contact without "
@@ -1334,6 +1419,12 @@ def _stress_vars(run: _PerssonRun, area: _ContactArea, smooth_full: bool):
         out["G_sigma"] = g_sigma.assign_attrs(
             units="Pa2", long_name="stress autocorrelation function",
             equation=f"eq. 30/48 with W of eq. 49 ({run.theory}); {tail}")
+        out["G_sigma_std"] = g_sigma_std.where(g_sigma.notnull()).assign_attrs(
+            units="Pa2", long_name="statistical standard deviation of G_sigma",
+            error_of=(ERROR_OF_SURFACE + " (the Laplacian of G through the smoothing "
+                      "spline of ln G, and W through gbar; linearised)")
+            if error_model(run.G) else ERROR_OF_NONE)
+        out.update(_stress_model_errors(run, area, out["G_sigma"]))
     if "Gamma_sigma" in run.wanted:
         p_zero = run.p0 / (run.E * area.gbar0)
         a0 = k.contact_area(p_zero, run.kappa)

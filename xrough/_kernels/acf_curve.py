@@ -36,8 +36,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import BSpline, PchipInterpolator, make_smoothing_spline
 
-__all__ = ["AcfCurve", "DETERMINED", "FLAT_SLOPE", "G_RANGE", "RELATIVE_ERROR_RANGE", "acf_problem",
-           "relative_error_problem", "require_acf"]
+__all__ = ["AcfCurve", "DETERMINED", "FIRST_LAG_SMOOTH", "FLAT_SLOPE", "G_RANGE",
+           "RELATIVE_ERROR_RANGE", "acf_problem", "relative_error_problem", "require_acf"]
 
 #: Smoothing length of the derivatives of G, in decades of dr (a spline penalty
 #: ``lam = (samples per unit ln dr) * (0.05 ln 10)^4``): fine enough for the roll-offs
@@ -77,6 +77,16 @@ DECREASE = 1.1
 #: measurements of the test data 0.27 (a 4 x 7 map) or more.
 FLAT_SLOPE = 0.1
 
+#: Below this log-log slope of G's first piece (between its first two samples:
+#: :meth:`AcfCurve.rough_start`) the surface is already rough at the first lag: the
+#: curvature of G there depends on what lies below it, which no sample holds, and the
+#: Laplacian at the first lag is not determined. At or above it G is within 10 % of the
+#: smooth ``dr^2`` regime, where the even start below the first sample (which the
+#: smoothing spline is anchored to, see :meth:`AcfCurve._smooth`) holds: on the exact
+#: expected G of periodic 512^2 maps (H 0.3, 0.5, 0.8; sharp cutoff at 2-8 px) the stress
+#: ACF at 1 px is then within 0.4 % of ``G_sigma(0)`` of the map's exact stress field;
+#: below it, where the first lag is NaN, it was 3-6 % high (``tests/test_contact.py``).
+FIRST_LAG_SMOOTH = 1.8
 
 #: Largest (and reciprocal of the smallest) nonzero |G| in the square of its lag unit that
 #: the functions of G accept: up to about 1e284 every one gives the result of a G scaled
@@ -231,6 +241,8 @@ class AcfCurve:
         self.a, self.b = self._even_start()
         self._spline: BSpline | None = None
         self.smoothing = smoothing
+        # the smoothing spline anchored below the first sample where G is smooth there
+        self.anchor = not self.rough_start()
 
     def _even_start(self) -> tuple[float, float]:
         """Return ``(a, b)`` of ``G = a r^2 + b r^4`` below the first sample (module docstring)."""
@@ -305,13 +317,34 @@ class AcfCurve:
             span = self.x[-1] - self.x[0]
             density = (self.x.size - 1) / span  # samples per unit ln(dr)
             lam = density * (SMOOTHING_DECADES * np.log(10)) ** 4
-            fixed = make_smoothing_spline(self.x, self.y, w=w, lam=lam)
+            fixed = make_smoothing_spline(*self._anchored(w), lam=lam)
             self._spline = fixed
-            if w is not None and self.smoothing == "auto":
+            if self.error is not None and self.smoothing == "auto":
+                # a noisy G: cross-validation's smoothing, of G's samples alone (the even
+                # start below rests on the first two, as noisy)
                 gcv = make_smoothing_spline(self.x, self.y, w=w)
                 if _roughness(gcv, self.x) < _roughness(fixed, self.x):
                     self._spline = gcv
         return self._spline
+
+    def _anchored(self, w: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Give the samples of the smoothing spline: G's, and two of the even start below.
+
+        A natural spline ends with ``y'' = 0``: at the first sample that would put the
+        Laplacian ``G (y'' + y'^2) / r^2`` of a G bending from ``dr^2`` into its power law
+        3-6 % of ``G_sigma(0)`` high. Two samples of the even start ``a r^2 + b r^4`` at
+        ``r_0 / 2`` and ``0.7 r_0`` (weighted as G's best sample) carry its curvature
+        below the first lag; the spline is evaluated only from ``r_0`` on. Not where G is
+        rough at the first lag (:meth:`rough_start`): the even start does not hold there;
+        nor where cross-validation smooths more (:meth:`_smooth`).
+        """
+        w = np.ones_like(self.x) if w is None else w
+        if not self.anchor:
+            return self.x, self.y, w
+        r = self.dr[0] * np.array([0.5, 0.7])
+        start = self.a * r**2 + self.b * r**4
+        return (np.r_[np.log(r), self.x], np.r_[np.log(start), self.y],
+                np.r_[np.full(2, w[0]), w])
 
     def log_slopes(self, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``y' = dlnG/dlnr`` and ``y''`` of the smoothed curve at ``r``.
@@ -352,6 +385,16 @@ class AcfCurve:
         d1, d2 = self.log_slopes(r)
         return self.smooth_values(r) * (d2 + d1**2) / r**2
 
+    def rough_start(self) -> bool:
+        """Say whether G is rough at its first sample (its Laplacian there not determined).
+
+        True where the log-log slope of the first piece lies below
+        :data:`FIRST_LAG_SMOOTH`: the curvature of G at the first lag then depends on what
+        lies below it. (Its statistical error does not enter: G's errors at neighbouring
+        lags of one map are nearly fully correlated, so the slope's is small.)
+        """
+        return bool(self.dr.size >= 2 and not self.slope[0] >= FIRST_LAG_SMOOTH)
+
     def first_decade_slope(self) -> float:
         """Log-log slope of G over its first decade of lags (NaN below 3 samples there).
 
@@ -368,9 +411,11 @@ class AcfCurve:
         return float(np.polyfit(self.x[first], self.y[first], 1, w=w)[0])
 
     def _subset(self, index: np.ndarray) -> AcfCurve:
-        """Return the curve of the samples ``index`` only."""
-        return AcfCurve(self.dr[index], self.g[index],
-                        None if self.error is None else self.error[index])
+        """Return the curve of the samples ``index`` only (anchored as this one)."""
+        out = AcfCurve(self.dr[index], self.g[index],
+                       None if self.error is None else self.error[index])
+        out.anchor = self.anchor
+        return out
 
     def determined_laplacian(self, tol: float = DETERMINED) -> tuple[np.ndarray, np.ndarray]:
         """Laplacian at the samples and where the samples determine it.

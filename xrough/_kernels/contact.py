@@ -18,8 +18,8 @@ from .uncertainty import propagated_std, relative_covariance
 __all__ = ["KAPPA_PERSSON", "STEEP_DECAY", "WEIGHTINGS", "EQ51_PRINTED", "contact_area",
            "improved_area", "weighting", "asymptote_weight", "nonincreasing",
            "quick_stress", "stress_asymptote", "energy_curve", "laplacian_curve",
-           "UNDETERMINED", "OUTSIDE_WINDOW", "first_decade_slope",
-           "smooth_tail", "patch_radius_curve"]
+           "UNDETERMINED", "OUTSIDE_WINDOW", "ROUGH_START", "first_decade_slope",
+           "smooth_tail", "smooth_tail_std", "patch_radius_curve"]
 
 #: Persson's small-pressure slope of the contact area, ``a_r ~ kappa p*`` (eq. 29).
 KAPPA_PERSSON = float(np.sqrt(8 / np.pi))
@@ -208,7 +208,7 @@ def first_decade_slope(g, error=None, *, dr) -> float:
 
 
 #: Codes of :func:`laplacian_curve`'s second row: why a lag has no Laplacian.
-UNDETERMINED, OUTSIDE_WINDOW = 1.0, 2.0
+UNDETERMINED, OUTSIDE_WINDOW, ROUGH_START = 1.0, 2.0, 3.0
 
 
 def laplacian_curve(g, error, *, dr, window=(0.0, np.inf)) -> np.ndarray:
@@ -219,8 +219,10 @@ def laplacian_curve(g, error, *, dr, window=(0.0, np.inf)) -> np.ndarray:
     empty bin), :data:`UNDETERMINED` (at or below the largest lag where the estimates
     from all, the even and the odd bins disagree, :meth:`AcfCurve.determined_laplacian`)
     or :data:`OUTSIDE_WINDOW` (outside the reliable lag range ``window`` of the
-    instrument), and the local exponent ``H(dr) = (1/2) dln G / dln dr`` of the same
-    smoothed curve (NaN at ``dr = 0`` and in empty bins; not clipped).
+    instrument) or :data:`ROUGH_START` (the first lag, where G is rough already:
+    :meth:`AcfCurve.rough_start`), and the local exponent
+    ``H(dr) = (1/2) dln G / dln dr`` of the same smoothed curve (NaN at ``dr = 0`` and
+    in empty bins; not clipped).
     """
     # the curve of the lags inside the window only: what the instrument does not resolve
     # enters neither the smoothing nor the check of what G determines (whose scale, a
@@ -237,6 +239,8 @@ def laplacian_curve(g, error, *, dr, window=(0.0, np.inf)) -> np.ndarray:
     at = np.searchsorted(dr, curve.dr)  # the curve's samples among the lags
     out[0, at] = np.where(determined, lap, np.nan)
     out[1, at] = np.where(determined, 0.0, UNDETERMINED)
+    if determined[0] and curve.rough_start():
+        out[:2, at[0]] = np.nan, ROUGH_START
     out[2, at] = 0.5 * curve.log_slopes(curve.dr)[0]  # the same smoothing spline
     return out
 
@@ -271,6 +275,20 @@ def laplacian_std_curve(g, error, inflation, *, dr, window=(0.0, np.inf), size, 
     return out
 
 
+def _tail_start(lap: np.ndarray, g: np.ndarray, dr: np.ndarray, steep: float) -> int | None:
+    """Index of ``r_c`` of :func:`smooth_tail` (None: the curve has no such lag)."""
+    ok = np.flatnonzero(np.isfinite(lap) & np.isfinite(g) & (dr > 0))
+    if ok.size < 2:
+        return None
+    after = ok[g[ok] >= 0.25 * np.max(g[ok])]
+    for prev, k in zip(after[:-1], after[1:]):
+        if not lap[prev] > 0:
+            return None  # already not positive where the search starts: leave it alone
+        if lap[k] <= 0 or (np.log(lap[k] / lap[prev]) / np.log(dr[k] / dr[prev]) <= -steep):
+            return int(prev)
+    return None
+
+
 def smooth_tail(lap, g, *, dr, steep: float = STEEP_DECAY) -> np.ndarray:
     """Remove the roll-off ringing of the full-contact stress ACF (paper, section 3.7).
 
@@ -282,22 +300,21 @@ def smooth_tail(lap, g, *, dr, steep: float = STEEP_DECAY) -> np.ndarray:
     small H puts the stress at the smallest scales). A curve without such a lag is
     returned unchanged.
     """
-    lap = np.asarray(lap, dtype=float)
-    g = np.asarray(g, dtype=float)
-    out = lap.copy()
-    ok = np.flatnonzero(np.isfinite(lap) & np.isfinite(g) & (dr > 0))
-    if ok.size < 2:
-        return out
-    after = ok[g[ok] >= 0.25 * np.max(g[ok])]
-    for prev, k in zip(after[:-1], after[1:]):
-        if not lap[prev] > 0:
-            break  # already not positive where the search starts: leave it alone
-        falls = lap[k] <= 0 or (np.log(lap[k] / lap[prev]) / np.log(dr[k] / dr[prev])
-                                <= -steep)
-        if falls:
-            beyond = dr > dr[prev]
-            out[beyond] = lap[prev] * (dr[beyond] / dr[prev]) ** -steep
-            break
+    return smooth_tail_std(lap, lap, g, dr=dr, steep=steep)
+
+
+def smooth_tail_std(std, lap, g, *, dr, steep: float = STEEP_DECAY) -> np.ndarray:
+    """Continue ``std`` beyond ``r_c`` of :func:`smooth_tail` (of ``lap``) as it does ``lap``.
+
+    The standard deviation of the continued Laplacian: ``std(r_c) (dr / r_c)^-steep``
+    beyond ``r_c``, unchanged up to it.
+    """
+    lap, g = np.asarray(lap, dtype=float), np.asarray(g, dtype=float)
+    out = np.array(std, dtype=float)
+    prev = _tail_start(lap, g, dr, steep)
+    if prev is not None:
+        beyond = dr > dr[prev]
+        out[beyond] = out[prev] * (dr[beyond] / dr[prev]) ** -steep
     return out
 
 
