@@ -3,6 +3,7 @@
 import itertools
 import os
 import re
+import warnings
 
 import numpy as np
 import pytest
@@ -226,6 +227,40 @@ def test_float32_input_is_computed_in_double():
     G32 = xrough.topography(h, spacing=1.0, unit="nm").rough.acf()
     G64 = xrough.topography(h.astype(np.float64), spacing=1.0, unit="nm").rough.acf()
     np.testing.assert_allclose(G32.values, G64.values, rtol=1e-12)
+
+
+@pytest.mark.parametrize("as_array", [True, False])
+def test_float32_heights_far_from_zero_are_said(as_array):
+    """Heights stored in float32 with an offset of 2.6e5 rms heights are rounded to
+    steps q = 2^-6 rms: G at one pixel rises by q^2 / 12 (the same whether xrough computes
+    in double: the data were rounded when stored). Predicted 1.8e-3 of G, measured the
+    same within 5 %; said (questionable, the share in the note), and not at an offset of
+    1e3 rms (share 1e-8). The same through xrough.topography and for a float32
+    DataArray."""
+    t = xrough.self_affine_surface(hurst=0.8, lambda_r=64, lambda_s=4, size=256, n=256,
+                                   rms_height=1.0, seed=1, unit="nm").transpose("y", "x")
+    h = t.values
+    plain = xrough.topography(h, spacing=1.0, unit="nm")
+    exact = (plain if as_array else t).rough.acf()  # t is periodic: its own G
+    for offset, said in ((1e3, False), (2.6e5, True)):
+        stored = (h + offset).astype(np.float32)
+        topo = (xrough.topography(stored, spacing=1.0, unit="nm") if as_array
+                else t.copy(data=stored))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            G = topo.rough.acf()
+        q = float(np.spacing(np.float32(np.abs(stored).max())))
+        assert G.attrs["stored_height_step"] == q
+        measured = float(G[0] / exact[0] - 1)
+        predicted = q**2 / 12 / float(exact[0])
+        if said:
+            assert measured == pytest.approx(predicted, rel=0.05)
+            assert G.attrs["quality"] == "questionable" and len(caught) == 1
+            assert "of G at its first lag" in G.attrs["quality_notes"]
+        else:
+            assert G.attrs.get("quality", "good") == "good" and not caught
+    # float64 heights: no step recorded
+    assert "stored_height_step" not in exact.attrs
 
 
 @pytest.mark.parametrize("hurst, profile, direction", [(0.8, False, "radial"),

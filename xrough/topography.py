@@ -24,7 +24,7 @@ from ._kernels.pairs import require_no_inf
 from .models import MODEL_ATTR_POWERS
 from .units import QuantityLike
 
-__all__ = ["topography", "convert_units", "Grid", "grid_of", "SPACING_RTOL"]
+__all__ = ["topography", "convert_units", "Grid", "grid_of", "SPACING_RTOL", "stored_step"]
 
 #: Largest relative deviation of coordinate steps from their mean accepted as "uniform".
 SPACING_RTOL = 1e-6
@@ -180,6 +180,23 @@ def check_valid_points(values: np.ndarray, *, what: str = "topography", ndim: in
         )
 
 
+def stored_step(values: np.ndarray) -> float | None:
+    """Give the spacing of heights stored in a float of fewer than 64 bits at their largest.
+
+    ``None`` for float64, integers and empty or all-NaN heights: the rounding a float32
+    (or float16) made when the heights were stored, ``np.spacing`` at the largest
+    ``|h|``, in the heights' unit. Read by :func:`xrough.acf` (attr ``stored_height_step``).
+
+    >>> float(stored_step(np.array([2.6e5, 0.0], dtype=np.float32)))
+    0.015625
+    """
+    values = np.asarray(values)
+    if values.dtype.kind != "f" or values.dtype.itemsize >= 8 or values.size == 0:
+        return None
+    top = np.nanmax(np.abs(values)) if np.isfinite(values).any() else np.nan
+    return float(np.spacing(values.dtype.type(top))) if np.isfinite(top) else None
+
+
 def _pair(value: Any, n: int, what: str) -> list[Any]:
     if isinstance(value, (tuple, list)):
         if len(value) != n:
@@ -278,6 +295,10 @@ def topography(
             values = np.asarray(heights)
             if values.dtype.kind not in "iuf":
                 raise ValueError(f"heights must be real numbers, got dtype {values.dtype}")
+            step = stored_step(values)  # a float32's rounding, before it is float64
+            if step is not None:
+                attrs = {**(attrs or {}), "stored_height_step": step,
+                         "stored_dtype": str(values.dtype)}
             values = values.astype(float, copy=False)
         if hu is None:
             raise ValueError(
