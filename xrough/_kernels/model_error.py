@@ -142,17 +142,22 @@ def _variables(p_star: np.ndarray, features) -> list[np.ndarray]:
 def held_out_residuals(X: np.ndarray, y: np.ndarray, groups: np.ndarray) -> np.ndarray:
     """Residuals of a least-squares fit, each group's from the fit without that group.
 
-    ``r_g = (I - H_gg)^-1 (y_g - X_g b)`` with ``H = X (X'X)^-1 X'`` (the fit ``b`` to all
-    rows): what a surface the fit has not seen would be missed by.
+    ``r_g = y_g - X_g b_g`` with ``b_g`` the fit to the other groups' rows, solved for
+    every group at once from the normal equations less the group's own share:
+    ``(X'X - X_g'X_g) b_g = X'y - X_g'y_g`` (what a surface the fit has not seen would
+    be missed by).
     """
-    b, *_ = np.linalg.lstsq(X, y, rcond=None)
-    inv = np.linalg.pinv(X.T @ X)
-    r = y - X @ b
-    out = np.empty_like(r)
-    for g in np.unique(groups):
-        idx = np.flatnonzero(groups == g)
-        Xg = X[idx]
-        out[idx] = np.linalg.solve(np.eye(idx.size) - Xg @ inv @ Xg.T, r[idx])
+    order = np.argsort(groups, kind="stable")
+    Xs, ys, gs = X[order], y[order], groups[order]
+    starts = np.flatnonzero(np.r_[True, gs[1:] != gs[:-1]])
+    # each group's X_g'X_g and X_g'y_g, over its (contiguous) rows
+    blocks = np.split(np.arange(gs.size), starts[1:])
+    XtX_g = np.stack([Xs[i].T @ Xs[i] for i in blocks])
+    Xty_g = np.add.reduceat(Xs * ys[:, None], starts, axis=0)
+    b = np.linalg.solve(XtX_g.sum(axis=0) - XtX_g, (Xty_g.sum(axis=0) - Xty_g)[..., None])
+    which = np.repeat(np.arange(starts.size), np.diff(np.r_[starts, gs.size]))
+    out = np.empty_like(y, dtype=float)
+    out[order] = ys - np.einsum("ij,ij->i", Xs, b[which, :, 0])
     return out
 
 
