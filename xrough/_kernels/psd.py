@@ -31,7 +31,6 @@ from typing import overload
 
 import numpy as np
 import scipy.fft as sfft
-from scipy.signal import get_window
 
 from .binning import bin_index
 from .pairs import few_points_message
@@ -67,6 +66,8 @@ def window_1d(name: str | None, n: int) -> np.ndarray | None:
         return None
     if name not in WINDOWS:
         raise ValueError(f"window must be one of {WINDOWS} or None, got {name!r}")
+    from scipy.signal import get_window  # here: scipy.signal costs 0.3 s to import
+
     w = np.asarray(get_window(name, n, fftbins=True), dtype=float)
     return w / np.sqrt(np.mean(w**2))
 
