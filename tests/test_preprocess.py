@@ -431,44 +431,6 @@ def test_tip_radius_cutoff_on_a_sinusoid(periodic):
         pp.reliable(_surface(n=128, lambda_s_px=2, periodic=periodic), tip_radius="1 m")
 
 
-def _tip_scan(h: np.ndarray, radius: float) -> np.ndarray:
-    """What a parabolic tip of radius ``radius`` (px) records of ``h`` (px heights):
-    max over the tip's footprint of h(x') - |x' - x|^2 / (2 R), in 2D (grey dilation)."""
-    from scipy import ndimage
-    half = int(np.ceil(np.sqrt(2 * radius * (h.max() - h.min())))) + 1
-    yy, xx = np.mgrid[-half:half + 1, -half:half + 1]
-    return ndimage.grey_dilation(h, structure=-(xx**2 + yy**2) / (2 * radius), mode="wrap")
-
-
-def test_tip_rule_reads_the_fast_scan_axis():
-    """A map scanned by a tip of known radius: along x and along y the tip leaves the
-    same curvature (a tip is round), so the rule along the fast axis x gives the cutoff
-    of the map (within 15 % of the value along y, the rule reads an extreme of the
-    curvature: measured 7 %). Offsets between the scan
-    lines (a drift no tip makes, of the rms height) move the rule along y by far more
-    (measured 1.6x; 1.2x for offsets of 0.3 rms) and not the one along x
-    (contact.engineering reads x alone, as xrough).
-    """
-    n, R = 256, 8.0
-    topo = xrough.self_affine_surface(hurst=0.7, lambda_r=64.0, lambda_s=2.0, size=float(n),
-                                      n=n, rms_gradient=0.3, unit="nm", seed=3)
-    scanned = _tip_scan(topo.transpose("y", "x").values, R)
-
-    def cutoff(h):
-        t = xrough.topography(h, spacing=1.0, unit="nm", periodic=True)
-        return pp.reliable(t, tip_radius=R).attrs["reliable_dr_min"]
-
-    along_x = cutoff(scanned)
-    along_y = cutoff(scanned.T)  # the same map turned: its y read by the rule
-    assert along_x == pytest.approx(along_y, rel=0.15)
-    assert along_x > 2.0  # the tip is what sets the window, not the pixels
-    rng = np.random.default_rng(0)
-    offsets = scanned.std() * rng.standard_normal((n, 1))
-    lined = scanned + offsets  # each scan line (a row, along x) shifted as a whole
-    assert cutoff(lined) == pytest.approx(along_x, rel=1e-9)  # x: unchanged
-    assert cutoff(lined.T) > 1.4 * along_y  # read across the lines: the offsets
-
-
 def test_tip_cutoff_units_and_stacks(backend):
     """The same surface in nm and in m gives the same cutoff; a stack pools its maps."""
     nm = _surface(n=128, lambda_s_px=2, seed=1)
