@@ -16,8 +16,9 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "xrough"
 #: Imports allowed inside functions: optional extras only.
 OPTIONAL = {"SurfaceTopography", "SurfaceTopography.IO", "zarr"}
-#: Imported where first needed, for the import time of xrough (xrough.plot.pyplot).
-DEFERRED = {"matplotlib", "matplotlib.pyplot"}
+#: Imported where first needed, for the import time of xrough (xrough.plot.pyplot; a
+#: window of xrough.psd: scipy.signal takes 0.27 s to import, for one function).
+DEFERRED = {"matplotlib", "matplotlib.pyplot", "scipy.signal"}
 
 
 def _module_name(path: Path) -> str:

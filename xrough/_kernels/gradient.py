@@ -35,7 +35,8 @@ from .spectrum_of_acf import (
 )
 from .uncertainty import PREDICTION_PER_DECADE, relative_covariance
 
-__all__ = ["AUTO_METHODS", "EVEN_START", "EVEN_THREE", "EVEN_AGREE", "exact_gradient",
+__all__ = ["AUTO_METHODS", "EVEN_START", "EVEN_SERIES_CORRECTION", "EVEN_THREE",
+           "EVEN_AGREE", "exact_gradient",
            "exact_support", "exact_on_lags", "auto_gradient", "even_start", "with_even_start",
            "simple_gradient", "gradient_std"]
 
@@ -53,14 +54,21 @@ GRADIENT_ERROR_AXES = 8
 AUTO_METHODS = ("exact", "fit", "simple", "exact+fit", "exact+simple")
 
 #: G is a smooth surface's even expansion ``a dr^2 + b dr^4`` at its first lags when
-#: ``|b| dr^2 / a`` is at most ``EVEN_START[0]`` there: eq. 26's full gradient ``4 a`` is
-#: then gbar there, its weight falling linearly to 0 at ``EVEN_START[1]``.  On the exact
-#: expected G of sharply cut self-affine maps the ratio at one pixel is 0.01-0.05 for
-#: ``lambda_s`` = 4-8 px, where ``sqrt(4 a)`` is within 0.03 % of the lattice's gbar and
-#: eq. 26 of the spectrum of G rings by up to +1 %; 0.05-0.08 for 3 px (0.14 %); it is
-#: 0.08-0.14 for ``lambda_s`` = 2 px (rough to the pixel), where the expansion is 0.5-1 %
-#: low and the spectrum of G within 0.05 %.
-EVEN_START = (0.05, 0.08)
+#: ``|b| dr^2 / a`` is at most ``EVEN_START[0]`` there: eq. 26's full gradient ``4 a``
+#: (corrected by :data:`EVEN_SERIES_CORRECTION`) is then gbar there, its weight falling
+#: linearly to 0 at ``EVEN_START[1]``. On 512^2 maps (H 0.1-0.8; sharp, smooth and
+#: Gaussian short cutoffs at 2-8 px; two seeds) the ratio at one pixel is 0.01-0.19, and
+#: the corrected ``sqrt(4 a)`` is within 0.35 % of the map's spectral gradient at every
+#: ratio; the fitted spectrum (a sharp cutoff) was 0.9-2.1 % low on the smooth and
+#: Gaussian cutoffs (z -1.2 to -1.7 of its stated error), and eq. 26 of the spectrum of G
+#: does not reach one pixel there.
+EVEN_START = (0.15, 0.20)
+#: The two- or three-term series through the first bins leaves out the next term
+#: (``+ c dr^6``, ``c = m6 / 2304``), which lowers ``a`` by about ``K (b/a)^2`` with
+#: ``K = m2 m6 / m4^2 >= 1``: ``sqrt(4 a)`` is then low by ``EVEN_SERIES_CORRECTION
+#: (|b| dr^2 / a)^2``. Measured 0.50 (the bias of ``sqrt(4 a)`` over the maps above, ratio
+#: 0.05-0.19); corrected, the largest error is 0.35 % against 1.5 % uncorrected.
+EVEN_SERIES_CORRECTION = 0.5
 #: ``a`` from the two terms up to a ratio of ``EVEN_THREE[0]``, from three (through the
 #: third bin as well) from ``EVEN_THREE[1]``: the two are within 0.01 % of the lattice's
 #: gbar at ``lambda_s`` = 8 px (ratio 0.01) and 0.1-0.2 % at 4 px (0.03-0.05), where the
@@ -215,11 +223,11 @@ def gradient_std(g, gbar=None, fitted=None, *, dr, errors: dict, ballistic: bool
 
 def _even_start_std(rel, g, gbar, dr, errors):
     """Relative errors ``rel`` of a gbar with :func:`even_start`, where it took part."""
-    full, weight, d_ln_a = even_start(dr, g)
+    full, weight, d_ln_a, sys = even_start(dr, g)
     if not np.isfinite(full):
         return rel
     cov = np.nan_to_num(relative_covariance(dr, g, **errors))
-    own = 0.5 * np.sqrt(max(float(d_ln_a @ cov @ d_ln_a), 0.0))
+    own = np.hypot(0.5 * np.sqrt(max(float(d_ln_a @ cov @ d_ln_a), 0.0)), sys)
     w0 = _first_weight(weight)
     with np.errstate(invalid="ignore"):
         capped = (weight == 0) & (np.abs(gbar / full - 1.0) < 1e-9)
@@ -237,23 +245,25 @@ def even_start(dr, g) -> tuple[float, np.ndarray, np.ndarray]:
     through the first two valid bins (:data:`EVEN_START`). ``a`` comes from those two
     terms where that ratio is at most :data:`EVEN_THREE` [0], from the three terms through
     the first three bins from :data:`EVEN_THREE` [1] (linear between), and the three must
-    agree with the two (:data:`EVEN_AGREE`). Returns ``(sqrt(4 a), weight, d_ln_a)``: the
-    weight per lag (on the first two valid bins, 0 elsewhere, and 0 everywhere when
-    ``a <= 0`` or ``b > 0``, which no surface's G has) and the derivatives of ``ln a``
-    with respect to ``ln G`` per bin (for its error). NaN and zeros when there are fewer
-    than two valid bins.
+    agree with the two (:data:`EVEN_AGREE`). Returns ``(gbar, weight, d_ln_a, sys)``:
+    ``gbar = sqrt(4 a)`` raised by :data:`EVEN_SERIES_CORRECTION` for the term the series
+    leaves out; the weight per lag (on the first two valid bins, 0 elsewhere, and 0
+    everywhere when ``a <= 0`` or ``b > 0``, which no surface's G has); the derivatives of
+    ``ln a`` with respect to ``ln G`` per bin (for its statistical error); and ``sys``,
+    the relative uncertainty of that correction (half of it). NaN and zeros when there
+    are fewer than two valid bins.
     """
     dr, g = np.asarray(dr, dtype=float), np.asarray(g, dtype=float)
     weight, d_ln_a = np.zeros(dr.shape), np.zeros(dr.shape)
     first = np.flatnonzero(np.isfinite(g) & (g > 0) & (dr > 0))[:3]
     if first.size < 2:
-        return np.nan, weight, d_ln_a
+        return np.nan, weight, d_ln_a, np.nan
     # in units of the first lag and of G there: the same numbers in nm, m or km
     x, v = dr[first] / dr[first[0]], g[first] / g[first[0]]
     two_terms = np.linalg.inv(np.c_[x[:2] ** 2, x[:2] ** 4])
     a2, b2 = two_terms @ v[:2]
     if not (a2 > 0 and b2 <= 1e-9 * a2):  # b > 0 beyond round-off
-        return np.nan, weight, d_ln_a
+        return np.nan, weight, d_ln_a, np.nan
     ratio = abs(b2) / a2  # |b| dr^2 / a at the first lag
     three = float(1.0 - _ramp(ratio, EVEN_THREE)) if first.size == 3 else 0.0
     row = np.r_[two_terms[0], 0.0][:first.size]  # a = row @ v
@@ -264,12 +274,13 @@ def even_start(dr, g) -> tuple[float, np.ndarray, np.ndarray]:
         row = (1.0 - three) * row + three * row3
     a = float(row @ v)
     if not a > 0:
-        return np.nan, weight, d_ln_a
+        return np.nan, weight, d_ln_a, np.nan
     two = first[:2]
     weight[two] = _ramp(ratio * x[:2] ** 2, EVEN_START) * (1.0 - three * (1.0 - agree))
     d_ln_a[first] = row * v / a
     a *= g[first[0]] / dr[first[0]] ** 2
-    return float(np.sqrt(4.0 * a)), weight, d_ln_a
+    correction = EVEN_SERIES_CORRECTION * ratio**2
+    return float(np.sqrt(4.0 * a) * (1.0 + correction)), weight, d_ln_a, 0.5 * correction
 
 
 def _ramp(x, limits):
@@ -290,7 +301,7 @@ def with_even_start(gbar, dr, g) -> np.ndarray:
     lag, a ``gbar`` above it (which eq. 26 does not allow: gbar^2 <= m2) is lowered to it
     by the weight at the first lag.
     """
-    full, weight, _ = even_start(dr, g)
+    full, weight, _, _ = even_start(dr, g)
     gbar = np.array(gbar, dtype=float)
     if not np.isfinite(full):
         return gbar

@@ -109,6 +109,11 @@ def _codes(hit: np.ndarray, dims, coords) -> xr.DataArray:
 
 #: Lags (in pixel steps along a diagonal) at most, and rows used at most, by diagonal_g.
 DIAGONAL_LAGS, DIAGONAL_ROWS = 10, 256
+#: A diagonal lag with fewer valid pairs is not judged (NaN): the error it is judged by is
+#: that of the axis lag of its length, whose pairs are as many only on a map of some size
+#: (a 5 x 5 map with half its points missing has a handful; white noise there gave a
+#: ratio of 0.04 "beyond 3 standard errors").
+DIAGONAL_MIN_PAIRS = 50
 
 
 def diagonal_steps(shape: tuple[int, int]) -> np.ndarray:
@@ -123,7 +128,8 @@ def diagonal_g(h: np.ndarray, steps: np.ndarray) -> tuple[np.ndarray, np.ndarray
     """G along the diagonal (``+k, +k``) and the anti-diagonal (``+k, -k``) of maps.
 
     ``h``: heights ``(..., ny, nx)`` (NaN: missing); returns two arrays ``(..., len(steps))``,
-    ``1/2 <(h(r) - h(r + d))^2>`` over the valid pairs. On a map of more than
+    ``1/2 <(h(r) - h(r + d))^2>`` over the valid pairs (NaN with fewer than
+    :data:`DIAGONAL_MIN_PAIRS`). On a map of more than
     :data:`DIAGONAL_ROWS` rows, every m-th row starts a pair (the same rows for both
     diagonals: the comparison stays paired).
     """
@@ -140,7 +146,8 @@ def diagonal_g(h: np.ndarray, steps: np.ndarray) -> tuple[np.ndarray, np.ndarray
                 valid = np.isfinite(d)
                 n = valid.sum(axis=(-2, -1))
                 total = np.where(valid, d * d, 0.0).sum(axis=(-2, -1))
-                out[i, ..., j] = np.where(n > 0, 0.5 * total / np.maximum(n, 1), np.nan)
+                out[i, ..., j] = np.where(n >= DIAGONAL_MIN_PAIRS,
+                                          0.5 * total / np.maximum(n, 1), np.nan)
     return out[0], out[1]
 
 
