@@ -235,7 +235,7 @@ def _even_start_std(rel, g, gbar, dr, errors):
     return np.where(share > 0, (1.0 - share) * rel + share * own, rel)
 
 
-def even_start(dr, g) -> tuple[float, np.ndarray, np.ndarray]:
+def even_start(dr, g) -> tuple[float, np.ndarray, np.ndarray, float]:
     """Return the full gradient of a G that is smooth at its first lags, and where it holds.
 
     A smooth surface's G starts as the even series ``a dr^2 + b dr^4 + c dr^6`` (``a = m2 /
@@ -279,7 +279,7 @@ def even_start(dr, g) -> tuple[float, np.ndarray, np.ndarray]:
     weight[two] = _ramp(ratio * x[:2] ** 2, EVEN_START) * (1.0 - three * (1.0 - agree))
     d_ln_a[first] = row * v / a
     a *= g[first[0]] / dr[first[0]] ** 2
-    correction = EVEN_SERIES_CORRECTION * ratio**2
+    correction = float(EVEN_SERIES_CORRECTION * ratio**2)
     return float(np.sqrt(4.0 * a) * (1.0 + correction)), weight, d_ln_a, 0.5 * correction
 
 
