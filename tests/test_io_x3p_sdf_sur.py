@@ -665,3 +665,38 @@ def test_sur_corrupted(tmp_path):
         path.write_bytes(content)
         with pytest.raises(ValueError, match=re.escape(name) + ": .*" + match):
             sur.read(path)
+
+
+def test_float32_files_state_their_rounding(tmp_path):
+    """Heights stored as float32 (X3P type F, binary SDF FLOAT) keep the step that type
+    resolves at their largest height (stored_height_step, in metres), so acf() can say
+    when that rounding matters: heights 2.6e5 rms heights from zero (docs/quality.md,
+    "Heights stored in float32"); near zero it does not."""
+    t = xrough.self_affine_surface(hurst=0.8, lambda_r=64, lambda_s=4, size=256, n=256,
+                                   rms_height=1.0, seed=1, unit="nm")
+    m = xrough.convert_units(t, "m", lateral="m")
+    for offset, said in ((0.0, False), (2.6e5 * 1e-9, True)):
+        shifted = (m + offset).assign_attrs(m.attrs)
+        path = tmp_path / "f.x3p"
+        x3p.write(shifted, path, dtype="F")
+        topo = xrough.open_topography(path)
+        top = np.float32(np.abs(shifted.values).max())
+        assert topo.attrs["stored_height_step"] == pytest.approx(float(np.spacing(top)),
+                                                                 rel=1e-6)
+        assert topo.attrs["stored_dtype"] == "float32 (X3P type F)"
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            G = topo.rough.acf()
+        assert (G.attrs.get("quality", "good") == "questionable") == said
+        assert any("stored as float32 (X3P type F)" in str(w.message)
+                   for w in caught) == said
+    # a binary SDF of FLOAT heights (DataType 3) in units of Zscale = 1 nm
+    h = (t.transpose("y", "x").values[:8, :8] + 2.6e5).astype("<f4")
+    header = struct.pack("<8s10s12s12sHHddddBBB", b"bISO-1.0", b"Bin", b"010120240000",
+                         b"010120240000", 8, 8, 1e-9, 1e-9, 1e-9, 1e-10, 0, 3, 0)
+    path = tmp_path / "f.sdf"
+    path.write_bytes(header + h.tobytes())
+    topo = sdf.read(path)
+    assert topo.attrs["stored_height_step"] == pytest.approx(
+        float(np.spacing(np.abs(h).max())) * 1e-9, rel=1e-9)
+    assert topo.attrs["stored_dtype"] == "float32 (SDF type FLOAT)"

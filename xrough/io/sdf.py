@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..topography import topography
+from ..topography import stored_step, topography
 from ._common import check_file, check_points, reader_errors
 
 __all__ = ["sniff", "read"]
@@ -224,8 +224,10 @@ def _read(path: Path, max_points: int | None):
         raise ValueError(f"{path.name}: NumPoints = {nx} and NumProfiles = {ny} must be "
                          "positive")
     check_points(path, nx * ny, max_points, f"the header ({nx} x {ny})")
-    heights = _heights(data, field, nx, ny, path)
+    heights, step = _heights(data, field, nx, ny, path)
     attrs = _attrs(header, trailer, path)
+    if step is not None:  # float32 heights: their rounding, said by acf()
+        attrs.update(stored_height_step=step, stored_dtype="float32 (SDF type FLOAT)")
     try:
         if ny == 1:
             return topography(heights, spacing=field("Xscale"), unit="m", attrs=attrs)
@@ -251,10 +253,12 @@ def _fields(header: dict[str, str], path: Path):
     return field
 
 
-def _heights(data, field, nx: int, ny: int, path: Path) -> np.ndarray:
-    """Read the heights in metres, NaN at missing points.
+def _heights(data, field, nx: int, ny: int, path: Path) -> tuple[np.ndarray, float | None]:
+    """Read the heights in metres, NaN at missing points, and their stored step.
 
-    ``data`` is the binary payload (bytes) or the text tokens (a list of str).
+    ``data`` is the binary payload (bytes) or the text tokens (a list of str). The step
+    is that of binary float32 heights (:func:`xrough.topography.stored_step`, in metres),
+    else None.
     """
     code = field("DataType", int)
     if code not in _DATA_TYPES:
@@ -270,8 +274,10 @@ def _heights(data, field, nx: int, ny: int, path: Path) -> np.ndarray:
             raise ValueError(f"{path.name}: the file holds {len(data)} bytes of data, "
                              f"{nx} x {ny} points of type {name} need {n * dtype.itemsize} "
                              "(truncated)")
-        values = np.frombuffer(data, dtype=dtype, count=n).astype(float)
+        stored = np.frombuffer(data, dtype=dtype, count=n)
+        values = stored.astype(float)
     else:
+        stored = None
         if len(data) != n:
             raise ValueError(f"{path.name}: the data section holds {len(data)} values, "
                              f"NumPoints x NumProfiles = {nx} x {ny} = {n} (truncated or "
@@ -279,7 +285,11 @@ def _heights(data, field, nx: int, ny: int, path: Path) -> np.ndarray:
         values = _text_values(data, path)
     if marker is not None:
         values[values == marker] = np.nan
-    return values * field("Zscale")
+    step = None
+    if stored is not None and stored.dtype.kind == "f":
+        step = stored_step(np.where(np.isnan(values), np.nan, stored))
+    scale = field("Zscale")
+    return values * scale, None if step is None else step * abs(scale)
 
 
 def _text_values(tokens: list[str], path: Path) -> np.ndarray:

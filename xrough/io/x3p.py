@@ -54,7 +54,7 @@ from xml.etree import ElementTree
 import numpy as np
 
 from .. import units as u
-from ..topography import grid_of, topography
+from ..topography import grid_of, stored_step, topography
 from ._common import check_file, check_points, reader_errors
 
 __all__ = ["sniff", "read", "write", "NAMESPACE"]
@@ -426,6 +426,12 @@ def _linked_values(zf: zipfile.ZipFile, link, grid: dict, path: Path,
 def _topography(values: np.ndarray, grid: dict, attrs: dict, path: Path):
     """Scale the heights by the Z axis and lay them out as a map or profile in metres."""
     cx, cy, cz, nx, ny = (grid[k] for k in ("cx", "cy", "cz", "nx", "ny"))
+    dtype = _DTYPES.get(cz["dtype"])
+    if dtype is not None and dtype.kind == "f":  # float32 heights: their rounding, said
+        step = stored_step(values.astype(dtype))  # exact: the values came from that type
+        if step is not None:
+            attrs = {**attrs, "stored_height_step": step * abs(cz["increment"] or 1.0),
+                     "stored_dtype": "float32 (X3P type F)"}
     if cz["increment"] is not None:
         values = values * cz["increment"]
     if cz["offset"]:
