@@ -987,8 +987,13 @@ def persson(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike, theory: 
         ``gbar_std`` through eq. 29/50 (NaN where G states no map geometry; attr
         ``error_of``), and for the areas and ``sigma_c`` ``<name>_model_error``, the
         theory's expected difference from the exact solution (theory - exact; negative
-        for the areas) from the solver validation in ``xrough/data/persson_area_error.csv``
-        at this ``p*`` (NaN for a ``kappa`` other than Persson's).
+        for the areas), ``<name>_exact`` the expected exact value and
+        ``<name>_exact_lower`` / ``_upper`` its one-sigma interval, from the solver study
+        in ``xrough/data/persson_area_error.csv`` at each lag's ``p*`` and G's shape
+        there (NaN for a ``kappa`` other than Persson's, and on maps unlike the
+        study's). ``G_sigma`` (Pa^2) comes with ``G_sigma_std`` (the Laplacian's error
+        and W's through gbar) and the same four model-error variables from
+        ``xrough/data/persson_stress_error.csv.gz`` (original theory only).
 
     Raises
     ------
