@@ -1092,6 +1092,14 @@ class _PerssonRun:
     p0: xr.DataArray
     dr_m: xr.DataArray
 
+    @functools.cached_property
+    def shape(self) -> xr.DataArray:
+        """Give G's local exponents at each lag (:func:`_shape_of`), computed once.
+
+        Read by the model errors of the areas and of G_sigma.
+        """
+        return _shape_of(self.G)
+
 
 @dataclass(frozen=True)
 class _ContactArea:
@@ -1234,7 +1242,7 @@ def _model_errors(run: _PerssonRun, area: _ContactArea, out: dict) -> dict:
     if not wanted:
         return {}
     persson_kappa = bool(np.isclose(run.kappa, KAPPA_PERSSON, rtol=1e-9))
-    shape = _shape_of(run.G)
+    shape = run.shape
     made = {}
 
     @functools.cache
@@ -1276,31 +1284,30 @@ def _stress_model_errors(run: _PerssonRun, area: _ContactArea, g_sigma: xr.DataA
     """Give the theory's own error of ``G_sigma`` (eq. 30/48, ``W = a_r``).
 
     The fluctuating part ``F = G_sigma - p0^2`` corrected by
-    :func:`me.stress_model_error` at each lag's ``p*``, lag in pixels, decay of ``F`` and
-    G's shape there: ``G_sigma_exact = p0^2 + F exp(-bias)`` and its one-sigma interval
-    (``bias -+ spread``). NaN for the modified theory, another ``kappa``, and where the
-    map is unlike the study's.
+    :func:`me.stress_model_error` at each lag's ``p*``, the finest lag's ``p*``, the
+    decay of ``F`` and G's shape there: ``G_sigma_exact = p0^2 + F exp(-bias)`` and its
+    one-sigma interval (``bias -+ spread``). NaN (and nothing computed) for the
+    modified theory and another ``kappa``; NaN where the map is unlike the study's.
     """
-    note = _MODEL_ERROR_STRESS
-    if run.theory != "persson" or not np.isclose(run.kappa, KAPPA_PERSSON, rtol=1e-9):
-        note = (f"none: the solver study is for the original theory (W = a_r) with Persson's "
-                f"kappa = {KAPPA_PERSSON:.4f}")
     p0sq = run.p0**2
     fluct = g_sigma - p0sq
-    first, p_star_0 = (xr.apply_ufunc(_first_finite, v, input_core_dims=[["dr"]],
-                                      dask="parallelized", output_dtypes=[float],
-                                      dask_gufunc_kwargs={"allow_rechunk": True})
-                       for v in (fluct, area.p_star))  # dr: tens of lags, one chunk
-    shape = _shape_of(run.G)
-    bias, spread = xr.apply_ufunc(
-        functools.partial(me.stress_model_error,
-                          periodic=bool(run.G.attrs.get("periodic", 0))),
-        area.p_star, p_star_0, fluct / first, *(shape.sel(feature=f, drop=True)
-                                                for f in me.FEATURES),
-        dask="parallelized", output_dtypes=[float, float], output_core_dims=[[], []])
-    if note is not _MODEL_ERROR_STRESS:
-        bias = xr.full_like(bias, np.nan)
-    bias = bias.where(~run.unlike_study)
+    if run.theory == "persson" and np.isclose(run.kappa, KAPPA_PERSSON, rtol=1e-9):
+        note = _MODEL_ERROR_STRESS
+        first, p_star_0 = (xr.apply_ufunc(_first_finite, v, input_core_dims=[["dr"]],
+                                          dask="parallelized", output_dtypes=[float],
+                                          dask_gufunc_kwargs={"allow_rechunk": True})
+                           for v in (fluct, area.p_star))  # dr: tens of lags, one chunk
+        bias, spread = xr.apply_ufunc(
+            functools.partial(me.stress_model_error,
+                              periodic=bool(run.G.attrs.get("periodic", 0))),
+            area.p_star, p_star_0, fluct / first, *(run.shape.sel(feature=f, drop=True)
+                                                    for f in me.FEATURES),
+            dask="parallelized", output_dtypes=[float, float], output_core_dims=[[], []])
+        bias = bias.where(~run.unlike_study)
+    else:
+        note = (f"none: the solver study is for the original theory (W = a_r) with Persson's "
+                f"kappa = {KAPPA_PERSSON:.4f}")
+        bias = spread = xr.full_like(fluct, np.nan)
     exact, lower, upper = (p0sq + fluct * np.exp(-bias + k_ * spread) for k_ in (0, -1, 1))
     finite = np.isfinite(g_sigma)
     made = {}
