@@ -59,9 +59,12 @@ def main_() -> None:
         G = topo.rough.detrend(mode=mode).rough.mask_outliers(threshold=5).rough.acf()
         unit = G.dr.attrs["units"]
         window = lag_window(G)
+        bounds = (None if window.lo is None and window.hi is None else
+                  f"{window.lo or 0:.4g} to {window.hi or np.inf:.4g} {unit}")
         print(f"{name}: lags {G.dr.values[0]:.4g} to {G.dr.values[-1]:.4g} {unit}; window "
-              + (f"none ({window.empty[:60]}...)" if window.empty else
-                 f"{window.lo:.4g} to {window.hi:.4g} {unit}"))
+              + (bounds if not window.empty else
+                 f"{bounds}, holding no lag of G" if bounds else
+                 f"none ({window.empty[:60]}...)"))
         e = G.rough.energy(E_star="25 MPa")
         print(f"  v_el = {1e3 * float(e.v_el):.3g} +- {1e3 * float(e.v_el_std):.2g} mJ/m2, "
               f"below the window {float(e.v_el_below_window):.1%} "

@@ -21,8 +21,9 @@ bridge and its uncertainty).
 
 The container's ``meta.yml`` states the tips: 17-26 nm for the AFM, ~5 um for the
 stylus. By default (``reliable=True``, as ``acf()`` of each measurement) stitching applies
-them: the 26 nm tip resolves no lag of the 100 nm AFM scan, so the AFM is left out (the
-stitched G is questionable and says why), and the stylus starts at 2.07 um. This example
+them: the 26 nm tip resolves no lag of the AFM's window (the tip rule's 44.4 nm lies
+beyond a quarter of the 100 nm scan), so the AFM is left out (the stitched G is
+questionable and says why), and the stylus starts at 2.07 um. This example
 stitches the G as measured (``reliable=False``) to show the three instruments and their
 overlap, and prints what the default keeps (see docs/stitching.md, windows from stated
 tips).

@@ -431,6 +431,93 @@ def test_tip_radius_cutoff_on_a_sinusoid(periodic):
         pp.reliable(_surface(n=128, lambda_s_px=2, periodic=periodic), tip_radius="1 m")
 
 
+def _tip_scan(h: np.ndarray, radius: float) -> np.ndarray:
+    """What a parabolic tip of radius ``radius`` (px) records of ``h`` (px heights):
+    max over the tip's footprint of h(x') - |x' - x|^2 / (2 R), in 2D (grey dilation)."""
+    from scipy import ndimage
+    half = int(np.ceil(np.sqrt(2 * radius * (h.max() - h.min())))) + 1
+    yy, xx = np.mgrid[-half:half + 1, -half:half + 1]
+    return ndimage.grey_dilation(h, structure=-(xx**2 + yy**2) / (2 * radius), mode="wrap")
+
+
+def test_tip_rule_reads_the_fast_scan_axis():
+    """A map scanned by a tip of known radius: along x and along y the tip leaves the
+    same curvature (a tip is round), so the rule along the fast axis x gives the cutoff
+    of the map (within 15 % of the value along y, the rule reads an extreme of the
+    curvature: measured 7 %). Offsets between the scan
+    lines (a drift no tip makes, of the rms height) move the rule along y by far more
+    (measured 1.6x; 1.2x for offsets of 0.3 rms) and not the one along x
+    (contact.engineering reads x alone, as xrough).
+    """
+    n, R = 256, 8.0
+    topo = xrough.self_affine_surface(hurst=0.7, lambda_r=64.0, lambda_s=2.0, size=float(n),
+                                      n=n, rms_gradient=0.3, unit="nm", seed=3)
+    scanned = _tip_scan(topo.transpose("y", "x").values, R)
+
+    def cutoff(h):
+        t = xrough.topography(h, spacing=1.0, unit="nm", periodic=True)
+        return pp.reliable(t, tip_radius=R).attrs["reliable_dr_min"]
+
+    along_x = cutoff(scanned)
+    along_y = cutoff(scanned.T)  # the same map turned: its y read by the rule
+    assert along_x == pytest.approx(along_y, rel=0.15)
+    assert along_x > 2.0  # the tip is what sets the window, not the pixels
+    rng = np.random.default_rng(0)
+    offsets = scanned.std() * rng.standard_normal((n, 1))
+    lined = scanned + offsets  # each scan line (a row, along x) shifted as a whole
+    assert cutoff(lined) == pytest.approx(along_x, rel=1e-9)  # x: unchanged
+    assert cutoff(lined.T) > 1.4 * along_y  # read across the lines: the offsets
+
+
+def test_tip_rule_agrees_with_contact_engineering():
+    """contact.engineering's rule (SurfaceTopography's scanning_probe_reliability_cutoff:
+    the stencil length where the most negative second difference along x reaches -1/(2R),
+    found by a root search over continuous distances) on the tip-scanned map of the test
+    above: 14.76 px against xrough's 14.87 (xrough interpolates between lattice distances
+    as a power law), with or without offsets between the scan lines; the map turned
+    (its y read): 15.97 px for both. On 16 of its rows, as line scans, the two agree
+    within 2 % (measured; 4 % asked)."""
+    surftopo = pytest.importorskip("SurfaceTopography")
+    n, R = 256, 8.0
+    topo = xrough.self_affine_surface(hurst=0.7, lambda_r=64.0, lambda_s=2.0, size=float(n),
+                                      n=n, rms_gradient=0.3, unit="nm", seed=3)
+    scanned = _tip_scan(topo.transpose("y", "x").values, R)
+    lined = scanned + scanned.std() * np.random.default_rng(0).standard_normal((n, 1))
+
+    def ours(h):
+        t = xrough.topography(h, spacing=1.0, unit="nm", periodic=True)
+        return pp.reliable(t, tip_radius=R).attrs["reliable_dr_min"]
+
+    def theirs(h):  # SurfaceTopography's arrays are (x, y), or (x,) for a line scan
+        if h.ndim == 1:
+            return surftopo.UniformLineScan(h, float(n), unit="nm", periodic=True
+                                            ).scanning_probe_reliability_cutoff(R)
+        return surftopo.Topography(h.T, (float(n), float(n)), unit="nm", periodic=True
+                                   ).scanning_probe_reliability_cutoff(R)
+
+    for h in (scanned, lined, scanned.T):
+        assert ours(h) == pytest.approx(theirs(h), rel=0.01)
+    assert ours(lined) == pytest.approx(theirs(scanned), rel=0.01)  # x alone, both of us
+    for row in range(0, n, 16):
+        assert ours(scanned[row]) == pytest.approx(theirs(scanned[row]), rel=0.04)
+
+
+@pytest.mark.data
+def test_tip_rule_on_a_real_map_is_contact_engineerings():
+    """di-1.di (an AFM map of 500 nm, 512^2) with a tip of 40 nm: contact.engineering
+    gives 90.700854 nm (SurfaceTopography's own test of this file), xrough 90.73 nm
+    (measured) along the fast axis. Along y the rule gives 118.6 nm (measured): reading
+    both axes, as xrough did before, put the window's start there."""
+    from conftest import data_path
+
+    topo = xrough.open_topography(data_path("instruments", "di-1.di"))
+    cut = pp.reliable(topo, tip_radius="40 nm").attrs["reliable_dr_min"]
+    assert cut == pytest.approx(90.700854, rel=1e-3)
+    turned = topo.rename({"x": "y", "y": "x"}).transpose("y", "x")  # its y read as x
+    across = pp.reliable(turned, tip_radius="40 nm").attrs["reliable_dr_min"]
+    assert across == pytest.approx(118.6, rel=2e-3)
+
+
 def test_tip_cutoff_units_and_stacks(backend):
     """The same surface in nm and in m gives the same cutoff; a stack pools its maps."""
     nm = _surface(n=128, lambda_s_px=2, seed=1)

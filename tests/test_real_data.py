@@ -700,7 +700,8 @@ def test_energy_rating_matches_its_extrapolated_shares(chain):
     (G with a window) from below reliable_dr_min (dektak-1 32 %, the UNCD stylus 84 %:
     they were rated good), (stitched G with unmeasured lags) when the bridge over a gap may
     change it by > 10 %, or when G itself is marked (directions that differ: inherited);
-    failed when the window holds no lag (a stated tip that resolves none)."""
+    failed when the window holds no lag (a stated tip that resolves none, or a window that
+    falls between G's lags: the UNCD AFM's 44.4 to 50 nm)."""
     e = chain.get("energy")
     window = xrough.preprocess.lag_window(chain.get("G"))
     if window.empty is not None:
@@ -829,8 +830,9 @@ def test_stitched_mismatch_beyond_threshold_warns(chains):
 def test_stitched_G_spans_the_instruments(chains):
     """The union of the windows: from the TEM's 12 nm to beyond 50 um (stylus). The tips
     meta.yml states set the windows, as acf() of each measurement does: the AFM's 26 nm
-    tip resolves no lag of its 100 nm scan, so the AFM is left out (G questionable, said
-    once); the stylus's 5 um tip starts its window at 2.07 um instead of 4 pixels."""
+    tip resolves no lag of its stitching window (the tip rule's 44.4 nm lies beyond the
+    window's end, a quarter of the 100 nm scan), so the AFM is left out (G questionable,
+    said once); the stylus's 5 um tip starts its window at 2.07 um instead of 4 pixels."""
     chain = chains("uncd-stitched")
     G = chain.get("G")
     assert 10.0 < G.dr.values[0] < 15.0 and G.dr.values[-1] > 5e4
@@ -880,8 +882,10 @@ def test_uncd_container_states_the_tips():
     """The UNCD files state their tips only in the container's meta.yml: the AFM's
     'Initial tip radii - 17 nm. Final tip radii - 26 nm' (the blunter counts) and the
     stylus's 'Tip radius - ~5 um'.  The stylus G starts at the tip rule's 2.07 um
-    (measured); the 26 nm tip resolves no lag of the 100 nm AFM scan, so its G keeps
-    every lag, marked questionable with one warning that says so."""
+    (measured). The 26 nm tip, read along the AFM's fast scan axis, starts the window at
+    44.4 nm (measured; along y nothing up to a quarter of the scan is resolved), and the
+    window ends at half the 100 nm scan: it holds none of G's lags (40.1 and 50.4 nm
+    are the nearest), so G keeps them all and every result of it fails, saying why."""
     from xrough.preprocess import stated_tip_radius
 
     afm = xrough.open_topography(data_path("uncd", UNCD["AFM"][0]))
@@ -890,9 +894,15 @@ def test_uncd_container_states_the_tips():
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         G = afm.rough.detrend().rough.acf()
-    said = [w for w in caught if "resolves no lag" in str(w.message)]
-    assert len(said) == 1 and "reliable_dr_min" not in G.attrs
-    assert G.attrs["quality"] == "questionable" and "26 nm" in G.attrs["quality_notes"]
+        gbar = G.rough.gradient()
+    assert not any("resolves no lag" in str(w.message) for w in caught)
+    assert G.attrs["reliable_dr_min"] == pytest.approx(44.38, rel=1e-3)  # nm
+    assert G.attrs["reliable_dr_max"] == pytest.approx(50.0)
+    assert "container_description" in G.attrs["reliable_rule"]
+    assert np.isfinite(G.values).all()  # G keeps every lag; none lies in the window
+    assert not ((G.dr >= 44.38) & (G.dr <= 50.0)).any()
+    assert gbar.attrs["quality"] == "failed" and np.isnan(gbar.values).all()
+    assert "no lag of G lies in the window 44.38 to 50 nm" in gbar.attrs["quality_notes"]
     stylus = xrough.open_topography(data_path("uncd", UNCD["stylus"][0]), unit="mm")
     assert stated_tip_radius(stylus.attrs) == ("5 um", "container_description")
     Gs = stylus.rough.detrend(mode="curvature").rough.acf()

@@ -170,8 +170,9 @@ def test_a_map_with_missing_points_and_a_small_map():
 def test_the_halves_of_a_real_map_agree_within_their_errors():
     """nid-1.nid (a scan-start band): its halves along y gave gbar at one pixel 59 of
     their stated errors apart (0.036 against 0.0056: one holds the band). With the
-    regions' errors they are 3.5 apart (measured: 0.036 against 0.0053), and each half says why its errors
-    are wide and its G questionable: what differs is named, as a referee needs."""
+    regions' errors they are 3.5 apart (measured: 0.036 against 0.0053), and each half
+    says why its errors are wide and its G questionable: what differs is named, as a
+    referee needs."""
     topo = xrough.open_topography(data_path("instruments", "nid-1.nid"))
     parts = []
     for half in (slice(0, 128), slice(128, 256)):

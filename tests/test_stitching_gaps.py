@@ -308,7 +308,8 @@ def _uncd(afm_scale=1.0):
 
 
 # The UNCD tests below stitch the G as measured (reliable=False): the tips that meta.yml
-# states would leave the AFM out (its 26 nm tip resolves no lag of the 100 nm scan) and
+# states would leave the AFM out (its 26 nm tip resolves no lag of its window: the tip
+# rule's 44.4 nm lies beyond a quarter of the 100 nm scan) and
 # start the stylus at 2.07 um (tests/test_stitching_windows.py); here the TEM/AFM overlap
 # is what levelling and the mismatch test are checked on.
 @pytest.mark.data

@@ -169,8 +169,9 @@ def test_lazy_map_with_a_stated_tip_says_it_was_not_applied(surface):
 
 @pytest.mark.data
 def test_uncd_tips_set_the_windows():
-    """UNCD as meta.yml describes it: the AFM's 26 nm tip resolves no lag of its 100 nm
-    scan (left out, questionable, one warning naming it); the stylus starts where acf()
+    """UNCD as meta.yml describes it: the AFM's 26 nm tip resolves no lag of its window
+    (the tip rule's 44.4 nm, measured, lies beyond a quarter of the 100 nm scan: left out,
+    questionable, one warning naming it); the stylus starts where acf()
     puts its limit (tip 5 um: 2.07 um, measured), not at 4 pixels (0.40 um)."""
     meas = uncd_measurements()  # detrend modes of meta.yml
     with warnings.catch_warnings(record=True) as caught:
@@ -179,6 +180,8 @@ def test_uncd_tips_set_the_windows():
         G = stitch(curves)
     said = [str(w.message) for w in caught if "left out" in str(w.message)]
     assert len(said) == 1 and "'AFM'" in said[0] and "26 nm" in said[0]
+    assert "the cutoff of the tip rule, 44.38 nm, is not below the window's long end 25 nm" \
+        in said[0]
     assert list(curves.measurement.values) == ["TEM", "stylus"]
     assert G.attrs["left_out"] == "AFM" and G.attrs["stitched_from"] == "TEM, stylus"
     assert G.attrs["quality"] == "questionable" and "'AFM' left out" in G.attrs["quality_notes"]

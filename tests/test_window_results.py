@@ -338,9 +338,10 @@ def test_real_profiles_state_their_share_below_the_window(which, share):
 
 
 @pytest.mark.data
-def test_real_afm_whose_tip_resolves_no_lag(tmp_path, monkeypatch, capsys):
-    """The UNCD AFM (26 nm tip, 100 nm scan): every result of its G fails, and the report
-    prints no rms gradient (was 2.22 at 195 pm, questionable)."""
+def test_real_afm_whose_window_holds_no_lag(tmp_path, monkeypatch, capsys):
+    """The UNCD AFM (26 nm tip, 100 nm scan): its window, 44.4 to 50 nm, holds no lag of
+    G, so every result of its G fails, and the report prints no rms gradient (was 2.22 at
+    195 pm, questionable)."""
     path = data_path("uncd", "gain_control_uncd_35_z03tr3R.001")
     G = quiet(lambda: xrough.open_topography(path).rough.detrend().rough.acf())
     for result in (quiet(G.rough.energy, E_star="25 MPa"), quiet(G.rough.gradient),

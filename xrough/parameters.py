@@ -753,10 +753,10 @@ def scale_dependent_curvature(topography: xr.DataArray, *, dr: QuantityLike | No
     xarray.DataArray
         ``curvature`` (1 / lateral unit) on dim ``dr``: the rms of ``h''`` (profile) or
         of the mean curvature ``(c_x + c_y) / 2`` (map), with coordinates
-        ``point_count``, ``curvature_min`` (the most negative curvature along the grid
-        axes, the tail the tip rule reads), ``step_x`` (``step_y``). Its first value is
-        ``rms_curvature`` of :func:`roughness_parameters`. With a tip radius, the marks
-        of :func:`tip_check`.
+        ``point_count``, ``curvature_min`` (the most negative curvature along the fast
+        scan axis ``x``, the tail the tip rule reads), ``step_x`` (``step_y``). Its first
+        value is ``rms_curvature`` of :func:`roughness_parameters`. With a tip radius,
+        the marks of :func:`tip_check`.
 
     Raises
     ------
@@ -797,7 +797,7 @@ def scale_dependent_curvature(topography: xr.DataArray, *, dr: QuantityLike | No
         point_count=packed.isel(part=1).astype(np.int64).assign_attrs(
             units="1", long_name="stencils averaged"),
         curvature_min=packed.isel(part=2).assign_attrs(
-            units=unit, long_name="most negative curvature along the grid axes"))
+            units=unit, long_name="most negative curvature along x"))
     out.name = "curvature"
     out.attrs = result_attrs(
         topography, units=unit,

@@ -494,7 +494,13 @@ def tip_cutoff(topography: xr.DataArray, grid: Grid, tip_radius: float,
     target = -safety_factor / tip_radius
     extra = [d for d in topography.dims if d not in grid.dims]
     cutoffs = []
+    # along the fast scan axis (x, the last) only, as contact.engineering: across the scan
+    # lines the curvature holds their offsets and drift, which no tip makes
+    # (tests/test_preprocess.py, test_tip_rule_reads_the_fast_scan_axis)
+    fast = nd - 1
     for axis, (n, step) in enumerate(zip(grid.shape, grid.spacing)):
+        if axis != fast:
+            continue
         steps = _stencil_steps(n)
         low = xr.apply_ufunc(
             _curvature_kernel, topography, input_core_dims=[list(grid.dims)],
@@ -599,8 +605,10 @@ def reliable(
 
     .. math:: \kappa_d(x) = \frac{h(x + d) - 2 h(x) + h(x - d)}{d^2},
 
-    is evaluated along ``x`` (and ``y``) at lattice distances ``d`` up to a quarter of the
-    scan; the cutoff is where its minimum over all points (and maps) rises above
+    is evaluated along the fast scan axis ``x`` (as contact.engineering does: across the
+    scan lines, along ``y``, it holds their offsets and drift, which no tip makes) at
+    lattice distances ``d`` up to a quarter of the scan; the cutoff is where its minimum
+    over all points (and maps) rises above
     :math:`-\text{safety\_factor}/R` for good (the last crossing, interpolated as a power
     law), reported as the stencil length ``2 d``. On a Gaussian surface the minimum is a
     few times the rms curvature :math:`\sqrt{8 G(d) - 2 G(2d)} / d^2` (G along the

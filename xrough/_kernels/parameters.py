@@ -275,8 +275,9 @@ def curvature_by_step(h, *, nd: int, steps: np.ndarray, spacing: tuple[float, ..
     numpy.ndarray, shape (..., n_steps, 3)
         ``[..., 0]``: the rms of ``c_k`` (profile) or of the mean curvature (map), in
         1 / spacing unit; ``[..., 1]``: the number of stencils averaged; ``[..., 2]``: the
-        most negative curvature along the grid axes (each axis on its own points, as the
-        tip rule of :func:`xrough.preprocess.reliable` reads it). NaN where none fits.
+        most negative curvature along the fast scan axis ``x`` (the last), as the tip rule
+        of :func:`xrough.preprocess.reliable` reads it (across the scan lines it holds
+        their offsets, which no tip makes). NaN where none fits.
 
     Examples
     --------
@@ -299,7 +300,7 @@ def _curvatures_of_map(h, *, nd, steps, spacing, periodic, hfactor) -> np.ndarra
         rms = (curves[0] if nd == 1 else
                fd.mean_of_axis_curvatures(*curves, steps=tuple(ks), periodic=periodic))
         ms, count = _mean_square(rms, nd, complete)
-        lowest = np.fmin.reduce([_extreme(c, nd, False, complete) for c in curves])
+        lowest = _extreme(curves[-1], nd, False, complete)  # the fast axis x alone
         out[..., i, 0], out[..., i, 1], out[..., i, 2] = np.sqrt(ms), count, lowest
     return out
 
