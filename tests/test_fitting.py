@@ -792,6 +792,7 @@ def test_spectrum_numpy_and_dask_agree(backend):
     expected.attrs = {k: v for k, v in expected.attrs.items()
                       if k not in ("reduced_chi2", "plateau", "ballistic_regime")}
     expected.attrs["rolloff"] = "auto"  # several fits: each has its rolloff_shape
+    expected.attrs["cutoff"] = "auto"  # ... and its cutoff_shape
     if backend == "dask":
         with computes_nothing():
             p = fit_acf(G.chunk({"scan": 1}))
@@ -875,7 +876,7 @@ def test_rolloff_shape_chosen_by_evidence():
                                       seed=1)
     G = topo.rough.acf()
     fit = fit_acf(G)
-    sharp = fit_acf(G, rolloff="sharp")
+    sharp = fit_acf(G, rolloff="sharp", cutoff="sharp")  # the roll-off is chosen first
     assert fit.attrs["rolloff"] == "smooth" and int(fit.rolloff_shape) == 1
     assert "AIC" in fit.attrs["rolloff_choice"] and sharp.attrs["rolloff_choice"] == "given"
     assert abs(float(fit.hurst) - 0.8) < 0.05 < abs(float(sharp.hurst) - 0.8)

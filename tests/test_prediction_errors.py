@@ -241,13 +241,17 @@ def test_model_error_holds_on_a_held_out_solver_run():
     lambda_s = 4 px, a seed the study never drew): the solver's contact area lies within
     two spreads of the expected exact one at p* = 0.01 and 0.1, where Persson's own area
     misses it by more than 25 % and 15 % (benchmarks/model_error_heldout.py checks 100 such
-    cases: docs/quality.md)."""
+    cases: docs/quality.md).  The map's 1.2 decades of self-affine range cannot tell H
+    from the shape of its cutoff (sharp or Gaussian): the result says so, questionable."""
     topo = xrough.self_affine_surface(hurst=0.65, lambda_r=64.0, lambda_s=4.0, size=256.0,
                                       n=256, rms_gradient=0.1, unit="nm", seed=7)
     G = topo.rough.acf()
-    unit = G.rough.persson(E_star=1e6, p0=1.0, variables=("p_star",)).p_star.values[0]
     loads = np.array([0.01, 0.1])
-    theory = G.rough.persson(E_star=1e6, p0=loads / unit).isel(dr=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        unit = G.rough.persson(E_star=1e6, p0=1.0, variables=("p_star",)).p_star.values[0]
+        theory = G.rough.persson(E_star=1e6, p0=loads / unit).isel(dr=0)
+        assert "shape of the cutoff" in G.rough.fit().attrs["quality_notes"]
     sim = xrough.solve_contact(topo, E_star=1e6, p0=loads / unit, progress=False)
     exact = sim.contact_area.values
     for name in ("a_r", "a_ri"):
@@ -306,9 +310,11 @@ def test_stress_model_error_holds_on_a_held_out_solver_run():
     topo = xrough.self_affine_surface(hurst=0.65, lambda_r=64.0, lambda_s=4.0, size=256.0,
                                       n=256, rms_gradient=0.1, unit="nm", seed=7)
     G = topo.rough.acf()
-    unit = G.rough.persson(E_star=1e6, p0=1.0, variables=("p_star",)).p_star.values[0]
-    p0 = np.array([0.01, 0.1]) / unit
-    theory = G.rough.persson(E_star=1e6, p0=p0)
+    with warnings.catch_warnings():  # H and the cutoff's shape: see the area's test
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        unit = G.rough.persson(E_star=1e6, p0=1.0, variables=("p_star",)).p_star.values[0]
+        p0 = np.array([0.01, 0.1]) / unit
+        theory = G.rough.persson(E_star=1e6, p0=p0)
     sim = xrough.solve_contact(topo, E_star=1e6, p0=p0, progress=False)
     for i in range(2):
         field = sim.pressure.values[i]

@@ -831,7 +831,7 @@ def stress_acf_from_spectrum(C: xr.DataArray, dr: QuantityLike, *,
                          "(xrough.model_spectrum)")
     lunit = spec.length_unit
     dr = u.array_in(dr, lunit, what="dr", noun="distances")
-    knots = 0.0 if model.rolloff == "sharp" else 160.0
+    knots = 0.0 if model.piecewise_power_law else 160.0
     g_q2 = acf_from_spectrum_kernel(dr, lambda q: q**2 * model(q), model.breakpoints,
                                     knots_per_decade=knots)
     values = (E / 2) ** 2 * (model.moment(2) - g_q2)

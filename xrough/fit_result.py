@@ -39,7 +39,8 @@ from ._kernels.shape_factors import ROLLOFFS, rolloff_factor, self_affine_factor
 from .acf import lag_coord
 from .units import QuantityLike
 
-__all__ = ["read_fit", "model_acf", "gradient_from_fit", "rolloff_shapes", "COVARIANCE",
+__all__ = ["read_fit", "model_acf", "gradient_from_fit", "rolloff_shapes", "spectrum_shapes",
+           "COVARIANCE",
            "COVARIANCE_DIMS"]
 
 #: The variable of a spectrum fit that holds the covariance of its parameters, and its dims
@@ -114,7 +115,7 @@ class FitReading:
         """
         arrays = [self.params["hurst"], self.params["G_sa"], self.params["lambda_r"],
                   self.in_lateral("lambda_s"), self.params["lambda_r_resolved"],
-                  self.params["lambda_s_resolved"], rolloff_shapes(self.params)]
+                  self.params["lambda_s_resolved"], spectrum_shapes(self.params)]
         core: list[list[str]] = [[]] * len(arrays)
         if covariance:
             arrays.append(self.params[COVARIANCE])
@@ -191,6 +192,19 @@ def rolloff_shapes(params: xr.Dataset) -> xr.DataArray:
         raise ValueError(f"params.attrs['rolloff'] = {own!r} without a variable "
                          "'rolloff_shape'; pass the Dataset returned by fit_acf")
     return xr.full_like(params["hurst"], ROLLOFFS.index(own), dtype=np.int8)
+
+
+def spectrum_shapes(params: xr.Dataset) -> xr.DataArray:
+    """Return the roll-off and cutoff of each fitted spectrum in one integer.
+
+    :func:`~xrough._kernels.spectral_models.shape_code`: :func:`rolloff_shapes` plus 2
+    where the variable ``cutoff_shape`` is 1 (Gaussian); fits without it have the sharp
+    cutoff of eq. 35.
+    """
+    shapes = rolloff_shapes(params)
+    if "cutoff_shape" in params.variables:
+        shapes = shapes + len(ROLLOFFS) * params["cutoff_shape"]
+    return shapes
 
 
 def _curve(out: xr.DataArray, name: str, attrs: dict) -> xr.DataArray:

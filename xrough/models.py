@@ -34,6 +34,7 @@ def self_affine_model(
     rms_gradient: QuantityLike | None = None,
     rolloff: str = "sharp",
     unit: str = "m",
+    cutoff: str = "sharp",
 ) -> SpectrumModel:
     """Build the model spectrum of eq. 35 in ``unit`` from physical parameters.
 
@@ -55,6 +56,9 @@ def self_affine_model(
     rolloff : {'sharp', 'smooth'}
     unit : str
         Length unit of the model's wavenumbers and ``C_r``.
+    cutoff : {'sharp', 'gaussian'}
+        Eq. 35's sharp end at ``q_s``, or the spectrum times ``exp(-(q/q_s)^2)`` (an
+        instrument's Gaussian transfer).
 
     Returns
     -------
@@ -89,7 +93,7 @@ def self_affine_model(
     if q_0 > q_r:
         raise ValueError("lambda_0 (system size) must be at least lambda_r")
     shape = SpectrumModel(hurst=float(hurst), q_r=q_r, q_s=q_s, q_0=q_0, C_r=1.0,
-                          rolloff=rolloff)
+                          rolloff=rolloff, cutoff=cutoff)
     (name, value), = given.items()
     if name == "C_r":
         q = u.quantity(value, default_units=u.parse_units(unit) ** 4, what="C_r")
@@ -114,7 +118,7 @@ def self_affine_model(
                    "rms_height": np.square(amplitude) / shape.shape_moment(0),
                    "rms_gradient": np.square(amplitude) / shape.shape_moment(2)}[name]
             model = SpectrumModel(hurst=float(hurst), q_r=q_r, q_s=q_s, q_0=q_0,
-                                  C_r=float(c_r), rolloff=rolloff)
+                                  C_r=float(c_r), rolloff=rolloff, cutoff=cutoff)
             moments = (model.C_r, model.moment(0), model.moment(2))
     except OverflowError as err:
         raise ValueError(
@@ -135,6 +139,7 @@ def model_attrs(model: SpectrumModel) -> dict:
     return {
         "model": "self-affine",
         "rolloff": model.rolloff,
+        "cutoff": model.cutoff,
         "hurst": float(model.hurst),
         "q_r": float(model.q_r),
         "q_s": float(model.q_s),
@@ -151,4 +156,5 @@ def model_from_attrs(attrs: dict) -> SpectrumModel | None:
         return None
     return SpectrumModel(hurst=float(attrs["hurst"]), q_r=float(attrs["q_r"]),
                          q_s=float(attrs["q_s"]), q_0=float(attrs["q_0"]),
-                         C_r=float(attrs["C_r"]), rolloff=str(attrs["rolloff"]))
+                         C_r=float(attrs["C_r"]), rolloff=str(attrs["rolloff"]),
+                         cutoff=str(attrs.get("cutoff", "sharp")))

@@ -48,6 +48,7 @@ __all__ = [
     "spectrum",
 ]
 
+_GAUSSIAN = ", times exp(-(q/q_s)^2) with no sharp end (Gaussian cutoff)"
 _EQUATIONS = {
     "sharp": "eq. 35",
     "smooth": "C_r [1 + (q/q_r)^2]^-(1+H) for q_0 <= q <= q_s (smooth variant of eq. 35)",
@@ -72,6 +73,8 @@ def _spectrum_model(attrs: dict, c_factor: float) -> SpectrumModel | None:
 
 def _sample_model(model: SpectrumModel, q: np.ndarray) -> np.ndarray:
     """``C(q)`` on the closed interval ``[q_0, q_s]`` (the left limit at ``q = q_s``)."""
+    if model.cutoff != "sharp":
+        return model(q)
     closed = dataclasses.replace(model, q_s=2.0 * model.q_s)
     return np.where(q == model.q_s, closed(q), model(q))
 
@@ -104,6 +107,7 @@ def model_spectrum(
     rolloff: str = "sharp",
     unit: str = "m",
     points_per_decade: float = 50,
+    cutoff: str = "sharp",
 ) -> xr.DataArray:
     """Isotropic spectrum of a self-affine surface with roll-off (paper eq. 35).
 
@@ -115,6 +119,8 @@ def model_spectrum(
 
     ``rolloff="smooth"``: ``C(q) = C_r [1 + (q/q_r)^2]^-(1+H)`` for ``q_0 <= q <= q_s``.
     Here ``q_r = 2 pi / lambda_r``, ``q_s = 2 pi / lambda_s`` and ``q_0 = 2 pi / lambda_0``.
+    ``cutoff="gaussian"``: no sharp end at ``q_s``, the spectrum times ``exp(-(q/q_s)^2)``
+    instead (an instrument's Gaussian transfer: a tip, optics or a stylus).
 
     Parameters
     ----------
@@ -139,6 +145,8 @@ def model_spectrum(
         Length unit of the output (``"m"``, ``"um"``, ``"nm"``...).
     points_per_decade : float
         Density of the default ``q`` grid.
+    cutoff : {'sharp', 'gaussian'}
+        Shape of the short-wavelength cutoff.
 
     Returns
     -------
@@ -178,8 +186,9 @@ def model_spectrum(
         raise ValueError(f"rolloff must be one of {tuple(_EQUATIONS)}, got {rolloff!r}")
     model = self_affine_model(hurst=hurst, lambda_r=lambda_r, lambda_s=lambda_s,
                               lambda_0=lambda_0, C_r=C_r, rms_height=rms_height,
-                              rms_gradient=rms_gradient, rolloff=rolloff, unit=unit_str)
-    q_0, q_r, q_s = model.q_0, model.q_r, model.q_s
+                              rms_gradient=rms_gradient, rolloff=rolloff, unit=unit_str,
+                              cutoff=cutoff)
+    q_0, q_r, q_s = model.q_0, model.q_r, model.q_end
 
     check_points_per_decade(points_per_decade)
     if q is None:
@@ -194,7 +203,7 @@ def model_spectrum(
         "units": _units.power_units(unit_str, 4),
         "long_name": "isotropic height spectrum",
         **model_attrs(model),
-        "equation": _EQUATIONS[rolloff],
+        "equation": _EQUATIONS[rolloff] + (_GAUSSIAN if cutoff == "gaussian" else ""),
         "spectrum_kind": "isotropic 2D",
     }
     return xr.DataArray(
@@ -361,7 +370,7 @@ def acf_from_spectrum(
     unit_str, model = spec.unit_str, spec.model
     if model is not None:
         func, bp = model, model.breakpoints
-        knots = 0.0 if model.rolloff == "sharp" else 160.0
+        knots = 0.0 if model.piecewise_power_law else 160.0
     else:
         func = spec.func
         bp, knots = func.breakpoints, 0.0

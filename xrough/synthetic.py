@@ -68,6 +68,7 @@ def self_affine_surface(
     rolloff: str = "sharp",
     unit: str = "m",
     profile: bool = False,
+    cutoff: str = "sharp",
     random_amplitudes: bool = True,
     seed: int | np.random.Generator | None = None,
 ) -> xr.DataArray:
@@ -97,6 +98,10 @@ def self_affine_surface(
         Length unit of the output (heights and coordinates).
     profile : bool
         Return a 1D line scan (dims ``x``) of the isotropic surface instead of a map.
+    cutoff : {'sharp', 'gaussian'}
+        Eq. 35's sharp end at ``q_s``, or the spectrum times ``exp(-(q/q_s)^2)``: the
+        surface as an instrument with a Gaussian transfer sees it (``lambda_s`` may then
+        be as short as one pixel).
     random_amplitudes : bool
         Gaussian random amplitudes (a Gaussian random field, default) or fixed moduli
         ``sqrt(C/A)`` with random phases (less scatter, not Gaussian at the largest
@@ -115,7 +120,8 @@ def self_affine_surface(
     Raises
     ------
     ValueError
-        Invalid model parameters, or ``lambda_s`` below two pixels (unresolved).
+        Invalid model parameters, or ``lambda_s`` below two pixels (one for a Gaussian
+        cutoff: unresolved).
 
     See Also
     --------
@@ -140,12 +146,14 @@ def self_affine_surface(
         lambda_0 = f"{max(lengths)!r} {unit}"
     model = self_affine_model(hurst=hurst, lambda_r=lambda_r, lambda_s=lambda_s,
                               lambda_0=lambda_0, C_r=C_r, rms_height=rms_height,
-                              rms_gradient=rms_gradient, rolloff=rolloff, unit=unit)
+                              rms_gradient=rms_gradient, rolloff=rolloff, unit=unit,
+                              cutoff=cutoff)
     spacing = tuple(L / k for L, k in zip(lengths, ns))
-    if 2 * np.pi / model.q_s < 2 * max(spacing) * (1 - 1e-9):
+    if 2 * np.pi / model.q_s < (2 if cutoff == "sharp" else 1) * max(spacing) * (1 - 1e-9):
         raise ValueError(
-            f"lambda_s = {2 * np.pi / model.q_s:g} {unit} is shorter than two pixels "
-            f"({2 * max(spacing):g} {unit}): the cutoff is not resolved; use more points"
+            f"lambda_s = {2 * np.pi / model.q_s:g} {unit} is shorter than "
+            f"{'two pixels' if cutoff == 'sharp' else 'a pixel'} ({max(spacing):g} {unit} "
+            "each): the cutoff is not resolved; use more points"
         )
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     white = rng.standard_normal(ns)
@@ -158,7 +166,8 @@ def self_affine_surface(
     qs.append(2 * np.pi * sfft.rfftfreq(ns[-1], spacing[-1]))
     # grid modes that sit on a cutoff (q_0 = 2 pi / L is the lowest mode by default) are
     # kept whatever the round-off of the unit: the band is closed, [q_0, q_s]
-    band = dataclasses.replace(model, q_0=model.q_0 * (1 - 1e-9), q_s=model.q_s * (1 + 1e-9))
+    band = dataclasses.replace(model, q_0=model.q_0 * (1 - 1e-9),
+                               q_s=model.q_s * (1 + 1e-9) if cutoff == "sharp" else model.q_s)
     if profile:
         C = profile_spectrum_kernel(qs[0], band, band.breakpoints)
     else:

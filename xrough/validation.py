@@ -320,7 +320,10 @@ def _roughness(topography: xr.DataArray, h: np.ndarray, grid, gradient_method: s
                acf_kwargs: dict) -> _Roughness:
     """Return ``G`` of the map, its fit (for the gradient and eq. 51), ``gbar`` and ``gbar(0)``."""
     G = height_difference_acf(topography, progress=False, **acf_kwargs)
-    fit = fit_acf(G)
+    # a synthetic map states its cutoff's shape: the fit knows it, as one of the instrument
+    known = (topography.attrs.get("cutoff") if topography.attrs.get("model") == "self-affine"
+             else None)
+    fit = fit_acf(G, cutoff=known)
     gbar = rms_gradient(G, method=gradient_method,
                         fit=fit if gradient_method in ("auto", "fit") else None)
     to_lat = u.conversion_factor(grid.height_unit, grid.lateral_unit)

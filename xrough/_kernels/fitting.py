@@ -21,12 +21,13 @@ from typing import Any
 
 import numpy as np
 from scipy import optimize
+from scipy.special import gamma
 
 from .acf_curve import relative_error_problem
 from .hankel import acf_from_spectrum_kernel
 from .model_acf import sharp_acf, smooth_acf, smooth_closed_form_applies
 from .shape_factors import ROLLOFFS, rolloff_crossover, self_affine_constant
-from .spectral_models import SpectrumModel, model_gradient2
+from .spectral_models import CUTOFFS, SpectrumModel, model_gradient2, shape_names
 from .uncertainty import relative_covariance
 
 __all__ = [
@@ -67,6 +68,7 @@ SPECTRUM_OUTPUTS = (*SPECTRUM_PARAMETERS, *(f"{p}_std" for p in SPECTRUM_PARAMET
                     "reduced_chi2", "n_bins", *FLAGS, "rms_misfit", "max_misfit_factor",
                     "reduced_chi2_eq36",
                     "rolloff_shape", "reduced_chi2_other_rolloff", "fit_problems", "quality",
+                    "cutoff_shape", "reduced_chi2_other_cutoff",
                     *(f"cov_{a}_{b}" for a in COVARIANCE_PARAMETERS
                       for b in COVARIANCE_PARAMETERS))
 
@@ -96,6 +98,8 @@ PROBLEM_LEVELS = {
     "cutoff_undetermined": 1,   # a resolved cutoff's standard deviation exceeds its value
     "hurst_pinned": 2,          # H at its bound: not 2 std (HURST_SEPARATION) inside it
     "too_few_bins": 2,          # fewer than MIN_BINS_PER_PARAMETER bins per free parameter
+    "cutoff_shape_undetermined": 1,  # sharp and Gaussian cutoffs fit alike, H's spread
+                                     # beyond SHAPE_SPREAD_MAX (fit_spectrum_kernel)
 }
 PROBLEMS = tuple(PROBLEM_LEVELS)
 #: A fit is poor (questionable) when its rms misfit of ln G exceeds MISFIT_QUESTIONABLE
@@ -441,7 +445,7 @@ def _rolloff_coefficient(H: float, rolloff: str) -> float:
     return 0.25 - 1.0 / (2.0 - 2.0 * H) if rolloff == "sharp" else -1.0 / (2 * H * (1 - H))
 
 
-def _acf_shape(x, H, lam_r, lam_s, lam_0, rolloff, memo=None):
+def _acf_shape(x, H, lam_r, lam_s, lam_0, rolloff, memo=None, cutoff="sharp"):
     """G (eq. 9) of the model spectrum whose self-affine asymptote is ``x^(2H)``.
 
     All lengths in one unit; ``lam_r = inf`` (no roll-off; only without ``lam_0``),
@@ -449,7 +453,10 @@ def _acf_shape(x, H, lam_r, lam_s, lam_0, rolloff, memo=None):
     A cutoff far beyond the lags (``_FAR_S``, ``_FAR_R``) is evaluated nearer and moved to its
     value with the leading term, which is linear in ``q_s^(-2H)`` (a constant shift of G)
     resp. ``q_r^(2-2H)`` (a term in ``dr^2``); the next terms are smaller by
-    ``(q_s dr)^(-3/2)`` resp. ``(q_r dr)^(2H)`` or ``(q_r dr)^2``.
+    ``(q_s dr)^(-3/2)`` resp. ``(q_r dr)^(2H)`` or ``(q_r dr)^2``.  A Gaussian ``cutoff``
+    (the spectrum times ``exp(-(q/q_s)^2)``) is integrated by quadrature; its far shift is
+    ``Gamma(1-H)`` times the sharp cutoff's (``G -> x^(2H) - Gamma(1-H) (q_s^-2H) / (2H I)``
+    beyond it, against ``q_s^-2H / (2H I)``).
 
     ``memo``: a dict that keeps the evaluations of eq. 9 by ``(H, lambda_r, lambda_s)`` as
     evaluated (after the moves above), for calls with the same ``x``, ``lam_0`` and
@@ -468,7 +475,12 @@ def _acf_shape(x, H, lam_r, lam_s, lam_0, rolloff, memo=None):
         q_s = 2 * np.pi / ls
         q_0 = 0.0 if np.isinf(lam_0) else 2 * np.pi / lam_0
         C_r = 2 * np.pi / (kernel_I * q_r ** (2 + 2 * H))
-        if rolloff == "sharp":
+        if cutoff != "sharp":
+            model = SpectrumModel(hurst=H, q_r=q_r, q_s=q_s, q_0=q_0, rolloff=rolloff,
+                                  C_r=C_r, cutoff=cutoff)
+            G = acf_from_spectrum_kernel(x, model, model.breakpoints,
+                                         knots_per_decade=_KNOTS["smooth"], **_QUADRATURE)
+        elif rolloff == "sharp":
             G = sharp_acf(x, H, q_r, q_s, q_0, C_r)
         elif smooth_closed_form_applies(q_r, q_s, q_0):
             G = smooth_acf(x, H, q_r, q_s, C_r)
@@ -483,19 +495,23 @@ def _acf_shape(x, H, lam_r, lam_s, lam_0, rolloff, memo=None):
             memo[key] = G
     if lam_s < ls:
         G = G + ((ls / (2 * np.pi)) ** (2 * H) - (lam_s / (2 * np.pi)) ** (2 * H)) / (
-            2 * H * kernel_I)
+            2 * H * kernel_I) * (gamma(1 - H) if cutoff == "gaussian" else 1.0)
     if lam_r > lr and np.isinf(lam_0):
         G = G + _rolloff_coefficient(H, rolloff) * x**2 / (4 * kernel_I) * (
             (2 * np.pi / lam_r) ** (2 - 2 * H) - q_r ** (2 - 2 * H))
     return G
 
 
-def _spectrum_moments(c, H, q_r, q_s, q_0, rolloff):
+def _spectrum_moments(c, H, q_r, q_s, q_0, rolloff, cutoff="sharp"):
     """``sigma_h^2`` and ``C_r`` of the model with ``c = C_r q_r^(2+2H)`` (``q_r`` may be 0)."""
     if q_r == 0.0:
         return np.inf, np.inf
     C_r = c / q_r ** (2 + 2 * H)
     s0, ss = (q_0 / q_r) ** 2, (q_s / q_r) ** 2
+    if cutoff != "sharp" and np.isfinite(q_s):
+        model = SpectrumModel(hurst=H, q_r=q_r, q_s=q_s, q_0=q_0, rolloff=rolloff,
+                              cutoff=cutoff, C_r=C_r)
+        return model.moment(0), C_r
     if rolloff == "sharp":
         m0 = (1 - s0) / 2 + (1 - (q_r / q_s) ** (2 * H)) / (2 * H)
     else:
@@ -563,7 +579,8 @@ def _gradients(physical, pvec, values, free, sd, grad):
             grad[:, k] = (physical(hi_p) - values) / h
 
 
-def _grid_starts(theta, free, lower, upper, x, ly, w, cutoffs, lam_0, rolloff, memo=None):
+def _grid_starts(theta, free, lower, upper, x, ly, w, cutoffs, lam_0, rolloff, memo=None,
+                 cutoff="sharp"):
     """Return the best points of :data:`_GRID` as ``(chi^2, start)``, best first.
 
     Only the free parameters vary; chi^2 is not reduced.
@@ -574,7 +591,7 @@ def _grid_starts(theta, free, lower, upper, x, ly, w, cutoffs, lam_0, rolloff, m
         t = np.clip(np.array([0.0, H, le, lp]), lower + 1e-3, upper - 1e-3)
         lr, ls = cutoffs(t)
         with np.errstate(all="ignore"):
-            d = np.log(_acf_shape(x, t[1], lr, ls, lam_0, rolloff, memo)) - ly
+            d = np.log(_acf_shape(x, t[1], lr, ls, lam_0, rolloff, memo, cutoff)) - ly
         if not np.all(np.isfinite(d)):
             continue
         t[0] = -np.sum(d / w**2) / np.sum(1.0 / w**2)  # the best amplitude
@@ -598,7 +615,7 @@ def information_criterion(chi2: float, n: int, p: int, weighted: bool) -> float:
 
 
 def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lambda_0, unit,
-                        errors=None):
+                        errors=None, cutoff="sharp"):
     """Fit the model spectrum to one G (one length unit); the values of ``SPECTRUM_OUTPUTS``.
 
     ``rolloff``: one of :data:`ROLLOFFS`, or ``"auto"``: both are fitted and the sharp one
@@ -606,38 +623,129 @@ def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lam
     (``rolloff_shape`` is the index of the shape kept in :data:`ROLLOFFS`,
     ``reduced_chi2_other_rolloff`` the reduced chi^2 of the other; NaN for one shape).
 
+    ``cutoff``: one of :data:`CUTOFFS`, or ``"auto"``: where the fit of the sharp cutoff
+    resolves ``lambda_s``, the roll-off kept is fitted again with a Gaussian cutoff
+    (started where the sharp one ended, its ``lambda_s`` moved to the same shift of G), and
+    the Gaussian kept where its AIC is lower by more than :data:`AIC_MARGIN` (eq. 35
+    otherwise; ``cutoff_shape``, ``reduced_chi2_other_cutoff``).  The spread between the
+    two (:func:`_model_spread`) enters the standard deviations of ``H`` and ``sigma_h``.
+
     ``errors``: the map geometry of G (:func:`xrough.acf.error_model`); the standard
     deviations of the parameters then carry the covariance of G's bins
     (:meth:`_ShapeProblem.sandwich`), otherwise they take the bins as independent.
     """
     kw = {"dr": dr, "use": use, "dr_ref": dr_ref, "weighted": weighted, "fixed": fixed,
-          "lambda_0": lambda_0, "unit": unit}
+          "lambda_0": lambda_0, "unit": unit,
+          "cutoff": CUTOFFS[0] if cutoff == "auto" else cutoff}
     rel_cov = None if not errors else relative_covariance(dr, np.asarray(G, dtype=float),
                                                           **errors)
     if rolloff != "auto":
-        out = _fit_spectrum_shape(G, se, rolloff=rolloff, rel_cov=rel_cov, **kw)
-        return _with_shape(out, ROLLOFFS.index(rolloff), np.nan)
-    kw["eq36"] = _eq36_fit(G, se, **kw)  # the start of both shapes
-    # the second shape starts where the first ended (its roll-off converted) and from eq. 36,
-    # without a grid: the first shape's restarts have searched the same landscape
-    sharp_fit, theta, power_law = _fit_spectrum_shape(G, se, rolloff=ROLLOFFS[0],
-                                                      theta_out=True, rel_cov=rel_cov, **kw)
-    seed = _converted(theta, ROLLOFFS[0], ROLLOFFS[1])
-    fits = [sharp_fit, _fit_spectrum_shape(G, se, rolloff=ROLLOFFS[1], seed=seed,
-                                           rel_cov=rel_cov, power_law_from_start=power_law,
-                                           **kw)]
-    at = {name: k for k, name in enumerate(SPECTRUM_OUTPUTS)}
+        out, theta, _ = _fit_spectrum_shape(G, se, rolloff=rolloff, rel_cov=rel_cov,
+                                            theta_out=True, **kw)
+        out = _with_shape(out, ROLLOFFS.index(rolloff), np.nan)
+    else:
+        kw["eq36"] = _eq36_fit(G, se, **kw)  # the start of both shapes
+        # the second shape starts where the first ended (its roll-off converted) and from
+        # eq. 36, without a grid: the first shape's restarts have searched the landscape
+        sharp_fit, theta, power_law = _fit_spectrum_shape(
+            G, se, rolloff=ROLLOFFS[0], theta_out=True, rel_cov=rel_cov, **kw)
+        seed = _converted(theta, ROLLOFFS[0], ROLLOFFS[1])
+        fits = [(sharp_fit, theta), _fit_spectrum_shape(
+            G, se, rolloff=ROLLOFFS[1], seed=seed, rel_cov=rel_cov, theta_out=True,
+            power_law_from_start=power_law, **kw)[:2]]
+        sharp, smooth = (_aic(out, fixed, weighted) for out, _ in fits)
+        k = 1 if smooth < sharp - AIC_MARGIN or (np.isinf(sharp) and np.isfinite(smooth)) else 0
+        out, theta = fits[k]
+        out = _with_shape(out, k, fits[1 - k][0][_AT["reduced_chi2"]])
+        rolloff = ROLLOFFS[k]
+    out[_AT["cutoff_shape"]] = CUTOFFS.index(kw["cutoff"])
+    if cutoff != "auto" or not out[_AT["lambda_s_resolved"]] or out[_AT["quality"]] == 2 \
+            or not np.isnan(fixed[2]):
+        return out
+    kw.pop("eq36", None)
+    kw["cutoff"] = CUTOFFS[1]
+    seed = theta.copy()
+    seed[3] -= np.log(gamma(1 - theta[1]))  # the same shift of G beyond lambda_s
+    gauss = _fit_spectrum_shape(G, se, rolloff=rolloff, seed=seed, rel_cov=rel_cov, **kw)
+    gauss = _with_shape(gauss, int(out[_AT["rolloff_shape"]]),
+                        out[_AT["reduced_chi2_other_rolloff"]])
+    gauss[_AT["cutoff_shape"]] = 1
+    fits = [out, gauss]
+    aics = _cutoff_evidence(fits, fixed, weighted)
+    k = 1 if aics[1] < aics[0] - AIC_MARGIN or (np.isinf(aics[0]) and np.isfinite(aics[1])) \
+        else 0
+    kept = fits[k]
+    kept[_AT["reduced_chi2_other_cutoff"]] = fits[1 - k][_AT["reduced_chi2"]]
+    _model_spread(kept, fits, aics)
+    return kept
 
-    def aic(out):
-        chi2, n = out[at["reduced_chi2"]], int(out[at["n_bins"]])
-        if not np.isfinite(chi2) or out[at["quality"]] == 2:
-            return np.inf
-        return information_criterion(chi2, n, int(np.count_nonzero(np.isnan(fixed))) + 1,
-                                     weighted)
 
-    sharp, smooth = (aic(out) for out in fits)
-    k = 1 if smooth < sharp - AIC_MARGIN or (np.isinf(sharp) and np.isfinite(smooth)) else 0
-    return _with_shape(fits[k], k, fits[1 - k][at["reduced_chi2"]])
+_AT = {name: k for k, name in enumerate(SPECTRUM_OUTPUTS)}
+
+
+def _aic(out, fixed, weighted) -> float:
+    """AIC of one fit's outputs (inf where it failed)."""
+    chi2, n = out[_AT["reduced_chi2"]], int(out[_AT["n_bins"]])
+    if not np.isfinite(chi2) or out[_AT["quality"]] == 2:
+        return np.inf
+    return information_criterion(chi2, n, int(np.count_nonzero(np.isnan(fixed))) + 1,
+                                 weighted)
+
+
+def _cutoff_evidence(fits, fixed, weighted) -> list[float]:
+    """AIC of the cutoff shapes' fits, on the scale of their misfit where it is below G's errors.
+
+    A weighted fit whose reduced chi^2 is below 1 misses G by less than G's standard
+    errors say: those carry the scatter of the whole curve between surfaces (its bins
+    move together), which no shape of the cutoff can follow, and leave little for the
+    bins' misfit against each other.  Where the better fit's reduced chi^2 is below 1
+    both are compared as unweighted fits are (``n ln(RSS/n) + 2 p``, the error scale
+    estimated from the misfit): on 512^2 maps with lambda_s = 4 px the shape the surface
+    was made with is then preferred by 20 to 60 in AIC, against 2 to 40 in chi^2.
+    """
+    chi2 = [f[_AT["reduced_chi2"]] for f in fits]
+    scaled = weighted and np.nanmin(chi2) < 1.0
+    return [_aic(f, fixed, weighted and not scaled) for f in fits]
+
+
+#: The parameters whose standard deviation carries the spread between the cutoff shapes.
+#: A spread of H beyond SHAPE_SPREAD_MAX (and beyond its statistical std) makes the fit
+#: questionable: the H quoted depends on a choice the data do not make (a tie of two fits
+#: 0.02 apart in H, as on an exact G with 5 % noise per bin, is not that).
+SPREAD_PARAMETERS = ("hurst", "sigma_h")
+SHAPE_SPREAD_MAX = 0.05
+
+
+def _model_spread(kept, fits, aics) -> None:
+    """Add the spread between the cutoff shapes' fits to ``kept``'s std (in place).
+
+    Akaike weights ``w_i ~ exp(-AIC_i / 2)`` (Burnham & Anderson's model averaging): the
+    variance about the kept value is ``sum_i w_i [s_i^2 + (p_i - p_kept)^2]``; a shape the
+    data rule out (weight ~0) adds nothing.  ``H``'s variance in the covariance gains the
+    same spread (the fitted gradient's error carries it).  Where the spread of ``H``
+    exceeds its statistical std and :data:`SHAPE_SPREAD_MAX`, the problem
+    ``cutoff_shape_undetermined`` is set: the self-affine range is too short to tell ``H``
+    from the cutoff's shape.
+    """
+    a = np.array(aics, dtype=float)
+    if not np.all(np.isfinite(a)):
+        return
+    w = np.exp(-(a - a.min()) / 2)
+    w /= w.sum()
+    for name in SPREAD_PARAMETERS:
+        value, std = kept[_AT[name]], kept[_AT[f"{name}_std"]]
+        others = np.array([f[_AT[name]] for f in fits])
+        if not np.all(np.isfinite(others)):  # no plateau (sigma_h = inf): no spread to add
+            continue
+        spread2 = float(np.sum(w * (others - value) ** 2))
+        if name == "hurst":
+            kept[_AT["cov_hurst_hurst"]] += spread2
+        if name == "hurst" and spread2 > max(std, SHAPE_SPREAD_MAX) ** 2:
+            kept[_AT["fit_problems"]] = int(kept[_AT["fit_problems"]]) | (
+                1 << PROBLEMS.index("cutoff_shape_undetermined"))
+            kept[_AT["quality"]] = max(kept[_AT["quality"]],
+                                       PROBLEM_LEVELS["cutoff_shape_undetermined"])
+        kept[_AT[f"{name}_std"]] = np.sqrt(std**2 + spread2)
 
 
 def _converted(theta, shape: str, to: str):
@@ -688,7 +796,8 @@ class _ShapeProblem:
     units of ``dr_ref`` (``x = dr / dr_ref``).
     """
 
-    def __init__(self, G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lambda_0, unit):
+    def __init__(self, G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lambda_0, unit,
+                 cutoff="sharp"):
         self.free, self.n, p, self.x, G_sel, self.G_ref, self.w, self.sel = _fit_data(
             G, se, dr=dr, use=use, dr_ref=dr_ref, weighted=weighted, fixed=fixed, unit=unit,
             what="the model spectrum")
@@ -699,7 +808,7 @@ class _ShapeProblem:
         self.x_lo, self.x_hi = float(self.x.min()), float(self.x.max())
         self.dr_ref, self.lambda_0, self.lam_0 = dr_ref, lambda_0, lambda_0 / dr_ref
         self.fixed, self.fix_r, self.fix_s = fixed, fixed[1] / dr_ref, fixed[2] / dr_ref
-        self.weighted, self.rolloff = weighted, rolloff
+        self.weighted, self.rolloff, self.cutoff = weighted, rolloff, cutoff
         span = 2 * np.log(10 * self.x_hi / self.x_lo)
         self.lower = np.array([-np.inf, H_BOUNDS[0], _LN_FLOOR, _LN_FLOOR])
         self.upper = np.array([np.inf, H_BOUNDS[1], span, span])
@@ -747,7 +856,7 @@ class _ShapeProblem:
         """``(ln G_model - ln G) / w`` without the amplitude ``t[0]`` (it adds ``t[0] / w``)."""
         lr, ls = self.cutoffs(t)
         return (np.log(_acf_shape(self.x, t[1], lr, ls, self.lam_0, self.rolloff,
-                                  self.memo))
+                                  self.memo, self.cutoff))
                 - self.ly) / self.w
 
     def amplitude(self, d) -> float:
@@ -957,7 +1066,7 @@ class _ShapeProblem:
                  / self_affine_constant(H))
             q_0 = 0.0 if np.isinf(lambda_0) else 2 * np.pi / lambda_0
             sigma2, C_r = _spectrum_moments(c, H, 2 * np.pi / lr, 2 * np.pi / ls, q_0,
-                                            self.rolloff)
+                                            self.rolloff, self.cutoff)
             return np.array([0.5 * np.log(sigma2), a + np.log(self.G_ref), H, np.log(lr),
                              np.log(ls), np.log(C_r)])
 
@@ -1016,7 +1125,7 @@ def _best_solution(problem: _ShapeProblem, theta, chi2_eq36: float, seed=None,
         # from the best points of a coarse grid (amplitude solved for at each)
         starts = _grid_starts(best[0], problem.free, problem.lower, problem.upper,
                               problem.x, problem.ly, problem.w, problem.cutoffs,
-                              problem.lam_0, problem.rolloff, problem.memo)
+                              problem.lam_0, problem.rolloff, problem.memo, problem.cutoff)
         power_law = problem.free[2] and problem.free[3] and not (best[1][2] or best[1][3])
         if power_law and not poor_alone(best[0], best[3]):
             starts = [(cost, t) for cost, t in starts if cost < best[3] * problem.dof]
@@ -1102,7 +1211,7 @@ def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, rel_cov=None,
     range that its cutoff causes, linear in it once the cutoff lies outside the lags, and 0
     when there is no cutoff.  ``kw["fixed"] = [H, lambda_r, lambda_s]`` (NaN: free).
     """
-    start_kw = {k: v for k, v in kw.items() if k != "lambda_0"}
+    start_kw = {k: v for k, v in kw.items() if k not in ("lambda_0", "cutoff")}
     problem = _ShapeProblem(G, se, **{k: v for k, v in kw.items() if k != "eq36"})
     theta, chi2_eq36 = _shape_start(problem, G, se, **start_kw)
     theta, active, cov_free, chi2 = _best_solution(problem, theta, chi2_eq36, seed,
@@ -1128,7 +1237,8 @@ def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, rel_cov=None,
         keep = np.array([False, False, not free[1], not free[2], not free[3], False])
         out[~keep], std[~keep], cov[:] = np.nan, np.nan, np.nan
     values = np.array([*out, *std, chi2, problem.n, resolved_r, resolved_s, rms_misfit,
-                       max_factor, chi2_eq36, np.nan, np.nan, bits, code, *cov.ravel()],
+                       max_factor, chi2_eq36, np.nan, np.nan, bits, code, 0, np.nan,
+                       *cov.ravel()],
                       dtype=float)
     if not theta_out:
         return values
@@ -1213,32 +1323,33 @@ def _fitted_cutoffs(lam_r, lam_s, r_ok, s_ok, lam_0):
 def fitted_spectrum_acf(H, G_sa, lam_r, lam_s, r_ok, s_ok, shape, *, dr, dr_ref, lam_0):
     """G (eq. 9) at lags ``dr`` of one fitted spectrum (NaN where the fit failed).
 
-    ``shape``: the roll-off, index in :data:`ROLLOFFS` (variable ``rolloff_shape``).
+    ``shape``: the roll-off and cutoff, :func:`~.spectral_models.shape_code` (variables
+    ``rolloff_shape`` and ``cutoff_shape``).
     """
     if not (np.isfinite(H) and np.isfinite(G_sa)):
         return np.full(dr.shape, np.nan)
-    rolloff = ROLLOFFS[int(shape)]
+    rolloff, cutoff = shape_names(shape)
     lr, ls = _fitted_cutoffs(lam_r, lam_s, r_ok, s_ok, lam_0)
     return G_sa * _acf_shape(dr / dr_ref, H, lr / dr_ref, ls / dr_ref, lam_0 / dr_ref,
-                             rolloff)
+                             rolloff, cutoff=cutoff)
 
 
 def fitted_spectrum_gradient(H, G_sa, lam_r, lam_s, r_ok, s_ok, shape, *, dr, dr_ref, lam_0,
                              g_factor):
     """Gbar (eq. 26, closed form) at lags ``dr`` of one fitted spectrum (NaN if it failed).
 
-    ``shape``: the roll-off, index in :data:`ROLLOFFS`; ``g_factor`` converts ``G_sa`` to
-    the lateral unit squared.
+    ``shape``: the roll-off and cutoff (:func:`~.spectral_models.shape_code`); ``g_factor``
+    converts ``G_sa`` to the lateral unit squared.
     """
     if not (np.isfinite(H) and np.isfinite(G_sa)):
         return np.full(dr.shape, np.nan)
-    rolloff = ROLLOFFS[int(shape)]
+    rolloff, cutoff = shape_names(shape)
     lr, ls = _fitted_cutoffs(lam_r, lam_s, r_ok, s_ok, lam_0)
     c = 2 * np.pi * G_sa * g_factor / dr_ref ** (2 * H) / self_affine_constant(H)
     with np.errstate(divide="ignore"):
         q_r, q_s, q_0 = 2 * np.pi / np.array([lr, ls, lam_0], dtype=float)
     return np.sqrt(model_gradient2(2 * np.pi / dr, c=c, hurst=H, q_r=q_r, q_s=q_s,
-                                   q_0=q_0, rolloff=rolloff))
+                                   q_0=q_0, rolloff=rolloff, cutoff=cutoff))
 
 
 def fitted_spectrum_gradient_std(H, G_sa, lam_r, lam_s, r_ok, s_ok, shape, cov, *, dr,

@@ -26,6 +26,7 @@ from .fitting import (
     fitted_spectrum_gradient_std,
 )
 from .hankel import power_law_moment_kernel
+from .shape_factors import ROLLOFFS
 from .spectrum_of_acf import (
     principal_axes,
     smooth_acf_kernel,
@@ -429,7 +430,8 @@ def _fit_gradient(g, se, dr, fit, fit_gradient):
         return None, None, bits, code
     cov = fit_covariance(values)
     args = (params["hurst"], params["G_sa"], params["lambda_r"], params["lambda_s"],
-            params["lambda_r_resolved"], params["lambda_s_resolved"], params["rolloff_shape"])
+            params["lambda_r_resolved"], params["lambda_s_resolved"],
+            params["rolloff_shape"] + len(ROLLOFFS) * params["cutoff_shape"])
     lags = np.where(dr > 0, dr, np.nan)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         return (fitted_spectrum_gradient(*args, dr=lags, **fit_gradient),
