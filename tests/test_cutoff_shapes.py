@@ -32,7 +32,7 @@ from xrough._kernels.spectral_models import (
     shape_names,
 )
 from xrough.fitting import fit_acf, model_acf
-from xrough.gradient import gradient_from_fit
+from xrough.gradient import gradient_from_fit, gradient_from_spectrum
 from xrough.models import model_attrs, model_from_attrs
 from xrough.testing import assert_netcdf_round_trip
 
@@ -183,6 +183,8 @@ def test_fit_recovers_the_exact_gaussian_model(rolloff, tmp_path):
     exact = np.sqrt(model_gradient2(q_cut, c=m.C_r * m.q_r ** 3, hurst=0.5, q_r=m.q_r,
                                     q_s=m.q_s, rolloff=rolloff, cutoff="gaussian"))
     np.testing.assert_allclose(gb.values, exact, rtol=1e-6)
+    # eq. 26 of the model spectrum itself (closed form of its attributes)
+    np.testing.assert_allclose(gradient_from_spectrum(C, dr).values, exact, rtol=1e-12)
     assert_netcdf_round_trip(p, tmp_path / "fit.nc")
 
 
@@ -263,3 +265,35 @@ def test_cutoff_argument_is_checked():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         assert fit_acf(G, cutoff="gaussian").attrs["cutoff"] == "gaussian"
+
+
+# --------------------------------------------------------------------------------------
+# gbar at the pixel scale where the fitted spectrum runs on beyond the data's resolution
+# --------------------------------------------------------------------------------------
+def test_beyond_resolution_of_a_power_law():
+    """A bare power law's gbar^2 ~ dr^-(2-2H): the share beyond two first lags is
+    ``1 - 2^-(2-2H)`` exactly (log-log interpolation of a power law is exact)."""
+    from xrough._kernels.gradient import beyond_resolution
+    dr = np.geomspace(1.0, 100.0, 21)
+    for H in (0.05, 0.3, 0.8):
+        gbar = dr ** -(1 - H)
+        share = beyond_resolution(dr, gbar, np.ones(dr.size, dtype=bool))
+        assert share == pytest.approx(1 - 2.0 ** -(2 - 2 * H), rel=1e-12)
+    assert np.isnan(beyond_resolution(dr, gbar, np.r_[False, np.ones(20, dtype=bool)]))
+
+
+def test_gradient_at_one_pixel_through_a_gaussian_transfer_at_one_pixel():
+    """A map whose Gaussian transfer sits at one pixel: the fitted spectrum runs on beyond
+    the map's Nyquist wavenumber, and gbar at one pixel counts wavelengths the data do not
+    resolve (512^2, H 0.3: 8 % above the map's own full gradient, 40 % of gbar^2 there):
+    questionable, saying why.  At four pixels the same gradient is good and right."""
+    for lambda_s, rated in ((1.0, "questionable"), (4.0, "good")):
+        topo = xrough.self_affine_surface(hurst=0.3, lambda_r=64, lambda_s=lambda_s,
+                                          size=256, n=256, rms_height=1.0,
+                                          rolloff="smooth", cutoff="gaussian", seed=2,
+                                          unit="um")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", xrough.QualityWarning)
+            g = topo.rough.acf().rough.gradient()
+        assert g.attrs["quality"] == rated, (lambda_s, g.attrs["quality_notes"])
+        assert ("Nyquist" in g.attrs["quality_notes"]) == (lambda_s == 1.0)

@@ -8,8 +8,8 @@ checks that the Dataset has what its model needs and finds its units once:
     the fitted ``G(dr)``: eq. 9 of the fitted spectrum, or eq. 36;
 :func:`gradient_from_fit`
     the scale-dependent rms gradient: eq. 26 of the fitted spectrum, or eq. 37/38;
-:func:`rolloff_shapes`
-    the roll-off shape of each fit.
+:func:`rolloff_shapes`, :func:`spectrum_shapes`
+    the roll-off shape of each fit, and its roll-off and cutoff in one code.
 
 :func:`xrough.fitting.model_acf` and :func:`xrough.gradient.gradient_from_fit` are these
 functions.  The numpy kernels are :func:`xrough._kernels.fitting.fitted_spectrum_acf` and

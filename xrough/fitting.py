@@ -553,8 +553,8 @@ def fit_acf(
     from the moments of the fitted spectrum.  G is eq. 9 of the model spectrum in closed
     form (:mod:`xrough._kernels.model_acf`: Bessel-function integrals of one variable,
     to about 1e-13 for the sharp shape and 1e-10 for the smooth one; the smooth shape
-    with ``lambda_s > lambda_r / 4`` or a ``lambda_0`` falls back to the quadrature of
-    :func:`xrough._kernels.hankel.acf_from_spectrum_kernel`).  The optimiser
+    with ``lambda_s > lambda_r / 4`` or a ``lambda_0``, and the Gaussian cutoff, fall back
+    to the quadrature of :func:`xrough._kernels.hankel.acf_from_spectrum_kernel`).  The optimiser
     (``scipy.optimize.least_squares``, trust-region reflective) works on ``ln G_sa``,
     ``H``, ``ln eta`` and ``ln eps`` with
     ``eta = (dr_max/lambda_r)^(2-2H)`` and ``eps = (lambda_s/dr_min)^(2H)``

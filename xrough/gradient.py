@@ -349,12 +349,13 @@ def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec,
 
     factor = inflation_of(G)
     factor = xr.ones_like(Gl) if factor is None else factor
-    out, fit_rel, code, n_exact, bits, level = xr.apply_ufunc(
+    out, fit_rel, code, n_exact, bits, level, share = xr.apply_ufunc(
         kernel, Gl, se, noise, fitted.transpose(*Gl.dims), fitted_std.transpose(*Gl.dims),
         factor, input_core_dims=[["dr"]] * 6,
-        output_core_dims=[["dr"], ["dr"], [], [], [], []],
+        output_core_dims=[["dr"], ["dr"], [], [], [], [], []],
         vectorize=True, dask="parallelized",
-        output_dtypes=[float, float, np.int8, np.int64, np.int16, np.int8], keep_attrs=False)
+        output_dtypes=[float, float, np.int8, np.int64, np.int16, np.int8, float],
+        keep_attrs=False)
     code = code.assign_attrs(
         long_name="route of the rms gradient per curve", units="1",
         **quality.cf_flags(kernels.AUTO_METHODS, np.int8))
@@ -373,7 +374,7 @@ def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec,
         n_valid = np.count_nonzero(np.isfinite(Gl.values) & (dr > 0), axis=-1)
         reasons = np.vectorize(_route_reason, otypes=[object])(
             code.values, n_exact.values, n_valid, bits.values, level.values,
-            params is not None)
+            params is not None, share.values)
         notes = _curve_notes(reasons, level.values)
         if code.ndim == 0:
             taken = kernels.AUTO_METHODS[int(code)]
@@ -385,7 +386,7 @@ def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec,
 
 
 def _route_reason(code: int, n_exact: int, n_valid: int, bits: int, level: int,
-                  given: bool) -> str:
+                  given: bool, share: float = np.nan) -> str:
     """Why ``method='auto'`` took route ``code`` for one curve, in words."""
     taken = kernels.AUTO_METHODS[code]
     if taken == "exact":
@@ -396,6 +397,10 @@ def _route_reason(code: int, n_exact: int, n_valid: int, bits: int, level: int,
         reason += f"; eq. 26 of the fitted model spectrum on {where}"
         if level and bits > 0:
             reason += " from a questionable fit: " + describe_problems(bits)
+        if np.isfinite(share) and share > kernels.BEYOND_RESOLUTION:
+            reason += (f"; {100 * share:.0f} % of gbar^2 at the first lag comes from "
+                       "wavelengths below two lags, which the data do not resolve (beyond "
+                       "their Nyquist wavenumber): the model's, not the measurement's")
         return reason
     fit_text = ("the given fit failed (see its quality_notes)" if given else
                 "failed: " + describe_problems(bits) if bits > 0 else
@@ -649,7 +654,8 @@ def gradient_from_spectrum(
     if spec.model is not None:
         m = spec.model
         gbar2 = model_gradient2(q_cut, c=m.C_r * m.q_r ** (2 + 2 * m.hurst), hurst=m.hurst,
-                                q_r=m.q_r, q_s=m.q_s, q_0=m.q_0, rolloff=m.rolloff)
+                                q_r=m.q_r, q_s=m.q_s, q_0=m.q_0, rolloff=m.rolloff,
+                                cutoff=m.cutoff)
         extra = model_attrs(spec.model)
     else:
         gbar2 = power_law_moment_kernel(q_cut, spec.func.q, spec.func.values, 2)

@@ -36,8 +36,8 @@ from .spectrum_of_acf import (
 )
 from .uncertainty import PREDICTION_PER_DECADE, relative_covariance
 
-__all__ = ["AUTO_METHODS", "EVEN_START", "EVEN_SERIES_CORRECTION", "EVEN_THREE",
-           "EVEN_AGREE", "exact_gradient",
+__all__ = ["AUTO_METHODS", "BEYOND_RESOLUTION", "beyond_resolution", "EVEN_START",
+           "EVEN_SERIES_CORRECTION", "EVEN_THREE", "EVEN_AGREE", "exact_gradient",
            "exact_support", "exact_on_lags", "auto_gradient", "even_start", "with_even_start",
            "simple_gradient", "gradient_std"]
 
@@ -50,6 +50,16 @@ GRADIENT_ERROR_CAPTURED = 0.999
 #: over, mostly of single bins, enters as the ballistic response (half the relative
 #: error of G at the lag).
 GRADIENT_ERROR_AXES = 8
+
+#: A fitted gradient at the first lag that owes more than this share of its square to
+#: wavelengths below two lags (beyond the data's Nyquist wavenumber) is the model's, not the
+#: data's: the curve is questionable.  A map through a Gaussian transfer at one pixel
+#: (512^2, H 0.3) gave such a gbar 8 % above the map's own full gradient, rated good, with
+#: a third of its square there (H 0.05: 1.9 % above, 22-24 % there); a cutoff the map
+#: resolves (at 4 pixels) puts < 1 % there, eq. 35's sharp cutoff at two pixels (H 0.1)
+#: 11 % with gbar right to 0.5 %.  A power law at the first lags puts ``1 - 2^-(2-2H)``
+#: there (H 0.3: 62 %, 0.7: 34 %, 0.85: 19 %).
+BEYOND_RESOLUTION = 0.2
 
 #: Codes of the route :func:`auto_gradient` took, per curve.
 AUTO_METHODS = ("exact", "fit", "simple", "exact+fit", "exact+simple")
@@ -295,14 +305,14 @@ def _first_weight(weight: np.ndarray) -> float:
     return float(weight[np.flatnonzero(weight)[0]]) if np.any(weight) else 0.0
 
 
-def with_even_start(gbar, dr, g) -> np.ndarray:
+def with_even_start(gbar, dr, g, start=None) -> np.ndarray:
     """``gbar`` of one curve with :func:`even_start`: the full gradient where G is smooth.
 
     At the first lags, ``gbar`` is moved to ``sqrt(4 a)`` by the weight there; at every
     lag, a ``gbar`` above it (which eq. 26 does not allow: gbar^2 <= m2) is lowered to it
-    by the weight at the first lag.
+    by the weight at the first lag.  ``start``: :func:`even_start` of this curve, if known.
     """
-    full, weight, _, _ = even_start(dr, g)
+    full, weight, _, _ = even_start(dr, g) if start is None else start
     gbar = np.array(gbar, dtype=float)
     if not np.isfinite(full):
         return gbar
@@ -345,7 +355,7 @@ def exact_on_lags(g, noise, *, dr, smooth, support_rtol, interpolation,
 
 def auto_gradient(g, se, noise, fitted=None, fitted_std=None, *, dr, exact: dict,
                   fit: dict | None, fit_gradient: dict | None
-                  ) -> tuple[np.ndarray, np.ndarray, int, int, int, int]:
+                  ) -> tuple[np.ndarray, np.ndarray, int, int, int, int, float]:
     """Gbar of one curve by the first route that covers it, the route, and why.
 
     The exact gradient where G determines it; if that is fewer than half of the valid
@@ -365,16 +375,29 @@ def auto_gradient(g, se, noise, fitted=None, fitted_std=None, *, dr, exact: dict
     spectrum of G rings by up to 1 % there at a sharp cutoff, and a fitted model that puts
     roughness below the scales G resolves gave up to twice the full gradient.
 
-    Returns ``(gbar, fit_std, route, n_exact, fit_problems, quality)``: ``fit_std`` the
+    Where the fitted model gives gbar at the first lag and puts more than
+    :data:`BEYOND_RESOLUTION` of its ``gbar^2`` there at wavelengths shorter than two first
+    lags (beyond the Nyquist wavenumber of a map with that pixel: the data hold no such
+    wavelength, the model extends them), the curve is questionable and ``share`` says how
+    much (NaN otherwise).
+
+    Returns ``(gbar, fit_std, route, n_exact, fit_problems, quality, share)``: ``fit_std`` the
     relative error of gbar where the fitted model gives it (NaN elsewhere; see
     :func:`~xrough._kernels.fitting.fitted_spectrum_gradient_std`), the route's code in
     :data:`AUTO_METHODS`, the number of lags the exact gradient covers, the problem bits of
     the fit made here (-1: none made) and the quality code (0 good; 1 questionable: the
     fit was questionable or the ballistic form was used; 2 failed: no lag determined).
     """
-    gbar, *rest = _auto_route(g, se, noise, fitted, fitted_std, dr=dr, exact=exact,
-                              fit=fit, fit_gradient=fit_gradient)
-    return (with_even_start(gbar, dr, g), *rest)
+    gbar, fit_std, route, n_exact, bits, level, share = _auto_route(
+        g, se, noise, fitted, fitted_std, dr=dr, exact=exact, fit=fit,
+        fit_gradient=fit_gradient)
+    start = even_start(dr, g)
+    if _first_weight(start[1]) > 0 or not (np.isfinite(share) and share > BEYOND_RESOLUTION):
+        share = np.nan  # the first lag is G's own (its even start), or the fit's is resolved
+    else:
+        level = max(level, 1)
+    return (with_even_start(gbar, dr, g, start), fit_std, route, n_exact, bits, level,
+            share)
 
 
 #: The fit's problem bit of a G with too few bins for its parameters: the ballistic form on
@@ -383,14 +406,14 @@ TOO_FEW_BINS = 1 << PROBLEMS.index("too_few_bins")
 
 
 def _auto_route(g, se, noise, fitted, fitted_std, *, dr, exact, fit, fit_gradient):
-    """:func:`auto_gradient` before its even start."""
+    """:func:`auto_gradient` before its even start (``share``: :func:`beyond_resolution`)."""
     valid = np.isfinite(g) & (dr > 0)
     none = np.full(dr.shape, np.nan)
     out = exact_on_lags(g, noise, dr=dr, **exact)
     covered = np.isfinite(out) & valid
     n_exact = int(covered.sum())
     if n_exact == valid.sum():
-        return out, none, 0, n_exact, -1, 0
+        return out, none, 0, n_exact, -1, 0, np.nan
     use_exact = 2 * n_exact >= valid.sum()
     bits, fit_code = -1, 0
     if fitted is None:
@@ -398,19 +421,35 @@ def _auto_route(g, se, noise, fitted, fitted_std, *, dr, exact, fit, fit_gradien
     if fitted is not None and np.all(np.isfinite(fitted[valid])):
         taken = valid & ~covered if use_exact else valid
         std = none if fitted_std is None else np.where(taken, fitted_std, np.nan)
+        share = beyond_resolution(dr, fitted, taken)
         if use_exact:
             return (np.where(covered, out, np.where(valid, fitted, np.nan)), std, 3, n_exact,
-                    bits, fit_code)
-        return np.where(valid, fitted, np.nan), std, 1, n_exact, bits, fit_code
+                    bits, fit_code, share)
+        return np.where(valid, fitted, np.nan), std, 1, n_exact, bits, fit_code, share
     if not use_exact and bits > 0 and bits & TOO_FEW_BINS:
-        return none, none, 2, n_exact, bits, 2  # no gradient: G has too few bins for any
+        return none, none, 2, n_exact, bits, 2, np.nan  # G has too few bins for any gbar
     simple = simple_gradient(dr, g)
     if use_exact:
         gbar = np.where(covered, out, np.where(valid, simple, np.nan))
         route = 4
     else:
         gbar, route = np.where(valid, simple, np.nan), 2
-    return gbar, none, route, n_exact, bits, 1 if np.any(np.isfinite(gbar)) else 2
+    return gbar, none, route, n_exact, bits, 1 if np.any(np.isfinite(gbar)) else 2, np.nan
+
+
+def beyond_resolution(dr, fitted, taken) -> float:
+    """Share of the fitted ``gbar^2`` at the first lag from wavelengths below two first lags.
+
+    ``1 - (gbar(2 dr_0) / gbar(dr_0))^2`` of the fitted gradient (log-log between the lags;
+    eq. 26: the part of ``int q^3 C dq`` between ``pi / dr_0``, the Nyquist wavenumber of a
+    map of pixel ``dr_0``, and ``2 pi / dr_0``).  NaN where the fit does not give the first
+    lag (``taken``) or no lag reaches ``2 dr_0``.
+    """
+    ok = np.flatnonzero(np.isfinite(fitted) & (fitted > 0) & (dr > 0))
+    if ok.size < 2 or not taken[ok[0]] or dr[ok[-1]] < 2 * dr[ok[0]]:
+        return np.nan
+    at_two = np.exp(np.interp(np.log(2 * dr[ok[0]]), np.log(dr[ok]), np.log(fitted[ok])))
+    return float(1.0 - (at_two / fitted[ok[0]]) ** 2)
 
 
 def _fit_gradient(g, se, dr, fit, fit_gradient):
