@@ -297,3 +297,22 @@ def test_gradient_at_one_pixel_through_a_gaussian_transfer_at_one_pixel():
             g = topo.rough.acf().rough.gradient()
         assert g.attrs["quality"] == rated, (lambda_s, g.attrs["quality_notes"])
         assert ("Nyquist" in g.attrs["quality_notes"]) == (lambda_s == 1.0)
+
+
+def test_gaussian_fit_is_the_same_physics_in_nm_um_and_m():
+    """The same perturbed Gaussian-cutoff G in nm, um and m: the same fit to 1e-8 (the
+    optimiser works in units of dr_ref and of the mean G; the standard deviations come from
+    finite differences, measured 2e-9 apart)."""
+    fits = []
+    for unit, f in (("nm", 1.0), ("um", 1e-3), ("m", 1e-9)):
+        C = xrough.model_spectrum(hurst=0.4, lambda_r=f * 1000, lambda_s=f * 10,
+                                  rms_height=f * 2, unit=unit, cutoff="gaussian",
+                                  rolloff="smooth")
+        G = xrough.acf_from_spectrum(C, dr_min=f * 0.5, dr_max=f * 1e5)
+        G = G * np.exp(0.01 * np.sin(np.arange(G.size)))  # not exactly the model
+        p = fit_acf(G)
+        assert int(p.cutoff_shape) == 1
+        fits.append([float(p.hurst), float(p.hurst_std), float(p.lambda_s) / f,
+                     float(p.sigma_h) / f, float(p.sigma_h_std) / f])
+    np.testing.assert_allclose(fits[1], fits[0], rtol=1e-8)
+    np.testing.assert_allclose(fits[2], fits[0], rtol=1e-8)
