@@ -666,7 +666,10 @@ def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lam
     kw["cutoff"] = CUTOFFS[1]
     seed = theta.copy()
     seed[3] -= np.log(gamma(1 - theta[1]))  # the same shift of G beyond lambda_s
-    gauss = _fit_spectrum_shape(G, se, rolloff=rolloff, seed=seed, rel_cov=rel_cov, **kw)
+    try:
+        gauss = _fit_spectrum_shape(G, se, rolloff=rolloff, seed=seed, rel_cov=rel_cov, **kw)
+    except (ValueError, FloatingPointError, np.linalg.LinAlgError):
+        return out  # a Gaussian search that breaks down does not cost the sharp fit
     gauss = _with_shape(gauss, int(out[_AT["rolloff_shape"]]),
                         out[_AT["reduced_chi2_other_rolloff"]])
     gauss[_AT["cutoff_shape"]] = 1
