@@ -316,3 +316,25 @@ def test_gaussian_fit_is_the_same_physics_in_nm_um_and_m():
                      float(p.sigma_h) / f, float(p.sigma_h_std) / f])
     np.testing.assert_allclose(fits[1], fits[0], rtol=1e-8)
     np.testing.assert_allclose(fits[2], fits[0], rtol=1e-8)
+
+
+def test_a_gaussian_search_that_breaks_down_leaves_the_sharp_fit(monkeypatch):
+    """A Gaussian-cutoff search that raises (a singular covariance, say) costs nothing: the
+    sharp fit is returned as if no Gaussian had been tried."""
+    import xrough._kernels.fitting as kf
+
+    C = xrough.model_spectrum(hurst=0.7, lambda_r=500, lambda_s=5, rms_height=1, unit="nm")
+    G = xrough.acf_from_spectrum(C, dr_min=0.5, dr_max=1e4)
+    sharp = fit_acf(G, cutoff="sharp")
+    original = kf._fit_spectrum_shape
+
+    def breaking(*args, **kw):
+        if kw.get("cutoff") == "gaussian":
+            raise np.linalg.LinAlgError("singular")
+        return original(*args, **kw)
+
+    monkeypatch.setattr(kf, "_fit_spectrum_shape", breaking)
+    fit_acf.cache_clear()
+    p = fit_acf(G)
+    assert int(p.cutoff_shape) == 0 and float(p.hurst) == float(sharp.hurst)
+    assert np.isnan(float(p.reduced_chi2_other_cutoff))
