@@ -10,7 +10,10 @@ fitted by:
   is the denominator of ``ratio``);
 * ``spectrum`` with ``rolloff="sharp"``, ``"smooth"`` and the default ``"auto"`` (both
   shapes fitted, the better kept): eq. 9 of the model spectrum, evaluated at every step of
-  the least-squares search.
+  the least-squares search; each with the default ``cutoff="auto"`` (where ``lambda_s`` is
+  resolved, a Gaussian short-wavelength cutoff fitted too, the better kept: column
+  ``cutoff``);
+* ``eq35``: the default roll-off with ``cutoff="sharp"`` (eq. 35's cutoff alone).
 
 Last, a pure power law ``G = dr^(2H)`` (H = 0.6, 1 nm to 1 um, 5 % errors): no cutoff in the
 lags, so the spectrum fit finds neither and restarts from a grid of starting points before
@@ -40,7 +43,7 @@ from xrough.memo import forget
 
 LAMBDA_R, LAMBDA_S = 1000.0, 10.0  # nm
 FITS = [("eq36", {"model": "eq36"}), ("sharp", {"rolloff": "sharp"}),
-        ("smooth", {"rolloff": "smooth"}), ("auto", {})]
+        ("smooth", {"rolloff": "smooth"}), ("auto", {}), ("eq35", {"cutoff": "sharp"})]
 
 
 def _curve(hurst: float, rolloff: str, noise: float, rng) -> xr.DataArray:
@@ -85,7 +88,8 @@ def _rows(label: str, G: xr.DataArray, hurst: float, cutoffs: bool, repeat: int)
                  else np.nan)
         print(f"{label} {name:>6} {seconds:7.3f} {seconds / base:6.0f} "
               f"{abs(float(fit.hurst) - hurst):7.1e} {err_r:8.1e} {err_s:8.1e} "
-              f"{fit.attrs.get('quality', '?'):>12}", flush=True)
+              f"{fit.attrs.get('quality', '?'):>12} {fit.attrs.get('cutoff', '-'):>8}",
+              flush=True)
 
 
 def main() -> None:
@@ -93,7 +97,7 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=1)
     repeat = parser.parse_args().repeat
     head = (f"{'H':>4} {'spectrum':>8} {'noise':>5} {'fit':>6} {'time s':>7} {'ratio':>6} "
-            f"{'err H':>7} {'err l_r':>8} {'err l_s':>8} {'quality':>12}")
+            f"{'err H':>7} {'err l_r':>8} {'err l_s':>8} {'quality':>12} {'cutoff':>8}")
     print(head)
     print("-" * len(head))
     rng = np.random.default_rng(0)

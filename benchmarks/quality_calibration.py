@@ -39,6 +39,15 @@ Usage::
     python benchmarks/quality_calibration.py            # 52 maps + real files, ~6 min
     python benchmarks/quality_calibration.py --quick    # 13 maps of 128^2, ~2.5 min
     python benchmarks/quality_calibration.py --no-real  # synthetic only
+    python benchmarks/quality_calibration.py --shapes   # roll-off and cutoff per real file
+
+``--shapes`` prints, for every real file (plane removed, or as ``DETREND`` says, alone and
+with ``mask_outliers(threshold=5)`` as above), the roll-off and short-wavelength cutoff that the
+default fit keeps, H +- hurst_std and the reduced chi^2 of the default fit
+(``cutoff='auto'``), of ``cutoff='sharp'`` (the roll-off still chosen), and of each roll-off
+with the sharp cutoff (the two fits the roll-off choice compares), with their times, the
+default fit's lambda_s in units of G's first lag (a map's pixel), and gbar at the first
+lag of G with its stated error (``rms_gradient`` given the default fit) and its route.
 """
 
 from __future__ import annotations
@@ -255,6 +264,64 @@ def calibrate_real():
     return out
 
 
+CLEANINGS = {"": False, ", outliers masked": True}
+SHAPE_FITS = {"default": {}, "cutoff sharp": {"cutoff": "sharp"},
+              "sharp/sharp": {"rolloff": "sharp", "cutoff": "sharp"},
+              "smooth/sharp": {"rolloff": "smooth", "cutoff": "sharp"}}
+
+
+def _shape_cell(fit, seconds: float, shapes: bool) -> str:
+    """``roll-off/cutoff H +- std, chi^2 (rating, time)`` of one fit."""
+    head = f"{fit.attrs['rolloff']}/{fit.attrs['cutoff']} " if shapes else ""
+    return (f"{head}{float(fit.hurst):.3f} +- {float(fit.hurst_std):.3f}, "
+            f"{float(fit.reduced_chi2):.3g} ({fit.attrs['quality']}, {seconds:.2f} s)")
+
+
+def shapes_real() -> None:
+    """The roll-off and cutoff each real file's fit keeps, against the sharp cutoff."""
+    from xrough.memo import forget
+
+    print("| file | cleaning | default: roll-off/cutoff H +- std, chi^2 | cutoff='sharp' | "
+          "sharp roll-off, sharp cutoff | smooth roll-off, sharp cutoff | "
+          "gbar at the first lag (default fit; route) |")
+    print("|---|---|---|---|---|---|---|")
+    for name, opts in REAL.items():
+        path = DATA / name
+        if not path.exists():
+            continue
+        for suffix, mask in CLEANINGS.items():
+            cleaning = DETREND.get(name, "plane") + suffix
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                try:
+                    topo = xrough.open_topography(path, **opts)
+                except ValueError as err:
+                    print(f"| {name.split('/')[-1]} | {cleaning} | refused: {err} |||||")
+                    break
+                clean = topo.rough.detrend(mode=DETREND.get(name, "plane"))
+                if mask:
+                    clean = clean.rough.mask_outliers(threshold=5)
+                G = clean.rough.acf()
+                cells = []
+                for label, kwargs in SHAPE_FITS.items():
+                    forget()  # each fit timed as a first one (xrough keeps fits by content)
+                    t0 = time.perf_counter()
+                    fit = xrough.fit_acf(G, **kwargs)
+                    cells.append(_shape_cell(fit, time.perf_counter() - t0,
+                                             label in ("default", "cutoff sharp")))
+                    if label == "default":
+                        cells[-1] += (f", lambda_s {float(fit.lambda_s / G.dr[0]):.3g} "
+                                      "first lags")
+                        gbar = G.rough.gradient(fit=fit)
+                        first = gbar.isel(dr=0)
+                        gbar_cell = (f"{float(first):.3g} +- "
+                                     f"{100 * float(first.gbar_std / first):.2g} % "
+                                     f"({gbar.attrs['method']})")
+                cells.append(gbar_cell)
+            print(f"| {name.split('/')[-1]} | {cleaning} | " + " | ".join(cells) + " |",
+                  flush=True)
+
+
 def merged(rows):
     """One row per check: note pieces of a result that fired on the same maps are one
     check (a note may contain the separator; inherited notes come in groups)."""
@@ -291,8 +358,14 @@ def main(argv=None):
     parser.add_argument("--no-real", action="store_true", help="skip the real files")
     parser.add_argument("--real-only", action="store_true",
                         help="the real files only (no synthetic family)")
+    parser.add_argument("--shapes", action="store_true",
+                        help="only the roll-off and cutoff shapes of the real files' fits")
     args = parser.parse_args(argv)
     t0 = time.perf_counter()
+    if args.shapes:
+        shapes_real()
+        print(f"\n{time.perf_counter() - t0:.0f} s")
+        return
     if not args.real_only:
         _synthetic(args.quick)
     if not args.no_real and DATA.exists():

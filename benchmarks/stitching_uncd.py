@@ -78,7 +78,8 @@ def consumers(G: xr.DataArray) -> None:
         gap = "not measured" in r.attrs.get("quality_notes", "")
         extra = ""
         if name == "fit_acf":
-            extra = f"H = {float(r.hurst):.3f}"
+            extra = (f"H = {float(r.hurst):.3f} ({r.attrs['rolloff']} roll-off, "
+                     f"{r.attrs['cutoff']} cutoff)")
         if name == "elastic_energy":
             extra = (f"v_el = {float(r.v_el):.4g} J/m2, gap_share = "
                      f"{float(r.gap_share):.3f} +- {float(r.gap_share_error):.3f}")
