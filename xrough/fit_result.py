@@ -36,6 +36,7 @@ from ._kernels.fitting import (
     fitted_spectrum_gradient_std,
 )
 from ._kernels.shape_factors import ROLLOFFS, rolloff_factor, self_affine_factor
+from ._kernels.spectral_models import shape_code
 from .acf import lag_coord
 from .units import QuantityLike
 
@@ -203,7 +204,7 @@ def spectrum_shapes(params: xr.Dataset) -> xr.DataArray:
     """
     shapes = rolloff_shapes(params)
     if "cutoff_shape" in params.variables:
-        shapes = shapes + len(ROLLOFFS) * params["cutoff_shape"]
+        shapes = shape_code(shapes, params["cutoff_shape"])
     return shapes
 
 

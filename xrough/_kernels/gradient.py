@@ -26,7 +26,7 @@ from .fitting import (
     fitted_spectrum_gradient_std,
 )
 from .hankel import power_law_moment_kernel
-from .shape_factors import ROLLOFFS
+from .spectral_models import shape_code
 from .spectrum_of_acf import (
     principal_axes,
     smooth_acf_kernel,
@@ -470,7 +470,7 @@ def _fit_gradient(g, se, dr, fit, fit_gradient):
     cov = fit_covariance(values)
     args = (params["hurst"], params["G_sa"], params["lambda_r"], params["lambda_s"],
             params["lambda_r_resolved"], params["lambda_s_resolved"],
-            params["rolloff_shape"] + len(ROLLOFFS) * params["cutoff_shape"])
+            shape_code(params["rolloff_shape"], params["cutoff_shape"]))
     lags = np.where(dr > 0, dr, np.nan)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         return (fitted_spectrum_gradient(*args, dr=lags, **fit_gradient),

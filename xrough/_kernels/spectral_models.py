@@ -25,7 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import integrate, special
+from scipy import special
 
 from .shape_factors import ROLLOFFS
 
@@ -34,9 +34,15 @@ __all__ = ["SpectrumModel", "model_gradient2", "shape_code", "shape_names"]
 CUTOFFS = ("sharp", "gaussian")
 
 
-def shape_code(rolloff: str, cutoff: str = "sharp") -> int:
-    """One integer for a model's roll-off and cutoff: ``ROLLOFFS`` index + 2 ``CUTOFFS`` index."""
-    return ROLLOFFS.index(rolloff) + len(ROLLOFFS) * CUTOFFS.index(cutoff)
+def shape_code(rolloff, cutoff="sharp"):
+    """One integer for a model's roll-off and cutoff: ``ROLLOFFS`` index + 2 ``CUTOFFS`` index.
+
+    Each of ``rolloff``, ``cutoff`` is a name or its index (a number or an array of them,
+    e.g. the variables ``rolloff_shape`` and ``cutoff_shape`` of a fit).
+    """
+    r = ROLLOFFS.index(rolloff) if isinstance(rolloff, str) else rolloff
+    c = CUTOFFS.index(cutoff) if isinstance(cutoff, str) else cutoff
+    return r + len(ROLLOFFS) * c
 
 
 def shape_names(code) -> tuple[str, str]:
@@ -130,7 +136,8 @@ class SpectrumModel:
     def moment(self, k: int) -> float:
         """``(1/2pi) int dq q^(1+k) C(q)``: k=0 gives sigma_h^2, k=2 the mean-square gradient.
 
-        Closed form for the sharp shapes; adaptive quadrature (rtol 1e-12) for the others.
+        Closed form for eq. 35; Gauss-Legendre in ``ln q`` for the others
+        (:func:`_cumulative_moment`: relative error below 1e-13).
         """
         return self.C_r * self.shape_moment(k)
 
@@ -145,18 +152,8 @@ class SpectrumModel:
             else:
                 tail = qr ** (2 + 2 * H) * (qs**p - qr**p) / p
             return float((flat + tail) / (2 * np.pi))
-        # integrate in log q for accuracy over many decades
-        def f(lnq: float) -> float:
-            q = np.exp(lnq)
-            return q ** (2 + k) * float(self.shape(q))
-
-        lo = np.log(q0) if q0 > 0 else np.log(qr) - 40.0
-        pts = sorted({lo, *np.log(self.breakpoints[1:])})
-        total = 0.0
-        for a, b in zip(pts[:-1], pts[1:]):
-            val, _ = integrate.quad(f, a, b, epsrel=1e-13, epsabs=0.0, limit=200)
-            total += val
-        return float(total / (2 * np.pi))
+        # Gauss-Legendre in ln q, as eq. 26 to any q (model_gradient2)
+        return float(_cumulative_moment(np.inf, self, k)) / (2 * np.pi * self.C_r)
 
 
 def _expm1_minus_linear(v):
