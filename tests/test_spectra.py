@@ -376,9 +376,10 @@ def test_spectrum_of_the_shared_afm_map_with_defaults():
 
 
 def test_sigma_h2_does_not_follow_a_falling_end():
-    """A periodic profile's G falls near L/2; that fall is not continued into the plateau:
-    sigma_h2 is the last level, not a decade further down (0.02 against a variance of
-    1.25 before)."""
+    """A periodic profile's G falls near L/2.  With the variance of its heights (the coord
+    ``height_variance`` of a measured G) sigma_h2 is that variance; without it, that fall
+    is not continued into the plateau: sigma_h2 is the last level, not a decade further
+    down (0.02 against a variance of 1.25 before)."""
     rng = np.random.default_rng(0)
     n = 256
     q = np.fft.rfftfreq(n) * 2 * np.pi
@@ -390,4 +391,8 @@ def test_sigma_h2_does_not_follow_a_falling_end():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", xrough.QualityWarning)
         C = G.rough.spectrum()
-    assert C.attrs["sigma_h2"] == pytest.approx(float(G[-1]), rel=0.02)
+        C_free = G.drop_vars("height_variance").rough.spectrum()
+    assert C.attrs["sigma_h2"] == pytest.approx(1.25, rel=1e-12)
+    assert C.attrs["sigma_h2_from"].startswith("the variance of the heights")
+    assert C_free.attrs["sigma_h2"] == pytest.approx(float(G[-1]), rel=0.02)
+    assert C_free.attrs["sigma_h2_from"].startswith("the extension of G")

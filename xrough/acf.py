@@ -180,6 +180,26 @@ def check_acf(G: xr.DataArray, *, what: str = "G", single: bool = False,
     return spec
 
 
+#: The coord of a G measured from heights: their variance, G's mean over all pairs.
+HEIGHT_VARIANCE = "height_variance"
+
+
+def height_variance(G: xr.DataArray, spec: AcfSpec) -> float | None:
+    """Return the variance of the heights of one curve ``G`` in ``spec``'s length unit^2.
+
+    Read from the coord ``height_variance`` that the estimators attach (the level G
+    reaches in the mean over all pairs of points); ``None`` where G has none (a model, a
+    stitched or a hand-made G), it is not one value, or not a positive number.
+    """
+    coord = G.coords.get(HEIGHT_VARIANCE)
+    if coord is None or coord.ndim != 0:
+        return None
+    factor = (spec.g_factor if "units" not in coord.attrs else u.conversion_factor(
+        u.units_of(coord, what=f"coordinate {HEIGHT_VARIANCE!r}"), spec.length_unit**2))
+    value = float(coord.values) * factor
+    return value if np.isfinite(value) and value > 0 else None
+
+
 def read_acf(G: xr.DataArray, *, what: str = "G", single: bool = False,
              min_bins: int = 2) -> tuple[xr.DataArray, AcfSpec]:
     """Check ``G`` (:func:`check_acf`) and return it without its own rating, with its spec.

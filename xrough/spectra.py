@@ -37,7 +37,7 @@ from ._kernels.spectrum_of_acf import (
     support_grid,
 )
 from ._kernels.uncertainty import covariance_from_acf
-from .acf import mark_gaps, read_acf, result_attrs
+from .acf import height_variance, mark_gaps, read_acf, result_attrs
 from .memo import by_content
 from .models import model_attrs, model_from_attrs, self_affine_model
 from .units import QuantityLike
@@ -416,6 +416,7 @@ class _AcfInput:
     gaps: np.ndarray  # lag ranges no measurement covers (AcfSpec.gaps)
     covariance: np.ndarray | None = None  # of the relative statistical errors (bins x bins)
     error_model: str = "none"  # how ``covariance`` was built
+    plateau: float | None = None  # variance of the heights G was measured from (length^2)
 
 
 #: What of C(q) depends on G inside a gap (:func:`xrough.acf.mark_gaps`).
@@ -448,7 +449,7 @@ def acf_samples(G: Any, noise: Any = None, *, min_bins: int = 4,
     cov, model = (_error_covariance(G, spec, dr[valid], g[valid], valid, rel) if covariance
                   else (None, "none"))
     return _AcfInput(dr[valid], g[valid], rel, spec.length_unit, spec.unit_str, spec.gaps,
-                     cov, model)
+                     cov, model, height_variance(G, spec))
 
 
 def _error_covariance(G, spec, dr, g, valid, noise) -> tuple[np.ndarray | None, str]:
@@ -518,10 +519,12 @@ def _support(acf: _AcfInput, *, smooth, support_rtol, interpolation,
     """
     statistical = acf.covariance is not None and np.isfinite(max_error)
     error = (spectrum_error_kernel(support_grid(acf.dr), acf.dr, acf.G, acf.covariance,
-                                   smooth=smooth, interpolation=interpolation)
+                                   smooth=smooth, interpolation=interpolation,
+                                   plateau=acf.plateau)
              if acf.covariance is not None else None)
     # the noise is statistical: it enters through the covariance, against max_error
-    options = dict(rtol=support_rtol, smooth=smooth, interpolation=interpolation)
+    options = dict(rtol=support_rtol, smooth=smooth, interpolation=interpolation,
+                   plateau=acf.plateau)
     q_lo, q_hi = spectrum_support_kernel(acf.dr, acf.G, error=error if statistical else None,
                                          max_error=max_error, **options)
     met = bool(np.isfinite(q_lo))
@@ -537,7 +540,8 @@ def _error_at(q: np.ndarray, acf: _AcfInput, grid_error, *, smooth, interpolatio
     grid = support_grid(acf.dr)
     if grid_error is None:
         grid_error = spectrum_error_kernel(grid, acf.dr, acf.G, acf.covariance,
-                                           smooth=smooth, interpolation=interpolation)
+                                           smooth=smooth, interpolation=interpolation,
+                                           plateau=acf.plateau)
     out = np.empty(q.shape)
     inside = (q >= grid[0]) & (q <= grid[-1])
     with np.errstate(divide="ignore"):
@@ -545,7 +549,8 @@ def _error_at(q: np.ndarray, acf: _AcfInput, grid_error, *, smooth, interpolatio
                                        np.log(np.maximum(grid_error, 1e-300))))
     if not inside.all():
         out[~inside] = spectrum_error_kernel(q[~inside], acf.dr, acf.G, acf.covariance,
-                                             smooth=smooth, interpolation=interpolation)
+                                             smooth=smooth, interpolation=interpolation,
+                                             plateau=acf.plateau)
     return out
 
 
@@ -583,8 +588,11 @@ def spectrum(
     continuously differentiable (a kink would add a ``q^-2.5`` tail that swamps the
     ``q^-2(1+H)`` of a self-affine ``C``).
     Beyond the data, the log-log slope of ``G`` turns smoothly (C2, within one decade) to 2
-    below the smallest lag (ballistic, ``G ~ dr^2``) and to 0 beyond the largest (flat:
-    ``sigma_h^2`` is the level this extension reaches, ``attrs["sigma_h2"]``).  Each
+    below the smallest lag (ballistic, ``G ~ dr^2``) and to 0 beyond the largest (flat).
+    The level ``sigma_h^2`` it reaches (``attrs["sigma_h2"]``, and the integral
+    ``int C d^2q / (2 pi)^2``) is the variance of the heights where ``G`` carries it (the
+    coord ``height_variance`` of a measured G: its mean over all pairs of points),
+    reached by a C2 bump in the slope's turn; else wherever the turn leads.  Each
     interval is integrated as in eq. 9 (:func:`acf_from_spectrum`): Gauss-Legendre below
     ``q dr = 64``, asymptotic antiderivatives of ``t^beta J0(t)`` above.
 
@@ -631,8 +639,9 @@ def spectrum(
         errors); attrs ``equation="eq. 10/11"``, ``q_min_supported``,
         ``q_max_supported`` (in ``<len>-1``), ``support_rtol``, ``max_error``,
         ``error_model`` (how the errors of ``G`` were modelled), ``sigma_h2`` (in
-        ``<len>2``), ``smooth_decades`` (0 for none), ``noise`` (median relative scatter
-        assumed), ``interpolation``, ``dr_min``, ``dr_max`` (data range, in ``<len>``).
+        ``<len>2``) and ``sigma_h2_from`` (the heights' variance, or the extension),
+        ``smooth_decades`` (0 for none), ``noise`` (median relative scatter assumed),
+        ``interpolation``, ``dr_min``, ``dr_max`` (data range, in ``<len>``).
         Where ``G`` determines ``C`` but nowhere within ``max_error``: nothing is marked
         supported, ``q_min_supported`` and ``q_max_supported`` are NaN, the default grid
         covers what ``G`` determines, and the result is questionable (attrs ``quality``,
@@ -747,7 +756,8 @@ def spectrum(
     q_arr = (decade_aligned_grid(0.5 * q_lo, 2.0 * q_hi, points_per_decade) if q is None
              else _units.array_in(q, acf.length_unit**-1, what="q", noun="wavenumbers"))
     g = acf.G if smooth is None else smooth_acf_kernel(acf.dr, acf.G, smooth)
-    values = spectrum_from_acf_kernel(q_arr, acf.dr, g, interpolation=interpolation)
+    values = spectrum_from_acf_kernel(q_arr, acf.dr, g, interpolation=interpolation,
+                                      plateau=acf.plateau)
     error = _error_at(q_arr, acf, grid_error, smooth=smooth, interpolation=interpolation)
     q_unit = _units.power_units(acf.unit_str, -1)
     supported = ((q_arr >= q_lo) & (q_arr <= q_hi) & bounded).astype(np.int8)
@@ -762,7 +772,10 @@ def spectrum(
         "support_rtol": float(support_rtol),
         "max_error": float(max_error),
         "error_model": acf.error_model,
-        "sigma_h2": acf_plateau_kernel(acf.dr, g),
+        "sigma_h2": (acf_plateau_kernel(acf.dr, g) if acf.plateau is None
+                     else acf.plateau),
+        "sigma_h2_from": ("the extension of G beyond its last lag" if acf.plateau is None
+                          else "the variance of the heights (coord height_variance of G)"),
         "smooth_decades": 0.0 if smooth is None else float(smooth),
         "noise": float(np.median(acf.noise)),
         "interpolation": interpolation,

@@ -64,6 +64,7 @@ __all__ = [
     "acf_from_spectrum_kernel",
     "spectral_moment_kernel",
     "power_law_moment_kernel",
+    "binned_moment_kernel",
     "profile_spectrum_kernel",
     "PowerLawInterpolant",
 ]
@@ -454,6 +455,51 @@ def power_law_moment_kernel(q_cut, q, values, k: float, *,
     total = np.where(qc >= qs[-1], cumulative[-1],
                      np.where(inside, cumulative[j] + partial, 0.0))
     return (total / (2.0 * np.pi)).reshape(qc_in.shape)
+
+
+def binned_moment_kernel(q_cut, q, values, measure, k: float) -> np.ndarray:
+    """``sum_b q_b^k C_b m_b`` over the bins of a periodogram below ``q_cut``.
+
+    A periodogram averaged over the modes of each ``|q|`` bin (:func:`xrough.psd`) is a
+    sum, not samples of a smooth function: ``m_b`` (its ``bin_measure``, the bin's share
+    of ``d^2q / (2 pi)^2``) makes ``sum_b C_b m_b`` the variance of the heights exactly
+    (Parseval), and ``sum_b q_b^2 C_b m_b`` the mean-square gradient of all its modes to
+    the spread of ``q^2`` within a bin.  Integrated as a power law between bins instead,
+    a spectrum that drops sharply inside a bin loses 1 to 2 % of ``gbar^2``.  A bin
+    counts with the fraction of it (in ``ln q``, between the geometric means of
+    neighbouring bin wavenumbers) below ``q_cut``.
+
+    Parameters
+    ----------
+    q_cut : array_like
+        Upper limits (1/length), ``>= 0`` (``inf`` for the whole moment), any shape.
+    q, values, measure : array_like
+        Strictly increasing positive bin wavenumbers, ``C`` of each bin and its measure.
+    k : float
+        Order of the moment.
+
+    Returns
+    -------
+    numpy.ndarray
+        With the shape of ``q_cut``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> m = binned_moment_kernel([np.inf, 2.0], [1.0, 2.0], [3.0, 1.0], [0.5, 0.25], 0)
+    >>> print(np.round(m, 6))  # all; the first bin and half of the second (sqrt 2 to 2 sqrt 2)
+    [1.75  1.625]
+    """
+    qc_in = np.asarray(q_cut, dtype=float)
+    lq = np.log(np.asarray(q, dtype=float))
+    terms = np.exp(k * lq) * np.asarray(values, dtype=float) * np.asarray(measure, dtype=float)
+    mid = 0.5 * (lq[1:] + lq[:-1])
+    lo = np.concatenate([[2 * lq[0] - mid[0] if mid.size else lq[0] - 0.05], mid])
+    hi = np.concatenate([mid, [2 * lq[-1] - mid[-1] if mid.size else lq[-1] + 0.05]])
+    with np.errstate(divide="ignore"):
+        lc = np.log(qc_in.ravel())[:, None]
+    share = np.clip((lc - lo) / (hi - lo), 0.0, 1.0)
+    return (share @ terms).reshape(qc_in.shape)
 
 
 def profile_spectrum_kernel(

@@ -104,15 +104,30 @@ def _smoothstep_integral(v: np.ndarray) -> np.ndarray:
     return v**4 * (2.5 - 3.0 * v + v * v)
 
 
-def _extension(s_end: float, s_far: float, step: float, delay: float, width: float):
+def _smoothstep(v: np.ndarray) -> np.ndarray:
+    """``S = 10 v^3 - 15 v^4 + 6 v^5`` on [0, 1] (0 below, 1 above)."""
+    v = np.clip(v, 0.0, 1.0)
+    return v**3 * (10.0 - 15.0 * v + 6.0 * v * v)
+
+
+def _extension(s_end: float, s_far: float, step: float, delay: float, width: float,
+               rise: float | None = None):
     """``(u, ln G - ln G_end)`` of virtual samples at log-distances ``u > 0`` from a data end.
 
     The log-log slope (with respect to ``u``) keeps its end value ``s_end`` over ``delay``,
-    then turns to ``s_far`` along a C2 smoothstep over ``width``.
+    then turns to ``s_far`` along a C2 smoothstep over ``width``.  With ``rise``, a bump
+    ``a S'(v)`` (zero with zero derivative at both ends of the turn, so ``G`` stays twice
+    continuously differentiable) is added to the slope during the turn, ``a`` such that
+    ``ln G`` ends ``rise`` above ``ln G_end``.
     """
     total = delay + width
     u = np.linspace(0.0, total, max(2, int(np.ceil(total / step))) + 1)[1:]
-    return u, s_end * u + (s_far - s_end) * width * _smoothstep_integral((u - delay) / width)
+    v = (u - delay) / width
+    out = s_end * u + (s_far - s_end) * width * _smoothstep_integral(v)
+    if rise is not None:
+        plain = s_end * total + 0.5 * (s_far - s_end) * width  # where the turn alone ends
+        out = out + (rise - plain) * _smoothstep(v)
+    return u, out
 
 
 #: y^j = (x - 1)^j = sum_i _BINOMIAL[j, i] x^i
@@ -157,7 +172,7 @@ def _hermite_factor(rho, d, s0, s1, k0, k1) -> np.ndarray:
 
 def _acf_pieces(dr: np.ndarray, G: np.ndarray, *, interpolation: str, low_delay: float,
                 high_delay: float, low_transition: float, high_transition: float,
-                flat_falling_end: bool = False) -> _RadialPieces:
+                flat_falling_end: bool = False, plateau: float | None = None) -> _RadialPieces:
     """Representation of ``G`` through the samples ``(dr_j, G_j)``, extended smoothly.
 
     Beyond the data, virtual samples continue ``G``: its log-log slope (from a cubic spline
@@ -170,7 +185,10 @@ def _acf_pieces(dr: np.ndarray, G: np.ndarray, *, interpolation: str, low_delay:
     that also matches, at both samples, the log-log slope and curvature of a cubic spline
     of ``ln G`` against ``ln dr`` (clamped to slopes 2 and 0 at the ends; ``"hermite"``:
     ``G`` twice continuously differentiable, so that no kink adds a slowly decaying
-    ``q^-2.5`` tail to ``C``, nor a jump of ``G''`` a ``q^-3.5`` one).
+    ``q^-2.5`` tail to ``C``, nor a jump of ``G''`` a ``q^-3.5`` one).  With ``plateau``
+    (the variance of the heights, which G reaches in the mean over all pairs), the turn
+    beyond the data ends at that level (:func:`_extension` with ``rise``) instead of
+    wherever the slope's turn leads.
     """
     u, v = np.log(dr), np.log(G)
     # virtual samples as dense as the data, 10 to 50 per decade
@@ -184,7 +202,9 @@ def _acf_pieces(dr: np.ndarray, G: np.ndarray, *, interpolation: str, low_delay:
         s_hi = max(float(s_hi), 0.0)
     # below the data u runs downwards, so the slopes change sign
     du_lo, dv_lo = _extension(-s_lo, -2.0, step, low_delay * ln10, low_transition * ln10)
-    du_hi, dv_hi = _extension(s_hi, 0.0, step, high_delay * ln10, high_transition * ln10)
+    rise = None if plateau is None else float(np.log(plateau) - v[-1])
+    du_hi, dv_hi = _extension(s_hi, 0.0, step, high_delay * ln10, high_transition * ln10,
+                              rise)
     u = np.concatenate([u[0] - du_lo[::-1], u, u[-1] + du_hi])
     v = np.concatenate([v[0] + dv_lo[::-1], v, v[-1] + dv_hi])
     dr, G = np.exp(u), np.exp(v)
@@ -325,6 +345,7 @@ def spectrum_from_acf_kernel(
     high_delay: float = 0.0,
     low_transition: float = 1.0,
     high_transition: float = 1.0,
+    plateau: float | None = None,
     t_split: float = 64.0,
     panels_per_decade: float = 6.0,
     order: int = 8,
@@ -350,6 +371,11 @@ def spectrum_from_acf_kernel(
         unchanged before it turns to 2 (below the data) or 0 (beyond).
     low_transition, high_transition : float
         Decades over which the slope then turns (a C2 smoothstep).
+    plateau : float, optional
+        The level ``sigma_h^2`` (length^2) that ``G`` reaches beyond the data, e.g. the
+        variance of the heights it was measured from: the turn to flat ends there
+        (changing ``C`` only below ``q ~ 2 pi / dr_max``, where the data leave it open).
+        Default: wherever the turn of the slope leads.
     t_split, panels_per_decade, order : float, float, int
         Quadrature below ``q dr = t_split`` (panels at every sample, a logarithmic grid
         and spacing 2 in ``q dr``; ``f`` is smooth between samples, so order 8 reaches the
@@ -363,8 +389,9 @@ def spectrum_from_acf_kernel(
 
     Notes
     -----
-    ``sigma_h^2`` is the level of the extended ``G`` at large ``dr``
-    (:func:`acf_plateau_kernel`).  Against closed forms with 20 samples per decade over 6
+    ``sigma_h^2 = int C d^2q / (2 pi)^2`` is the level of the extended ``G`` at large
+    ``dr`` (``plateau``, else :func:`acf_plateau_kernel`).  Against closed forms with 20
+    samples per decade over 6
     decades: error ~7e-6 of ``C(0)`` for a Gaussian height ACF; relative error 2e-4 for an
     exponential one up to ``q = 0.05 / dr_min`` (5e-4 at ``0.4 / dr_min``, where the
     ballistic extension below ``dr_min`` starts to matter).
@@ -391,10 +418,20 @@ def spectrum_from_acf_kernel(
         raise ValueError("q must be finite and >= 0")
     pieces = _acf_pieces(*_check_acf(dr, G), interpolation=interpolation, low_delay=low_delay,
                          high_delay=high_delay, low_transition=low_transition,
-                         high_transition=high_transition)
+                         high_transition=high_transition, plateau=_plateau(plateau))
     return _hankel_of_pieces(q_in.ravel(), pieces, t_split=t_split,
                              panels_per_decade=panels_per_decade,
                              order=order).reshape(q_in.shape)
+
+
+def _plateau(plateau) -> float | None:
+    """Return a checked ``plateau`` option: ``None`` or a finite positive level."""
+    if plateau is None:
+        return None
+    value = float(plateau)
+    if not (np.isfinite(value) and value > 0):
+        raise ValueError(f"plateau must be a finite level > 0 (length^2), got {plateau!r}")
+    return value
 
 
 def acf_plateau_kernel(dr, G, *, high_transition: float = 1.0) -> float:
@@ -456,6 +493,11 @@ _ENVELOPE = 0.2
 #: slope turns later (kept one decade longer) or sooner (within 0.2 instead of 1 decade).
 _EXTRAPOLATION_VARIANTS = (dict(low_delay=1.0), dict(low_transition=0.2),
                            dict(high_delay=1.0), dict(high_transition=0.2))
+#: The same where the level beyond the data is known (``plateau``): the turn to it takes
+#: three decades instead of one, or 0.2 (a slope kept for a decade and then undone to
+#: reach the level would be a swing no G with that variance makes).
+_PLATEAU_VARIANTS = _EXTRAPOLATION_VARIANTS[:2] + (dict(high_transition=3.0),
+                                                   dict(high_transition=0.2))
 
 
 def spectrum_variants_kernel(
@@ -473,16 +515,22 @@ def spectrum_variants_kernel(
     Returns ``(base, extrapolated, noisy)``: ``C`` at ``q`` from ``G`` (smoothed over
     ``smooth`` decades of local quadratic regression if given); from the same data with
     the log-log slope at the smallest and at the largest lag turning later (kept one
-    decade longer) or sooner (within 0.2 instead of 1 decade) than by default (shape
-    ``(4, q.size)``); and from ``draws``
-    copies of ``G`` with independent relative noise ``noise`` per sample (a value or one per
-    sample; seeded, so reproducible; shape ``(0, q.size)`` without noise).  ``options`` go
-    to :func:`spectrum_from_acf_kernel`.
+    decade longer) or sooner (within 0.2 instead of 1 decade) than by default, without
+    ``plateau``, and with a ``plateau`` also by default without it (shape
+    ``(4 or 5, q.size)``: the level the heights' variance sets is one extrapolation more,
+    and a turn forced to it within 0.2 decades would be a kink no measured G has); and
+    from ``draws`` copies of ``G`` with independent relative noise ``noise`` per sample
+    (a value or one per sample; seeded, so reproducible; shape ``(0, q.size)`` without
+    noise).  ``options`` go to :func:`spectrum_from_acf_kernel`.
     """
     r, g = _check_acf(dr, G)
     base = _smoothed_spectrum(q, r, g, smooth, **options)
-    extrapolated = np.array([_smoothed_spectrum(q, r, g, smooth, **options, **kw)
-                             for kw in _EXTRAPOLATION_VARIANTS])
+    free = {k: v for k, v in options.items() if k != "plateau"}
+    variants = list(_EXTRAPOLATION_VARIANTS)
+    if options.get("plateau") is not None:
+        variants.append({})
+    extrapolated = np.array([_smoothed_spectrum(q, r, g, smooth, **free, **kw)
+                             for kw in variants])
     noise = np.broadcast_to(np.asarray(noise, dtype=float), g.shape)
     noisy = np.empty((0,) + base.shape)
     if np.any(noise > 0):
@@ -501,7 +549,7 @@ def _smoothed_spectrum(q, r, g, smooth: float | None, **options) -> np.ndarray:
 
 
 def spectrum_error_kernel(q, dr, G, covariance, *, smooth: float | None = None,
-                          interpolation: str = "hermite",
+                          interpolation: str = "hermite", plateau: float | None = None,
                           captured: float = 1.0) -> np.ndarray:
     """Propagate a covariance of the relative errors of ``G`` to the standard error of ``C``.
 
@@ -521,8 +569,8 @@ def spectrum_error_kernel(q, dr, G, covariance, *, smooth: float | None = None,
         Wavenumbers and the samples of ``G`` (as for :func:`spectrum_from_acf_kernel`).
     covariance : array_like (n, n)
         Covariance of the relative errors of the samples (dimensionless).
-    smooth, interpolation
-        As for :func:`spectrum_variants_kernel`.
+    smooth, interpolation, plateau
+        As for :func:`spectrum_variants_kernel` (``plateau`` held fixed).
     captured : float
         Fraction of the total relative variance the eigenvectors used account for (the
         eigenvectors with eigenvalues below ``1e-12`` of the largest are left out).
@@ -550,11 +598,12 @@ def spectrum_error_kernel(q, dr, G, covariance, *, smooth: float | None = None,
     scale, axes = principal_axes(covariance, g.size, captured)
     if scale.size == 0:
         return np.zeros(q.shape)
-    base = _smoothed_spectrum(q, r, g, smooth, interpolation=interpolation)
+    options = dict(interpolation=interpolation, plateau=plateau)
+    base = _smoothed_spectrum(q, r, g, smooth, **options)
     var = np.zeros(q.shape)
     for k in range(scale.size):
         moved = g * np.exp(scale[k] * axes[:, k])
-        var += (_smoothed_spectrum(q, r, moved, smooth, interpolation=interpolation) - base) ** 2
+        var += (_smoothed_spectrum(q, r, moved, smooth, **options) - base) ** 2
     return np.sqrt(var)
 
 
@@ -699,7 +748,8 @@ def support_grid(dr, points_per_decade: float = 10.0) -> np.ndarray:
 
 
 def _sampling_change(q, r, g, base, rtol: float, *, smooth: float | None = None,
-                     interpolation: str = "hermite", **_) -> np.ndarray:
+                     interpolation: str = "hermite", plateau: float | None = None,
+                     **_) -> np.ndarray:
     """How much ``C`` below its roll-off depends on which samples of ``G`` are used.
 
     ``C`` from the even and from the odd samples (both keep the first and the last), half
@@ -726,7 +776,7 @@ def _sampling_change(q, r, g, base, rtol: float, *, smooth: float | None = None,
         ``C`` at ``q`` from all samples.
     rtol : float
         The relative change allowed; a larger scatter of ``G`` skips the comparison.
-    smooth, interpolation
+    smooth, interpolation, plateau
         As for :func:`spectrum_variants_kernel`; other options are ignored.
 
     Returns
@@ -743,8 +793,8 @@ def _sampling_change(q, r, g, base, rtol: float, *, smooth: float | None = None,
     if _scatter(r, values) > rtol:
         return out
     below = q <= q[np.argmax(np.where(base > 0, q * q * base, -np.inf))]
-    halves = [spectrum_from_acf_kernel(q[below], r[k], values[k], interpolation=interpolation)
-              for k in (even, odd)]
+    halves = [spectrum_from_acf_kernel(q[below], r[k], values[k], interpolation=interpolation,
+                                       plateau=plateau) for k in (even, odd)]
     out[below] = 0.5 * np.abs(halves[0] - halves[1])
     return out
 

@@ -22,7 +22,7 @@ from ._fft import fft_kernel, split_directions
 from ._plan import Plan, check_bin_width, plan
 from ._random import check_n_pairs, map_seeds, random_kernel
 from ._regions import judge_regions, quarters
-from ._result import g_result, g_unit
+from ._result import g_result, g_unit, height_variance
 from ._tiled import height_difference_acf_tiled
 
 ESTIMATORS = ("auto", "fft", "random", "tiled")
@@ -131,7 +131,11 @@ def height_difference_acf(
         ``pair_count`` (pairs averaged), ``standard_error`` (statistical error of G as an
         estimate of the surface's G: finite-area model plus, for random pairs, the
         sampling error) and
-        ``sampling_error`` (Monte-Carlo error against the all-pairs value; 0 for ``fft``).
+        ``sampling_error`` (Monte-Carlo error against the all-pairs value; 0 for ``fft``),
+        and ``height_variance`` (on the dims besides ``dr``: the variance of the valid
+        heights about their mean, G's mean over all pairs of points, eq. 1 over every lag;
+        of each line, pair-weighted over the lines, for ``direction='x'``/``'y'``; the
+        level :func:`xrough.spectrum` extends G to, and so the integral of its ``C``).
         A bin whose pairs all touch missing points is NaN with ``pair_count`` 0.
         Attrs name the measurement: ``direction``, ``lag_geometry`` (``'profile'``,
         ``'axis'`` or ``'radial'``: how the bins average, which sets how their errors
@@ -380,11 +384,15 @@ def _in_memory(da: xr.DataArray, grid: Grid, estimator: str, *, n_pairs, seed, o
                             da, grid=grid, dr=p.dr, rel_error=rel_error))
         if found is not None:
             extra.update(found[2])
+    lines = len(p.core_dims) - p.lag_axes
     G = g_result(
         da, grid, G, dr=p.dr, pair_count=counts.astype(np.int64), standard_error=total,
         coords={"sampling_error": sampling.assign_attrs(
             units=g_unit(grid),
-            long_name="Monte-Carlo error of G against the all-pairs average")},
+            long_name="Monte-Carlo error of G against the all-pairs average"),
+            "height_variance": height_variance(
+                da, grid, lag_dims=p.core_dims[lines:],
+                mean_dims=p.core_dims[:lines] + tuple(pool_dims))},
         estimator="random pairs" if random else "fft (all pairs)", direction=direction,
         geometry=p.geometry, bins=options["bins"],
         points_per_decade=options["points_per_decade"], **extra)

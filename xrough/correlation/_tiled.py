@@ -37,7 +37,7 @@ from dask.diagnostics import ProgressBar
 from .._kernels import binning, tiles
 from ..topography import Grid, grid_of
 from ._plan import OpenMapBins, check_bin_width, open_map_bins
-from ._result import g_result, g_unit
+from ._result import g_result, g_unit, height_variance
 
 
 def height_difference_acf_tiled(
@@ -140,7 +140,8 @@ def height_difference_acf_tiled(
     return g_result(
         topography, grid, part[0], dr=lag_bins.dr, pair_count=part[1], standard_error=part[2],
         coords={"block": ("dr", block, {"units": "1",
-                                        "long_name": "points per block side (1: exact)"})},
+                                        "long_name": "points per block side (1: exact)"}),
+                "height_variance": height_variance(topography, grid, lag_dims=grid.dims)},
         estimator="tiled (exact within the halo, block levels beyond)", direction="radial",
         geometry="radial", bins=bins, points_per_decade=points_per_decade, tile=int(tile),
         halo=int(halo), factor=int(factor), min_lag_cells=int(min_lag_cells))
