@@ -180,7 +180,11 @@ def solve_contact(
         ``pressure`` (Pa), ``displacement`` (elastic surface displacement, height unit),
         ``gap`` (height unit) and ``contact`` (int8 mask, 1 where ``pressure > 0``) on
         ``(y, x)``; per load: ``contact_area`` (relative), ``mean_pressure`` (Pa),
-        ``approach`` (``max(h) + offset``, height unit), ``iterations`` (coarse grids
+        ``approach`` (``max(h) + offset``, height unit), ``mean_gap`` (the mean of the
+        gap, the interfacial separation, height unit), ``elastic_energy`` (J m-2,
+        ``(1/2) <(p - p0)(u - <u>)>``: the work of the load, ``p0 = -d energy / d
+        mean_gap``), ``stiffness`` (``-dp0 / d mean_gap`` from neighbouring loads, Pa per
+        height unit; NaN for one load), ``iterations`` (coarse grids
         included), ``converged``, ``float32_iterations``, ``coarse_iterations``,
         ``transforms`` (forward plus inverse FFTs of the map), ``deferred_entries``
         (iterations in which overlapping points waited to enter) and, with ``timing``,
@@ -484,15 +488,45 @@ def _load_vars(results: list[dict], scale: _Scale, hunit: str, L: tuple) -> dict
     area = np.array([np.mean(r["pressure"] > 0) for r in results])
     mean_p = np.ldexp(np.array([r["pressure"].mean() for r in results]) * scale.E, scale.e)
     approach = (scale.h_max + np.array([r["offset"] for r in results])) * scale.from_lat
+    mean_gap = np.array([r["gap"].mean() for r in results]) * scale.from_lat
+    # (1/2) <(p - <p>)(u - <u>)>: the elastic energy per area beyond the uniform
+    # compression (which a periodic half-space does not define), in Pa times the height unit
+    energy = np.array([0.5 * np.mean((r["pressure"] - r["pressure"].mean())
+                                     * (r["displacement"] - r["displacement"].mean()))
+                       for r in results]) * np.ldexp(scale.E, scale.e) * scale.from_lat
     out = {
         "contact_area": (L, area, {"units": "1", "long_name": "relative contact area"}),
         "mean_pressure": (L, mean_p, {"units": "Pa", "long_name": "mean pressure"}),
         "approach": (L, approach, {"units": hunit, "long_name":
                                    "approach from first contact, max(h) + offset"}),
+        "mean_gap": (L, mean_gap, {"units": hunit, "long_name":
+                                   "mean gap between the surfaces (interfacial separation)"}),
+        "elastic_energy": (L, energy * u.conversion_factor(hunit, "m"), {
+            "units": "J m-2", "long_name": "elastic energy per area, "
+                                           "(1/2) <(p - p0)(u - <u>)>"}),
+        "stiffness": (L, _stiffness(mean_p, mean_gap), {
+            "units": f"Pa {hunit}-1", "long_name": "contact stiffness per area, "
+                                                   "-dp0/d(mean gap) between loads"}),
     }
     for key, (dtype, name) in _COUNTERS.items():
         out[key] = (L, np.array([r[key] for r in results], dtype=dtype),
                     {"long_name": name})
+    return out
+
+
+def _stiffness(mean_p: np.ndarray, mean_gap: np.ndarray) -> np.ndarray:
+    """``-dp0 / d(mean gap)`` from neighbouring loads (NaN for one load).
+
+    Second-order differences on the loads in increasing order of the gap (one-sided at
+    the ends); loads with equal gaps (full contact) give NaN.
+    """
+    if mean_p.size < 2:
+        return np.full(mean_p.shape, np.nan)
+    order = np.argsort(mean_gap)
+    g, p = mean_gap[order], mean_p[order]
+    out = np.full(mean_p.shape, np.nan)
+    if np.all(np.diff(g) > 0):
+        out[order] = -np.gradient(p, g)
     return out
 
 
