@@ -84,6 +84,22 @@ def test_westergaard_mean_gap_energy_and_stiffness():
     assert np.isnan(float(one.stiffness))
 
 
+def test_warm_start_from_one_contact_point_recovers():
+    """A load started from a solution with one point in contact (its mean-shifted gap is
+    zero, so the conjugate direction vanishes) stopped at once, unconverged, with the gap
+    at -33 nm; it now starts cold and equals a separate solve (to the solver's tol)."""
+    topo = xrough.self_affine_surface(hurst=0.3, lambda_r="16 nm", lambda_s="2 nm",
+                                      size="32 nm", n=32, rms_gradient=0.1, unit="nm",
+                                      seed=0)
+    loads = np.array([9e-3, 0.9, 27.0]) * 1e3  # Pa: one contact point at the first
+    res = solve_contact(topo, E_star="1 MPa", p0=loads, progress=False)
+    assert res.converged.all()
+    assert float(res.contact_area[0]) == 1 / 32**2
+    alone = solve_contact(topo, E_star="1 MPa", p0=loads[1], progress=False)
+    np.testing.assert_allclose(res.mean_gap[1], alone.mean_gap, rtol=1e-6)
+    assert float(res.gap.min()) > -1e-6
+
+
 def test_energy_is_the_work_of_the_load_on_a_random_surface():
     """p0 = -dU/d(mean gap) on a self-affine map (the energy and the gap of the solver
     agree as the work of the load): loads 1 % apart, within 1e-3 (measured 2e-5)."""

@@ -412,6 +412,13 @@ def _solve_one(h_lat: np.ndarray, op: ElasticOperator, target: float, load_dim: 
           "precondition": opts.precondition}
     solve = solve_load if load_dim == "p0" else solve_approach
     out = solve(h_lat, op, target, **kw)
+    if not out["converged"] and p_prev is not None and kw["p_init"] is p_prev:
+        # a warm start can leave too few points in contact for the conjugate directions
+        # (one point: its mean-shifted gap is zero, and the solve stops at once with
+        # overlapping points outside); a cold start does not depend on it
+        cold = _solve_one(h_lat, op, target, load_dim, opts, None, callback, full=False)
+        cold["iterations"] += out["iterations"] + coarse_its
+        return cold
     out["seconds"] = time.perf_counter() - t_start
     out["coarse_iterations"] = coarse_its
     out["iterations"] += coarse_its
