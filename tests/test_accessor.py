@@ -18,6 +18,7 @@ from xrough import (
     plot,
     preprocess,
     psd,
+    separation,
     solver,
     spectra,
     stitching,
@@ -52,6 +53,7 @@ METHODS = {
         "gradient": gradient.rms_gradient,
         "stress_acf": contact.stress_acf,
         "persson": contact.persson,
+        "mean_gap": separation.mean_gap,
         "patch_radius": contact.patch_radius,
         "parameters": parameters.roughness_parameters,
         "height_distribution": parameters.height_distribution,
@@ -198,6 +200,7 @@ G_CALLS = [
     ("persson", (), {"E_star": E_STAR, "p0": P0, "theory": "modified",
                      "variables": ("a_r",)}),
     ("patch_radius", (), {"E_star": E_STAR, "gamma": "50 mJ/m^2"}),
+    ("mean_gap", (), {"E_star": E_STAR, "p0": P0}),
 ]
 
 

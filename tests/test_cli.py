@@ -680,7 +680,8 @@ def test_report_says_each_cause_once(monkeypatch, capsys, tmp_path):
     causes = [line.strip() for line in out.splitlines() if line.startswith("    - ")]
     texts = [c.rsplit(" (", 1)[0] for c in causes]
     assert len(texts) == len(set(texts)), causes
-    shared = [c for c in causes if c.endswith("(fit, rms gradient, Persson theory)")]
+    shared = [c for c in causes
+              if c.endswith("(fit, rms gradient, Persson theory, mean gap)")]
     assert any(re.search(r"misses G by 1\d\.\d times in a bin", c) for c in shared), causes
 
 

@@ -58,6 +58,7 @@ from .preprocess import (
 )
 from .psd import power_spectrum
 from .quality import QualityWarning
+from .separation import mean_gap
 from .solver import ConvergenceWarning, solve_contact
 from .spectra import (
     acf_from_spectrum,
@@ -106,6 +107,7 @@ __all__ = [
     "convert_units",
     "patch_radius",
     "persson",
+    "mean_gap",
     "quality",
     "QualityWarning",
     "rms_gradient",

@@ -29,6 +29,7 @@ from . import (
     plot,
     preprocess,
     psd,
+    separation,
     solver,
     spectra,
     stitching,
@@ -127,6 +128,7 @@ class RoughDataArrayAccessor:
     gradient = _forward(gradient.rms_gradient)
     stress_acf = _forward(contact.stress_acf)
     persson = _forward(contact.persson)
+    mean_gap = _forward(separation.mean_gap)
     patch_radius = _forward(contact.patch_radius)
     height_distribution = _forward(parameters.height_distribution)
     slope_distribution = _forward(parameters.slope_distribution)

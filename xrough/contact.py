@@ -91,13 +91,13 @@ _DERIVATIVE = ("Laplacian of a smoothing spline of ln G against ln dr: smoothing
 # ---------------------------------------------------------------------------------------
 # G as SI lines for the kernels
 # ---------------------------------------------------------------------------------------
-def _strip(da: xr.DataArray) -> xr.DataArray:
+def strip_marks(da: xr.DataArray) -> xr.DataArray:
     """``da`` without its per-bin coords (pair counts, errors) and with dr whole per chunk."""
     da = da.drop_vars([c for c in da.coords if c != "dr" and "dr" in da[c].dims])
     return da.chunk({"dr": -1}) if da.chunks is not None else da
 
 
-def _si(G: xr.DataArray, spec: AcfSpec) -> tuple[xr.DataArray, xr.DataArray | None]:
+def acf_in_si(G: xr.DataArray, spec: AcfSpec) -> tuple[xr.DataArray, xr.DataArray | None]:
     """G and its standard error (if any) in m^2, extra dims first."""
     G = G.transpose(..., "dr")
     error = None
@@ -105,8 +105,8 @@ def _si(G: xr.DataArray, spec: AcfSpec) -> tuple[xr.DataArray, xr.DataArray | No
         se = bin_error(G)  # in G's unit unless it says otherwise
         factor = (spec.to_m2 if "units" not in se.attrs else u.conversion_factor(
             u.units_of(se, what="coordinate 'standard_error'"), "m**2"))
-        error = _strip(se.broadcast_like(G).transpose(..., "dr")) * factor
-    return _strip(G) * spec.to_m2, error
+        error = strip_marks(se.broadcast_like(G).transpose(..., "dr")) * factor
+    return strip_marks(G) * spec.to_m2, error
 
 
 def _error_inputs(G: xr.DataArray, G_si: xr.DataArray, spec: AcfSpec
@@ -143,7 +143,7 @@ def _laplacian_std(G: xr.DataArray) -> xr.DataArray:
     G compute it once.
     """
     G, spec = read_acf(G)
-    G_si, error = _si(G.transpose(..., "dr"), spec)
+    G_si, error = acf_in_si(G.transpose(..., "dr"), spec)
     model, factor = _error_inputs(G, G_si, spec)
     if not model:
         return xr.full_like(G_si, np.nan)
@@ -182,7 +182,7 @@ def _laplacian(G: xr.DataArray):
     it once.
     """
     G, spec = read_acf(G)
-    G_si, error = _si(G, spec)
+    G_si, error = acf_in_si(G, spec)
     dr = spec.dr * spec.to_m
     window = _window_si(G, spec)
     parts = {"part": 3, "dr": spec.dr.size}
@@ -207,7 +207,7 @@ def _lag_runs(dr: np.ndarray, hit: np.ndarray, unit: str) -> str:
 
 
 def _derivative_checks(why: xr.DataArray, spec: AcfSpec, window: bool = True) -> list:
-    """Return the :func:`_rate` checks of the lags without a Laplacian (range named, eager).
+    """Return the :func:`rate_result` checks of the lags without a Laplacian (range named, eager).
 
     The lags outside the reliable window are NaN by design: a remark (level good), left
     out with ``window=False`` (:func:`persson` says it once for all its variables).
@@ -266,7 +266,7 @@ def _outside_window(ds: xr.Dataset, G: xr.DataArray, spec: AcfSpec) -> tuple:
 
 
 def _no_lag(window: LagWindow) -> tuple:
-    """Return the :func:`_rate` check of a window that holds no lag of G: failed.
+    """Return the :func:`rate_result` check of a window that holds no lag of G: failed.
 
     One note for every result of such a G (a report says it once).
     """
@@ -275,7 +275,7 @@ def _no_lag(window: LagWindow) -> tuple:
 
 def _unresolved(G_si: xr.DataArray, error: xr.DataArray | None, spec: AcfSpec,
                 depends: str) -> tuple[xr.DataArray, tuple]:
-    """Curves whose G is flat from the first lag, and the :func:`_rate` check that says it.
+    """Curves whose G is flat from the first lag, and the :func:`rate_result` check that says it.
 
     Flat: the log-log slope of G over its first decade of lags
     (:func:`xrough._kernels.contact.first_decade_slope`, weighted by the standard errors)
@@ -315,7 +315,7 @@ def _past(lags: xr.DataArray, spec: AcfSpec) -> str:
     return "questionable" if bool((lags > spec.gaps[:, 0].min()).any()) else "good"
 
 
-def _own_attrs(func):
+def own_attrs(func):
     """Run ``func`` with xarray's attrs propagation off: each result sets its own attrs."""
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
@@ -324,13 +324,13 @@ def _own_attrs(func):
     return wrapper
 
 
-def _own_coords(G: xr.DataArray) -> dict:
+def own_coords(G: xr.DataArray) -> dict:
     """G's coords that are not per bin (extra dims, scalars such as gradient_method)."""
     return {c: v for c, v in G.coords.items()
             if "dr" not in v.dims and c not in (quality.FLAG, quality.REASON)}
 
 
-def _rate(result, checks, *, what: str, G, inherited=()):
+def rate_result(result, checks, *, what: str, G, inherited=()):
     """Rate a result per curve: ``checks`` are ``(mask, level, note[, variables])``.
 
     A curve gets the worst level of the checks its mask fires and of its inputs: ``G``
@@ -473,7 +473,7 @@ def _blank(ds: xr.Dataset, mask: xr.DataArray, select) -> xr.Dataset:
 # ---------------------------------------------------------------------------------------
 # full contact: elastic energy (eq. 16, 44)
 # ---------------------------------------------------------------------------------------
-@_own_attrs
+@own_attrs
 @u.accepts_quantified
 def elastic_energy(G: xr.DataArray, *, E_star: QuantityLike,
                    a_c: QuantityLike | None = None) -> xr.Dataset:
@@ -529,11 +529,11 @@ def elastic_energy(G: xr.DataArray, *, E_star: QuantityLike,
     1.0
     """
     E = u.positive_si(E_star, _PRESSURE, what="E_star")
-    rated, (G, spec) = G, read_acf(G)  # rated: G with its own verdict, for _rate
+    rated, (G, spec) = G, read_acf(G)  # rated: G with its own verdict, for rate_result
     positive = spec.dr[spec.dr > 0]
     ac = (positive if a_c is None else
           u.array_in(a_c, spec.length_unit, what="a_c", noun="patch radii", positive=True))
-    G_si, _ = _si(G, spec)
+    G_si, _ = acf_in_si(G, spec)
     window = lag_window(G, spec.dr)
     edge = _window_edge(window, positive)
     res = _per_curve(k.energy_curve, G_si, out={"k": ac.size + 4}, dr=spec.dr * spec.to_m,
@@ -569,12 +569,12 @@ def elastic_energy(G: xr.DataArray, *, E_star: QuantityLike,
                 "the instrument does not resolve (the continuation below the first lag "
                 "included; without a window: below the first lag, as extrapolated_below)"),
         },
-        coords={**_own_coords(G), **lag_coord(ac, spec.unit_str, name="a_c",
+        coords={**own_coords(G), **lag_coord(ac, spec.unit_str, name="a_c",
                                                long_name="patch radius")},
         attrs=result_attrs(G, E_star=E, E_star_units="Pa"),
     )
     ds, bridged = _bridged_energy(ds, G_si, spec)
-    return _rate(ds, bridged + _window_share(part["window"], window, spec, "v_el",
+    return rate_result(ds, bridged + _window_share(part["window"], window, spec, "v_el",
                                           "v_el_below_window") + [
         (part["below"] > EXTRAPOLATED, "questionable",
          f"more than {EXTRAPOLATED:.0%} of v_el comes from below the smallest lag, where G "
@@ -599,7 +599,7 @@ def _window_edge(window: LagWindow, lags: np.ndarray) -> float:
 
 def _window_share(share: xr.DataArray, window: LagWindow, spec: AcfSpec, what: str,
                   variable: str) -> list:
-    """Return the :func:`_rate` checks of the share of ``what`` below ``reliable_dr_min``.
+    """Return the :func:`rate_result` checks of the share of ``what`` below ``reliable_dr_min``.
 
     Questionable above :data:`BELOW_WINDOW`; said as a remark below it; failed when the
     window holds no lag (every value NaN). None without a recorded window (the share is
@@ -629,7 +629,7 @@ def _window_share(share: xr.DataArray, window: LagWindow, spec: AcfSpec, what: s
 def _bridged_energy(ds: xr.Dataset, G_si: xr.DataArray, spec: AcfSpec) -> tuple:
     """Add the share of v_el from the bridges over the gaps of G, with its error.
 
-    Returns the Dataset and the checks (for :func:`_rate`) that say it.
+    Returns the Dataset and the checks (for :func:`rate_result`) that say it.
     """
     if not len(spec.gaps):
         return ds, []
@@ -655,7 +655,7 @@ def _bridged_energy(ds: xr.Dataset, G_si: xr.DataArray, spec: AcfSpec) -> tuple:
 # ---------------------------------------------------------------------------------------
 # stress ACF and Persson theory (eq. 24, 29-30, 34, 39-42, 47-50)
 # ---------------------------------------------------------------------------------------
-@_own_attrs
+@own_attrs
 @u.accepts_quantified
 def stress_acf(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike | None = None,
                theory: str = "persson",
@@ -753,13 +753,13 @@ def stress_acf(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike | None
             {name: ds[name] for name in ds.data_vars if str(name).startswith("G_sigma_")})
         out.attrs = {**ds.attrs, **out.attrs}  # provenance, E_star, theory and the variable's
         return out
-    rated, (G, spec) = G, read_acf(G)  # rated: G with its own verdict, for _rate
-    G_si, error = _si(G, spec)
+    rated, (G, spec) = G, read_acf(G)  # rated: G with its own verdict, for rate_result
+    G_si, error = acf_in_si(G, spec)
     lap, why, _ = _laplacian(G)
     full = (E / 2) ** 2 * lap
     std = _laplacian_std(G)
     out = full.transpose(..., "dr").assign_coords(
-        {**_own_coords(G), **lag_coord(spec.dr, spec.unit_str)})
+        {**own_coords(G), **lag_coord(spec.dr, spec.unit_str)})
     out = out.assign_coords(G_sigma_std=(
         ((E / 2) ** 2 * std).where(lap.notnull()).transpose(..., "dr").assign_attrs(
             units="Pa2", long_name="statistical standard deviation of G_sigma",
@@ -773,7 +773,7 @@ def stress_acf(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike | None
     flat, unresolved = _unresolved(G_si, error, spec, "the Laplacian of G (eq. 24)")
     out = out.where(~flat).assign_attrs(out.attrs)
     out = mark_gaps(out, spec, what="stress_acf", depends=_GAP_LAPLACIAN)
-    return _rate(out, [(few, "questionable", "fewer than 5 valid bins: the Laplacian is "
+    return rate_result(out, [(few, "questionable", "fewer than 5 valid bins: the Laplacian is "
                         "that of the log-log polygon through them, not of a smoothed G; "
                         "use more points per decade"), *_derivative_checks(why, spec),
                        unresolved], what="stress_acf", G=rated)
@@ -852,7 +852,7 @@ _NEED_FIT = ("sigma_quick",)
 #: The outputs that need gbar (eq. 26), with their errors: p_star and a_r (eq. 29), a_ri
 #: (eq. 50), sigma_c = p0 / a_r (eq. 39/40), and through W[a_r] (eq. 49) or gbar(0) the
 #: stress ACFs (eq. 30/48, 47, 51) and G_du (eq. 34). sigma_quick (eq. 41/42) needs the fit
-#: and G only. A failed input blanks only what needs it (:func:`_rate`). (The Laplacian of
+#: and G only. A failed input blanks only what needs it (:func:`rate_result`). (The Laplacian of
 #: G, eq. 24, which G_sigma and Gamma_sigma also need, has checks per lag only: NaN there,
 #: questionable; and a G flat from its first lag fails every output, gbar too.)
 _NEED_GRADIENT = tuple(
@@ -860,14 +860,14 @@ _NEED_GRADIENT = tuple(
     for suffix in ("", "_std", *MODEL_ERROR_SUFFIXES))
 
 
-def _gradient_on(gradient: xr.DataArray, G: xr.DataArray, spec: AcfSpec) -> xr.DataArray:
+def gradient_on(gradient: xr.DataArray, G: xr.DataArray, spec: AcfSpec) -> xr.DataArray:
     """Put a given gbar on G's lags (NaN where it is not given), refusing other lags."""
     if not isinstance(gradient, xr.DataArray) or "dr" not in gradient.dims:
         raise TypeError("gradient must be the DataArray gbar(dr) of xrough.rms_gradient")
     unit = u.as_length_unit(u.units_of(gradient["dr"], what="coordinate 'dr' of gradient"),
                             what="coordinate 'dr' of gradient")
     lags = gradient["dr"].values * u.conversion_factor(unit, spec.length_unit)
-    gradient = _strip(gradient.assign_coords(dr=lags)).drop_vars(
+    gradient = strip_marks(gradient.assign_coords(dr=lags)).drop_vars(
         [c for c in gradient.coords if c not in gradient.dims], errors="ignore")
     match = np.isclose(spec.dr[:, None], lags[None, :], rtol=1e-9, atol=0).any(axis=0)
     if not match.all():
@@ -887,7 +887,7 @@ def _first_finite(values: np.ndarray) -> np.ndarray:
     return np.where(finite.any(axis=-1), first, np.nan)
 
 
-@_own_attrs
+@own_attrs
 @u.accepts_quantified
 def persson(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike, theory: str = "persson",
             kappa: float = KAPPA_PERSSON, gradient: xr.DataArray | None = None,
@@ -1012,9 +1012,9 @@ def persson(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike, theory: 
     wanted = _persson_variables(theory, kappa, variables)
     E = u.positive_si(E_star, _PRESSURE, what="E_star")
     p0s = u.positive_si(p0, _PRESSURE, what="p0", many=True)
-    rated, (G, spec) = G, read_acf(G)  # rated: G with its own verdict, for _rate
+    rated, (G, spec) = G, read_acf(G)  # rated: G with its own verdict, for rate_result
     G = G.transpose(..., "dr")
-    G_si, error = _si(G, spec)
+    G_si, error = acf_in_si(G, spec)
     run = _PerssonRun(G=G, spec=spec, G_si=G_si, error=error, E=E, kappa=float(kappa),
                       theory=theory, wanted=wanted, unlike_study=_unlike_study(rated),
                       p0=xr.DataArray(np.atleast_1d(p0s), dims="p0"),
@@ -1053,7 +1053,7 @@ def persson(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike, theory: 
         out.update(_asymptote_vars(run, area))
     if "G_du" in wanted:
         assert area is not None
-        out["G_du"] = (_strip(G) * area.weight).assign_attrs(
+        out["G_du"] = (strip_marks(G) * area.weight).assign_attrs(
             units=G.attrs["units"], long_name="displacement autocorrelation function",
             equation=f"eq. 34 with W of eq. 49 ({theory})")
     ds = _persson_dataset(run, out, p0s, method)
@@ -1068,7 +1068,7 @@ def persson(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike, theory: 
     checks += window + _no_exact(ds, run)
     gap = gap_note(spec, _GAP_PERSSON)  # said with the rest: one warning
     checks += [(xr.DataArray(True), "questionable", gap)] if gap else []
-    return _rate(ds, checks, what="persson", G=rated, inherited=(
+    return rate_result(ds, checks, what="persson", G=rated, inherited=(
         (gradient if set(wanted) - {"sigma_quick"} else None, _NEED_GRADIENT,
          "the rms gradient gbar (eq. 26) they need"),
         (fit if set(_NEED_FIT) & set(wanted) else None, _NEED_FIT,
@@ -1138,7 +1138,7 @@ def _persson_variables(theory: str, kappa: float, variables) -> tuple[str, ...]:
 
 def _contact_area(run: _PerssonRun, gradient: xr.DataArray) -> _ContactArea:
     """``p*`` and ``a_r`` (eq. 29), ``a_ri`` (eq. 50) where needed, and ``W`` (eq. 49)."""
-    given = _gradient_on(gradient, run.G, run.spec)
+    given = gradient_on(gradient, run.G, run.spec)
     gbar = _per_curve(k.nonincreasing, given)
     with np.errstate(divide="ignore", invalid="ignore"):
         raised = (gbar / given).max("dr") - 1
@@ -1161,12 +1161,12 @@ def _contact_area(run: _PerssonRun, gradient: xr.DataArray) -> _ContactArea:
 def _gradient_error(gradient: xr.DataArray, run: _PerssonRun) -> tuple[xr.DataArray, str]:
     """``gbar_std / gbar`` of a gradient on G's lags (NaN: none) and what it is the error of."""
     if "gbar_std" not in gradient.coords:
-        return (xr.full_like(_gradient_on(gradient, run.G, run.spec), np.nan),
+        return (xr.full_like(gradient_on(gradient, run.G, run.spec), np.nan),
                 "none: the given gradient has no coordinate gbar_std")
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = gradient["gbar_std"].reset_coords(drop=True) / gradient.reset_coords(drop=True)
     rel["dr"].attrs = gradient["dr"].attrs
-    return (_gradient_on(rel, run.G, run.spec),
+    return (gradient_on(rel, run.G, run.spec),
             str(gradient["gbar_std"].attrs.get("error_of", "")))
 
 
@@ -1372,7 +1372,7 @@ def _shape_of(G: xr.DataArray) -> xr.DataArray:
     """G's local exponents at each lag (:func:`me.features_on_lags`), dim ``feature``."""
     dr = G["dr"].values
     return xr.apply_ufunc(
-        lambda g: me.features_on_lags(dr, g), _strip(G).reset_coords(drop=True),
+        lambda g: me.features_on_lags(dr, g), strip_marks(G).reset_coords(drop=True),
         input_core_dims=[["dr"]], output_core_dims=[["feature", "dr"]], vectorize=True,
         dask="parallelized", output_dtypes=[float],
         dask_gufunc_kwargs={"output_sizes": {"feature": len(me.FEATURES)}},
@@ -1478,7 +1478,7 @@ def _asymptote_vars(run: _PerssonRun, area: _ContactArea) -> dict[str, xr.DataAr
 def _persson_dataset(run: _PerssonRun, out: dict, p0s, method: str) -> xr.Dataset:
     """Build the result Dataset on ``(p0, ..., dr)`` with its coords and attrs."""
     out = {name: v.transpose("p0", ..., "dr") for name, v in out.items()}
-    coords = {**_own_coords(run.G), **lag_coord(run.spec.dr, run.spec.unit_str),
+    coords = {**own_coords(run.G), **lag_coord(run.spec.dr, run.spec.unit_str),
               "p0": ("p0", np.atleast_1d(p0s), {"units": "Pa", "long_name": "mean pressure"})}
     return xr.Dataset(out, coords=coords, attrs=result_attrs(
         run.G, E_star=run.E, E_star_units="Pa", kappa=run.kappa, theory=run.theory,
@@ -1490,7 +1490,7 @@ def _persson_dataset(run: _PerssonRun, out: dict, p0s, method: str) -> xr.Datase
 # ---------------------------------------------------------------------------------------
 # adhesion: patch radius (eq. 43-46)
 # ---------------------------------------------------------------------------------------
-@_own_attrs
+@own_attrs
 @u.accepts_quantified
 def patch_radius(G: xr.DataArray, *, E_star: QuantityLike, gamma: QuantityLike) -> xr.Dataset:
     r"""Radius of spontaneously adhering patches (Dahlquist-type criterion, eq. 43-46).
@@ -1553,8 +1553,8 @@ def patch_radius(G: xr.DataArray, *, E_star: QuantityLike, gamma: QuantityLike) 
     """
     E = u.positive_si(E_star, _PRESSURE, what="E_star")
     gam = u.positive_si(gamma, _ENERGY, what="gamma")
-    rated, (G, spec) = G, read_acf(G)  # rated: G with its own verdict, for _rate
-    G_si, _ = _si(G, spec)
+    rated, (G, spec) = G, read_acf(G)  # rated: G with its own verdict, for rate_result
+    G_si, _ = acf_in_si(G, spec)
     res = _per_curve(k.patch_radius_curve, G_si, out={"k": 3}, dr=spec.dr * spec.to_m,
                      E_star=E, gamma=gam)
     v_full = res.isel(k=2)
@@ -1595,11 +1595,11 @@ def patch_radius(G: xr.DataArray, *, E_star: QuantityLike, gamma: QuantityLike) 
             "gamma at a_c (eq. 44/46; v_el where a_c is inf), from lags below "
             "reliable_dr_min, which the instrument does not resolve (without a window: "
             "below the first lag; 1 where a_c lies below the window)")},
-        coords=_own_coords(G),
+        coords=own_coords(G),
         attrs=result_attrs(G, E_star=E, E_star_units="Pa", gamma=gam, gamma_units="J m-2"))
     finite = np.isfinite(a_c)
     ds = mark_gaps(ds, spec, what="patch_radius", depends=_GAP_PATCH, level=_past(upper, spec))
-    return _rate(ds, _patch_window(a_c, upper, share, window, spec) + [
+    return rate_result(ds, _patch_window(a_c, upper, share, window, spec) + [
         (np.isinf(a_c), "good",
          f"a_c = inf: gamma = {gam:.3g} J m-2 exceeds the elastic energy of full contact "
          f"v_el ({_span(v_full.where(np.isinf(a_c)))} J m-2, variable v_el), so no patch "
@@ -1647,7 +1647,7 @@ def _share_below(g, a, *, dr, edge) -> float:
 
 def _patch_window(a_c: xr.DataArray, upper: xr.DataArray, share: xr.DataArray,
                   window: LagWindow, spec: AcfSpec) -> list:
-    """Return the :func:`_rate` checks of a patch radius against the window.
+    """Return the :func:`rate_result` checks of a patch radius against the window.
 
     A radius below ``reliable_dr_min`` is not resolved: failed (NaN), with the radius in
     the note. The share of ``v_el(a_c)`` from below the window is rated as that of

@@ -345,7 +345,7 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True,
     ('log', 'log')
     """
     ax = _axes(ax)
-    dim = next(d for d in ("dr", "q", "a_c") if d in da.dims)
+    dim = next(d for d in _AXES if d in da.dims)
     extra = [d for d in da.dims if d != dim]
     stacked = da.stack(_line=extra) if extra else da.expand_dims("_line")
     user_label = kwargs.pop("label", None)
@@ -437,7 +437,8 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None, ax=None,
                  G: xr.DataArray | None = None):
     """One panel per variable of a result Dataset (Persson theory, energy, ...).
 
-    Variables on ``dr``, ``q`` or ``a_c`` are drawn against it (log axes, see
+    Variables on ``dr``, ``q``, ``a_c`` or ``p0`` (:func:`xrough.mean_gap`) are drawn
+    against it (log axes, see
     :func:`plot_loglog`), one panel each titled by its name; scalars are skipped. Persson
     theory shows :data:`PERSSON_PANELS` (the contact area and stress, titled by
     :data:`PANEL_TITLES`, linear where they span less than a decade) unless ``variables``
@@ -503,9 +504,9 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None, ax=None,
     if variables is None and _is_persson(ds):
         variables = [v for v in PERSSON_PANELS if v in ds.data_vars]
     names = [n for n in (variables or [v for v in ds.data_vars if not _is_error(v)])
-             if any(d in ds[n].dims for d in ("dr", "q", "a_c"))]
+             if any(d in ds[n].dims for d in _AXES)]
     if not names:
-        raise ValueError("nothing to plot: no variable depends on dr, q or a_c, and the "
+        raise ValueError("nothing to plot: no variable depends on dr, q, a_c or p0, and the "
                          "Dataset is neither a fit (fit_acf) nor a patch radius "
                          "(patch_radius)")
     if axes is None:
@@ -530,6 +531,8 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None, ax=None,
     return flat[: len(names)]
 
 
+#: The dims a result is drawn against (log axes): lag, wavenumber, patch radius, load.
+_AXES = ("dr", "q", "a_c", "p0")
 #: What a Persson result shows by default: the contact area and the mean contact stress
 #: against resolution (``variables=`` draws any others).
 PERSSON_PANELS = ("a_r", "sigma_c")

@@ -91,7 +91,7 @@ def features_of(dr: np.ndarray, G: np.ndarray, at: float) -> dict[str, float]:
 @functools.cache
 def area_table() -> dict[str, np.ndarray]:
     """Read the study's table, one array per column (``xrough/data/persson_area_error.csv``)."""
-    return _read_table("persson_area_error.csv")
+    return read_table("persson_area_error.csv")
 
 
 #: Polynomial degree of the expected error in ln p* and G's features.
@@ -220,7 +220,7 @@ def _model(area: str) -> _Model:
                   {name: (float(f.min()), float(f.max())) for name, f in zip(FEATURES, features)})
 
 
-def _read_table(name: str) -> dict[str, np.ndarray]:
+def read_table(name: str) -> dict[str, np.ndarray]:
     """Read one of the study's tables in ``xrough/data``, one array per column.
 
     Columns whose first value is a number are floats (``nan`` for a missing value), the
@@ -254,7 +254,7 @@ def _read_table(name: str) -> dict[str, np.ndarray]:
 @functools.cache
 def stress_table() -> dict[str, np.ndarray]:
     """Read the study's stress table (``xrough/data/persson_stress_error.csv.gz``)."""
-    return _read_table("persson_stress_error.csv.gz")
+    return read_table("persson_stress_error.csv.gz")
 
 
 #: Lags where Persson's fluctuating stress ACF ``G_sigma - p0^2`` has fallen below this

@@ -2,7 +2,8 @@
 
 Each file's G is fitted and run through the elastic energy, Persson theory (reported at
 the smallest lag where it is determined, inside the lag range the instrument resolves:
-``reliable_dr_min/max``, from a tip or stylus radius the file states) and, with
+``reliable_dr_min/max``, from a tip or stylus radius the file states), the mean gap at
+``--p0`` (:func:`xrough.mean_gap`, with the 90 % interval of the exact gap) and, with
 ``--gamma``, the adhesive patch radius; the results are archived and drawn. A file whose
 window holds no lag (a tip too blunt for the scan) gets no scale-dependent number: its
 rms gradient, Persson theory, energy and patch radius are failed, and the reason is said.
@@ -51,10 +52,10 @@ QUANTITIES = {"--E-star": ("[pressure]", "25MPa"), "--p0": ("[pressure]", "0.1MP
 #: An rms gradient above this (a slope of 84 degrees) means heights in the wrong unit.
 _STEEPEST = 10.0
 _COLUMNS = ("measurement", "sigma_h (fit)", "H", "lambda_r", "rms grad", "v_el", "a_r",
-            "sigma_c", "at dr", "patch radius")
+            "sigma_c", "at dr", "mean gap", "patch radius")
 #: The results of a row whose quality is shown, by their key in the results.
 _RATED = {"G": "G", "fit": "fit", "gradient": "rms gradient", "persson": "Persson theory",
-          "energy": "elastic energy", "patch": "patch radius"}
+          "energy": "elastic energy", "gap": "mean gap", "patch": "patch radius"}
 
 
 
@@ -113,7 +114,8 @@ def _analysis(E_star: float, p0: float, gamma: float | None):
         gbar = G.rough.gradient()
         found = {"fit": fit, "gradient": gbar,
                  "persson": G.rough.persson(E_star=E_star, p0=p0, gradient=gbar, fit=fit),
-                 "energy": G.rough.energy(E_star=E_star)}
+                 "energy": G.rough.energy(E_star=E_star),
+                 "gap": G.rough.mean_gap(E_star=E_star, p0=p0, gradient=gbar)}
         if gamma is not None:
             found["patch"] = G.rough.patch_radius(E_star=E_star, gamma=gamma)
         finite_gbar = gbar.values[np.isfinite(gbar.values)]
@@ -178,7 +180,9 @@ def _cells(m: dict, at: xr.Dataset | None, gbar_there: xr.DataArray | None,
             _rated(f"{float(fit.hurst):.3f}+-{float(fit.hurst_std):.3f}", lf),
             _rated(show(fit.lambda_r, none="no roll-off"), lf), grad,
             _rated(show_errors(energy.v_el, energy.get("v_el_std")), levels["energy"]),
-            area, stress, where, patch)
+            area, stress, where, _rated(show_errors(r["gap"].mean_gap, r["gap"].mean_gap_std,
+                                                    exact_of(r["gap"], "mean_gap")),
+                                        levels["gap"]), patch)
 
 
 def _exact_record(at: xr.Dataset, name: str) -> dict:
@@ -215,6 +219,8 @@ def _record(m: dict, at: xr.Dataset | None, gbar_there: xr.DataArray | None,
             **number(at.sigma_c), "std": _finite_of(at.get("sigma_c_std")),
             **_exact_record(at, "sigma_c")},
         "at_dr": nothing if at is None else number(at.dr),
+        "mean_gap": {**number(r["gap"].mean_gap), "std": _finite_of(r["gap"].mean_gap_std),
+                     **_exact_record(r["gap"], "mean_gap")},
         "patch_radius": {**number(r["patch"].a_c),
                          "std": _finite_of(r["patch"].get("a_c_std"))} if "patch" in r else None,
         "cleaning": _cleaning_record(m),
