@@ -10,8 +10,11 @@ asymptotes ``gbar(0)`` (ballistic), ``sqrt(c_sa G) / dr`` (self-affine, eq. 41) 
 ``sqrt(c_ro) lambda_r sigma_h / dr^2`` (roll-off, eq. 42); circles: eq. 37's interpolation
 ``1/gbar^2 = 1/gbar^2(0) + dr^(2-2H)/C'_sa + dr^4/r_ro`` with the coefficients of eq. 38
 (``gradient_from_fit`` of eq. 36 fitted to G). Where the numbers differ from the paper:
-none are printed there; with xrough's ``c_sa`` and ``c_ro`` (Fig. 2) eq. 38 reads as
-printed.
+with xrough's ``c_sa`` and ``c_ro`` (Fig. 2) eq. 38 reads as printed. The paper's example
+below the figure (H = 0.8, ``lambda_r = 10^5 a0``: the contact stress ``E* gbar`` falls by
+``(10^5)^0.2 = 10`` from ``a0`` to ``lambda_r``) is the pure power law; eq. 26 at
+``dr = lambda_r`` is past the crossover, and the fall is 31 (sharp roll-off) or 48 (smooth),
+printed below.
 """
 
 import matplotlib.pyplot as plt
@@ -34,6 +37,13 @@ inside = np.isfinite(from_g.values) & (dr < np.pi / C.attrs["q_0"])
 print(f"gbar from G against eq. 26 of the spectrum: largest difference "
       f"{np.max(np.abs(from_g.values[inside] / exact.values[inside] - 1)):.1e} over "
       f"{inside.sum()} lags below lambda_0 / 2")
+
+for rolloff in ("sharp", "smooth"):  # the paper's "factor 10": a0 = 0.5 nm, 10^5 a0
+    spectrum = xrough.model_spectrum(hurst=0.8, lambda_r="50 um", lambda_s="0.5 nm",
+                                     rms_gradient=1.0, unit="nm", rolloff=rolloff)
+    ends = gradient_from_spectrum(spectrum, [0.5, 5e4]).values
+    print(f"H = 0.8, {rolloff} roll-off: gbar(a0) / gbar(lambda_r) = {ends[0] / ends[1]:.1f}"
+          " (the pure power law: 10)")
 
 c_sa = 4 * np.pi ** (2 - 2 * H) * H  # 4 pi^(2-2H) H Gamma(1+H) / Gamma(2-H) at H = 0.5
 c_ro = np.pi**2 / (0.5 + (1 - 1e4 ** (-2 * H)) / (2 * H))  # q_s / q_r = 10^4
