@@ -15,7 +15,7 @@ for the solver's stiffness. Two sets:
   bandwidths 8, 32 and 64, ``L / lambda_r`` 2 and 4, seeds 0 and 1;
 - ``heldout``: never used to build the table: H 0.4, 0.65 and 0.75, smooth and sharp,
   ``lambda_s`` 2 and 4 px, bandwidths 16 and 128 (at most 512 px), ``L / lambda_r`` 2,
-  seeds 7 and 8.
+  seeds 7 and 8; and bandwidth 256 (1024 px, smooth roll-off, seed 7) for each H.
 
 For every load the theory comes from the map's G (:func:`xrough.mean_gap`: the real-space
 form) and from the map's own Fourier modes (the same sums over the binned periodogram,
@@ -59,9 +59,12 @@ def cases(which: str):
     else:
         grid = itertools.product((0.4, 0.65, 0.75), ("smooth", "sharp"), (2, 4), (16, 128),
                                  (2,), (7, 8))
+    if which == "heldout":
+        grid = itertools.chain(grid, itertools.product((0.4, 0.65, 0.75), ("smooth",), (2,),
+                                                       (256,), (2,), (7,)))
     for hurst, rolloff, ls, bw, ratio, seed in grid:
         n = int(ratio * bw * ls)
-        if n <= 512:
+        if n <= 512 or bw == 256:
             yield dict(hurst=hurst, rolloff=rolloff, lambda_s=ls, bandwidth=bw, ratio=ratio,
                        seed=seed, n=n)
 

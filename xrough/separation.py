@@ -94,10 +94,11 @@ def mean_gap(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike,
     xarray.Dataset
         On ``p0`` (and G's extra dims): ``mean_gap`` (G's length unit), ``stiffness``
         (Pa per length unit), ``elastic_energy`` and ``elastic_energy_34`` (J m-2),
-        ``mean_gap_std``, ``stiffness_std`` and ``elastic_energy_std`` (statistical: the
-        gradient's ``gbar_std`` taken as one error common to all lags, which bounds the
-        correlated errors of G), and ``gap_beyond_lags`` (the share of the mean gap from
-        scales beyond the largest lag, where ``gbar`` is continued as ``dr^-2``; above
+        ``mean_gap_std``, ``stiffness_std`` and ``elastic_energy_std`` (statistical: half
+        the change when ``gbar`` moves by ``exp(+-gbar_std / gbar)`` at all lags at once,
+        which bounds the correlated errors of G), and ``gap_beyond_lags`` (the share of
+        the mean gap from scales beyond the largest lag, where ``gbar`` is continued as
+        ``dr^-2``; above
         :data:`BEYOND_LAGS` the load is questionable: measure larger scales). Attrs
         ``equation``, ``gamma``, ``E_star`` and the quality marks.
 
@@ -141,7 +142,8 @@ def mean_gap(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike,
             dask_gufunc_kwargs={"output_sizes": {"p0": loads.size, "part": 4}},
             kwargs={"dr": dr_m, "p0": loads.values, "E": E, "gamma": float(gamma)})
 
-    base, up, down = (run(g) for g in (gbar, gbar * (1 + rel), gbar * (1 - rel)))
+    # one relative error common to all lags, log-normal (gbar_std may exceed gbar)
+    base, up, down = (run(g) for g in (gbar, gbar * np.exp(rel), gbar * np.exp(-rel)))
     to_unit = 1.0 / spec.to_m
 
     def part(res, k):
