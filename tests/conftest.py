@@ -3,8 +3,12 @@ from pathlib import Path
 
 import matplotlib
 import pytest
+import tqdm
 
 matplotlib.use("Agg")
+# no tqdm monitor thread: a thread that wakes and allocates while a test starts or stops
+# tracemalloc can crash CPython 3.11 (the readers' memory checks trace their reads)
+tqdm.tqdm.monitor_interval = 0
 
 
 def _data_root() -> Path:
