@@ -82,6 +82,17 @@ def test_westergaard_mean_gap_energy_and_stiffness():
     np.testing.assert_allclose(mid.stiffness, P_STAR / (H0 * np.log(1 / s)), rtol=1e-3)
     one = solve_contact(sinusoid(64), E_star=E_STAR, p0=0.5 * P_STAR, progress=False)
     assert np.isnan(float(one.stiffness))
+    # the gap distribution: 0 on the contact area, rising beyond it, its mean the mean gap
+    # (trapezoid over 21 shares of the area: 1 % for these smooth gap profiles)
+    q = mid.gap_quantiles
+    shares = q.area_share.values
+    for k in range(s.size):
+        area = float(mid.contact_area[k])
+        np.testing.assert_allclose(q[k].values[shares < area - 0.01], 0, atol=1e-9 * H0)
+        assert np.all(q[k].values[shares > area + 0.01] > 0)
+        assert np.all(np.diff(q[k].values) >= -1e-12)
+    np.testing.assert_allclose(np.trapezoid(q.values, shares, axis=-1), mid.mean_gap,
+                               rtol=0.01)
 
 
 def test_warm_start_from_one_contact_point_recovers():

@@ -184,7 +184,9 @@ def solve_contact(
         gap, the interfacial separation, height unit), ``elastic_energy`` (J m-2,
         ``(1/2) <(p - p0)(u - <u>)>``: the work of the load, ``p0 = -d energy / d
         mean_gap``), ``stiffness`` (``-dp0 / d mean_gap`` from neighbouring loads, Pa per
-        height unit; NaN for one load), ``iterations`` (coarse grids
+        height unit; NaN for one load), ``gap_quantiles`` on ``area_share`` (0 to 1 in
+        steps of 0.05: the gap below which that share of the map lies, the gap
+        distribution; 0 up to the contact area), ``iterations`` (coarse grids
         included), ``converged``, ``float32_iterations``, ``coarse_iterations``,
         ``transforms`` (forward plus inverse FFTs of the map), ``deferred_entries``
         (iterations in which overlapping points waited to enter) and, with ``timing``,
@@ -511,6 +513,10 @@ def _load_vars(results: list[dict], scale: _Scale, hunit: str, L: tuple) -> dict
         "elastic_energy": (L, energy * u.conversion_factor(hunit, "m"), {
             "units": "J m-2", "long_name": "elastic energy per area, "
                                            "(1/2) <(p - p0)(u - <u>)>"}),
+        "gap_quantiles": (L + ("area_share",), np.array(
+            [np.quantile(r["gap"], GAP_SHARES) for r in results]) * scale.from_lat, {
+            "units": hunit, "long_name": "gap below which the share area_share of the "
+                                         "map lies (the gap distribution)"}),
         "stiffness": (L, _stiffness(mean_p, mean_gap), {
             "units": f"Pa {hunit}-1", "long_name": "contact stiffness per area, "
                                                    "-dp0/d(mean gap) between loads"}),
@@ -519,6 +525,10 @@ def _load_vars(results: list[dict], scale: _Scale, hunit: str, L: tuple) -> dict
         out[key] = (L, np.array([r[key] for r in results], dtype=dtype),
                     {"long_name": name})
     return out
+
+
+#: The shares of the area at which the gap distribution is given (``gap_quantiles``).
+GAP_SHARES = np.linspace(0.0, 1.0, 21)
 
 
 def _stiffness(mean_p: np.ndarray, mean_gap: np.ndarray) -> np.ndarray:
@@ -553,6 +563,8 @@ def _dataset(results: list[dict], topography: xr.DataArray, grid, loads: _Loads,
         loads.dim: (L, np.atleast_1d(loads.values), loads.attrs),
         "iteration": ("iteration", np.arange(1, hist.shape[1] + 1),
                       {"long_name": "iteration"}),
+        "area_share": ("area_share", GAP_SHARES, {
+            "units": "1", "long_name": "share of the map's area"}),
     }
     attrs = {
         "E_star": scale.E, "E_star_units": "Pa", "tol": opts.tol, "max_iter": opts.max_iter,
