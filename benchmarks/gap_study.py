@@ -40,10 +40,12 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import xarray as xr
 
 import xrough
 from xrough._kernels.separation import separation_kernel
 from xrough.gradient import gradient_from_spectrum
+from xrough.separation import exact_interval
 
 E_STAR = 1e6
 GBAR = 0.1
@@ -145,15 +147,11 @@ def report(held: pd.DataFrame) -> None:
     surfaces = held[["hurst", "rolloff", "lambda_s", "bandwidth", "seed"]].drop_duplicates()
     print(f"held-out: {len(surfaces)} surfaces, {len(held)} loads")
     for q in QUANTITIES:
-        tab = model_error_table()[q]
-        logp = np.log10(held.p_star.to_numpy())
-        mid, lo, hi = (np.interp(logp, tab[0], tab[k]) for k in (1, 2, 3))
         value = held[f"{q}_theory"].to_numpy()
         std = held[f"{q}_std"].to_numpy()
         exact = held[f"{q}_exact"].to_numpy()
-        centre = value * np.exp(mid)
-        low = centre - np.hypot(centre - value * np.exp(lo), 1.645 * std * np.exp(mid))
-        high = centre + np.hypot(value * np.exp(hi) - centre, 1.645 * std * np.exp(mid))
+        centre, low, high = (np.asarray(v) for v in exact_interval(
+            value, std, xr.DataArray(held.p_star.to_numpy()), q))
         inside = (exact >= low) & (exact <= high)
         real = np.abs(value / exact - 1)
         four = np.abs(held[f"{q}_fourier"].to_numpy() / exact - 1)
@@ -170,12 +168,6 @@ def report(held: pd.DataFrame) -> None:
     per_load = ", ".join(f"{np.median(e34[held.p_star == p]):.2f}" for p in P_STARS)
     print(f"eq. 34 energy: theory/exact median {np.median(e34):.2f} "
           f"(p* 1e-4 to 0.3: {per_load})")
-
-
-def model_error_table() -> dict:
-    """The shipped table as :func:`xrough.mean_gap` reads it (log10 p*, median, lo, hi)."""
-    from xrough.separation import _model_error_table
-    return _model_error_table()
 
 
 def main() -> None:

@@ -879,7 +879,7 @@ def gradient_on(gradient: xr.DataArray, G: xr.DataArray, spec: AcfSpec) -> xr.Da
     return gradient.assign_coords(dr=spec.dr)
 
 
-def _first_finite(values: np.ndarray) -> np.ndarray:
+def first_finite(values: np.ndarray) -> np.ndarray:
     """Take the first finite value along the last axis (NaN if none)."""
     finite = np.isfinite(values)
     idx = np.argmax(finite, axis=-1)
@@ -1118,7 +1118,7 @@ class _ContactArea:
     @functools.cached_property
     def gbar0(self) -> xr.DataArray:
         """``gbar`` at the smallest lag where it is finite (eq. 47, 51)."""
-        return xr.apply_ufunc(_first_finite, self.gbar, input_core_dims=[["dr"]],
+        return xr.apply_ufunc(first_finite, self.gbar, input_core_dims=[["dr"]],
                               dask="parallelized", output_dtypes=[float])
 
 
@@ -1293,7 +1293,7 @@ def _stress_model_errors(run: _PerssonRun, area: _ContactArea, g_sigma: xr.DataA
     fluct = g_sigma - p0sq
     if run.theory == "persson" and np.isclose(run.kappa, KAPPA_PERSSON, rtol=1e-9):
         note = _MODEL_ERROR_STRESS
-        first, p_star_0 = (xr.apply_ufunc(_first_finite, v, input_core_dims=[["dr"]],
+        first, p_star_0 = (xr.apply_ufunc(first_finite, v, input_core_dims=[["dr"]],
                                           dask="parallelized", output_dtypes=[float],
                                           dask_gufunc_kwargs={"allow_rechunk": True})
                            for v in (fluct, area.p_star))  # dr: tens of lags, one chunk

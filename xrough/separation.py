@@ -16,18 +16,26 @@ import functools
 
 import numpy as np
 import xarray as xr
-from scipy import special
 
 from . import quality
 from . import units as u
+from ._kernels.contact import contact_area
 from ._kernels.model_error import read_table
 from ._kernels.separation import separation_kernel
 from .acf import read_acf, result_attrs
-from .contact import acf_in_si, gradient_on, own_attrs, own_coords, rate_result, strip_marks
+from .contact import (
+    acf_in_si,
+    first_finite,
+    gradient_on,
+    own_attrs,
+    own_coords,
+    rate_result,
+    strip_marks,
+)
 from .gradient import rms_gradient
 from .units import QuantityLike
 
-__all__ = ["mean_gap", "GAMMA", "BEYOND_LAGS", "MODEL_ERROR_QUANTITIES"]
+__all__ = ["mean_gap", "exact_interval", "GAMMA", "BEYOND_LAGS", "MODEL_ERROR_QUANTITIES"]
 
 _PRESSURE = "[pressure]"
 #: Persson's ``gamma`` (``S = gamma + (1 - gamma) P^2``), the value Almqvist et al. (2011)
@@ -213,7 +221,7 @@ def _energy_34(G_si: xr.DataArray, gbar: xr.DataArray, dr_m: np.ndarray,
     g = G_si.isel(dr=positive)
     gb = gbar.isel(dr=positive)
     r = xr.DataArray(dr_m[positive], dims="dr")
-    area = xr.apply_ufunc(special.erf, np.sqrt(2.0) * loads / (E * gb), dask="allowed")
+    area = xr.apply_ufunc(contact_area, loads / (E * gb), dask="allowed")  # eq. 29
     f = g * area / r
     ends = f.isel(dr=0) + (g / r).isel(dr=-1)
     return E / 4 * (_trapezoid(f, np.log(dr_m[positive])) + ends)
@@ -242,39 +250,72 @@ def _model_error_table() -> dict[str, tuple[np.ndarray, ...]]:
     return out
 
 
+def exact_interval(value, std, p_star, quantity: str) -> tuple:
+    """Give the expected exact value and its 90 % interval for a theory ``value``.
+
+    From the solver study (``benchmarks/gap_study.py``, ``xrough/data/gap_error.csv``):
+    the 5, 50 and 95 % quantiles of ``ln(exact / theory)`` at ``p*`` (``p0 / (E* gbar)``
+    at the finest lag), interpolated in ``log10 p*``, NaN outside the study's range. The
+    statistical standard deviation ``std`` widens the interval in quadrature in
+    ``ln``, 1.645 of ``std / value`` on each side, so it stays positive.
+
+    Parameters
+    ----------
+    value, std : array_like or xarray.DataArray
+        The theory's value of ``quantity`` (:func:`mean_gap`) and its statistical standard
+        deviation, in any one unit (the result is in it).
+    p_star : xarray.DataArray
+        The reduced pressure ``p0 / (E* gbar)`` at the finest lag (dimensionless).
+    quantity : {'mean_gap', 'stiffness', 'elastic_energy'}
+        Which study table.
+
+    Returns
+    -------
+    tuple
+        ``(exact, lower, upper)``, in the unit of ``value``.
+
+    Examples
+    --------
+    >>> import xarray as xr
+    >>> exact, lower, upper = exact_interval(1.0, 0.0, xr.DataArray(0.01), "mean_gap")
+    >>> bool(lower < exact < upper)  # the theory overestimates the gap at p* = 0.01
+    True
+    """
+    x, med, lo, hi = _model_error_table()[quantity]
+
+    def at(values):
+        return xr.apply_ufunc(lambda v: np.interp(np.log10(v), x, values, left=np.nan,
+                                                  right=np.nan),
+                              p_star, dask="parallelized", output_dtypes=[float])
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = _Z90 * abs(std / value)
+    centre = value * np.exp(at(med))
+    lower = centre * np.exp(-np.hypot(at(med) - at(lo), rel))
+    upper = centre * np.exp(np.hypot(at(hi) - at(med), rel))
+    return centre, lower, upper
+
+
 def _with_model_error(ds: xr.Dataset, gbar: xr.DataArray) -> xr.Dataset:
     """Add ``<q>_exact`` and its 90 % interval ``<q>_exact_lower`` / ``_upper``.
 
-    From the solver study (``benchmarks/gap_study.py``): the quantiles of
-    ``ln(exact / theory)`` at ``p* = p0 / (E* gbar)`` of the finest lag, interpolated in
-    ``log10 p*``, NaN outside the study's range; the statistical standard deviation
-    widens the interval in quadrature (1.645 of it on each side).
+    :func:`exact_interval` at ``p*`` of the finest lag with a ``gbar`` (NaN below a tip's
+    window), the study's definition.
     """
     E = float(ds.attrs["E_star"])
-    first = gbar.isel(dr=0, drop=True)
-    log_p = np.log10(ds["p0"] / (E * first))
-    table = _model_error_table()
+    first = xr.apply_ufunc(first_finite, gbar, input_core_dims=[["dr"]],
+                           dask="parallelized", output_dtypes=[float])
+    p_star = ds["p0"] / (E * first)
     for q in MODEL_ERROR_QUANTITIES:
-        x, med, lo, hi = table[q]
-
-        def at(values, x=x):
-            return xr.apply_ufunc(
-                lambda v, y=values: np.interp(v, x, y, left=np.nan, right=np.nan),
-                log_p, dask="parallelized", output_dtypes=[float])
-
-        value, std = ds[q], ds[f"{q}_std"]
-        centre = value * np.exp(at(med))
-        spread = _Z90 * std * np.exp(at(med))
+        value = ds[q]
+        centre, lower, upper = exact_interval(value, ds[f"{q}_std"], p_star, q)
         units = value.attrs["units"]
         name = value.attrs["long_name"].split(",")[0]
         ds[f"{q}_exact"] = centre.assign_attrs(
             units=units, long_name=f"expected exact {name} (theory corrected by the "
             "solver study's median)")
-        ds[f"{q}_exact_lower"] = (centre - np.hypot(centre - value * np.exp(at(lo)), spread)
-                                  ).assign_attrs(units=units, long_name=f"lower end of the "
-                                                 f"90 % interval of the exact {name}")
-        ds[f"{q}_exact_upper"] = (centre + np.hypot(value * np.exp(at(hi)) - centre, spread)
-                                  ).assign_attrs(units=units, long_name=f"upper end of the "
-                                                 f"90 % interval of the exact {name}")
+        ds[f"{q}_exact_lower"] = lower.assign_attrs(
+            units=units, long_name=f"lower end of the 90 % interval of the exact {name}")
+        ds[f"{q}_exact_upper"] = upper.assign_attrs(
+            units=units, long_name=f"upper end of the 90 % interval of the exact {name}")
     return ds
-

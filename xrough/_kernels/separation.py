@@ -28,6 +28,8 @@ import functools
 import numpy as np
 from scipy import integrate, interpolate, special
 
+from .contact import contact_area
+
 __all__ = ["separation_kernel", "j_function", "SEPARATION_OUTPUTS"]
 
 #: What :func:`separation_kernel` returns per load, in this order.
@@ -134,7 +136,7 @@ def _one_curve(dr, gbar, p, E, gamma) -> np.ndarray:
     g = np.concatenate([g_in, g_out])
     w = np.concatenate([w_in, w_out])
     s = p[:, None] / (E * g[None, :])  # p* at every node, per load
-    area = special.erf(np.sqrt(2.0) * s)
+    area = contact_area(s)  # eq. 29, Persson's kappa: erf(sqrt(2) p*)
     gap_terms = w * j_function(s, gamma) / g
     gap = _C * gap_terms.sum(axis=1)
     beyond = _C * gap_terms[:, g_in.size:].sum(axis=1)
