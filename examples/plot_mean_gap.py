@@ -9,7 +9,9 @@ stored. The boundary-element solver gives the exact values on the map itself
 (``solve_contact``: ``mean_gap``, ``stiffness`` from loads 1 % apart, ``elastic_energy``).
 The band is the theory's 90 % interval for the exact value (the solver study of
 ``benchmarks/gap_study.py`` and the statistical error of G); at light loads the theory
-overestimates the gap and underestimates the stiffness, which the band absorbs.
+overestimates the gap and underestimates the stiffness, which the band absorbs. The
+fourth panel is the gap distribution at three loads (``gap_quantiles``: Almqvist et al.'s
+form of the theory, lines; the solver's, dots).
 """
 
 import matplotlib.pyplot as plt
@@ -35,7 +37,7 @@ for k, ps in enumerate(p_star):
           f"{float(t.mean_gap_exact):.3f} [{float(t.mean_gap_exact_lower):.3f}, "
           f"{float(t.mean_gap_exact_upper):.3f}]), solver {float(e.mean_gap):.3f} nm")
 
-fig, axes = plt.subplots(1, 3, figsize=(13, 4))
+fig, axes = plt.subplots(1, 4, figsize=(17, 4))
 for ax, name, unit in zip(axes, ("mean_gap", "stiffness", "elastic_energy"),
                           ("nm", "Pa/nm", "J/m^2")):
     ax.fill_between(p0, theory[f"{name}_exact_lower"], theory[f"{name}_exact_upper"],
@@ -47,5 +49,12 @@ for ax, name, unit in zip(axes, ("mean_gap", "stiffness", "elastic_energy"),
     ax.set_xlabel("mean pressure p0 (Pa)")
     ax.set_ylabel(f"{name.replace('_', ' ')} ({unit})")
 axes[0].legend(fontsize=8)
+for k, colour in zip((1, 3, 5), ("C1", "C2", "C3")):
+    share = theory.area_share
+    axes[3].plot(theory.gap_quantiles[k], share, color=colour, label=f"p* {p_star[k]:g}")
+    axes[3].plot(exact.gap_quantiles[k].clip(min=0), share, "o", color=colour, ms=3)
+axes[3].set_xlabel("gap (nm)")
+axes[3].set_ylabel("share of the area with a smaller gap")
+axes[3].legend(fontsize=8)
 fig.tight_layout()
 plt.show()

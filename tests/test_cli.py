@@ -178,6 +178,15 @@ def api_errors(path):
                                     ("lower", "_exact_lower"), ("upper", "_exact_upper"))}}
 
 
+def test_mean_gap_states_its_interval(report):
+    """The mean gap's bracket is a 90 % interval (the solver study's), Persson theory's a
+    one-sigma one: the mean gap's says so, the others print none."""
+    _, out, _ = report
+    row = {r["measurement"]: r for r in table(out)}["afm"]
+    assert row["mean gap"].endswith("nm (90 %)"), row["mean gap"]
+    assert "%" not in row["a_r"]
+
+
 def test_sigma_h_is_printed_in_the_height_unit(report):
     """A map in um with 65 nm rms printed 'sigma_h 0.06524 um' in the lateral unit's
     scale... and in mm/m files the lateral unit labelled a height in m."""

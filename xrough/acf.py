@@ -52,7 +52,7 @@ from ._kernels.checks import require_increasing
 from ._version import __version__
 
 __all__ = ["AcfSpec", "check_acf", "read_acf", "PROVENANCE", "result_attrs", "lag_coord",
-           "mark_gaps", "gap_note"]
+           "mark_gaps", "gap_note", "strip_marks"]
 
 #: Attributes that say where data came from; every estimator and result carries them on.
 PROVENANCE = ("source", "source_file", "source_sha256", "format", "overrides", "channel",
@@ -432,3 +432,9 @@ def result_attrs(source: xr.DataArray | xr.Dataset | dict | None, /, **attrs) ->
     out.update(attrs)
     out["xrough_version"] = __version__
     return out
+
+
+def strip_marks(da: xr.DataArray) -> xr.DataArray:
+    """``da`` without its per-bin coords (pair counts, errors) and with dr whole per chunk."""
+    da = da.drop_vars([c for c in da.coords if c != "dr" and "dr" in da[c].dims])
+    return da.chunk({"dr": -1}) if da.chunks is not None else da

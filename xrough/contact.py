@@ -39,6 +39,7 @@ from .acf import (
     mark_gaps,
     read_acf,
     result_attrs,
+    strip_marks,
 )
 from .fit_result import read_fit, rolloff_shapes
 from .fitting import fit_acf
@@ -91,12 +92,6 @@ _DERIVATIVE = ("Laplacian of a smoothing spline of ln G against ln dr: smoothing
 # ---------------------------------------------------------------------------------------
 # G as SI lines for the kernels
 # ---------------------------------------------------------------------------------------
-def strip_marks(da: xr.DataArray) -> xr.DataArray:
-    """``da`` without its per-bin coords (pair counts, errors) and with dr whole per chunk."""
-    da = da.drop_vars([c for c in da.coords if c != "dr" and "dr" in da[c].dims])
-    return da.chunk({"dr": -1}) if da.chunks is not None else da
-
-
 def acf_in_si(G: xr.DataArray, spec: AcfSpec) -> tuple[xr.DataArray, xr.DataArray | None]:
     """G and its standard error (if any) in m^2, extra dims first."""
     G = G.transpose(..., "dr")

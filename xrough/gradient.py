@@ -42,6 +42,7 @@ from .acf import (
     mark_gaps,
     read_acf,
     result_attrs,
+    strip_marks,
 )
 from .fit_result import gradient_from_fit
 from .fitting import describe_problems, fit_acf, prepare_fit
@@ -85,15 +86,11 @@ def _gradient_da(gbar: np.ndarray, dr: np.ndarray, unit_str: str, attrs: dict) -
 def _noise(G: xr.DataArray) -> xr.DataArray:
     """Relative independent scatter per bin: ``sampling_error / G`` (random pairs) or 0."""
     if "sampling_error" not in G.coords:
-        return _strip(xr.zeros_like(G))
+        return strip_marks(xr.zeros_like(G))
     with np.errstate(divide="ignore", invalid="ignore"):
-        rel = (_strip(G.coords["sampling_error"].broadcast_like(G)) / _strip(G)).fillna(0.0)
+        rel = (strip_marks(G.coords["sampling_error"].broadcast_like(G))
+               / strip_marks(G)).fillna(0.0)
     return rel
-
-
-def _strip(da: xr.DataArray) -> xr.DataArray:
-    """``da`` without the per-bin coords (pair_count, errors): kernels get plain arrays."""
-    return da.drop_vars([c for c in da.coords if c != "dr" and "dr" in da[c].dims])
 
 
 @u.accepts_quantified
@@ -193,7 +190,7 @@ def _rms_gradient(G: xr.DataArray, method: str, fit: xr.Dataset | None) -> xr.Da
     if G.chunks is not None:
         G = G.chunk({"dr": -1})  # each curve needs all its lags
     dr = spec.dr
-    Gl = _strip(G) * spec.g_factor  # in the square of dr's unit
+    Gl = strip_marks(G) * spec.g_factor  # in the square of dr's unit
     common: dict[str, Any] = dict(
         input_core_dims=[["dr"], ["dr"]], output_core_dims=[["dr"]], vectorize=True,
         dask="parallelized", output_dtypes=[float], keep_attrs=False)
@@ -210,7 +207,7 @@ def _rms_gradient(G: xr.DataArray, method: str, fit: xr.Dataset | None) -> xr.Da
         params = fit_acf(G) if fit is None else fit
         out = _fitted_on_lags(params, G)
         if "gbar_std" in out.coords:
-            fit_rel = out["gbar_std"].reset_coords(drop=True) / _strip(out)
+            fit_rel = out["gbar_std"].reset_coords(drop=True) / strip_marks(out)
             out = out.drop_vars("gbar_std")
         if params.attrs.get("model") != "spectrum":
             extra_attrs["equation"] = "eq. 37/38 with the fit of eq. 36"
@@ -282,7 +279,7 @@ def _gradient_std(gbar: xr.DataArray, Gl: xr.DataArray, errors: dict | None,
     if errors is None:
         std, error_of = xr.full_like(gbar, np.nan), ERROR_OF_NONE
     else:
-        gbar_or_none = _strip(gbar) if method == "auto" else xr.full_like(Gl, np.nan)
+        gbar_or_none = strip_marks(gbar) if method == "auto" else xr.full_like(Gl, np.nan)
         values = [Gl, gbar_or_none, xr.full_like(Gl, np.nan) if fit_rel is None else fit_rel,
                   xr.ones_like(Gl) if factor is None else factor]
         std = xr.apply_ufunc(
@@ -326,8 +323,8 @@ def _auto(G: xr.DataArray, Gl: xr.DataArray, noise: xr.DataArray, spec,
     if params is not None:
         fitted = _fitted_on_lags(params, G)
         if "gbar_std" in fitted.coords:
-            fitted_std = _strip(fitted["gbar_std"]) / _strip(fitted)
-        fitted = _strip(fitted.drop_vars(
+            fitted_std = strip_marks(fitted["gbar_std"]) / strip_marks(fitted)
+        fitted = strip_marks(fitted.drop_vars(
             [c for c in params.coords if c not in params.dims], errors="ignore"))
     else:
         fitted = xr.full_like(Gl, np.nan)

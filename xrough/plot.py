@@ -39,7 +39,8 @@ from . import units as _units
 from .topography import convert_units
 
 __all__ = ["plot", "plot_topography", "plot_loglog", "plot_dataset", "plot_stitched",
-           "plot_fit", "plot_patch_radius", "display_unit", "log_axis", "BAND_FLOOR"]
+           "plot_fit", "plot_patch_radius", "plot_gap_distribution", "display_unit", "log_axis",
+           "BAND_FLOOR"]
 
 #: Lower edge of an error band on a log axis, as a fraction of the curve (G / 10).
 BAND_FLOOR = 0.1
@@ -522,7 +523,10 @@ def plot_dataset(ds: xr.Dataset, *, variables=None, axes=None, ax=None,
         da = ds[name]
         bands = {e: ds[e] for e in (f"{name}_std", *(name + s for s in _EXACT))
                  if e in ds.data_vars and ds[e].dims == da.dims}
-        plot_loglog(da.assign_coords(bands), ax=ax, short_range_linear=_is_persson(ds))
+        if _SHARE in da.dims:
+            plot_gap_distribution(da, ax=ax)
+        else:
+            plot_loglog(da.assign_coords(bands), ax=ax, short_range_linear=_is_persson(ds))
         ax.set_title(PANEL_TITLES.get(name, name) if _is_persson(ds) else name)
     for ax in flat[len(names):]:
         ax.set_visible(False)
@@ -540,6 +544,69 @@ PERSSON_PANELS = ("a_r", "sigma_c")
 PANEL_TITLES = {"a_r": "contact area a_r (eq. 29)", "a_ri": "contact area a_ri (eq. 50)",
                 "sigma_c": "mean contact stress sigma_c (eq. 39/40)",
                 "p_star": "reduced pressure p*", "G_sigma": "stress ACF G_sigma (eq. 48)"}
+
+
+#: The dim of a gap distribution's quantiles (:func:`xrough.mean_gap`,
+#: :func:`xrough.solve_contact`).
+_SHARE = "area_share"
+
+
+def plot_gap_distribution(quantiles: xr.DataArray, *, ax=None, loads: int = 6):
+    """Draw a gap distribution: the share of the area with a gap below ``u``, against ``u``.
+
+    Parameters
+    ----------
+    quantiles : xarray.DataArray
+        ``gap_quantiles`` on ``area_share`` (and ``p0``) of :func:`xrough.mean_gap` or
+        :func:`xrough.solve_contact` (its load dim).
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw into (default: a new figure).
+    loads : int
+        At most this many loads are drawn (evenly spread in their order), one curve each,
+        labelled with the load.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        Gap (linear, the result's unit) on x, share of the nominal area on y: each curve
+        starts at the contact area (gap 0).
+
+    Examples
+    --------
+    The solver's on a small map (the theory's, ``mean_gap(...).gap_quantiles``, alike):
+
+    >>> topo = xrough.self_affine_surface(hurst=0.8, lambda_r="16 nm", lambda_s="2 nm",
+    ...                                   size="32 nm", n=32, rms_gradient=0.1,
+    ...                                   unit="nm", seed=1)
+    >>> sol = topo.rough.solve_contact(E_star="1 MPa", p0=["1 kPa", "10 kPa"],
+    ...                                progress=False)
+    >>> ax = xrough.plot.plot_gap_distribution(sol.gap_quantiles)
+    >>> len(ax.lines)
+    2
+    """
+    ax = _axes(ax)
+    load_dims = [d for d in quantiles.dims if d != _SHARE]
+    da = quantiles.transpose(*load_dims, _SHARE)
+    flat = da.stack(_load=load_dims) if load_dims else da.expand_dims(_load=[0])
+    flat = flat.transpose("_load", _SHARE)
+    pick = np.unique(np.linspace(0, flat.sizes["_load"] - 1,
+                                 min(loads, flat.sizes["_load"])).round().astype(int))
+    share = np.asarray(da[_SHARE].values, dtype=float)
+    unit = da.attrs.get("units", "")
+    for i in pick:
+        gap = np.asarray(flat.isel(_load=i).values, dtype=float)
+        finite = np.isfinite(gap)
+        label = None
+        if load_dims:
+            coords = flat.isel(_load=i)
+            label = ", ".join(_coord_text(d, coords[d].values, _coord_units(da, d))
+                              for d in load_dims)
+        ax.plot(np.maximum(gap[finite], 0.0), share[finite], label=label)
+    _set_labels(ax, f"gap ({display_unit(unit)})" if unit else "gap",
+                "share of the area with a smaller gap")
+    if load_dims:
+        ax.legend(fontsize="small")
+    return ax
 
 
 def _is_persson(ds: xr.Dataset) -> bool:
@@ -761,8 +828,9 @@ def plot(da: xr.DataArray, *, ax=None, **kwargs):
     Parameters
     ----------
     da : xarray.DataArray
-        A topography (dims ``y, x`` or ``x``) or a result on ``dr`` / ``q``; a Dataset
-        goes to :func:`plot_dataset`, a DataTree of instruments to :func:`plot_stitched`.
+        A topography (dims ``y, x`` or ``x``), a result on ``dr`` / ``q`` or a gap
+        distribution (on ``area_share``: :func:`plot_gap_distribution`); a Dataset goes
+        to :func:`plot_dataset`, a DataTree of instruments to :func:`plot_stitched`.
     ax : matplotlib.axes.Axes, optional
         Axes to draw into (default: a new figure).
     **kwargs
@@ -778,6 +846,8 @@ def plot(da: xr.DataArray, *, ax=None, **kwargs):
         return plot_dataset(da, **kwargs)
     if "dr" in da.dims or "q" in da.dims or "a_c" in da.dims:
         return plot_loglog(da, ax=ax, **kwargs)
+    if _SHARE in da.dims:
+        return plot_gap_distribution(da, ax=ax, **kwargs)
     if "x" in da.dims:
         return plot_topography(da, ax=ax, **kwargs)
     raise ValueError(f"do not know how to plot a DataArray with dims {da.dims}")

@@ -21,8 +21,8 @@ from . import quality
 from . import units as u
 from ._kernels.contact import contact_area
 from ._kernels.model_error import read_table
-from ._kernels.separation import separation_kernel
-from .acf import read_acf, result_attrs
+from ._kernels.separation import GAP_SHARES, gap_distribution_kernel, separation_kernel
+from .acf import read_acf, result_attrs, strip_marks
 from .contact import (
     acf_in_si,
     first_finite,
@@ -30,7 +30,6 @@ from .contact import (
     own_attrs,
     own_coords,
     rate_result,
-    strip_marks,
 )
 from .gradient import rms_gradient
 from .units import QuantityLike
@@ -51,6 +50,11 @@ _Z90 = 1.6448536269514722
 _EQUATION = ("Persson's interfacial separation (PRL 99, 125502, 2007) in real space: "
              "u(p0) = sqrt(2)/(4 pi^1.5) int dmu J(p*)/gbar, dmu = dr (-d gbar^2/d dr) d(dr), "
              "p* = p0/(E* gbar(dr)) (eq. 26, 29)")
+
+_DISTRIBUTION = ("P(u) = a_r(dr_1) delta(u) + int da_r(D) [N(u; u_D, h_D) + N(-u; u_D, h_D)]: "
+                 "the area detaching at resolution D has the gap of the roughness finer "
+                 "than D (mean u_D at p0/a_r(D), variance h_D^2 = int_0^D r^2/(4 pi^2) "
+                 "(-d gbar^2/dr) dr); Almqvist et al., JMPS 59, 2355 (2011)")
 
 
 @own_attrs
@@ -80,6 +84,16 @@ def mean_gap(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike,
     form of the energy, eq. 34 (``G_du = G W`` with ``W = a_r``) in eq. 16:
     ``U_34 = E*/4 int G a_r / dr^2``.
 
+    The gap distribution is Almqvist et al.'s (2011) in the same real-space terms: from
+    coarse to fine resolution ``D`` the contact area ``P(D)`` shrinks, and the area that
+    detaches at ``D`` has the gap of the roughness finer than ``D`` pressed at
+    ``p0 / P(D)``, taken as normal (reflected at zero) with the mean gap of that finer
+    roughness (``gbar_D^2 = gbar^2 - gbar^2(D)``) and the variance of its heights,
+    ``h_D^2 = int_0^D r^2 / (4 pi^2) (-d gbar^2 / dr) dr``; the area in contact at
+    the finest lag has gap 0. It assumes Gaussian heights at every scale (no skew: a
+    worn or plateau-honed surface differs) and the map's resolution as the finest
+    scale, as the solver on the map does.
+
     Parameters
     ----------
     G : xarray.DataArray
@@ -104,7 +118,10 @@ def mean_gap(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike,
         (Pa per length unit), ``elastic_energy`` and ``elastic_energy_34`` (J m-2),
         ``mean_gap_std``, ``stiffness_std`` and ``elastic_energy_std`` (statistical: half
         the change when ``gbar`` moves by ``exp(+-gbar_std / gbar)`` at all lags at once,
-        which bounds the correlated errors of G), and ``gap_beyond_lags`` (the share of
+        which bounds the correlated errors of G), ``gap_quantiles`` on ``area_share`` (the
+        gap distribution: the gap below which each twentieth of the nominal area lies, 0
+        within the contact area and ``inf`` at share 1, as the solver's ``gap_quantiles``;
+        see below), and ``gap_beyond_lags`` (the share of
         the mean gap from scales beyond the largest lag, where ``gbar`` is continued as
         ``dr^-2``; above
         :data:`BEYOND_LAGS` the load is questionable: measure larger scales). Attrs
@@ -163,6 +180,11 @@ def mean_gap(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike,
     gap, energy, dudp = part(base, 0), part(base, 1), part(base, 2)
     stiffness = loads / dudp
     stiffness_std = abs(loads / part(up, 2) - loads / part(down, 2)) / 2
+    quantiles = xr.apply_ufunc(
+        gap_distribution_kernel, gbar, input_core_dims=[["dr"]],
+        output_core_dims=[["p0", "area_share"]], dask="parallelized", output_dtypes=[float],
+        dask_gufunc_kwargs={"output_sizes": {"p0": loads.size, "area_share": GAP_SHARES.size}},
+        kwargs={"dr": dr_m, "p0": loads.values, "E": E, "gamma": float(gamma)})
     G_si, _ = acf_in_si(G, spec)
     v34 = _energy_34(G_si, gbar, dr_m, loads, E)
     unit = spec.unit_str
@@ -188,12 +210,16 @@ def mean_gap(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike,
             "elastic_energy_34": v34.assign_attrs(
                 units="J m-2", long_name="elastic energy per area at load p0 from eq. 34 "
                 "(G_du = G a_r) in eq. 16: E*/4 int G a_r / dr^2"),
+            "gap_quantiles": (quantiles * to_unit).assign_attrs(
+                units=unit, long_name="gap below which the share area_share of the nominal "
+                "area lies (Almqvist et al. 2011 in real space)", equation=_DISTRIBUTION),
             "gap_beyond_lags": part(base, 3).assign_attrs(
                 units="1", long_name="share of mean_gap from scales beyond the largest lag "
                 "(gbar continued as dr^-2)"),
         },
-        coords={**own_coords(G), "p0": ("p0", loads.values, {
-            "units": "Pa", "long_name": "mean pressure"})},
+        coords={**own_coords(G), "p0": ("p0", loads.values),
+                "area_share": ("area_share", GAP_SHARES, {
+            "units": "1", "long_name": "share of the nominal area"})},
         attrs=result_attrs(G, E_star=E, E_star_units="Pa", gamma=float(gamma),
                            equation=_EQUATION, theory="persson 2007 separation, real space"),
     )
@@ -201,12 +227,14 @@ def mean_gap(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike,
     if np.ndim(p0s) == 0:
         ds = ds.isel(p0=0)
     beyond = ds["gap_beyond_lags"] > BEYOND_LAGS
-    return rate_result(ds, [(beyond, "questionable",
-                       f"more than {BEYOND_LAGS:.0%} of the mean gap comes from scales "
-                       "beyond the largest lag of G (gbar continued there as the "
-                       "roll-off's dr^-2): at such small loads the gap is set by the "
-                       "largest asperities; measure larger scales")],
-                 what="mean_gap", G=rated, inherited=(gradient,))
+    result = rate_result(ds, [(beyond, "questionable",
+                         f"more than {BEYOND_LAGS:.0%} of the mean gap comes from scales "
+                         "beyond the largest lag of G (gbar continued there as the "
+                         "roll-off's dr^-2): at such small loads the gap is set by the "
+                         "largest asperities; measure larger scales")],
+                         what="mean_gap", G=rated, inherited=(gradient,))
+    result["p0"].attrs.update(units="Pa", long_name="mean pressure")  # xarray drops them
+    return result
 
 
 def _energy_34(G_si: xr.DataArray, gbar: xr.DataArray, dr_m: np.ndarray,

@@ -20,6 +20,7 @@ from tqdm.auto import tqdm
 from . import quality
 from . import units as u
 from ._kernels.checks import require_count, require_flag
+from ._kernels.separation import GAP_SHARES
 from ._kernels.solver import (
     ElasticOperator,
     coarse_start,
@@ -526,9 +527,6 @@ def _load_vars(results: list[dict], scale: _Scale, hunit: str, L: tuple) -> dict
                     {"long_name": name})
     return out
 
-
-#: The shares of the area at which the gap distribution is given (``gap_quantiles``).
-GAP_SHARES = np.linspace(0.0, 1.0, 21)
 
 
 def _stiffness(mean_p: np.ndarray, mean_gap: np.ndarray) -> np.ndarray:

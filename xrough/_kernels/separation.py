@@ -30,10 +30,14 @@ from scipy import integrate, interpolate, special
 
 from .contact import contact_area
 
-__all__ = ["separation_kernel", "j_function", "SEPARATION_OUTPUTS"]
+__all__ = ["separation_kernel", "gap_distribution_kernel", "j_function",
+           "SEPARATION_OUTPUTS", "GAP_SHARES"]
 
 #: What :func:`separation_kernel` returns per load, in this order.
 SEPARATION_OUTPUTS = ("mean_gap", "energy", "dU_dp", "beyond")
+
+#: The shares of the area at which a gap distribution is given (``gap_quantiles``).
+GAP_SHARES = np.linspace(0.0, 1.0, 21)
 
 _C = np.sqrt(2.0) / (4.0 * np.pi**1.5)
 #: Gauss-Legendre nodes per interval between lags (in ln dr; gbar a power law there).
@@ -112,7 +116,11 @@ def separation_kernel(gbar, *, dr, p0, E: float, gamma: float) -> np.ndarray:
 
 
 def _nodes(dr: np.ndarray, gbar: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Quadrature nodes in ``ln dr``: ``(gbar, weight of dmu)`` inside and beyond the lags."""
+    """Quadrature nodes in ``ln dr``: ``(gbar, weight of dmu, dr)`` inside and beyond the lags.
+
+    Six arrays: ``gbar``, the weight of ``dmu`` and ``dr`` at the nodes between the lags,
+    then the same beyond the largest lag.
+    """
     t, w = np.polynomial.legendre.leggauss(_ORDER)
     x = np.log(dr)
     lg = np.log(np.minimum.accumulate(gbar))  # non-increasing
@@ -128,11 +136,12 @@ def _nodes(dr: np.ndarray, gbar: np.ndarray) -> tuple[np.ndarray, ...]:
     xt = (x[-1] + ht * (2 * np.arange(panels) + 1))[:, None] + ht * t[None, :]
     lgt = lg[-1] - 2.0 * (xt - x[-1])
     wt = 4.0 * np.exp(2.0 * lgt + xt) * (ht * w[None, :])
-    return np.exp(lgs).ravel(), weight.ravel(), np.exp(lgt).ravel(), wt.ravel()
+    return (np.exp(lgs).ravel(), weight.ravel(), np.exp(xs).ravel(), np.exp(lgt).ravel(),
+            wt.ravel(), np.exp(xt).ravel())
 
 
 def _one_curve(dr, gbar, p, E, gamma) -> np.ndarray:
-    g_in, w_in, g_out, w_out = _nodes(dr, gbar)
+    g_in, w_in, _, g_out, w_out, _ = _nodes(dr, gbar)
     g = np.concatenate([g_in, g_out])
     w = np.concatenate([w_in, w_out])
     s = p[:, None] / (E * g[None, :])  # p* at every node, per load
@@ -146,3 +155,121 @@ def _one_curve(dr, gbar, p, E, gamma) -> np.ndarray:
     with np.errstate(invalid="ignore", divide="ignore"):
         share = np.where(gap > 0, beyond / gap, np.nan)
     return np.stack([gap, energy, dudp, share], axis=-1)
+
+
+def gap_distribution_kernel(gbar, *, dr, p0, E: float, gamma: float,
+                            shares=GAP_SHARES) -> np.ndarray:
+    """Quantiles of the distribution of the gap over the nominal area (Almqvist et al. 2011).
+
+    Persson's picture, in real space: going from coarse to fine resolution ``D``, the
+    area in contact ``P(D)`` (eq. 29) shrinks; the area that detaches at ``D`` has the
+    gap of the roughness finer than ``D`` pressed at ``p0 / P(D)``: a normal
+    distribution, reflected at zero, of mean ``u(D)`` (the mean gap of the finer
+    roughness, ``gbar_D^2(r) = gbar^2(r) - gbar^2(D)`` for ``r < D``) and variance
+    ``h^2(D) = int_0^D r^2 / (4 pi^2) (-d gbar^2 / dr) dr`` (the heights' variance from
+    wavenumbers above ``2 pi / D`` by eq. 26). What stays in contact at the finest lag,
+    ``P(dr_1)``, has gap 0:
+
+        P(u) = P(dr_1) delta(u) + int dP(D) [N(u; u(D), h(D)) + N(-u; u(D), h(D))].
+
+    Parameters
+    ----------
+    gbar, dr, p0, E, gamma
+        As :func:`separation_kernel`.
+    shares : numpy.ndarray (k,)
+        Shares of the nominal area in [0, 1].
+
+    Returns
+    -------
+    numpy.ndarray (..., m, k)
+        Per load the gap (m) below which each share of the area lies: 0 for shares
+        within the contact area, ``inf`` for share 1 (the normal tails are unbounded).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> dr = np.geomspace(1e-9, 1e-6, 40)
+    >>> gbar = 0.1 * (1 + (dr / 1e-7) ** 2) ** -0.7   # a roll-off at 100 nm
+    >>> q = gap_distribution_kernel(gbar, dr=dr, p0=np.array([1e3]), E=1e6, gamma=0.42,
+    ...                             shares=np.array([0.0, 0.5, 1.0]))
+    >>> q.shape, bool(q[0, 0] == 0 and 0 < q[0, 1] < np.inf and q[0, 2] == np.inf)
+    ((1, 3), True)
+    """
+    g = np.asarray(gbar, dtype=float)
+    p = np.asarray(p0, dtype=float)
+    shares = np.asarray(shares, dtype=float)
+    batch = g.shape[:-1]
+    flat = g.reshape(-1, g.shape[-1])
+    out = np.full((flat.shape[0], p.size, shares.size), np.nan)
+    for i, row in enumerate(flat):
+        ok = np.isfinite(row) & (row > 0)
+        if np.count_nonzero(ok) >= 2:
+            out[i] = _one_distribution(np.asarray(dr, dtype=float)[ok], row[ok], p, E,
+                                       gamma, shares)
+    return out.reshape(batch + (p.size, shares.size))
+
+
+#: Resolutions per decade at which the detaching area's gap is evaluated beyond the lags.
+_TAIL_PER_DECADE = 8
+#: Resolutions per decade at which the detaching area's gap is evaluated over the lags.
+_D_PER_DECADE = 40
+#: Points of the gap grid on which the distribution is inverted (log-spaced).
+_GAP_GRID = 4000
+
+
+def _one_distribution(dr, gbar, p, E, gamma, shares) -> np.ndarray:
+    """:func:`gap_distribution_kernel` for one curve of finite positive ``gbar``."""
+    gbar = np.minimum.accumulate(gbar)
+    g_in, w_in, r_in, g_out, w_out, r_out = _nodes(dr, gbar)
+    g_nodes = np.concatenate([g_in, g_out])
+    w_nodes = np.concatenate([w_in, w_out])
+    r_nodes = np.concatenate([r_in, r_out])
+    # the resolutions D: log-spaced over the lags (gbar a power law between two), then
+    # the roll-off's dr^-2 continuation
+    x = np.log(dr)
+    xD = np.linspace(x[0], x[-1], max(2, int(np.ceil((x[-1] - x[0]) / np.log(10.0)
+                                                      * _D_PER_DECADE)) + 1))
+    steps = np.arange(1, int(_TAIL_DECADES * _TAIL_PER_DECADE) + 1) / _TAIL_PER_DECADE
+    edges = np.concatenate([np.exp(xD), dr[-1] * 10.0**steps])
+    g_edges = np.concatenate([np.exp(np.interp(xD, x, np.log(gbar))),
+                              gbar[-1] * 10.0 ** (-2.0 * steps)])
+    # the area detaching between two edges has the gap of the resolution midway (in ln D)
+    D = np.sqrt(edges[1:] * edges[:-1])
+    gD = np.sqrt(g_edges[1:] * g_edges[:-1])
+    finer = r_nodes[None, :] < D[:, None]  # (K, N)
+    # variance of the heights finer than D
+    h2 = (finer * (w_nodes * r_nodes / (4.0 * np.pi**2))[None, :]).sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        g_fine = np.sqrt(np.where(finer, g_nodes[None, :] ** 2 - gD[:, None] ** 2, 0.0))
+    use = finer & (g_fine > 0)
+    out = np.empty((p.size, shares.size))
+    for m, load in enumerate(p):
+        area = contact_area(load / (E * gD))  # eq. 29 at each D
+        s = np.where(use, load / area[:, None] / (E * np.where(use, g_fine, 1.0)), 1.0)
+        terms = np.where(use, w_nodes[None, :] * j_function(s, gamma)
+                         / np.where(use, g_fine, 1.0), 0.0)
+        mean = _C * terms.sum(axis=1)  # mean gap of the roughness finer than D
+        # the area between two edges; what is out of contact at the coarsest edge too
+        at_edges = contact_area(load / (E * g_edges))
+        weight = np.diff(at_edges)
+        weight[-1] += 1.0 - at_edges[-1]
+        out[m] = _quantiles(at_edges[0], weight, mean, np.sqrt(h2), shares)
+    return out
+
+
+def _quantiles(stuck, weight, mean, sd, shares) -> np.ndarray:
+    """Invert ``F(u) = stuck + sum w [Phi((u - m)/s) + Phi((u + m)/s) - 1]`` at ``shares``."""
+    keep = (weight > 0) & (sd > 0)
+    w, m, s = weight[keep], mean[keep], sd[keep]
+    top = float(np.max(m + 10.0 * s)) if w.size else 0.0
+    out = np.where(shares <= stuck, 0.0, np.inf)
+    if top <= 0:
+        return out
+    u = np.concatenate([[0.0], np.geomspace(top * 1e-8, top, _GAP_GRID)])
+    z = (u[:, None] - m[None, :]) / s[None, :]
+    zr = (u[:, None] + m[None, :]) / s[None, :]
+    F = stuck + (w[None, :] * (special.ndtr(z) + special.ndtr(zr) - 1.0)).sum(axis=1)
+    F = np.maximum.accumulate(F)
+    inside = (shares > stuck) & (shares < 1.0)
+    out[inside] = np.interp(shares[inside], F, u)
+    return out

@@ -153,13 +153,15 @@ def exact_of(at: xr.Dataset, name: str
 
 def show_errors(value: xr.DataArray, std: xr.DataArray | None = None,
                 exact: tuple[xr.DataArray, xr.DataArray, xr.DataArray] | None = None, *,
-                digits: int = 3) -> str:
+                digits: int = 3, level: str | None = None) -> str:
     """Format a 0-d result with its statistical error and the expected exact value.
 
     ``0.0213 +-0.0002 (stat), exact 0.031 [0.029, 0.033]``: the standard deviation where it
     is given and finite, and ``exact = (expected, lower, upper)`` (the value a contact
-    solver would give and its one-sigma interval, :func:`xrough.persson`) where finite;
-    all in the value's prefix, the unit once at the end.
+    solver would give and its interval) where finite; all in the value's prefix, the unit
+    once at the end. The interval is one-sigma (:func:`xrough.persson`) unless ``level``
+    names another, which is then printed at the end (``[0.50, 0.61] nm (90 %)``:
+    :func:`xrough.mean_gap`).
     """
     x = float(value)
     if not np.isfinite(x):
@@ -173,6 +175,7 @@ def show_errors(value: xr.DataArray, std: xr.DataArray | None = None,
     if exact is not None and all(np.isfinite(float(v)) for v in exact):
         mid, lo, hi = (float(v) * scale for v in exact)
         text += f", exact {mid:#.{digits - 1}g} [{lo:#.{digits - 1}g}, {hi:#.{digits - 1}g}]"
+        unit += f" ({level})" if level else ""
     return text + unit
 
 

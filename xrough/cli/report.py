@@ -181,8 +181,8 @@ def _cells(m: dict, at: xr.Dataset | None, gbar_there: xr.DataArray | None,
             _rated(show(fit.lambda_r, none="no roll-off"), lf), grad,
             _rated(show_errors(energy.v_el, energy.get("v_el_std")), levels["energy"]),
             area, stress, where, _rated(show_errors(r["gap"].mean_gap, r["gap"].mean_gap_std,
-                                                    exact_of(r["gap"], "mean_gap")),
-                                        levels["gap"]), patch)
+                                                    exact_of(r["gap"], "mean_gap"),
+                                                    level="90 %"), levels["gap"]), patch)
 
 
 def _exact_record(at: xr.Dataset, name: str) -> dict:
