@@ -495,3 +495,37 @@ def test_a_result_of_a_stitched_g_breaks_at_its_gap():
     y = np.asarray(ax.lines[0].get_ydata(), dtype=float)
     inner = y[np.flatnonzero(np.isfinite(y))[0]:]  # from the first value drawn
     assert np.isnan(inner).sum() == 1  # one break, at the gap
+
+
+def test_failed_result_draws_an_empty_panel_with_its_reason():
+    """An all-NaN result (a failed curve) draws no line and says why in the panel."""
+    topo = xrough.self_affine_surface(hurst=0.8, n=64, size="64 nm", rms_gradient=0.1,
+                                      lambda_r="32 nm", lambda_s="2 nm", unit="nm", seed=1)
+    G = topo.rough.acf()
+    failed = G.copy(data=np.full(G.shape, np.nan)).assign_attrs(
+        quality="failed", quality_notes="too few pairs in every bin")
+    ax = failed.rough.plot()
+    assert [t.get_text() for t in ax.texts] == ["no finite values: too few pairs in every bin"]
+    assert ax.get_yscale() == "linear"
+
+
+def test_report_figure_of_many_files_stays_readable():
+    """Past ten files the report's figure draws no per-file legend (it covered the data)
+    but says how many; a questionable contact area is dashed, as on every plot."""
+    from xrough.cli.report import _figure
+
+    topo = xrough.self_affine_surface(hurst=0.8, n=64, size="64 nm", rms_gradient=0.1,
+                                      lambda_r="32 nm", lambda_s="2 nm", unit="nm", seed=1)
+    G = topo.rough.acf()
+    contact = G.rough.persson(E_star="1 MPa", p0="10 kPa")
+    bad = contact.assign_coords(quality_flag=np.int8(1))
+    runs = [{"name": f"scan{k}", "results": {"G": G.copy(), "persson": contact}}
+            for k in range(11)]
+    fig = _figure(runs, "10 kPa")
+    assert all(ax.get_legend() is None for ax in fig.axes)
+    assert fig.axes[0].get_title() == "11 measurements"
+    few = _figure(runs[:2] + [{"name": "odd", "results": {"G": G.copy(), "persson": bad}}],
+                  "10 kPa")
+    styles = {ln.get_label(): ln.get_linestyle() for ln in few.axes[1].lines}
+    assert styles["scan0"] == "-" and styles["odd (questionable)"] == "--", styles
+    assert few.axes[1].get_yscale() in ("log", "linear")

@@ -35,6 +35,7 @@ import numpy as np
 import xarray as xr
 
 from . import fitting, stitching
+from . import quality as _quality
 from . import units as _units
 from .topography import convert_units
 
@@ -392,6 +393,12 @@ def plot_loglog(da: xr.DataArray, *, ax=None, error: bool = True,
             ax.plot(x, mid, linestyle=":", color=ln.get_color(),
                     label="expected exact" if k == 0 else None)
             marked = True
+    if not finite.size:  # a failed result: an empty panel that says why
+        notes = _quality.notes_of(da)
+        ax.text(0.5, 0.5, "no finite values" + (": " + notes[0] if notes else ""),
+                transform=ax.transAxes, ha="center", va="center", wrap=True,
+                fontsize="small")
+        log_y = False
     log_axis(ax.xaxis)
     if log_y:
         log_axis(ax.yaxis)

@@ -15,7 +15,6 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
-from tqdm.auto import tqdm
 
 from . import quality
 from . import units as u
@@ -30,6 +29,7 @@ from ._kernels.solver import (
     solve_load,
 )
 from ._kernels.tiles import scaled_heights
+from .progress import progress_bar
 from .topography import check_valid_points, grid_of
 from .units import QuantityLike
 
@@ -41,10 +41,7 @@ class ConvergenceWarning(RuntimeWarning):
 
 
 def _progress_bar(progress: bool | None, desc: str):
-    if progress is False:
-        return None
-    return tqdm(desc=desc, unit="it", disable=None if progress is None else not progress,
-                leave=False)
+    return progress_bar(desc=desc, progress=progress)
 
 
 def check_topography(topography: xr.DataArray):

@@ -24,13 +24,13 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
-from tqdm.auto import tqdm
 
 from .. import units as u
 from .._kernels.binning import MAX_POINTS_PER_DECADE, check_points_per_decade
 from ..io import BRIDGE, FORMATS, MissingOptionError, detect_format, open_topography
 from ..io.archive import safe_name
 from ..preprocess import DETREND_MODES, detrend
+from ..progress import progress_bar
 from ._common import CLIError, fail, first_line, warn_lines
 
 NONUNIFORM = ("the profile is sampled non-uniformly: give --resample (linear interpolation "
@@ -299,5 +299,5 @@ def measure_all(args: argparse.Namespace, analyse=None) -> list[dict]:
     _check_points_per_decade(args)
     names = group_names(args.files)
     return [_measure(path, name, args, analyse)
-            for path, name in tqdm(list(zip(args.files, names)), desc="G(dr)",
-                                   disable=None, leave=False)]
+            for path, name in progress_bar(desc="G(dr)",
+                                           iterable=list(zip(args.files, names)))]

@@ -16,7 +16,7 @@ import numpy as np
 
 from .._version import __version__
 from ..io.netcdf import write as write_netcdf
-from ..plot import display_unit, pyplot
+from ..plot import plot_dataset, pyplot
 from ..spectra import acf_from_spectrum, model_spectrum
 from ..synthetic import self_affine_surface
 from ._common import (
@@ -100,9 +100,9 @@ def _figure(r: dict, args: argparse.Namespace):
                        linestyle="--")
     axes[1].plot(r["exact"].dr, r["exact"], "k:", label="model spectrum, eq. 9")
     axes[1].legend()
-    axes[2].semilogx(contact.dr, contact.a_r)
-    axes[2].set_xlabel(f"resolution dr ({display_unit(G.dr.attrs['units'])})")
-    axes[2].set_ylabel("relative contact area a_r")
+    # its error band and expected exact area; a log axis where it spans decades (the
+    # finest value, the one quoted, sat on the floor of a linear one)
+    plot_dataset(contact, variables=["a_r"], axes=[axes[2]])
     axes[0].set_title(f"synthetic surface, H = {args.hurst}, rms gradient {_RMS_GRADIENT}")
     axes[1].set_title("height-difference ACF G(dr)")
     axes[2].set_title(f"Persson theory, E* = {_E_STAR}, p0 = {_P0}")
@@ -142,22 +142,31 @@ def _print_table(r: dict, args: argparse.Namespace) -> None:
     rows = [
         ("Hurst exponent H (fit)", f"{float(fit.hurst):.3f} +- {float(fit.hurst_std):.3f}",
          f"{args.hurst}"),
-        ("rms height sigma_h (fit)", show(fit.sigma_h, none="no plateau"),
+        ("rms height sigma_h (fit)", _with_std(fit, "sigma_h", "no plateau"),
          text(topo.attrs["rms_height"], topo.attrs["units"])),
-        ("roll-off wavelength lambda_r (fit)", show(fit.lambda_r, none="no roll-off"),
+        ("roll-off wavelength lambda_r (fit)", _with_std(fit, "lambda_r", "no roll-off"),
          text(2, "um")),
-        ("elastic energy of full contact", show(r["energy"].v_el), ""),
+        ("elastic energy of full contact", _with_std(r["energy"], "v_el"), ""),
         (f"contact area (Persson) at dr = {show(at.dr)}",
-         show_errors(at.a_r, exact=exact_of(at, "a_r")), ""),
+         show_errors(at.a_r, at.get("a_r_std"), exact_of(at, "a_r")), ""),
         (f"contact stress (Persson) at dr = {show(at.dr)}",
-         show_errors(at.sigma_c, exact=exact_of(at, "sigma_c")), ""),
-        (f"adhesive patch radius (gamma = {_GAMMA.replace('^2', '²')})", show(r["patch"].a_c), ""),
+         show_errors(at.sigma_c, at.get("sigma_c_std"), exact_of(at, "sigma_c")), ""),
+        (f"adhesive patch radius (gamma = {_GAMMA.replace('^2', '²')})",
+         _with_std(r["patch"], "a_c"), ""),
     ]
-    print(f"\n{'quantity':<42} {'from G':>36} {'model':>10}")
+    print(f"\n{'quantity':<42} {'from G':>50} {'model':>10}")
     for name, value, model in rows:
-        print(f"{name:<42} {value:>36} {model:>10}")
-    print("exact: what a contact solver is expected to give on this surface [one sigma], "
-          "from Persson theory's error in a solver study")
+        print(f"{name:<42} {value:>50} {model:>10}")
+    print("+- (stat): one standard deviation from the measurement's statistics; exact: what "
+          "a contact solver is expected to give on this surface [one sigma], from Persson "
+          "theory's error in a solver study")
+
+
+def _with_std(ds, name: str, none: str = "") -> str:
+    """``value +-std (stat) unit`` of ``ds[name]`` where ``<name>_std`` is there."""
+    if not np.isfinite(float(ds[name])):
+        return show(ds[name], none=none) if none else show(ds[name])
+    return show_errors(ds[name], ds.get(f"{name}_std"))
 
 
 def run(args: argparse.Namespace) -> int:

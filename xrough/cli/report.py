@@ -22,7 +22,7 @@ from .. import units as u
 from .._version import __version__
 from ..cleaning import CHOICES, cleaning_sensitivity
 from ..io.archive import save_analysis
-from ..plot import display_unit, pyplot
+from ..plot import plot_loglog, pyplot
 from ..preprocess import LagWindow, lag_window
 from ..quality import QualityWarning, mark, notes_of, warn, worst
 from ._common import (
@@ -334,17 +334,32 @@ def _figure(measured: list[dict], p0_text: str):
     dr_unit, g_unit = _common_units(curves)
     plt = pyplot("Agg")  # figures go to files
     fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(12, 4.5))
+    many = len(measured) > _LEGEND_LINES  # a legend of every file would cover the data
+    style = dict(linewidth=0.8, alpha=0.6) if many else {}
     for m, G in zip(measured, curves):
         G.name = G.name or "G"
-        _in_units(G, dr_unit, g_unit).rough.plot(ax=ax0, label=m["name"])
-        contact = m["results"]["persson"]
-        factor = u.conversion_factor(contact.dr.attrs["units"], dr_unit)
-        ax1.semilogx(contact.dr.values * factor, contact.a_r.values, label=m["name"])
-    ax1.set_xlabel(f"resolution dr ({display_unit(dr_unit)})")
-    ax1.set_ylabel(f"relative contact area at p0 = {p0_text}")
-    ax1.legend()
+        label = None if many else m["name"]
+        _in_units(G, dr_unit, g_unit).rough.plot(ax=ax0, label=label, error=not many,
+                                                 **style)
+        a_r = m["results"]["persson"].a_r
+        a_r = a_r.assign_coords(dr=a_r.dr * u.conversion_factor(a_r.dr.attrs["units"],
+                                                                dr_unit))
+        a_r["dr"].attrs.update(units=dr_unit, long_name="resolution dr")
+        # questionable curves dashed, the expected exact area hatched, log where it spans
+        # decades (the finest value is the one quoted)
+        plot_loglog(a_r.assign_attrs(long_name=f"contact area at p0 = {p0_text}"), ax=ax1,
+                    label=label, error=not many, short_range_linear=True, **style)
+    for ax in (ax0, ax1):
+        if many:
+            ax.set_title(f"{len(measured)} measurements", fontsize="medium")
+            if ax.get_legend() is not None:
+                ax.get_legend().remove()
     fig.tight_layout()
     return fig
+
+
+#: Up to this many files the report's figure labels each; beyond, it says how many.
+_LEGEND_LINES = 10
 
 
 # ---------------------------------------------------------------------- output

@@ -5,11 +5,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from tqdm.auto import tqdm
 
 from .. import units as u
 from .._kernels import binning
 from .._kernels.pairs import binned_geometry, folded_geometric_counts
+from ..progress import progress_bar as bar
 from ..topography import Grid
 
 DIRECTIONS = ("radial", "x", "y")
@@ -209,5 +209,4 @@ def progress_bar(total: int, progress, desc: str):
     """Return a tqdm bar over ``total`` steps, or None (off, or one step by default)."""
     if progress is False or total <= 1 and progress is None:
         return None
-    return tqdm(total=total, desc=desc, disable=None if progress is None else not progress,
-                leave=False)
+    return bar(desc=desc, progress=progress, total=total)

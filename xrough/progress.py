@@ -1,0 +1,56 @@
+"""Progress bars of long operations (G of large maps, the solver, folders of files).
+
+tqdm draws them; in a notebook its widget bars need ipywidgets, which xrough does not
+require: without it the plain text bar is used (``tqdm.auto`` would warn "IProgress not
+found" in every notebook instead). A bar can be interrupted like the loop it wraps.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.util
+from collections.abc import Iterable
+from typing import Any
+
+__all__ = ["progress_bar"]
+
+
+@functools.lru_cache(maxsize=1)
+def _tqdm_class() -> Any:
+    """``tqdm.auto.tqdm`` where ipywidgets is installed, else the plain ``tqdm.std.tqdm``."""
+    if importlib.util.find_spec("ipywidgets") is None:
+        from tqdm.std import tqdm
+        return tqdm
+    from tqdm.auto import tqdm
+    return tqdm
+
+
+def progress_bar(*, desc: str, progress: bool | None = None, total: int | None = None,
+                 iterable: Iterable | None = None, unit: str = "it") -> Any:
+    """Return a tqdm bar, or None (or ``iterable`` itself) when ``progress`` is False.
+
+    Parameters
+    ----------
+    desc : str
+        What the bar counts.
+    progress : bool or None
+        True shows it, False gives no bar, None shows it in an interactive terminal only.
+    total : int, optional
+        Steps, where no ``iterable`` gives them.
+    iterable : iterable, optional
+        Wrapped by the bar (returned as is without one).
+    unit : str
+        The unit of a step.
+
+    Examples
+    --------
+    >>> bar = progress_bar(desc="tiles", total=3, progress=False)
+    >>> bar is None
+    True
+    >>> list(progress_bar(desc="files", iterable=range(2), progress=False))
+    [0, 1]
+    """
+    if progress is False:
+        return iterable
+    return _tqdm_class()(iterable, total=total, desc=desc, unit=unit, leave=False,
+                         disable=None if progress is None else not progress)
