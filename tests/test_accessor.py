@@ -65,11 +65,14 @@ METHODS = {
         "scale_dependent_curvature": parameters.scale_dependent_curvature,
         "tip_check": parameters.tip_check,
         "plot": plot.plot,
+        "sel": xrough.units.sel,
+        "mean": xrough.ensemble.mean_acf,
     },
     RoughDatasetAccessor: {
         "acf": stitching.stitch,
         "stitch_curves": stitching.stitch_curves,
         "plot": plot.plot_dataset,
+        "sel": xrough.units.sel,
     },
     RoughDataTreeAccessor: {
         "acf": stitching.stitch,
@@ -314,3 +317,31 @@ def test_datatree_plot(tree):
     # plot.plot dispatches a DataTree to the same figure
     assert [ln.get_label() for ln in plot.plot(tree).get_lines()] == [*names, "stitched"]
     assert len(tree.rough.plot(error=False).collections) == 0
+
+
+def test_sel_takes_values_in_any_unit():
+    """``obj.rough.sel``: xarray's sel with quantity strings, Quantities and DataArrays
+    with units converted to each coordinate's unit (``con.sel(p0="0.1 MPa")`` raised:
+    p0 is stored in Pa); plain numbers stay in the coordinate's unit."""
+    C = xrough.model_spectrum(hurst=0.8, lambda_r="1 um", lambda_s="10 nm",
+                              rms_gradient=0.5, unit="nm")
+    G = xrough.acf_from_spectrum(C, dr_min="1 nm", dr_max="100 um")
+    con = G.rough.persson(E_star="25 MPa", p0=["0.1 MPa", "1 MPa"])
+    ref = con.sel(p0=1e5)
+    ureg = xrough.units.ureg
+    for value in ("0.1 MPa", "100 kPa", ureg.Quantity(0.1, "MPa"), 1e5,
+                  xr.DataArray(100.0, attrs={"units": "kPa"})):
+        xr.testing.assert_identical(con.rough.sel(p0=value), ref)
+    # lengths: nearest lag to 0.1 um, slices and lists in other units
+    nearest = G.rough.sel(dr="0.1 um", method="nearest")
+    assert float(nearest.dr) == float(G.sel(dr=100.0, method="nearest").dr)
+    window = G.rough.sel(dr=slice("10 nm", "0.001 mm"))
+    xr.testing.assert_identical(window, G.sel(dr=slice(10.0, 1000.0)))
+    two = con.rough.sel(p0=["1 MPa", "100 kPa"])
+    np.testing.assert_array_equal(two.p0, [1e6, 1e5])
+    picked = G.rough.sel(dr="99 nm", method="nearest", tolerance="0.01 um")
+    assert abs(float(picked.dr) - 99.0) <= 10.0
+    with pytest.raises(ValueError, match="p0"):
+        con.rough.sel(p0="1 nm")
+    with pytest.raises(KeyError):
+        con.rough.sel(p0="0.2 MPa")  # exact match, as xarray's

@@ -15,10 +15,11 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "xrough"
 #: Imports allowed inside functions: optional extras only.
-OPTIONAL = {"SurfaceTopography", "SurfaceTopography.IO", "zarr"}
+OPTIONAL = {"SurfaceTopography", "SurfaceTopography.IO", "zarr", "pint_xarray"}
 #: Imported where first needed, for the import time of xrough (xrough.plot.pyplot; a
-#: window of xrough.psd: scipy.signal takes 0.27 s to import, for one function).
-DEFERRED = {"matplotlib", "matplotlib.pyplot", "scipy.signal"}
+#: window of xrough.psd: scipy.signal takes 0.27 s to import, for one function), or only
+#: where it works (tqdm.auto, which warns in a notebook without ipywidgets).
+DEFERRED = {"matplotlib", "matplotlib.pyplot", "scipy.signal", "tqdm.auto"}
 
 
 def _module_name(path: Path) -> str:

@@ -7,6 +7,7 @@ writes, argument checks and one-line errors with documented exit codes.
 """
 
 import contextlib
+import csv
 import decimal
 import importlib.util
 import io
@@ -218,7 +219,7 @@ def test_multi_file_figure_draws_every_file_in_the_axis_unit(files, report):
 
 def test_report_archive_and_figure(files, report):
     status, out, _ = report
-    assert status == 0 and "wrote out/report.nc and out/report.png" in out
+    assert status == 0 and "wrote out/report.nc, out/report.csv and out/report.png" in out
     assert (files / "out" / "report.png").stat().st_size > 10_000
     back = xrough.open_analysis(files / "out" / "report.nc")
     assert set(back["afm"]) >= {"G", "fit", "persson", "energy", "patch", "gradient"}
@@ -487,7 +488,7 @@ def test_output_into_a_missing_folder_is_created(files, monkeypatch, capsys):
     (("acf", "afm.nc", "--height-scale", "nan"), "--height-scale"),
     (("acf", "profile.nc", "--direction", "y"), "--direction 'x'"),
     (("acf", "afm.nc", "--points-per-decade", "inf"), "--points-per-decade"),
-    (("info", "."), "is a directory"),
+    (("info", "."), "broken.nc"),  # a folder stands for its files: the first bad one
 ])
 def test_bad_input_exits_1_with_a_one_line_reason(files, monkeypatch, capsys, args,
                                                   message):
@@ -726,3 +727,40 @@ def test_usage_errors_take_two_lines(capsys, argv, what):
     assert exc.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 2 and what in err[0] and err[1].endswith("--help)"), err
+
+
+def test_report_of_a_folder_keeps_going_past_a_bad_file(files, monkeypatch, capsys,
+                                                        tmp_path):
+    """A folder stands for the measurement files in it; a file that does not read is a
+    row that says why (table, CSV, JSON), the others are analysed and archived; the exit
+    status is 0. One bad file alone still fails (status 1)."""
+    folder = tmp_path / "scans"
+    folder.mkdir()
+    for name in ("afm.nc", "profile.nc", "broken.nc"):
+        (folder / name).write_bytes((files / name).read_bytes())
+    (folder / "notes.md").write_text("not a measurement")  # other extensions: skipped
+    status, out, err = run("report", folder, "--E-star", E_STAR, "--p0", P0, "-o",
+                           "set.nc", cwd=tmp_path, monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 0, err
+    rows = {r["measurement"]: r for r in table(out)}
+    assert set(rows) == {"afm", "profile", "broken"}
+    assert rows["broken"]["sigma_h (fit)"] == "failed: see below"
+    assert re.search(r"^  broken: .*broken\.nc", out, re.M)
+    assert set(xrough.open_analysis(tmp_path / "set.nc")) - {"_provenance"} == {"afm",
+                                                                             "profile"}
+    with open(tmp_path / "set.csv", newline="") as f:
+        csv_rows = {r["measurement"]: r for r in csv.DictReader(f)}
+    assert csv_rows["afm"]["error"] == "" and "broken.nc" in csv_rows["broken"]["error"]
+    assert csv_rows["afm"]["H"] == rows["afm"]["H"]
+    status, out, _ = run("report", folder, "--E-star", E_STAR, "--p0", P0, "-o", "j.nc",
+                         "--json", cwd=tmp_path, monkeypatch=monkeypatch, capsys=capsys)
+    records = {r["name"]: r for r in json.loads(out)["measurements"]}
+    assert status == 0 and "broken.nc" in records["broken"]["error"]
+    status, _, err = run("report", folder / "broken.nc", "--E-star", E_STAR, "--p0", P0,
+                         "-o", "b.nc", cwd=tmp_path, monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 1 and "broken.nc" in err
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    status, _, err = run("report", empty, "--E-star", E_STAR, "--p0", P0, cwd=tmp_path,
+                         monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 1 and "no measurement file" in err

@@ -61,17 +61,30 @@ def test_quantified_topography_enters_once(results):
 
 def test_quantified_input_is_taken_by_every_public_function(results):
     # every public function whose first argument is data takes it quantified, as the
-    # accessor does: one rule (units.accepts_quantified), the same numbers
+    # accessor does: one rule (units.accepts_quantified), the same numbers; pint in, pint
+    # out: the result is quantified in the input's registry and dequantifies to the plain one
     quantified = results["topography"].pint.quantify(unit_registry=REGISTRY)
-    xr.testing.assert_identical(quantified.rough.acf(), results["G"])
-    xr.testing.assert_identical(xrough.height_difference_acf(quantified), results["G"])
+
+    def same(got, plain):
+        parts = [got] if isinstance(got, xr.DataArray) else list(got.data_vars.values())
+        assert any(is_quantified(p) for p in parts)
+        xr.testing.assert_identical(dequantify(got), plain)
+
+    same(quantified.rough.acf(), results["G"])
+    same(xrough.height_difference_acf(quantified), results["G"])
     G = results["G"].pint.quantify(unit_registry=REGISTRY)
-    xr.testing.assert_identical(xrough.fit_acf(G), results["fit"])
-    xr.testing.assert_identical(xrough.persson(G, E_star="25 MPa", p0=["0.1 MPa", "1 MPa"]),
-                                results["persson"])
-    xr.testing.assert_identical(xrough.stitch_curves({"a": quantified}),
-                                xrough.stitch_curves({"a": results["topography"]}))
-    xr.testing.assert_identical(G.rough.fit(), results["fit"])
+    same(xrough.fit_acf(G), results["fit"])
+    same(xrough.persson(G, E_star="25 MPa", p0=["0.1 MPa", "1 MPa"]), results["persson"])
+    same(xrough.stitch_curves({"a": quantified}),
+         xrough.stitch_curves({"a": results["topography"]}))
+    same(G.rough.fit(), results["fit"])
+    # and chains: quantified G -> quantified Persson -> its plot
+    contact = quantified.rough.acf().rough.persson(E_star="25 MPa", p0="0.1 MPa")
+    assert contact.a_r.pint.units == REGISTRY.Unit("1")
+    assert contact.sigma_c.pint.to("MPa").pint.magnitude.size == contact.sizes["dr"]
+    assert contact.rough.plot().size == 2
+    plain = results["topography"]
+    assert not is_quantified(plain.rough.acf())  # plain in, plain out
 
 
 def test_every_data_first_public_function_is_wrapped():

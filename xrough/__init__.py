@@ -28,6 +28,7 @@ from .contact import (
     stress_acf_from_spectrum,
 )
 from .correlation import height_difference_acf
+from .ensemble import mean_acf
 from .fitting import fit_acf, model_acf
 from .gradient import (
     gradient_from_fit,
@@ -108,6 +109,7 @@ __all__ = [
     "patch_radius",
     "persson",
     "mean_gap",
+    "mean_acf",
     "quality",
     "QualityWarning",
     "rms_gradient",

@@ -23,6 +23,7 @@ from . import (
     cleaning,
     contact,
     correlation,
+    ensemble,
     fitting,
     gradient,
     parameters,
@@ -33,6 +34,7 @@ from . import (
     solver,
     spectra,
     stitching,
+    units,
     validation,
 )
 from .topography import convert_units
@@ -140,6 +142,8 @@ class RoughDataArrayAccessor:
     tip_check = _forward(parameters.tip_check)
     parameters = _forward(parameters.roughness_parameters)  # last: it hides the module
     plot = _forward(plot.plot)
+    sel = _forward(units.sel)
+    mean = _forward(ensemble.mean_acf)
 
 
 @xr.register_dataset_accessor("rough")
@@ -159,6 +163,7 @@ class RoughDatasetAccessor:
     acf = _forward(stitching.stitch)
     stitch_curves = _forward(stitching.stitch_curves)
     plot = _forward(plot.plot_dataset)
+    sel = _forward(units.sel)
 
 
 class RoughDataTreeAccessor:

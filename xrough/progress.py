@@ -12,6 +12,8 @@ import importlib.util
 from collections.abc import Iterable
 from typing import Any
 
+from tqdm.std import tqdm as plain_tqdm
+
 __all__ = ["progress_bar"]
 
 
@@ -19,8 +21,7 @@ __all__ = ["progress_bar"]
 def _tqdm_class() -> Any:
     """``tqdm.auto.tqdm`` where ipywidgets is installed, else the plain ``tqdm.std.tqdm``."""
     if importlib.util.find_spec("ipywidgets") is None:
-        from tqdm.std import tqdm
-        return tqdm
+        return plain_tqdm
     from tqdm.auto import tqdm
     return tqdm
 

@@ -16,7 +16,9 @@ parameters as :data:`QuantityLike`.
 from __future__ import annotations
 
 import functools
+import importlib.util
 import re
+import warnings
 from collections.abc import Callable, Hashable, Mapping, Sequence
 from typing import (
     Any,
@@ -55,6 +57,8 @@ __all__ = [
     "power_units",
     "is_quantified",
     "dequantify",
+    "quantify",
+    "sel",
     "accepts_quantified",
     "compact",
 ]
@@ -698,6 +702,7 @@ def accepts_quantified(func: _F) -> _F:
 
     @functools.wraps(func)
     def wrapper(data: Any, /, *args: Any, **kwargs: Any) -> Any:
+        registry = _registry_of(data)
         if isinstance(data, _XARRAY):
             data = dequantify(data)
         elif isinstance(data, Mapping):  # measurements by name (stitching)
@@ -705,9 +710,62 @@ def accepts_quantified(func: _F) -> _F:
                      for k, v in data.items()}
             if any(plain[k] is not v for k, v in data.items()):  # dequantify: same if plain
                 data = plain
-        return func(data, *args, **kwargs)
+        result = func(data, *args, **kwargs)
+        return result if registry is None else quantify(result, registry)
 
     return cast(_F, wrapper)  # same signature: the first argument is only dequantified
+
+
+def _registry_of(data: Any) -> Any:
+    """Return the pint registry of the first Quantity in ``data``, or None without one.
+
+    ``data`` is an xarray object or a mapping of them (measurements by name).
+    """
+    items = data.values() if isinstance(data, Mapping) else [data]
+    for item in items:
+        if isinstance(item, xr.DataTree):
+            item = item.to_dataset() if not item.children else next(
+                (n.to_dataset() for n in item.subtree if n.has_data), item.to_dataset())
+        if isinstance(item, xr.DataArray):
+            item = item.to_dataset(name="__data__") if item.name is None else item.to_dataset()
+        if isinstance(item, xr.Dataset):
+            for var in item.variables.values():
+                if isinstance(var.data, pint.Quantity):
+                    return var.data._REGISTRY
+    return None
+
+
+def quantify(result: Any, registry: Any = None) -> Any:
+    """Give a result its units as pint Quantities (pint-xarray), as its input had them.
+
+    What :func:`accepts_quantified` does with the result of a function that got quantified
+    data: pint in, pint out. Data variables and coordinates with a ``units`` attribute
+    become Quantities of ``registry`` (default: xrough's, :data:`ureg`), through
+    pint-xarray's ``.pint.quantify``; tuples are quantified item by item; anything else
+    (a figure, a number) is returned as is. Without pint-xarray installed the result
+    stays plain, with a warning.
+
+    Examples
+    --------
+    >>> import xarray as xr
+    >>> da = xr.DataArray([1.0, 2.0], dims="dr", attrs={"units": "nm2"})
+    >>> str(quantify(da).data.units)
+    'nanometer ** 2'
+    """
+    if isinstance(result, tuple):
+        return tuple(quantify(r, registry) for r in result)
+    if not isinstance(result, (xr.DataArray, xr.Dataset, xr.DataTree)):
+        return result
+    if importlib.util.find_spec("pint_xarray") is None:
+        warnings.warn("the input was quantified but pint-xarray is not installed: the "
+                      "result keeps its units as CF attributes", stacklevel=3)
+        return result
+    import pint_xarray  # noqa: F401  (registers the .pint accessor)
+
+    registry = ureg if registry is None else registry
+    if isinstance(result, xr.DataTree):
+        return result.map_over_datasets(lambda ds: ds.pint.quantify(unit_registry=registry))
+    return result.pint.quantify(unit_registry=registry)
 
 
 #: SI prefixes by power of ten, for :func:`compact`.
@@ -745,3 +803,73 @@ def compact(q: pint.Quantity) -> pint.Quantity:
     exp = int(np.clip(np.floor(np.log10(in_base) / power / 3) * 3, -18, 15))
     new = ureg.Unit(_SI_PREFIXES[exp] + ureg.parse_unit_name(name)[0][1]) ** power
     return q.to(q.units / prefixed * new)
+
+
+def _in_coord_units(obj: Any, dim: Hashable, value: Any) -> Any:
+    """Convert ``value`` to the unit of ``obj[dim]`` (plain numbers are in it already).
+
+    ``value``: a quantity string, Quantity, number, DataArray, slice or list of them.
+    """
+    if isinstance(value, slice):
+        start, stop = (None if v is None else _in_coord_units(obj, dim, v)
+                       for v in (value.start, value.stop))
+        return slice(start, stop, value.step)
+    if dim not in obj.coords or "units" not in obj[dim].attrs:
+        return value
+    unit = obj[dim].attrs["units"]
+    if isinstance(value, (list, tuple)):
+        return [_in_coord_units(obj, dim, v) for v in value]
+    if isinstance(value, (str, pint.Quantity, xr.DataArray)):
+        mag = magnitude_in(value, unit, what=str(dim))
+        return mag.item() if mag.ndim == 0 else mag
+    return value
+
+
+def sel(obj: Any, indexers: Mapping | None = None, *, method: str | None = None,
+        tolerance: Any = None, drop: bool = False, **indexers_kwargs: Any) -> Any:
+    """Select by label, with values in any unit: ``sel(con, p0="0.1 MPa", dr="1 um")``.
+
+    xarray's :meth:`~xarray.DataArray.sel` with each value converted to the unit of its
+    coordinate first: quantity strings, pint Quantities and DataArrays with units in any
+    unit of the right dimension, plain numbers in the coordinate's own unit; slices and
+    lists of them too. A coordinate without units takes values as they are.
+
+    Parameters
+    ----------
+    obj : xarray.DataArray or xarray.Dataset
+        Any xrough object (``p0`` in Pa, ``dr`` in the length unit, ``q`` in its inverse).
+    indexers, method, drop, **indexers_kwargs
+        As :meth:`xarray.DataArray.sel`.
+    tolerance : number, str or Quantity, optional
+        As :meth:`xarray.DataArray.sel`; a quantity in the unit of the one dim selected.
+
+    Returns
+    -------
+    The selection, as :meth:`xarray.DataArray.sel` returns it.
+
+    Raises
+    ------
+    ValueError
+        A value of the wrong dimension (``p0="1 nm"``), or a unit-bearing tolerance with
+        more than one dim selected.
+
+    Examples
+    --------
+    >>> import numpy as np, xrough
+    >>> C = xrough.model_spectrum(hurst=0.8, lambda_r="1 um", lambda_s="10 nm",
+    ...                           rms_gradient=0.5, unit="nm")
+    >>> G = xrough.acf_from_spectrum(C, dr_min="1 nm", dr_max="100 um")
+    >>> con = G.rough.persson(E_star="25 MPa", p0=["0.1 MPa", "1 MPa"])
+    >>> float(con.rough.sel(p0="100 kPa").p0)
+    100000.0
+    >>> float(G.rough.sel(dr="0.1 um", method="nearest").dr) > 0
+    True
+    """
+    indexers = {**(indexers or {}), **indexers_kwargs}
+    converted = {dim: _in_coord_units(obj, dim, value) for dim, value in indexers.items()}
+    if tolerance is not None and isinstance(tolerance, (str, pint.Quantity)):
+        if len(converted) != 1:
+            raise ValueError("sel: a tolerance with units needs one dim to select, got "
+                             f"{list(converted)}")
+        tolerance = _in_coord_units(obj, next(iter(converted)), tolerance)
+    return obj.sel(converted, method=method, tolerance=tolerance, drop=drop)

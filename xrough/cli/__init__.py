@@ -25,6 +25,7 @@ import traceback
 import warnings
 
 from ._common import EXIT_DATA, EXIT_OK, EXIT_USAGE, CLIError, first_line, show_warning
+from ._files import expand_folders
 from ._parser import parse
 
 __all__ = ["main", "EXIT_OK", "EXIT_DATA", "EXIT_USAGE"]
@@ -46,6 +47,8 @@ def main(argv: list[str] | None = None) -> int:
     """
     args = parse(sys.argv[1:] if argv is None else list(argv))
     try:
+        if getattr(args, "files", None):  # a folder stands for the measurements in it
+            args.files = expand_folders(args.files)
         with warnings.catch_warnings():
             warnings.simplefilter("default")  # shown once each, as one line
             warnings.showwarning = show_warning

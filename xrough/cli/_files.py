@@ -294,10 +294,54 @@ def group_names(paths: list[str]) -> list[str]:
     return names
 
 
-def measure_all(args: argparse.Namespace, analyse=None) -> list[dict]:
-    """:func:`_measure` each file of the command, with a progress bar on a terminal."""
+#: The file extensions a folder given as a file is searched for (every reader's).
+EXTENSIONS = frozenset(ext for f in FORMATS.values() for ext in f.extensions)
+
+
+def expand_folders(paths: list[str]) -> list[str]:
+    """Replace each folder in ``paths`` by the measurement files in it (sorted).
+
+    A file of the folder (not its subfolders) counts when its extension is one of a
+    reader's (:data:`EXTENSIONS`; hidden files and archives xrough wrote are left out);
+    files named directly are kept as given.
+
+    Raises
+    ------
+    CLIError
+        A folder with no measurement file in it.
+    """
+    out: list[str] = []
+    for path in paths:
+        folder = Path(path)
+        if not folder.is_dir():
+            out.append(path)
+            continue
+        found = sorted(str(f) for f in folder.iterdir()
+                       if f.is_file() and f.suffix.lower() in EXTENSIONS
+                       and not f.name.startswith((".", "xrough-")))
+        if not found:
+            raise CLIError(f"{path}: a folder with no measurement file (extensions "
+                           f"{', '.join(sorted(EXTENSIONS))})")
+        out.extend(found)
+    return out
+
+
+def measure_all(args: argparse.Namespace, analyse=None, *,
+                keep_going: bool = False) -> list[dict]:
+    """:func:`_measure` each file of the command, with a progress bar on a terminal.
+
+    With ``keep_going`` a file that fails is a record ``{"file", "name", "error"}`` (its
+    one-line reason) and the others go on; without it the first failure stops the
+    command.
+    """
     _check_points_per_decade(args)
     names = group_names(args.files)
-    return [_measure(path, name, args, analyse)
-            for path, name in progress_bar(desc="G(dr)",
-                                           iterable=list(zip(args.files, names)))]
+    out = []
+    for path, name in progress_bar(desc="G(dr)", iterable=list(zip(args.files, names))):
+        try:
+            out.append(_measure(path, name, args, analyse))
+        except CLIError as err:
+            if not keep_going:
+                raise
+            out.append({"file": str(path), "name": name, "error": str(err)})
+    return out

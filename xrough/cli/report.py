@@ -12,6 +12,7 @@ rms gradient, Persson theory, energy and patch radius are failed, and the reason
 from __future__ import annotations
 
 import argparse
+import csv
 import re
 import warnings
 
@@ -27,6 +28,7 @@ from ..preprocess import LagWindow, lag_window
 from ..quality import QualityWarning, mark, notes_of, warn, worst
 from ._common import (
     EXIT_OK,
+    CLIError,
     emit_json,
     exact_of,
     finest,
@@ -471,14 +473,23 @@ def run(args: argparse.Namespace) -> int:
     assert E_star is not None and p0 is not None  # required options
     out = output(args.output)
     png = out.with_suffix(".png")
-    measured = measure_all(args, _analysis(E_star, p0, gamma))
+    # several files: one that fails is a row saying why, the others go on
+    found = measure_all(args, _analysis(E_star, p0, gamma), keep_going=len(args.files) > 1)
+    measured = [m for m in found if "error" not in m]
+    failed = [m for m in found if "error" in m]
+    if not measured:
+        raise CLIError("no file could be analysed: " + "; ".join(m["error"] for m in failed))
     if getattr(args, "compare_cleaning", False):
         for m in measured:
             _compare_cleaning(m, args, E_star, p0)
-    rows, records = zip(*(_row(m) for m in measured))
+    rows, records = (list(x) for x in zip(*(_row(m) for m in measured)))
+    rows += [_failed_row(m) for m in failed]
+    records += [{"name": m["name"], "file": m["file"], "error": m["error"]} for m in failed]
     parameters = f"E_star={args.E_star}, p0={args.p0}, gamma={args.gamma}"
     save_analysis(out, {m["name"]: m["results"] for m in measured},
                   history=f"xrough report {' '.join(args.files)} ({parameters})")
+    table = out.with_suffix(".csv")
+    write_atomic(table, lambda p: _write_csv(p, rows, failed))
     fig = _figure(measured, args.p0)
     try:
         write_atomic(png, lambda p: fig.savefig(p, dpi=120, format="png"))
@@ -487,6 +498,25 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         _emit(out, png, E_star, p0, gamma, records)
         return EXIT_OK
-    _print_table(measured, list(rows), parameters)
-    print(f"wrote {out} and {png}")
+    _print_table(measured, rows, parameters)
+    if failed:
+        print(f"failed ({len(failed)} of {len(found)} files, left out of {out.name} and the "
+              "figure):")
+        print("\n".join(f"  {m['name']}: {m['error']}" for m in failed))
+    print(f"wrote {out}, {table} and {png}")
     return EXIT_OK
+
+
+def _failed_row(m: dict) -> tuple[str, ...]:
+    """Return the row of a file that could not be analysed: its name, then why."""
+    return (m["name"], "failed: see below", *("-" for _ in _COLUMNS[2:]))
+
+
+def _write_csv(path, rows: list[tuple[str, ...]], failed: list[dict]) -> None:
+    """Write the table as CSV, one row per file, with a column saying why a file failed."""
+    why = {m["name"]: m["error"] for m in failed}
+    with open(path, "w", newline="", encoding="utf-8") as f:
+        writer = csv.writer(f)
+        writer.writerow([*_COLUMNS, "error"])
+        for row in rows:
+            writer.writerow([*row, why.get(row[0], "")])
