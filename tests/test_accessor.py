@@ -64,6 +64,7 @@ METHODS = {
         "scale_dependent_slope": parameters.scale_dependent_slope,
         "scale_dependent_curvature": parameters.scale_dependent_curvature,
         "tip_check": parameters.tip_check,
+        "variable_bandwidth": xrough.bandwidth.variable_bandwidth,
         "plot": plot.plot,
         "sel": xrough.units.sel,
         "mean": xrough.ensemble.mean_acf,

@@ -19,6 +19,7 @@ from . import (
     units,
 )
 from ._version import __version__
+from .bandwidth import variable_bandwidth
 from .cleaning import cleaning_sensitivity
 from .contact import (
     elastic_energy,
@@ -89,6 +90,7 @@ __all__ = [
     "scale_dependent_slope",
     "slope_distribution",
     "tip_check",
+    "variable_bandwidth",
     "acf_from_spectrum",
     "compare_with_simulation",
     "ConvergenceWarning",

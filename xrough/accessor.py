@@ -20,6 +20,7 @@ from typing import Any
 import xarray as xr
 
 from . import (
+    bandwidth,
     cleaning,
     contact,
     correlation,
@@ -140,6 +141,7 @@ class RoughDataArrayAccessor:
     scale_dependent_slope = _forward(parameters.scale_dependent_slope)
     scale_dependent_curvature = _forward(parameters.scale_dependent_curvature)
     tip_check = _forward(parameters.tip_check)
+    variable_bandwidth = _forward(bandwidth.variable_bandwidth)
     parameters = _forward(parameters.roughness_parameters)  # last: it hides the module
     plot = _forward(plot.plot)
     sel = _forward(units.sel)

@@ -62,6 +62,8 @@ __all__ = [
     "NO_WINDOW",
     "stated_tip_radius",
     "tip_window",
+    "grid_coords",
+    "detrend_degree",
 ]
 
 DETREND_MODES = tuple(k.DEGREES)
@@ -86,7 +88,7 @@ def _validated(topography: xr.DataArray) -> Grid:
     return grid
 
 
-def _coords(topography: xr.DataArray, grid: Grid) -> tuple[np.ndarray, ...]:
+def grid_coords(topography: xr.DataArray, grid: Grid) -> tuple[np.ndarray, ...]:
     """Core coordinates as float arrays in the lateral unit of the grid."""
     out = []
     for d in grid.dims:
@@ -97,7 +99,8 @@ def _coords(topography: xr.DataArray, grid: Grid) -> tuple[np.ndarray, ...]:
     return tuple(out)
 
 
-def _check_mode(mode: str, per_line: Any, grid: Grid) -> int:
+def detrend_degree(mode: str, per_line: Any, grid: Grid) -> int:
+    """Return the polynomial degree of a detrending ``mode``, its arguments checked."""
     if mode not in DETREND_MODES:
         raise ValueError(f"mode must be one of {DETREND_MODES}, got {mode!r}")
     require_flag(per_line, "per_line")
@@ -122,16 +125,35 @@ def _label(mode: str, per_line: bool) -> str:
 # ------------------------------------------------------------------------------ detrend
 
 
-def _detrend_kernel(h, *, coords, degree, per_line):
+def _detrend_kernel(h, *, coords, degree, per_line, subdivisions=None):
     check_finite(h)
+    if subdivisions is not None:
+        if per_line:
+            return k.checkerboard_detrend(h, coords[-1:], degree, subdivisions[-1:])
+        return k.checkerboard_detrend(h, coords, degree, subdivisions)
     if per_line:
         return k.detrend(h, coords[-1:], degree, strict=False)
     return k.detrend(h, coords, degree, strict=True)
 
 
+def _subdivisions(subdivisions: Any, grid: Grid) -> tuple[int, ...] | None:
+    """``subdivisions`` as one count per grid axis (None: the whole map at once)."""
+    if subdivisions is None:
+        return None
+    counts = ((subdivisions,) * len(grid.dims) if np.ndim(subdivisions) == 0
+              else tuple(subdivisions))
+    if len(counts) != len(grid.dims) or not all(
+            isinstance(c, (int, np.integer)) and not isinstance(c, bool) and c >= 1
+            for c in counts):
+        raise ValueError(f"subdivisions must be a positive integer or one per grid axis "
+                         f"{grid.dims}, got {subdivisions!r}")
+    return None if all(c == 1 for c in counts) else tuple(int(c) for c in counts)
+
+
 @u.accepts_quantified
 def detrend(topography: xr.DataArray, *, mode: str = "plane",
-            per_line: bool = False) -> xr.DataArray:
+            per_line: bool = False, subdivisions: int | tuple[int, ...] | None = None
+            ) -> xr.DataArray:
     r"""Remove a least-squares polynomial trend: mean, plane (tilt) or curvature.
 
     Parameters
@@ -151,6 +173,11 @@ def detrend(topography: xr.DataArray, *, mode: str = "plane",
         the profile of the line means along ``y`` (on a surface whose roll-off is a fifth
         of the scan, G along ``y`` drops by 3-8 % at all lags; G along ``x`` is
         untouched by ``'mean'``). Use it only when line artefacts are present.
+    subdivisions : int or tuple of int, optional
+        Checkerboard detrending: cut the map into ``(n_y, n_x)`` tiles (an int: as many
+        along each axis; sizes as ``numpy.array_split`` gives them) and fit each tile on
+        its own; with ``per_line`` each scan line is cut into ``n_x`` segments. The
+        variable-bandwidth analysis (:func:`xrough.variable_bandwidth`) is built on it.
 
     Returns
     -------
@@ -197,14 +224,22 @@ def detrend(topography: xr.DataArray, *, mode: str = "plane",
     ('plane', 'nm', 'nm')
     """
     grid = _validated(topography)
-    degree = _check_mode(mode, per_line, grid)
+    degree = detrend_degree(mode, per_line, grid)
+    tiles = _subdivisions(subdivisions, grid)
+    for d, count in zip(grid.dims[-1:] if per_line else grid.dims, (tiles or ())[
+            -1:] if per_line else (tiles or ())):
+        if count > topography.sizes[d] // 2:
+            raise ValueError(f"subdivisions: {count} tiles along {d!r} of "
+                             f"{topography.sizes[d]} points leave fewer than 2 a tile")
     result = xr.apply_ufunc(
         _detrend_kernel, topography, input_core_dims=[list(grid.dims)],
         output_core_dims=[list(grid.dims)], dask="parallelized", output_dtypes=[float],
-        kwargs={"coords": _coords(topography, grid), "degree": degree,
-                "per_line": bool(per_line)}, keep_attrs=False)
+        kwargs={"coords": grid_coords(topography, grid), "degree": degree,
+                "per_line": bool(per_line), "subdivisions": tiles}, keep_attrs=False)
     attrs = dict(topography.attrs)
     label = _label(mode, bool(per_line))
+    if tiles is not None:
+        label += f" in {'x'.join(map(str, tiles[-1:] if per_line else tiles))} tiles"
     attrs["detrend"] = f"{attrs['detrend']}; {label}" if attrs.get("detrend") else label
     if degree > 0:
         attrs["periodic"] = 0
@@ -273,8 +308,8 @@ def fit_trend(topography: xr.DataArray, *, mode: str = "plane",
     ('nm um-1', 'nm um-2', 5.0)
     """
     grid = _validated(topography)
-    degree = _check_mode(mode, per_line, grid)
-    coords = _coords(topography, grid)
+    degree = detrend_degree(mode, per_line, grid)
+    coords = grid_coords(topography, grid)
     terms = k.polynomial_terms(1 if per_line else len(grid.dims), degree)
     out_dims = ["y", "term"] if per_line else ["term"]
     coef = xr.apply_ufunc(

@@ -21,6 +21,7 @@ Scale-dependent curvature
 
 from __future__ import annotations
 
+import itertools
 import warnings
 
 import numpy as np
@@ -33,6 +34,8 @@ __all__ = [
     "polynomial_terms",
     "fit_polynomial",
     "detrend",
+    "checkerboard_detrend",
+    "segment_starts",
     "pair_median_reference",
     "local_plane_reference",
     "robust_zscore",
@@ -201,6 +204,68 @@ def detrend(h: np.ndarray, coords, degree: int, *, strict: bool = True) -> np.nd
             basis = np.multiply.outer(unit[0] ** e[0], basis)
         trend += coef[(...,) + (k,) + (None,) * nd] * basis
     return h - trend
+
+
+def segment_starts(n: int, parts: int) -> tuple[np.ndarray, np.ndarray]:
+    """Cut ``range(n)`` into ``parts`` contiguous segments as ``numpy.array_split`` does.
+
+    Returns their sizes (``n // parts``, the first ``n % parts`` one more) and starts.
+
+    Examples
+    --------
+    >>> [a.tolist() for a in segment_starts(7, 3)]
+    [[3, 2, 2], [0, 3, 5]]
+    """
+    sizes = np.full(parts, n // parts)
+    sizes[: n % parts] += 1
+    return sizes, np.concatenate([[0], np.cumsum(sizes)[:-1]])
+
+
+def _segments(n: int, parts: int) -> list[tuple[int, np.ndarray]]:
+    """``(size, starts)`` of the segments of :func:`segment_starts`, per size class."""
+    sizes, starts = segment_starts(n, parts)
+    return [(int(size), starts[sizes == size]) for size in np.unique(sizes)]
+
+
+def checkerboard_detrend(h: np.ndarray, coords, degree: int,
+                         subdivisions: tuple[int, ...]) -> np.ndarray:
+    """Detrend each tile of a checkerboard of the grid on its own (NaN stays NaN).
+
+    The grid axes (the last ``len(coords)`` of ``h``) are cut into ``subdivisions``
+    contiguous segments each (sizes as ``numpy.array_split`` gives them); every tile gets
+    its own least-squares polynomial of total ``degree`` (:func:`detrend`, minimum-norm
+    where a tile has fewer valid points than terms). Tiles of one size are fitted
+    together, so the cost is that of one :func:`detrend` of the whole grid.
+
+    Examples
+    --------
+    >>> h = np.array([1.0, 1.0, 0.0, 0.0, 5.0, 6.0])  # three flat or tilted segments
+    >>> np.round(checkerboard_detrend(h, (np.arange(6.0),), 1, (3,)), 12).tolist()
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    """
+    h = np.asarray(h, dtype=float)
+    nd = len(coords)
+    grid_shape = h.shape[h.ndim - nd:]
+    for n, parts in zip(grid_shape, subdivisions):
+        if not 1 <= parts <= n // 2:
+            raise ValueError(f"subdivisions: {parts} tiles of an axis of {n} points leave "
+                             "fewer than 2 points a tile")
+    out = np.empty_like(h)
+    classes = [_segments(n, parts) for n, parts in zip(grid_shape, subdivisions)]
+    coords = [np.asarray(c, dtype=float) for c in coords]
+    if nd == 1:
+        for size, starts in classes[0]:
+            idx = starts[:, None] + np.arange(size)  # (tiles, size)
+            tiles = h[..., idx]
+            out[..., idx] = detrend(tiles, (coords[0][:size],), degree, strict=False)
+        return out
+    for (sy, y0), (sx, x0) in itertools.product(*classes):
+        iy = (y0[:, None] + np.arange(sy))[:, None, :, None]
+        ix = (x0[:, None] + np.arange(sx))[None, :, None, :]
+        tiles = h[..., iy, ix]  # (..., tiles y, tiles x, sy, sx)
+        out[..., iy, ix] = detrend(tiles, (coords[0][:sy], coords[1][:sx]), degree,
+                                   strict=False)
+    return out
 
 
 # --------------------------------------------------------------------------- outliers
