@@ -30,6 +30,7 @@ from .contact import (
 )
 from .correlation import height_difference_acf
 from .ensemble import mean_acf
+from .filters import fourier_filter, longcut, shortcut
 from .fitting import fit_acf, model_acf
 from .gradient import (
     gradient_from_fit,
@@ -53,6 +54,7 @@ from .parameters import (
 )
 from .preprocess import (
     detrend,
+    fill_missing,
     fit_trend,
     mask_outliers,
     reliability_window,
@@ -91,6 +93,10 @@ __all__ = [
     "slope_distribution",
     "tip_check",
     "variable_bandwidth",
+    "fourier_filter",
+    "fill_missing",
+    "shortcut",
+    "longcut",
     "acf_from_spectrum",
     "compare_with_simulation",
     "ConvergenceWarning",

@@ -25,6 +25,7 @@ from . import (
     contact,
     correlation,
     ensemble,
+    filters,
     fitting,
     gradient,
     parameters,
@@ -119,6 +120,7 @@ class RoughDataArrayAccessor:
     detrend = _forward(preprocess.detrend)
     fit_trend = _forward(preprocess.fit_trend)
     mask_outliers = _forward(preprocess.mask_outliers)
+    fill_missing = _forward(preprocess.fill_missing)
     cleaning_sensitivity = _forward(cleaning.cleaning_sensitivity)
     reliable = _forward(preprocess.reliable)
     reliability_window = _forward(preprocess.reliability_window)
@@ -142,6 +144,9 @@ class RoughDataArrayAccessor:
     scale_dependent_curvature = _forward(parameters.scale_dependent_curvature)
     tip_check = _forward(parameters.tip_check)
     variable_bandwidth = _forward(bandwidth.variable_bandwidth)
+    fourier_filter = _forward(filters.fourier_filter)
+    shortcut = _forward(filters.shortcut)
+    longcut = _forward(filters.longcut)
     parameters = _forward(parameters.roughness_parameters)  # last: it hides the module
     plot = _forward(plot.plot)
     sel = _forward(units.sel)

@@ -35,6 +35,7 @@ lag range last, on the cleaned map.
 
 from __future__ import annotations
 
+import functools
 import re
 from dataclasses import dataclass
 from typing import Any
@@ -46,6 +47,7 @@ from . import quality
 from . import units as u
 from ._kernels import detrend as k
 from ._kernels.checks import require_flag
+from ._kernels.filling import harmonic_fill
 from .topography import Grid, check_finite, grid_of, require_whole_maps
 from .units import QuantityLike
 
@@ -64,6 +66,8 @@ __all__ = [
     "tip_window",
     "grid_coords",
     "detrend_degree",
+    "fill_missing",
+    "FILL_METHODS",
 ]
 
 DETREND_MODES = tuple(k.DEGREES)
@@ -335,6 +339,91 @@ def fit_trend(topography: xr.DataArray, *, mode: str = "plane",
         attrs[f"{d}_centre"] = float(0.5 * (c[0] + c[-1]))
     ds.attrs = attrs
     return ds
+
+
+# ------------------------------------------------------------------------- missing points
+
+#: How :func:`fill_missing` fills: Laplace's equation, the mean, or a given value.
+FILL_METHODS = ("harmonic", "mean", "constant")
+
+
+@u.accepts_quantified
+def fill_missing(topography: xr.DataArray, *, method: str = "harmonic",
+                 value: QuantityLike | None = None) -> xr.DataArray:
+    r"""Fill the missing (NaN) points of each map, for what needs every point.
+
+    G, the PSD and the parameters skip missing points themselves and need no filling;
+    Fourier filters (:func:`xrough.shortcut`), the contact solver and exports to tools
+    without masks do. SurfaceTopography's ``interpolate_undefined_data`` (harmonic) and
+    ``fill_undefined_data`` (a value).
+
+    Parameters
+    ----------
+    topography : xarray.DataArray with dims (..., "y", "x") or (..., "x")
+        Heights with units, NaN where missing; extra dims are filled map by map (lazy on
+        dask, one map per chunk).
+    method : {'harmonic', 'mean', 'constant'}
+        ``'harmonic'``: the values that solve Laplace's equation :math:`\nabla^2 h = 0`
+        with the valid points as boundary values (the 5-point Laplacian weighted by each
+        axis' spacing; neighbours wrap around on a periodic map): smooth, within the range
+        of the valid neighbours, exact for planes. ``'mean'``: the mean of the valid
+        points. ``'constant'``: ``value``.
+    value : float, str or Quantity, optional
+        The height of ``'constant'`` (numbers in the height unit).
+
+    Returns
+    -------
+    xarray.DataArray
+        The heights with no NaN, dims, coords and attrs of the input, with
+        ``attrs["filled"]`` saying how many points were filled and how.
+
+    Raises
+    ------
+    ValueError
+        Unknown ``method``, ``value`` missing or given with another method, a map with no
+        valid point, an invalid topography.
+
+    Examples
+    --------
+    >>> import numpy as np, xrough
+    >>> topo = xrough.topography([0.0, np.nan, np.nan, 3.0], spacing=1.0, unit="nm")
+    >>> filled = xrough.fill_missing(topo)
+    >>> filled.values.tolist(), filled.attrs["filled"]
+    ([0.0, 1.0, 2.0, 3.0], '2 points (harmonic)')
+    """
+    grid = grid_of(topography)
+    require_whole_maps(topography, grid, purpose="filling missing points")
+    if method not in FILL_METHODS:
+        raise ValueError(f"method must be one of {FILL_METHODS}, got {method!r}")
+    if (value is None) == (method == "constant"):
+        raise ValueError("value= goes with method='constant' (and only with it)")
+    fill = (None if value is None else
+            float(np.reshape(u.magnitude_in(value, grid.height_unit, what="value"), -1)[0]))
+    kernel = functools.partial(_fill_kernel, method=method, value=fill,
+                               spacing=grid.spacing, periodic=grid.periodic,
+                               nd=len(grid.dims))
+    result = xr.apply_ufunc(kernel, topography, input_core_dims=[list(grid.dims)],
+                            output_core_dims=[list(grid.dims)], dask="parallelized",
+                            output_dtypes=[float], keep_attrs=False)
+    out = _like(topography, result, dict(topography.attrs))
+    if topography.chunks is None:
+        n = int(np.isnan(topography.values).sum())
+        out.attrs["filled"] = f"{n} points ({method})"
+    else:
+        out.attrs["filled"] = f"missing points ({method})"
+    return out
+
+
+def _fill_kernel(h, *, method, value, spacing, periodic, nd):
+    h = check_finite(h)
+    grid_axes = tuple(range(h.ndim - nd, h.ndim))
+    if np.any(np.isnan(h).all(axis=grid_axes)):
+        raise ValueError("a map has no valid point to fill from")
+    if method == "harmonic":
+        return harmonic_fill(h, spacing=spacing, periodic=periodic)
+    fill = (np.nanmean(h, axis=grid_axes, keepdims=True) if method == "mean"
+            else np.asarray(value))
+    return np.where(np.isnan(h), fill, h)
 
 
 # ------------------------------------------------------------------------------ outliers
