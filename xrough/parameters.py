@@ -142,6 +142,16 @@ def _parameter_attrs(grid: Grid, sections: int) -> dict[str, dict]:
                       "root mean square curvature h'' (no ISO parameter)"),
         "definition": "sqrt(<c^2>) over every valid stencil (k = 1)",
         "stencil": CURVATURE_STENCIL}
+    out["median_height"] = {"units": grid.height_unit,
+                            "long_name": "median height (no ISO parameter)",
+                            "definition": "median of the valid heights as they are (not "
+                                          "about the mean)"}
+    out["mad_height"] = {
+        "units": grid.height_unit,
+        "long_name": "MAD height: median absolute deviation scaled to the rms of Gaussian "
+                     "heights (no ISO parameter)",
+        "definition": "1.4826 median(|h - median(h)|): robust to spikes, equal to the rms "
+                      "height of Gaussian heights"}
     return out
 
 
@@ -165,8 +175,12 @@ def roughness_parameters(topography: xr.DataArray, *,
     Returns
     -------
     xarray.Dataset
-        Maps: ``Sq Sa Ssk Sku Sp Sv Sz Sdq Sdr rms_curvature``; profiles: ``Rq Ra Rsk Rku
-        Rp Rv Rz Rt Rdq rms_curvature``; 0-d for one map. Heights in the height unit,
+        Maps: ``Sq Sa Ssk Sku Sp Sv Sz Sdq Sdr rms_curvature median_height
+        mad_height``; profiles: ``Rq Ra Rsk Rku Rp Rv Rz Rt Rdq rms_curvature
+        median_height mad_height``; 0-d for one map. ``mad_height`` is the median
+        absolute deviation from the median times 1.4826, the robust twin of ``Sq``
+        (equal to it on Gaussian heights, far below it where spikes or a skew dominate;
+        SurfaceTopography's ``mad_height``). Heights in the height unit,
         ``Ssk``, ``Sku``, ``Sdq`` and ``Sdr`` pure numbers (``units="1"``; ``Sdr`` a
         ratio, not percent), ``rms_curvature`` in 1 / lateral unit. Each variable's
         ``long_name`` names its standard and ``definition`` its formula; the attrs give

@@ -53,6 +53,7 @@ from .units import QuantityLike
 
 __all__ = [
     "DETREND_MODES",
+    "DETREND_FITS",
     "OUTLIER_METHODS",
     "detrend",
     "fit_trend",
@@ -71,6 +72,8 @@ __all__ = [
 ]
 
 DETREND_MODES = tuple(k.DEGREES)
+#: What :func:`detrend`'s polynomial minimises: the squares, or the median absolute deviation.
+DETREND_FITS = ("least_squares", "mad")
 #: mask_outliers without a window says how many points stand out from their neighbours
 #: beyond this robust z of the residual from the medians of the 9 points on either side
 #: along x or y (:func:`xrough._kernels.detrend.local_excursions`): none on Gaussian
@@ -129,8 +132,10 @@ def _label(mode: str, per_line: bool) -> str:
 # ------------------------------------------------------------------------------ detrend
 
 
-def _detrend_kernel(h, *, coords, degree, per_line, subdivisions=None):
+def _detrend_kernel(h, *, coords, degree, per_line, subdivisions=None, fit="least_squares"):
     check_finite(h)
+    if fit == "mad":
+        return k.mad_detrend(h, coords, degree)
     if subdivisions is not None:
         if per_line:
             return k.checkerboard_detrend(h, coords[-1:], degree, subdivisions[-1:])
@@ -156,8 +161,8 @@ def _subdivisions(subdivisions: Any, grid: Grid) -> tuple[int, ...] | None:
 
 @u.accepts_quantified
 def detrend(topography: xr.DataArray, *, mode: str = "plane",
-            per_line: bool = False, subdivisions: int | tuple[int, ...] | None = None
-            ) -> xr.DataArray:
+            per_line: bool = False, subdivisions: int | tuple[int, ...] | None = None,
+            fit: str = "least_squares") -> xr.DataArray:
     r"""Remove a least-squares polynomial trend: mean, plane (tilt) or curvature.
 
     Parameters
@@ -182,6 +187,12 @@ def detrend(topography: xr.DataArray, *, mode: str = "plane",
         along each axis; sizes as ``numpy.array_split`` gives them) and fit each tile on
         its own; with ``per_line`` each scan line is cut into ``n_x`` segments. The
         variable-bandwidth analysis (:func:`xrough.variable_bandwidth`) is built on it.
+    fit : {'least_squares', 'mad'}
+        What the polynomial minimises: the mean square of the residual, or its median
+        absolute deviation (robust: spikes and a few deep features do not pull it;
+        SurfaceTopography's ``mad-tilt`` and ``mad-curvature``). ``'mad'`` fits each map
+        whole (not with ``per_line`` or ``subdivisions``) by Nelder-Mead from the
+        least-squares fit: seconds on a megapixel map.
 
     Returns
     -------
@@ -230,6 +241,10 @@ def detrend(topography: xr.DataArray, *, mode: str = "plane",
     grid = _validated(topography)
     degree = detrend_degree(mode, per_line, grid)
     tiles = _subdivisions(subdivisions, grid)
+    if fit not in DETREND_FITS:
+        raise ValueError(f"fit must be one of {DETREND_FITS}, got {fit!r}")
+    if fit == "mad" and (per_line or tiles is not None):
+        raise ValueError("fit='mad' fits each map whole: not with per_line or subdivisions")
     for d, count in zip(grid.dims[-1:] if per_line else grid.dims, (tiles or ())[
             -1:] if per_line else (tiles or ())):
         if count > topography.sizes[d] // 2:
@@ -239,11 +254,14 @@ def detrend(topography: xr.DataArray, *, mode: str = "plane",
         _detrend_kernel, topography, input_core_dims=[list(grid.dims)],
         output_core_dims=[list(grid.dims)], dask="parallelized", output_dtypes=[float],
         kwargs={"coords": grid_coords(topography, grid), "degree": degree,
-                "per_line": bool(per_line), "subdivisions": tiles}, keep_attrs=False)
+                "per_line": bool(per_line), "subdivisions": tiles, "fit": fit},
+        keep_attrs=False)
     attrs = dict(topography.attrs)
     label = _label(mode, bool(per_line))
     if tiles is not None:
         label += f" in {'x'.join(map(str, tiles[-1:] if per_line else tiles))} tiles"
+    if fit == "mad":
+        label += " (MAD fit)"
     attrs["detrend"] = f"{attrs['detrend']}; {label}" if attrs.get("detrend") else label
     if degree > 0:
         attrs["periodic"] = 0

@@ -25,7 +25,7 @@ import itertools
 import warnings
 
 import numpy as np
-from scipy import ndimage
+from scipy import ndimage, optimize
 
 from .derivatives import second_difference
 
@@ -35,6 +35,7 @@ __all__ = [
     "fit_polynomial",
     "detrend",
     "checkerboard_detrend",
+    "mad_detrend",
     "segment_starts",
     "pair_median_reference",
     "local_plane_reference",
@@ -196,14 +197,65 @@ def detrend(h: np.ndarray, coords, degree: int, *, strict: bool = True) -> np.nd
     coef, terms, count = _fit_normalised(h, unit, degree)
     if strict:
         _check_points(count, len(terms), "topography")
-    trend = np.zeros(h.shape)
+    return h - _trend(coef, unit, terms)
+
+
+def _trend(coef: np.ndarray, unit: list[np.ndarray], terms) -> np.ndarray:
+    """Evaluate the polynomial of ``coef`` (last axis) on the normalised grid ``unit``."""
     nd = len(unit)
+    trend = np.zeros(coef.shape[:-1] + tuple(u.size for u in unit))
     for k, e in enumerate(terms):
         basis = unit[-1] ** e[-1]
         if nd == 2:
             basis = np.multiply.outer(unit[0] ** e[0], basis)
         trend += coef[(...,) + (k,) + (None,) * nd] * basis
-    return h - trend
+    return trend
+
+
+def mad_detrend(h: np.ndarray, coords, degree: int) -> np.ndarray:
+    """Heights minus the polynomial trend that minimises their MAD (robust detrending).
+
+    The coefficients minimise the median absolute deviation of the residual from its
+    median (SurfaceTopography's ``mad-tilt`` / ``mad-curvature``): a least-squares fit
+    is pulled by spikes and by a few deep features, this one follows the bulk of the
+    surface. Nelder-Mead from the least-squares fit, on the normalised coordinates, per
+    map; the MAD does not see a constant, so the residual's median is set to 0.
+
+    Examples
+    --------
+    >>> x = np.arange(200.0)
+    >>> h = 0.5 * x + np.sin(x)  # a tilt on roughness, and ten points far above it
+    >>> h[::20] += 1000.0
+    >>> r = mad_detrend(h, (x,), 1)
+    >>> bool(abs(np.median(np.diff(r))) < 0.05)  # the tilt is gone despite the spikes
+    True
+    """
+    h = np.asarray(h, dtype=float)
+    unit, _, _ = _normalised(coords)
+    coef, terms, count = _fit_normalised(h, unit, degree)
+    _check_points(count, len(terms), "topography")
+    nd = len(unit)
+    flat_h = h.reshape((-1,) + h.shape[h.ndim - nd:])
+    flat_c = coef.reshape(-1, len(terms))
+    out = np.empty_like(flat_h)
+    for i, (one, start) in enumerate(zip(flat_h, flat_c)):
+        valid = np.isfinite(one)
+        basis = np.stack([_trend(np.eye(len(terms))[k], unit, terms)[valid]
+                          for k in range(len(terms))], axis=-1)
+        values = one[valid]
+
+        def mad(c, values=values, basis=basis):
+            r = values - basis @ c
+            return np.median(np.abs(r - np.median(r)))
+
+        scale = max(float(np.std(values)), np.finfo(float).tiny)
+        simplex = start + np.vstack([np.zeros(len(terms)), 0.1 * scale * np.eye(len(terms))])
+        best = optimize.minimize(mad, start, method="Nelder-Mead",
+                                 options={"initial_simplex": simplex, "xatol": 1e-10 * scale,
+                                          "fatol": 1e-12 * scale, "maxiter": 4000})
+        residual = one - _trend(best.x, unit, terms)
+        out[i] = residual - np.nanmedian(residual)  # the MAD leaves the offset free
+    return out.reshape(h.shape)
 
 
 def segment_starts(n: int, parts: int) -> tuple[np.ndarray, np.ndarray]:

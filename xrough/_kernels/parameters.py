@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import derivatives as fd
+from .detrend import MAD_TO_SIGMA
 from .pairs import few_points_message, require_no_inf
 
 __all__ = ["PROFILE_PARAMETERS", "AREAL_PARAMETERS", "checked", "centred",
@@ -22,10 +23,10 @@ __all__ = ["PROFILE_PARAMETERS", "AREAL_PARAMETERS", "checked", "centred",
 
 #: The packed order of :func:`roughness_parameters` for profiles (ISO 21920-2) ...
 PROFILE_PARAMETERS = ("Rq", "Ra", "Rsk", "Rku", "Rp", "Rv", "Rz", "Rt", "Rdq",
-                      "rms_curvature")
+                      "rms_curvature", "median_height", "mad_height")
 #: ... and for maps (ISO 25178-2).
 AREAL_PARAMETERS = ("Sq", "Sa", "Ssk", "Sku", "Sp", "Sv", "Sz", "Sdq", "Sdr",
-                    "rms_curvature")
+                    "rms_curvature", "median_height", "mad_height")
 #: What a slope distribution can bin: the slope along an axis, or |grad h|.
 SLOPE_DIRECTIONS = ("x", "y", "gradient")
 #: What a curvature distribution can bin: along an axis, or the mean curvature of a map.
@@ -166,10 +167,12 @@ def roughness_parameters(h, *, nd: int, spacing: tuple[float, ...], periodic: bo
 
     Returns
     -------
-    numpy.ndarray, shape (..., 10)
+    numpy.ndarray, shape (..., 12)
         Heights in the unit of ``h`` (``Rsk``, ``Rku`` pure numbers), ``Rdq``/``Sdq`` and
         ``Sdr`` pure numbers, the rms curvature in 1 / spacing unit (of a map: the mean
-        curvature, half the Laplacian). NaN where no stencil fits between missing points.
+        curvature, half the Laplacian), the median height and the MAD height (the median
+        absolute deviation from it times :data:`MAD_TO_SIGMA`: the rms height of Gaussian
+        heights). NaN where no stencil fits between missing points.
 
     Examples
     --------
@@ -211,6 +214,9 @@ def _parameters_of_map(h, *, nd, spacing, periodic, hfactor, sections) -> np.nda
                 if fits else np.nan)
         out += [np.sqrt(ms[0] + ms[1]), developed, np.sqrt(curv)]
     batch = h.shape[: h.ndim - nd]
+    flat = h.reshape(batch + (-1,))
+    median = np.nanmedian(flat, axis=-1)
+    out += [median, MAD_TO_SIGMA * np.nanmedian(np.abs(flat - median[..., None]), axis=-1)]
     return np.stack([np.broadcast_to(np.asarray(v, dtype=float), batch) for v in out],
                     axis=-1)
 
