@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import xarray as xr
@@ -87,3 +89,64 @@ def test_dask_equals_numpy_and_archives(tmp_path):
     path = tmp_path / "mean.nc"
     xrough.save_analysis(path, {"G": eager})
     xr.testing.assert_identical(xrough.open_analysis(path)["G"], eager)
+
+
+def _folder(tmp_path, n_maps=3):
+    for seed in range(n_maps):
+        xrough.self_affine_surface(**{**MAP, "n": 128, "size": "128 nm"}, unit="nm",
+                                   seed=seed).to_netcdf(tmp_path / f"scan{seed}.nc")
+    (tmp_path / "broken.nc").write_bytes(b"CDF\x01" + bytes(20))
+    (tmp_path / "README.md").write_text("not a measurement")
+    return tmp_path
+
+
+def test_open_set_keeps_going_and_tabulates(tmp_path):
+    """A folder: every measurement file a node, a broken one a line of the root's
+    ``failed`` and a failed row of the table; the table's numbers are each scan's own
+    (Sq, H of the fit of its G), in one unit; one bad file never ends the batch."""
+    folder = _folder(tmp_path)
+    tree = xrough.open_set(folder, progress=False)
+    assert sorted(tree.children) == ["scan0", "scan1", "scan2"]
+    assert tree.attrs["failed"].startswith("broken: ") and tree.attrs["n_files"] == 4
+    with pytest.warns(xrough.QualityWarning, match="of 4 measurements are not good"):
+        table = xrough.analyse_set(tree, E_star="1 MPa", p0="1 kPa", progress=False)
+    assert list(table.measurement.values) == ["scan0", "scan1", "scan2", "broken"]
+    assert table.quality.sel(measurement="broken") == "failed"
+    assert "broken.nc" in str(table.error.sel(measurement="broken").values)
+    topo = tree["scan1"].to_dataset()["heights"]
+    clean = xrough.detrend(topo)
+    assert float(table.Sq.sel(measurement="scan1")) == pytest.approx(
+        float(clean.rough.parameters().Sq), rel=1e-12)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        fit = clean.rough.acf().rough.fit()  # NaN where the fit fails, in the table too
+    np.testing.assert_allclose(float(table.hurst.sel(measurement="scan1")),
+                               float(fit.hurst), rtol=1e-9)
+    assert np.all(table.a_r.sel(measurement=["scan0", "scan1", "scan2"]) > 0)
+    assert table.Sq.attrs["units"] == "nm" and table.a_r_dr.attrs["units"] == "nm"
+    # the stitched G of the set, and the table archives
+    assert tree.rough.acf().attrs["stitched_from"] == "scan0, scan1, scan2"
+    path = tmp_path / "table.nc"
+    table.to_netcdf(path)
+    xr.testing.assert_identical(xr.open_dataset(path).load(), table)
+    with pytest.raises(ValueError, match="broken"):
+        xrough.open_set(folder, keep_going=False, progress=False)
+
+
+def test_container_supplies_what_a_file_lacks(tmp_path):
+    """A contact.engineering container: meta.yml says which files and the unit a text
+    profile does not state (the file alone does not read); a file it does not list is
+    not opened."""
+    x = np.arange(200) * 0.01
+    np.savetxt(tmp_path / "line.txt", np.column_stack([x, np.sin(7 * x)]))
+    xrough.self_affine_surface(**MAP, unit="nm", seed=1).to_netcdf(tmp_path / "map.nc")
+    (tmp_path / "meta.yml").write_text(
+        "surfaces:\n- topographies:\n"
+        "  - datafile: {original: line.txt}\n    unit: um\n    size: !!python/tuple [1.99]\n")
+    with pytest.raises(ValueError, match="unit"):
+        xrough.open_topography(tmp_path / "line.txt")
+    tree = xrough.open_set(tmp_path, progress=False)
+    assert list(tree.children) == ["line"]
+    line = tree["line"].to_dataset()["heights"]
+    assert line.attrs["units"] == "um" and line.x.attrs["units"] == "um"
+    assert tree.attrs["failed"] == ""

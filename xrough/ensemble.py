@@ -1,21 +1,38 @@
-"""Sets of measurements of one surface: one G from many, with errors a second set would give.
+"""Sets of measurements of one surface: a folder as one object, a table, one G from many.
 
-A folder of scans of one sample gives a stack of G (one per scan, on the same lags). Their
-average is the G of all their pairs, and its error is what a second set of as many scans
-would give: never less than the scatter between the scans, which xarray's own ``mean``
-cannot know (it drops ``standard_error``, so the next fit would be unweighted).
+A folder of scans of one sample (several instruments, a contact.engineering container)
+opens as one DataTree (:func:`open_set`, a file that does not read is a line that says
+why); :func:`analyse_set` gives the table contact.engineering shows, one row per scan
+with its quality; the averaged G of several instruments is :func:`xrough.stitch` of the
+tree. A stack of G on the same lags averages with :func:`mean_acf`: the G of all their
+pairs, with an error that is what a second set of as many scans would give (never less
+than the scatter between the scans, which xarray's own ``mean`` cannot know: it drops
+``standard_error``, so the next fit would be unweighted).
 """
 
 from __future__ import annotations
+
+from collections.abc import Iterable
+from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
 from . import quality
+from . import units as u
 from .acf import INFLATION, check_acf, result_attrs
-from .units import accepts_quantified
+from .contact import persson
+from .correlation import height_difference_acf
+from .fitting import fit_acf
+from .io import MissingOptionError, open_topography
+from .io.container import META, container_entries
+from .io.folders import measurement_files, measurement_names
+from .parameters import roughness_parameters
+from .preprocess import detrend
+from .progress import progress_bar
+from .units import QuantityLike, accepts_quantified
 
-__all__ = ["mean_acf"]
+__all__ = ["mean_acf", "open_set", "analyse_set"]
 
 
 @accepts_quantified
@@ -138,3 +155,222 @@ def mean_acf(G: xr.DataArray, dim: str) -> xr.DataArray:
             out.attrs[key] = G.attrs[key]
     out.name = G.name
     return out
+
+
+# ------------------------------------------------------------------------------ a folder
+
+#: The options of :func:`xrough.open_topography` a container's entry can supply, and how.
+_CONTAINER_OPTIONS = ("unit", "size")
+
+
+def _open_one(path: Path, entry: dict | None, options: dict) -> xr.DataArray:
+    """Open ``path``; what it lacks (a unit, a size) from its container entry, if any."""
+    try:
+        return open_topography(path, **options)
+    except MissingOptionError as err:
+        given = {k: entry[k] for k in _CONTAINER_OPTIONS
+                 if entry and k in err.options and entry.get(k) is not None
+                 and k not in options}
+        if not given:
+            raise
+        if "size" in given and isinstance(given["size"], (list, tuple)):
+            given["size"] = tuple(float(v) for v in given["size"])[::-1]  # (x, y) -> (y, x)
+            if len(given["size"]) == 1:
+                given["size"] = given["size"][0]
+        return open_topography(path, **options, **given)
+
+
+def open_set(source: str | Path | Iterable[str | Path], *, keep_going: bool = True,
+             progress: bool | None = None, **open_kwargs) -> xr.DataTree:
+    """Open a folder of measurements (or a list of files) as one DataTree.
+
+    Parameters
+    ----------
+    source : str, Path or list of them
+        A folder (its measurement files: :func:`xrough.io.folders.measurement_files`;
+        a contact.engineering container's ``meta.yml`` says which, and supplies the unit
+        or size a file does not state), or the files themselves.
+    keep_going : bool
+        A file that does not read is left out and said why (root attr ``failed``: one
+        line ``name: reason`` each); False raises at the first.
+    progress : bool or None
+        A progress bar over the files (None: in an interactive terminal only).
+    **open_kwargs
+        Passed to :func:`xrough.open_topography` for every file (``unit=``, ``channel=``).
+
+    Returns
+    -------
+    xarray.DataTree
+        One node per file that reads, named by its stem
+        (:func:`xrough.io.folders.measurement_names`), holding ``heights``; root attrs
+        ``source``, ``n_files`` and ``failed``. ``tree.rough.acf()`` stitches their G
+        (:func:`xrough.stitch`), :func:`analyse_set` tabulates them.
+
+    Raises
+    ------
+    ValueError
+        A folder with no measurement file, no file that reads, or (``keep_going=False``)
+        the first file that does not.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, xrough
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> for seed in (1, 2):
+    ...     xrough.self_affine_surface(hurst=0.8, n=64, size="64 nm", lambda_r="32 nm",
+    ...                                lambda_s="2 nm", rms_gradient=0.1, unit="nm",
+    ...                                seed=seed).to_netcdf(d / f"scan{seed}.nc")
+    >>> _ = (d / "broken.nc").write_bytes(b"CDF" + bytes(4))
+    >>> tree = xrough.open_set(d)
+    >>> sorted(tree.children), tree.attrs["failed"].split(":")[0]
+    (['scan1', 'scan2'], 'broken')
+    """
+    if isinstance(source, (str, Path)):
+        folder = Path(source)
+        paths = measurement_files(folder)
+        entries = {e["file"]: e for e in container_entries(folder / META)}
+        where = str(folder)
+    else:
+        paths = [Path(p) for p in source]
+        entries = {}
+        where = ", ".join(str(p) for p in paths)
+    names = measurement_names(paths)
+    nodes: dict[str, xr.Dataset] = {}
+    failed: list[str] = []
+    for path, name in progress_bar(desc="files", iterable=list(zip(paths, names)),
+                                   progress=progress):
+        try:
+            topo = _open_one(path, entries.get(path.name), open_kwargs)
+        except (ValueError, OSError, KeyError, TypeError) as err:
+            if not keep_going:
+                raise
+            reason = str(err).splitlines()[0] if str(err) else type(err).__name__
+            failed.append(f"{name}: {reason}")
+            continue
+        nodes[name] = topo.to_dataset(name="heights", promote_attrs=False)
+    if not nodes:
+        raise ValueError(f"{where}: no file could be read: " + "; ".join(failed))
+    root = xr.Dataset(attrs={"source": where, "n_files": len(paths),
+                             "failed": "\n".join(failed)})
+    return xr.DataTree.from_dict({"/": root, **nodes})
+
+
+#: The columns of :func:`analyse_set` from the fit of G.
+_FIT_COLUMNS = ("hurst", "hurst_std", "sigma_h", "sigma_h_std", "lambda_r", "lambda_r_std")
+
+
+def analyse_set(tree: xr.DataTree, *, mode: str = "plane",
+                E_star: QuantityLike | None = None, p0: QuantityLike | None = None,
+                points_per_decade: float = 10, progress: bool | None = None) -> xr.Dataset:
+    """Tabulate a set of measurements: one row per file, as contact.engineering shows it.
+
+    For each measurement of :func:`open_set`: detrend (``mode``), G, its fit, the
+    roughness parameters and, with ``E_star`` and ``p0``, Persson theory's contact area
+    at the finest lag that determines it. A measurement that fails is a row with its
+    ``error`` and NaN numbers; the files that did not read are rows too.
+
+    Parameters
+    ----------
+    tree : xarray.DataTree
+        From :func:`open_set` (nodes holding ``heights``).
+    mode : {'mean', 'plane', 'curvature'}
+        :func:`xrough.detrend` before G.
+    E_star, p0 : float, str or Quantity, optional
+        Contact modulus and pressure for the contact-area column (Pa for numbers).
+    points_per_decade : float
+        G's log bins.
+    progress : bool or None
+        A progress bar over the measurements.
+
+    Returns
+    -------
+    xarray.Dataset
+        On dim ``measurement``: ``file``, ``quality`` (worst of G, fit and Persson
+        theory), ``notes``, ``error``; ``hurst``, ``sigma_h``, ``lambda_r`` with their
+        ``_std`` (in each row's units converted to the first measurement's); every
+        parameter of :func:`xrough.roughness_parameters` (``S...`` of maps, ``R...`` of
+        profiles, NaN where not applicable); ``a_r`` and ``a_r_dr`` with ``E_star`` and
+        ``p0``. The stitched G of all of them is ``xrough.stitch(tree)``.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, xrough
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> for seed in (1, 2):
+    ...     xrough.self_affine_surface(hurst=0.8, n=256, size="256 nm", lambda_r="64 nm",
+    ...                                lambda_s="2 nm", rms_gradient=0.1, unit="nm",
+    ...                                seed=seed).to_netcdf(d / f"scan{seed}.nc")
+    >>> table = xrough.analyse_set(xrough.open_set(d))
+    >>> table.sizes["measurement"], table.Sq.attrs["units"], table.quality.values.tolist()
+    (2, 'nm', ['good', 'good'])
+    """
+    names = [n for n in tree.children if "heights" in tree[n].data_vars]
+    failed = [line.split(": ", 1) for line in str(tree.attrs.get("failed", "")).splitlines()
+              if ": " in line]
+    rows: list[dict] = []
+    units: dict[str, str] = {}
+    for name in progress_bar(desc="measurements", iterable=names, progress=progress):
+        topo = tree[name].to_dataset()["heights"]
+        rows.append(_row(name, topo, mode, E_star, p0, points_per_decade, units))
+    rows += [{"measurement": n, "file": "", "quality": "failed", "notes": "",
+              "error": reason} for n, reason in failed]
+    table = _table(rows, units)
+    flagged = [r["measurement"] for r in rows if r["quality"] != "good"]
+    if flagged:
+        quality.warn(f"analyse_set: {len(flagged)} of {len(rows)} measurements are not good "
+                     f"({', '.join(flagged[:5])}{', ...' if len(flagged) > 5 else ''}): "
+                     "the table's columns quality, notes and error say why",
+                     quality.QualityWarning)
+    return table
+
+
+def _row(name: str, topo: xr.DataArray, mode: str, E_star, p0, points_per_decade: float,
+         units: dict[str, str]) -> dict:
+    """Compute a row of :func:`analyse_set` (numbers in ``units``, set by the first row)."""
+    row: dict = {"measurement": name, "file": str(topo.attrs.get("source_file", "")),
+                 "error": ""}
+    try:
+        with quality.quiet(), quality.recorded() as notes:  # the row says them
+            clean = detrend(topo, mode=mode)
+            G = height_difference_acf(clean, points_per_decade=points_per_decade)
+            fit = fit_acf(G)
+            params = roughness_parameters(clean)
+            results = [G, fit]
+            if E_star is not None and p0 is not None:
+                contact = persson(G, E_star=E_star, p0=p0, fit=fit)  # the fit once
+                results.append(contact)
+                finite = np.flatnonzero(np.isfinite(contact.a_r.values))
+                if finite.size:
+                    at = contact.isel(dr=int(finite[0]))
+                    row["a_r"] = (float(at.a_r), "1")
+                    row["a_r_dr"] = (float(at.dr), at.dr.attrs["units"])
+        row["quality"] = quality.worst(*results)
+        row["notes"] = "; ".join(dict.fromkeys(str(message).splitlines()[0]
+                                               for message, _ in notes))
+        for key in _FIT_COLUMNS:
+            if key in fit.data_vars:
+                row[key] = (float(fit[key]), fit[key].attrs.get("units", "1"))
+        for name_, var in params.data_vars.items():
+            row[str(name_)] = (float(var), var.attrs.get("units", "1"))
+    except (ValueError, RuntimeError, np.linalg.LinAlgError) as err:
+        row.update(quality="failed", notes="", error=str(err).splitlines()[0])
+    for key, value in list(row.items()):
+        if isinstance(value, tuple):
+            number, unit = value
+            target = units.setdefault(key, unit)
+            row[key] = number * (u.conversion_factor(unit, target) if unit != target else 1.0)
+    return row
+
+
+def _table(rows: list[dict], units: dict[str, str]) -> xr.Dataset:
+    """Build the Dataset of the rows on ``measurement`` (NaN or "" where a row has none)."""
+    keys = list(dict.fromkeys(k for r in rows for k in r if k != "measurement"))
+    data: dict[str, tuple] = {}
+    for key in keys:
+        if key in units:
+            data[key] = ("measurement", np.array([r.get(key, np.nan) for r in rows],
+                                                 dtype=float), {"units": units[key]})
+        else:
+            data[key] = ("measurement", np.array([str(r.get(key, "")) for r in rows]))
+    return xr.Dataset(data, coords={"measurement": [r["measurement"] for r in rows]},
+                      attrs=result_attrs(None, long_name="one row per measurement"))

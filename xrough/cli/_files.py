@@ -28,7 +28,7 @@ import xarray as xr
 from .. import units as u
 from .._kernels.binning import MAX_POINTS_PER_DECADE, check_points_per_decade
 from ..io import BRIDGE, FORMATS, MissingOptionError, detect_format, open_topography
-from ..io.archive import safe_name
+from ..io.folders import measurement_files, measurement_names
 from ..preprocess import DETREND_MODES, detrend
 from ..progress import progress_bar
 from ._common import CLIError, fail, first_line, warn_lines
@@ -278,32 +278,11 @@ def _measure(path: str, name: str, args: argparse.Namespace,
             "results": result, "warnings": warn_lines(path, caught)}
 
 
-def group_names(paths: list[str]) -> list[str]:
-    """Return unique, NetCDF-safe group names for the measurements in ``paths``.
-
-    The file stem; files with the same stem get their parent folder's name in front
-    (``a_scan``, ``b_scan``); :func:`xrough.io.archive.safe_name` makes each name legal
-    and distinct (and never the reserved ``_provenance``).
-    """
-    stems = [Path(p).stem for p in paths]
-    names: list[str] = []
-    for p, stem in zip(paths, stems):
-        parent = Path(p).resolve().parent.name
-        wanted = f"{parent}_{stem}" if stems.count(stem) > 1 and parent else stem
-        names.append(safe_name(wanted, names))
-    return names
-
-
-#: The file extensions a folder given as a file is searched for (every reader's).
-EXTENSIONS = frozenset(ext for f in FORMATS.values() for ext in f.extensions)
-
-
 def expand_folders(paths: list[str]) -> list[str]:
-    """Replace each folder in ``paths`` by the measurement files in it (sorted).
+    """Replace each folder in ``paths`` by its measurement files (files named stay as given).
 
-    A file of the folder (not its subfolders) counts when its extension is one of a
-    reader's (:data:`EXTENSIONS`; hidden files and archives xrough wrote are left out);
-    files named directly are kept as given.
+    :func:`xrough.io.folders.measurement_files`: a reader's extension, or what a
+    ``meta.yml`` lists.
 
     Raises
     ------
@@ -312,17 +291,13 @@ def expand_folders(paths: list[str]) -> list[str]:
     """
     out: list[str] = []
     for path in paths:
-        folder = Path(path)
-        if not folder.is_dir():
+        if not Path(path).is_dir():
             out.append(path)
             continue
-        found = sorted(str(f) for f in folder.iterdir()
-                       if f.is_file() and f.suffix.lower() in EXTENSIONS
-                       and not f.name.startswith((".", "xrough-")))
-        if not found:
-            raise CLIError(f"{path}: a folder with no measurement file (extensions "
-                           f"{', '.join(sorted(EXTENSIONS))})")
-        out.extend(found)
+        try:
+            out.extend(str(p) for p in measurement_files(path))
+        except ValueError as err:
+            raise CLIError(str(err)) from err
     return out
 
 
@@ -335,7 +310,7 @@ def measure_all(args: argparse.Namespace, analyse=None, *,
     command.
     """
     _check_points_per_decade(args)
-    names = group_names(args.files)
+    names = measurement_names(args.files)
     out = []
     for path, name in progress_bar(desc="G(dr)", iterable=list(zip(args.files, names))):
         try:

@@ -53,22 +53,12 @@ def container_attrs(path: Path) -> dict:
     >>> container_attrs(folder / "scan.txt")["container_size"]
     '1.0 2.0'
     """
-    meta = Path(path).parent / META
-    if not meta.is_file():
-        return {}
-    try:
-        doc = yaml.load(meta.read_text(encoding="utf-8"), Loader=_Loader)  # noqa: S506
-    except (yaml.YAMLError, UnicodeDecodeError) as err:
-        warnings.warn(f"{meta}: not read as a contact.engineering container ({err}); "
-                      "its metadata are not attached", UserWarning, stacklevel=3)
-        return {}
-    for surface in (doc or {}).get("surfaces", []) or []:
-        for topo in (surface or {}).get("topographies", []) or []:
-            datafile = (topo or {}).get("datafile") or {}
-            if datafile.get("original") != Path(path).name:
-                continue
+    for topo in container_entries(Path(path).parent / META, stacklevel=4):
+        if topo["file"] == Path(path).name:
             out: dict[str, str | int | float] = {"container_file": META}
             for key, value in topo.items():
+                if key == "file":
+                    continue
                 if isinstance(value, bool):
                     out[f"container_{key}"] = int(value)
                 elif isinstance(value, (str, int, float)):
@@ -80,3 +70,28 @@ def container_attrs(path: Path) -> dict:
                     out[f"container_{key}"] = value.isoformat()
             return out
     return {}
+
+
+def container_entries(meta: Path, *, stacklevel: int = 2) -> list[dict]:
+    """Return the topographies a ``meta.yml`` lists, each with its ``file`` name (``[]``: none).
+
+    Each entry is the container's dict of the topography (description, unit, size,
+    height_scale, ...) with ``file`` its data file's name (``datafile: original``); a
+    file that is missing, does not parse (with a warning) or lists nothing gives ``[]``.
+    """
+    meta = Path(meta)
+    if not meta.is_file():
+        return []
+    try:
+        doc = yaml.load(meta.read_text(encoding="utf-8"), Loader=_Loader)  # noqa: S506
+    except (yaml.YAMLError, UnicodeDecodeError) as err:
+        warnings.warn(f"{meta}: not read as a contact.engineering container ({err}); "
+                      "its metadata are not attached", UserWarning, stacklevel=stacklevel)
+        return []
+    out = []
+    for surface in (doc or {}).get("surfaces", []) or [] if isinstance(doc, dict) else []:
+        for topo in (surface or {}).get("topographies", []) or []:
+            name = ((topo or {}).get("datafile") or {}).get("original")
+            if isinstance(name, str) and name:
+                out.append({**topo, "file": name})
+    return out
