@@ -64,6 +64,7 @@ METHODS = {
         "material_ratio": parameters.material_ratio,
         "scale_dependent_slope": parameters.scale_dependent_slope,
         "scale_dependent_curvature": parameters.scale_dependent_curvature,
+        "scale_dependent_statistic": parameters.scale_dependent_statistic,
         "tip_check": parameters.tip_check,
         "variable_bandwidth": xrough.bandwidth.variable_bandwidth,
         "fourier_filter": xrough.filters.fourier_filter,

@@ -49,6 +49,7 @@ from .parameters import (
     roughness_parameters,
     scale_dependent_curvature,
     scale_dependent_slope,
+    scale_dependent_statistic,
     slope_distribution,
     tip_check,
 )
@@ -90,6 +91,7 @@ __all__ = [
     "roughness_parameters",
     "scale_dependent_curvature",
     "scale_dependent_slope",
+    "scale_dependent_statistic",
     "slope_distribution",
     "tip_check",
     "variable_bandwidth",

@@ -142,6 +142,7 @@ class RoughDataArrayAccessor:
     material_ratio = _forward(parameters.material_ratio)
     scale_dependent_slope = _forward(parameters.scale_dependent_slope)
     scale_dependent_curvature = _forward(parameters.scale_dependent_curvature)
+    scale_dependent_statistic = _forward(parameters.scale_dependent_statistic)
     tip_check = _forward(parameters.tip_check)
     variable_bandwidth = _forward(bandwidth.variable_bandwidth)
     fourier_filter = _forward(filters.fourier_filter)

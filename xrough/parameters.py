@@ -740,6 +740,100 @@ def scale_dependent_slope(topography: xr.DataArray, *, dr: QuantityLike | None =
 
 
 @u.accepts_quantified
+def scale_dependent_statistic(topography: xr.DataArray, statistic, *, order: int = 1,
+                              dr: QuantityLike | None = None, points_per_decade: float = 10,
+                              dr_max: QuantityLike | None = None, units: str | None = None,
+                              name: str = "statistic") -> xr.DataArray:
+    r"""Any statistic of the slopes (or curvatures) of finite differences at any distance.
+
+    SurfaceTopography's ``scale_dependent_statistical_property``: at each distance ``dr``
+    the derivative of ``order`` 1, :math:`[h(x + \Delta r) - h(x)] / \Delta r`, or 2,
+    :math:`[h(x + \Delta r) - 2 h(x) + h(x - \Delta r)] / \Delta r^2`, along ``x`` (and
+    ``y`` on a map), heights at fractional pixels interpolated linearly between grid
+    points; then ``statistic`` of their valid values.
+
+    Parameters
+    ----------
+    topography : xarray.DataArray with dims (..., "y", "x") or (..., "x")
+        Heights with units; NaN for missing points (derivatives that touch one are left
+        out). Extra dims give one curve each, lazy on dask.
+    statistic : callable
+        ``statistic(d_x)`` of a profile, ``statistic(d_x, d_y)`` of a map: 1-D arrays of
+        the valid derivatives (slopes are pure numbers, curvatures in 1 / lateral unit)
+        to one number (``lambda d_x, d_y: np.var(d_x)``).
+    order : {1, 2}
+        Slope or curvature.
+    dr : float, str, Quantity or array, optional
+        Distances (numbers in the lateral unit), any, not only whole pixels; one gives a
+        0-d result. Default: ``points_per_decade`` log-spaced from the pixel to
+        ``dr_max`` (a quarter of the shorter side).
+    points_per_decade : float
+        Density of the default distances.
+    dr_max : float, str or Quantity, optional
+        Largest default distance.
+    units : str, optional
+        The unit of the statistic, for the result's ``units`` (unstated by default:
+        xrough cannot know what ``statistic`` computes).
+    name : str
+        The result's name.
+
+    Returns
+    -------
+    xarray.DataArray
+        On dim ``dr`` (lateral unit; none for one distance): the statistic; NaN below
+        the pixel (not quoted) or where the stencil does not fit the map.
+
+    Raises
+    ------
+    ValueError
+        ``order`` other than 1 or 2, non-positive distances, ``dr`` with ``dr_max``.
+
+    Notes
+    -----
+    With whole pixels and ``statistic = mean(d_x^2)`` it is ``2 G_x(dr) / dr^2`` exactly
+    (G along x, eq. 1), as :func:`scale_dependent_slope` (whose first value is ``Sdq``).
+
+    Examples
+    --------
+    >>> import numpy as np, xrough
+    >>> x = np.arange(256) * 1.0
+    >>> line = xrough.topography(0.3 * x, spacing=1.0, unit="nm")  # a slope of 0.3
+    >>> s = xrough.scale_dependent_statistic(line, np.mean, dr=[1.0, 2.5, 10.0])
+    >>> s.values.round(12).tolist()  # at any distance, interpolated or not
+    [0.3, 0.3, 0.3]
+    """
+    grid = _validated(topography, "the scale-dependent statistic")
+    if order not in (1, 2):
+        raise ValueError(f"order must be 1 (slope) or 2 (curvature), got {order!r}")
+    if not callable(statistic):
+        raise TypeError("statistic must be a callable of the derivatives' values")
+    scalar = isinstance(dr, (str, int, float, np.number)) or (
+        dr is not None and getattr(dr, "ndim", None) == 0)
+    if dr is None:
+        hi = (DR_FRACTION * min(grid.size) if dr_max is None else
+              u.length_in(dr_max, grid.lateral_unit, what="dr_max"))
+        distances = log_range(max(grid.spacing), hi, check_points_per_decade(
+            points_per_decade))
+    else:
+        if dr_max is not None:
+            raise ValueError("give dr or dr_max, not both")
+        distances = np.atleast_1d(u.array_in(dr, grid.lateral_unit, what="dr",
+                                             noun="distances", positive=True))
+    values = _apply(k.statistic_by_distance, topography, grid, {"dr": distances.size},
+                    distances=distances, order=int(order), statistic=statistic,
+                    **_kernel_options(grid))
+    out = values.assign_coords(lag_coord(distances, grid.lateral_unit,
+                                         long_name="distance of the finite differences"))
+    what = "slopes" if order == 1 else "curvatures"
+    attrs = {"long_name": f"scale-dependent statistic of the {what}", "order": int(order)}
+    if units is not None:
+        attrs["units"] = units
+    out.attrs = result_attrs(topography, **attrs)
+    out.name = name
+    return out.isel(dr=0) if scalar else out
+
+
+@u.accepts_quantified
 def scale_dependent_curvature(topography: xr.DataArray, *, dr: QuantityLike | None = None,
                               points_per_decade: float = 10,
                               dr_max: QuantityLike | None = None,

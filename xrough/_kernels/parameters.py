@@ -19,7 +19,8 @@ from .pairs import few_points_message, require_no_inf
 __all__ = ["PROFILE_PARAMETERS", "AREAL_PARAMETERS", "checked", "centred",
            "roughness_parameters", "slope_by_step", "curvature_by_step",
            "SLOPE_DIRECTIONS", "CURVATURE_DIRECTIONS", "values_of", "value_range",
-           "histogram", "material_ratio", "inverse_material_ratio"]
+           "histogram", "material_ratio", "inverse_material_ratio",
+           "shifted", "statistic_by_distance"]
 
 #: The packed order of :func:`roughness_parameters` for profiles (ISO 21920-2) ...
 PROFILE_PARAMETERS = ("Rq", "Ra", "Rsk", "Rku", "Rp", "Rv", "Rz", "Rt", "Rdq",
@@ -456,3 +457,75 @@ def inverse_material_ratio(h, *, ratios: np.ndarray, nd: int) -> np.ndarray:
         k = np.maximum(1, np.ceil(ratios * a.size - 1e-9)).astype(int)
         out[i] = a[a.size - np.minimum(k, a.size)]
     return out.reshape(batch + (ratios.size,))
+
+
+def shifted(h: np.ndarray, axis: int, offset: float, periodic: bool) -> np.ndarray:
+    """``h(x + offset)`` along ``axis``, ``offset`` in pixels (either sign, fractional).
+
+    Linear interpolation between the two grid points around ``x + offset``; on an open
+    grid the points whose neighbours fall outside are NaN (periodic: wrapped).
+
+    Examples
+    --------
+    >>> shifted(np.arange(5.0), 0, 1.5, periodic=False).tolist()
+    [1.5, 2.5, 3.5, nan, nan]
+    """
+    k = int(np.floor(offset + 1e-9))
+    f = offset - k
+    f = 0.0 if abs(f) < 1e-9 or abs(f - 1) < 1e-9 else f
+    n = h.shape[axis]
+
+    def take(shift: int) -> np.ndarray:
+        if periodic:
+            return np.roll(h, -shift, axis=axis)
+        out = np.full(h.shape, np.nan)
+        src = [slice(None)] * h.ndim
+        dst = [slice(None)] * h.ndim
+        if abs(shift) < n:
+            src[axis] = slice(max(shift, 0), n + min(shift, 0))
+            dst[axis] = slice(max(-shift, 0), n - max(shift, 0))
+            out[tuple(dst)] = h[tuple(src)]
+        return out
+
+    return take(k) if f == 0.0 else (1.0 - f) * take(k) + f * take(k + 1)
+
+
+def statistic_by_distance(h, *, nd: int, spacing: tuple[float, ...], periodic: bool,
+                          hfactor: float, distances: np.ndarray, order: int,
+                          statistic) -> np.ndarray:
+    """Compute a statistic of the finite-difference derivatives at each (any) distance.
+
+    The derivative of ``order`` 1, ``(h(x + d) - h(x)) / d``, or 2,
+    ``(h(x + d) - 2 h(x) + h(x - d)) / d^2``, along each grid axis, with ``h`` at
+    fractional offsets by :func:`shifted`; ``statistic(d_x)`` (profile) or
+    ``statistic(d_x, d_y)`` (map) of their valid values (1-D arrays). NaN where a distance
+    is below the coarser pixel or its stencil does not fit.
+
+    Returns
+    -------
+    numpy.ndarray (..., n_distances)
+    """
+    return _each_map(_statistic_of_map, h, nd, (len(distances),), spacing=spacing,
+                     periodic=periodic, hfactor=hfactor, distances=distances, order=order,
+                     statistic=statistic)
+
+
+def _statistic_of_map(h, *, nd, spacing, periodic, hfactor, distances, order, statistic):
+    hl = h * hfactor
+    out = np.full(len(distances), np.nan)
+    for i, d in enumerate(distances):
+        if d < max(spacing) * (1 - 1e-9):
+            continue  # below the resolution: not quoted
+        parts = []
+        for axis in range(nd):  # x last: the statistic takes (d_x[, d_y])
+            ax = nd - 1 - axis
+            t = d / spacing[ax]
+            if order == 1:
+                der = (shifted(hl, ax, t, periodic) - hl) / d
+            else:
+                der = (shifted(hl, ax, t, periodic) - 2 * hl
+                       + shifted(hl, ax, -t, periodic)) / (d * d)
+            parts.append(der[np.isfinite(der)])
+        if all(p.size for p in parts):
+            out[i] = float(statistic(*parts))
+    return out
