@@ -626,3 +626,30 @@ def test_scale_dependent_statistic():
                                rtol=1e-10)
     with pytest.raises(ValueError, match="order"):
         wave.rough.scale_dependent_statistic(np.var, order=3)
+
+
+def test_continuous_material_ratio():
+    """SurfaceTopography's test_bearing_area_nonuniform on xrough's grid: a triangle wave
+    (2048 points, height 0.1) has the bearing area 1 - c / h_max, here within 1e-3 (theirs)
+    with method='linear' (measured < 1e-12 off the grid points' kinks); the ISO point
+    count is within one point; a map's linear ratio lies within its bounds, and equals
+    the point count where the heights step by less than the levels do."""
+    n, hm = 2048, 0.1
+    tri = hm * (1 - np.abs(np.linspace(-1, 1, n)))
+    line = xrough.topography(tri, spacing=1.0, unit="nm")
+    c = np.linspace(0, hm, 101)
+    levels = c - tri.mean()
+    got = line.rough.material_ratio(height=levels, method="linear")
+    np.testing.assert_allclose(got, 1 - c / hm, atol=1e-3)
+    pts = line.rough.material_ratio(height=levels)
+    np.testing.assert_allclose(pts, 1 - c / hm, atol=2 / n)
+    assert "material_ratio_lower" in got.coords
+    topo = xrough.self_affine_surface(hurst=0.8, n=64, size="64 nm", lambda_r="32 nm",
+                                      lambda_s="2 nm", rms_gradient=0.1, unit="nm", seed=4)
+    m = topo.rough.material_ratio(method="linear")
+    assert np.all(m.material_ratio_lower <= m + 1e-12) and np.all(m <= m.material_ratio_upper
+                                                                   + 1e-12)
+    assert float(m[0]) == 1.0 and float(m[-1]) == pytest.approx(0.0, abs=1e-3)
+    assert np.all(np.diff(m) <= 1e-12)  # falls with the height
+    with pytest.raises(ValueError, match="method"):
+        topo.rough.material_ratio(method="spline")

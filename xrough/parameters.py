@@ -542,7 +542,7 @@ def bearing_area_curve(topography: xr.DataArray, *,
 
 @u.accepts_quantified
 def material_ratio(topography: xr.DataArray, *,
-                   height: QuantityLike | None = None) -> xr.DataArray:
+                   height: QuantityLike | None = None, method: str = "points") -> xr.DataArray:
     """Fraction of the surface at or above each height, ``Smr(c)`` (ISO 25178-2).
 
     Parameters
@@ -553,17 +553,25 @@ def material_ratio(topography: xr.DataArray, *,
         Heights ``c`` relative to the mean (numbers in the height unit, strings or
         Quantities); default 101 from the deepest valley to the highest peak (a lazy
         topography needs them).
+    method : {'points', 'linear'}
+        ``'points'``: the share of the measured points (ISO 25178-2). ``'linear'``: the
+        share of the surface interpolated linearly between them (a profile's polyline,
+        exact; a map cut into two triangles per square), with the bounds any
+        interpolation keeps to (coords ``material_ratio_lower`` / ``_upper``: the share
+        of segments or squares entirely at or above ``c``, and with any point at or
+        above it); SurfaceTopography's ``bearing_area`` and its ``bounds``.
 
     Returns
     -------
     xarray.DataArray
         ``Smr(c) = #{z >= c} / N`` over the ``N`` valid points (``units="1"``) on dim
-        ``height`` (height unit).
+        ``height`` (height unit), or the continuous share with its bounds.
 
     Raises
     ------
     ValueError
-        An invalid topography, or heights that are not finite or not lengths.
+        An invalid topography, heights that are not finite or not lengths, an unknown
+        ``method``.
 
     See Also
     --------
@@ -585,16 +593,32 @@ def material_ratio(topography: xr.DataArray, *,
         levels = np.atleast_1d(u.magnitude_in(height, grid.height_unit, what="height"))
         if levels.ndim != 1 or not levels.size or not np.all(np.isfinite(levels)):
             raise ValueError(f"height must be a 1-D array of finite heights, got {height!r}")
-    out = _apply(k.material_ratio, topography, grid, {"height": levels.size},
-                 heights=levels, nd=len(grid.dims))
+    if method not in ("points", "linear"):
+        raise ValueError(f"method must be 'points' or 'linear', got {method!r}")
+    bounds = {}
+    if method == "points":
+        out = _apply(k.material_ratio, topography, grid, {"height": levels.size},
+                     heights=levels, nd=len(grid.dims))
+        definition = "#{z >= c} / N over the N valid points"
+    else:
+        packed = _apply(k.continuous_material_ratio, topography, grid,
+                        {"height": levels.size, "part": 3}, heights=levels,
+                        nd=len(grid.dims), periodic=grid.periodic)
+        out = packed.isel(part=0)
+        for i, end in ((1, "lower"), (2, "upper")):
+            bounds[f"material_ratio_{end}"] = packed.isel(part=i).assign_attrs(
+                units="1", long_name=f"{end} bound of the material ratio of any "
+                "interpolation between the points")
+        definition = ("share of the surface interpolated linearly between the points (a "
+                      "profile's polyline; two triangles per square of a map) at or above c")
     out = out.assign_coords(height=("height", levels, {
-        "units": grid.height_unit, "long_name": "height c relative to the mean"}))
+        "units": grid.height_unit, "long_name": "height c relative to the mean"}), **bounds)
     out.name = "material_ratio"
     out.attrs = result_attrs(
         topography, units="1",
         long_name="areal material ratio Smr(c) "
                   f"({_ISO_AREAL if len(grid.dims) == 2 else _ISO_PROFILE})",
-        definition="#{z >= c} / N over the N valid points", reference=REFERENCE)
+        definition=definition, reference=REFERENCE, method=method)
     return out
 
 

@@ -20,7 +20,7 @@ __all__ = ["PROFILE_PARAMETERS", "AREAL_PARAMETERS", "checked", "centred",
            "roughness_parameters", "slope_by_step", "curvature_by_step",
            "SLOPE_DIRECTIONS", "CURVATURE_DIRECTIONS", "values_of", "value_range",
            "histogram", "material_ratio", "inverse_material_ratio",
-           "shifted", "statistic_by_distance"]
+           "shifted", "statistic_by_distance", "continuous_material_ratio"]
 
 #: The packed order of :func:`roughness_parameters` for profiles (ISO 21920-2) ...
 PROFILE_PARAMETERS = ("Rq", "Ra", "Rsk", "Rku", "Rp", "Rv", "Rz", "Rt", "Rdq",
@@ -528,4 +528,82 @@ def _statistic_of_map(h, *, nd, spacing, periodic, hfactor, distances, order, st
             parts.append(der[np.isfinite(der)])
         if all(p.size for p in parts):
             out[i] = float(statistic(*parts))
+    return out
+
+
+def _above_linear(values: np.ndarray, c: float) -> np.ndarray:
+    """Return the share of each simplex (sorted vertex values) at or above ``c``.
+
+    The function linear on it: segments (2 vertices) or triangles (3).
+    """
+    if values.shape[-1] == 2:
+        lo, hi = values[:, 0], values[:, 1]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            f = np.where(hi > lo, (hi - c) / (hi - lo), (lo >= c).astype(float))
+        return np.clip(f, 0.0, 1.0)
+    v0, v1, v2 = values[:, 0], values[:, 1], values[:, 2]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        below_low = (c - v0) ** 2 / ((v1 - v0) * (v2 - v0))
+        above_high = (v2 - c) ** 2 / ((v2 - v0) * (v2 - v1))
+    flat = np.where(v0 >= c, 1.0, 0.0)  # all three equal: the points' rule
+    return np.where(v2 == v0, flat, np.where(c <= v0, 1.0, np.where(
+        c >= v2, 0.0, np.where(c <= v1, 1.0 - below_low, above_high))))
+
+
+def continuous_material_ratio(h, *, heights: np.ndarray, nd: int,
+                              periodic: bool) -> np.ndarray:
+    """Material ratio of the surface interpolated linearly between the points, with bounds.
+
+    A profile is the polyline through its points (exact: each segment's share above
+    ``c``); a map is cut into two triangles per square of four points (the linear
+    interpolation on each). The bounds are those of any interpolation: the share of the
+    elements (segments, squares) whose lowest point is at or above ``c`` (lower) and whose
+    highest is (upper). Heights relative to the mean of the valid points; elements with a
+    missing corner are left out.
+
+    Returns
+    -------
+    numpy.ndarray (..., len(heights), 3)
+        The ratio, its lower and its upper bound.
+
+    Examples
+    --------
+    >>> tri = np.concatenate([np.linspace(0, 1, 51), np.linspace(1, 0, 51)[1:]])
+    >>> c = np.array([0.2, 0.5]) - tri.mean()  # heights 0.2 and 0.5 above the bottom
+    >>> out = continuous_material_ratio(tri, heights=c, nd=1, periodic=False)
+    >>> out[:, 0].round(12).tolist()  # a triangle: 1 - (c - min) / (max - min)
+    [0.8, 0.5]
+    """
+    return _each_map(_continuous_ratio_of_map, h, nd, (len(heights), 3), heights=heights,
+                     periodic=periodic)
+
+
+def _continuous_ratio_of_map(h, *, nd, heights, periodic):
+    z = centred(h, nd)
+    if nd == 1:
+        b = np.roll(z, -1) if periodic else z[1:]
+        a = z if periodic else z[:-1]
+        elements = [np.stack([a, b], axis=-1)]
+    else:
+        if periodic:
+            c00, c01, c10 = z, np.roll(z, -1, axis=1), np.roll(z, -1, axis=0)
+            c11 = np.roll(c01, -1, axis=0)
+        else:
+            c00, c01, c10, c11 = z[:-1, :-1], z[:-1, 1:], z[1:, :-1], z[1:, 1:]
+        elements = [np.stack([c00, c01, c10], axis=-1).reshape(-1, 3),
+                    np.stack([c11, c01, c10], axis=-1).reshape(-1, 3)]
+        squares = np.stack([c00, c01, c10, c11], axis=-1).reshape(-1, 4)
+    elements = [e.reshape(-1, e.shape[-1]) for e in elements]
+    keep = [np.all(np.isfinite(e), axis=-1) for e in elements]
+    simplices = [np.sort(e[k], axis=-1) for e, k in zip(elements, keep)]
+    corners = (simplices[0] if nd == 1 else
+               np.sort(squares[np.all(np.isfinite(squares), axis=-1)], axis=-1))
+    out = np.full((len(heights), 3), np.nan)
+    total = sum(s.shape[0] for s in simplices)
+    if not total or not corners.shape[0]:
+        return out
+    for i, c in enumerate(heights):
+        out[i, 0] = sum(_above_linear(s, c).sum() for s in simplices) / total
+        out[i, 1] = np.mean(corners[:, 0] >= c)
+        out[i, 2] = np.mean(corners[:, -1] >= c)
     return out
