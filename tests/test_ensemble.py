@@ -150,3 +150,28 @@ def test_container_supplies_what_a_file_lacks(tmp_path):
     line = tree["line"].to_dataset()["heights"]
     assert line.attrs["units"] == "um" and line.x.attrs["units"] == "um"
     assert tree.attrs["failed"] == ""
+
+
+def test_mean_psd_of_instruments_in_other_units():
+    """Three maps, two of them in um: the averaged PSD in nm is each bin's mode-weighted
+    mean of the three converted spectra (to 1e-9), its error never below theirs
+    propagated; a profile among them turns every map into its 1D spectrum along x."""
+    maps = {f"s{k}": xrough.self_affine_surface(**{**MAP, "n": 128, "size": "128 nm"},
+                                                unit="nm", seed=k) for k in range(3)}
+    maps["s1"] = xrough.convert_units(maps["s1"], "um", lateral="um")
+    maps["s2"] = xrough.convert_units(maps["s2"], "um", lateral="um")
+    C = xrough.mean_psd(maps)
+    assert C.attrs["units"] == "nm4" and C.q.attrs["units"] == "nm-1"
+    own = [xrough.convert_units(m, "nm", lateral="nm").rough.psd() for m in maps.values()]
+    np.testing.assert_allclose(C.q, own[0].q, rtol=1e-9)
+    expected = sum(c.values * c.n_modes.values for c in own) / sum(c.n_modes.values
+                                                                    for c in own)
+    real = expected > 1e-12 * expected.max()  # beyond lambda_s: round-off of the FFT
+    np.testing.assert_allclose(C.values[real], expected[real], rtol=1e-9)
+    assert real.sum() > 20 and np.all(C.n_measurements == 3)
+    propagated = np.sqrt(sum((c.standard_error * c.n_modes) ** 2 for c in own).values) / (
+        sum(c.n_modes for c in own).values)
+    assert np.all(C.standard_error.values[real] >= propagated[real] * (1 - 1e-9))
+    line = maps["s0"].isel(y=0).drop_vars("y")
+    mixed = xrough.mean_psd({"map": maps["s0"], "line": line})
+    assert mixed.attrs["units"] == "nm3" and mixed.attrs["spectrum_kind"] == "1D along x"

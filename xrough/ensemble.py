@@ -30,9 +30,48 @@ from .io.folders import measurement_files, measurement_names
 from .parameters import roughness_parameters
 from .preprocess import detrend
 from .progress import progress_bar
+from .psd import power_spectrum
 from .units import QuantityLike, accepts_quantified
 
-__all__ = ["mean_acf", "open_set", "analyse_set"]
+__all__ = ["mean_acf", "mean_psd", "pooled_mean", "open_set", "analyse_set"]
+
+
+def pooled_mean(values: xr.DataArray, weights: xr.DataArray, dim: str,
+                errors: xr.DataArray | None = None, inflation: xr.DataArray | None = None,
+                *, propagated_only: bool = False) -> tuple:
+    """Weighted mean over ``dim`` and its error: never below the scatter of the values.
+
+    The one rule of :func:`mean_acf` and :func:`mean_psd`: ``mean = sum w v / sum w``; the
+    error the larger of the propagated ``sqrt(sum w^2 e^2) / sum w`` and the scatter
+    ``sqrt(sum w (v - mean)^2 / sum w / (n_eff - 1))``, ``n_eff = (sum w)^2 / sum w^2``
+    (the propagated one alone with ``propagated_only``); the factor by which it exceeds
+    the propagated Gaussian error (``errors / inflation``). NaN values have weight 0.
+
+    Returns
+    -------
+    tuple
+        ``(mean, error, factor)``; the last two None without ``errors``.
+    """
+    finite = values.notnull()
+    w = xr.where(finite, weights.broadcast_like(values), 0.0).astype(float)
+    W = w.sum(dim)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = (w * values.fillna(0.0)).sum(dim) / W
+        if errors is None:
+            return mean, None, None
+
+        def propagated(e: xr.DataArray) -> xr.DataArray:
+            e = e.reset_coords(drop=True).broadcast_like(values).fillna(0.0)
+            return np.sqrt((w**2 * e**2).sum(dim)) / W
+
+        own = propagated(errors)
+        if propagated_only:
+            return mean, own, None
+        gaussian = propagated(errors if inflation is None else errors / inflation)
+        n_eff = W**2 / (w**2).sum(dim)
+        scatter = np.sqrt((w * (values - mean) ** 2).sum(dim) / W / (n_eff - 1))
+        error = xr.where(n_eff > 1, np.fmax(own, scatter), own)
+        return mean, error, error / gaussian
 
 
 @accepts_quantified
@@ -98,30 +137,18 @@ def mean_acf(G: xr.DataArray, dim: str) -> xr.DataArray:
     finite = values.notnull()
     count = G.coords["pair_count"] if "pair_count" in G.coords else xr.ones_like(values)
     w = xr.where(finite, count.broadcast_like(values), 0.0).astype(float)
-    W = w.sum(dim)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        mean = (w * values.fillna(0.0)).sum(dim) / W
-        n_eff = W**2 / (w**2).sum(dim)
-
-        def pooled(error: xr.DataArray) -> xr.DataArray:
-            e = error.reset_coords(drop=True).broadcast_like(values).fillna(0.0)
-            return np.sqrt((w**2 * e**2).sum(dim)) / W
-
-        coords = {}
-        if "standard_error" in G.coords:
-            se = G.coords["standard_error"]
-            inflation = (G.coords[INFLATION] if INFLATION in G.coords
-                         else xr.ones_like(se))
-            own = pooled(se)
-            gaussian = pooled(se / inflation)
-            scatter = np.sqrt((w * (values - mean) ** 2).sum(dim) / W / (n_eff - 1))
-            error = xr.where(n_eff > 1, np.fmax(own, scatter), own)
-            coords["standard_error"] = error.assign_attrs(se.attrs)
-            coords[INFLATION] = (error / gaussian).assign_attrs(
-                long_name="factor of standard_error over the Gaussian finite-area error")
-        if "sampling_error" in G.coords:
-            coords["sampling_error"] = pooled(G.coords["sampling_error"]).assign_attrs(
-                G.coords["sampling_error"].attrs)
+    se = G.coords.get("standard_error")
+    mean, error, factor = pooled_mean(
+        values, w, dim, se, G.coords[INFLATION] if INFLATION in G.coords else None)
+    coords = {}
+    if se is not None:
+        coords["standard_error"] = error.assign_attrs(se.attrs)
+        coords[INFLATION] = factor.assign_attrs(
+            long_name="factor of standard_error over the Gaussian finite-area error")
+    if "sampling_error" in G.coords:
+        coords["sampling_error"] = pooled_mean(
+            values, w, dim, G.coords["sampling_error"], propagated_only=True)[1].assign_attrs(
+            G.coords["sampling_error"].attrs)
     totals = w.sum("dr")
     if "height_variance" in G.coords:
         hv = G.coords["height_variance"].broadcast_like(totals)
@@ -155,6 +182,99 @@ def mean_acf(G: xr.DataArray, dim: str) -> xr.DataArray:
             out.attrs[key] = G.attrs[key]
     out.name = G.name
     return out
+
+
+def _topographies(measurements) -> dict[str, xr.DataArray]:
+    """Return the topographies of a DataTree of :func:`open_set` or a mapping, by name."""
+    if isinstance(measurements, xr.DataTree):
+        return {str(n): measurements[n].to_dataset()["heights"]
+                for n in measurements.children if "heights" in measurements[n].data_vars}
+    return {str(k): v for k, v in dict(measurements).items()}
+
+
+def mean_psd(measurements, *, unit: str | None = None, points_per_decade: float = 20,
+             window: str | None = "auto") -> xr.DataArray:
+    """Average the PSD of several measurements (any grids, units, instruments) bin by bin.
+
+    Each measurement's :func:`xrough.power_spectrum` on the same log bins (centred on
+    ``10^(k / points_per_decade)`` in every unit, so the bins of maps in nm and in um
+    coincide once converted), in one unit; then per bin the mode-weighted mean over the
+    measurements that hold it, with :func:`pooled_mean`'s error (never below their
+    scatter). Maps give the isotropic 2D spectrum; with a profile among them, every map
+    gives the 1D spectrum of its lines along ``x`` instead (the two are different
+    quantities, length^4 and length^3). contact.engineering's averaged PSD.
+
+    Parameters
+    ----------
+    measurements : xarray.DataTree or mapping of DataArray
+        From :func:`open_set`, or topographies by name (detrend them first: the PSD of a
+        tilt leaks into every bin).
+    unit : str, optional
+        The lateral unit of the result (default: the first measurement's).
+    points_per_decade : float
+        The log bins' density.
+    window : str or None
+        As :func:`xrough.power_spectrum`.
+
+    Returns
+    -------
+    xarray.DataArray
+        ``C`` on ``q`` (``unit``-1; the mode-weighted mean ``|q|`` of the bin), with
+        ``standard_error``, ``n_modes`` (summed) and ``n_measurements`` (holding the bin).
+
+    Examples
+    --------
+    >>> import xrough
+    >>> maps = {f"s{k}": xrough.self_affine_surface(hurst=0.8, n=64, size="64 nm",
+    ...             lambda_r="32 nm", lambda_s="2 nm", rms_gradient=0.1, unit="nm",
+    ...             seed=k) for k in range(3)}
+    >>> C = xrough.mean_psd(maps)
+    >>> C.attrs["units"], int(C.n_measurements.max())
+    ('nm4', 3)
+    """
+    topos = _topographies(measurements)
+    if not topos:
+        raise ValueError("mean_psd: no measurement")
+    first = next(iter(topos.values()))
+    target = unit or u.format_units(u.units_of(first.coords["x"], what="coordinate 'x'"))
+    profiles = any("y" not in t.dims for t in topos.values())
+    curves = {}
+    for name, topo in topos.items():
+        spec = power_spectrum(topo, direction="x" if profiles else "radial", window=window,
+                              points_per_decade=points_per_decade)
+        own = u.units_of(spec.coords["q"], what="q")
+        fq = u.conversion_factor(own, u.power_units(target, -1))
+        power = 3 if profiles else 4
+        fc = u.conversion_factor(spec.attrs["units"], u.power_units(target, power))
+        key = np.rint(np.log10(spec.q.values * fq) * points_per_decade).astype(int)
+        err = (spec.coords["standard_error"].values * fc if "standard_error" in spec.coords
+               else np.full(spec.q.size, np.nan))
+        curves[name] = (key, spec.q.values * fq, spec.values * fc, err, spec.n_modes.values)
+    keys = np.unique(np.concatenate([c[0] for c in curves.values()]))
+    shape = (len(curves), keys.size)
+    q, C, se, n = (np.full(shape, np.nan), np.full(shape, np.nan), np.full(shape, np.nan),
+                   np.zeros(shape))
+    for i, (key, qq, cc, ee, nn) in enumerate(curves.values()):
+        at = np.searchsorted(keys, key)
+        q[i, at], C[i, at], se[i, at], n[i, at] = qq, cc, ee, nn
+    dims = ("measurement", "q")
+    stack = xr.DataArray(C, dims=dims)
+    weights = xr.DataArray(n, dims=dims)
+    mean, error, _ = pooled_mean(stack, weights, "measurement",
+                                 xr.DataArray(np.nan_to_num(se), dims=dims))
+    q_mean, _, _ = pooled_mean(xr.DataArray(q, dims=dims), weights, "measurement")
+    kind = "1D along x" if profiles else "isotropic 2D"
+    return mean.assign_coords(
+        q=("q", q_mean.values, {"units": u.power_units(target, -1),
+                                "long_name": "angular wavenumber (mode-weighted mean)"}),
+        standard_error=("q", error.values, {"units": u.power_units(target, power)}),
+        n_modes=("q", n.sum(axis=0).astype(np.int64), {"long_name": "modes in the bin"}),
+        n_measurements=("q", np.isfinite(C).sum(axis=0), {
+            "long_name": "measurements holding the bin"}),
+    ).assign_attrs(result_attrs(
+        None, units=u.power_units(target, power), long_name=f"averaged PSD ({kind})",
+        spectrum_kind=kind, averaged_from=", ".join(topos), points_per_decade=float(
+            points_per_decade))).rename("C")
 
 
 # ------------------------------------------------------------------------------ a folder
