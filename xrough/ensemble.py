@@ -192,6 +192,7 @@ def _topographies(measurements) -> dict[str, xr.DataArray]:
     return {str(k): v for k, v in dict(measurements).items()}
 
 
+@accepts_quantified
 def mean_psd(measurements, *, unit: str | None = None, points_per_decade: float = 20,
              window: str | None = "auto") -> xr.DataArray:
     """Average the PSD of several measurements (any grids, units, instruments) bin by bin.
@@ -379,6 +380,7 @@ def open_set(source: str | Path | Iterable[str | Path], *, keep_going: bool = Tr
 _FIT_COLUMNS = ("hurst", "hurst_std", "sigma_h", "sigma_h_std", "lambda_r", "lambda_r_std")
 
 
+@accepts_quantified
 def analyse_set(tree: xr.DataTree, *, mode: str = "plane",
                 E_star: QuantityLike | None = None, p0: QuantityLike | None = None,
                 points_per_decade: float = 10, progress: bool | None = None) -> xr.Dataset:
