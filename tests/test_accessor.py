@@ -49,6 +49,7 @@ METHODS = {
         "compare_with_simulation": validation.compare_with_simulation,
         "spectrum": spectra.spectrum,
         "psd": psd.power_spectrum,
+        "psd_2d": psd.power_spectrum_2d,
         "fit": fitting.fit_acf,
         "energy": contact.elastic_energy,
         "gradient": gradient.rms_gradient,

@@ -515,3 +515,40 @@ def test_every_real_file_gives_a_finite_positive_psd(cid, case):
     # a plane varies along one axis only: bins of the other axis' modes may be 0
     assert np.all(C.values > 0) if cid != "nc-1" else np.all(C.values >= 0)
     assert float(_variance(C)) > 0
+
+
+def test_power_spectrum_2d_and_its_moments():
+    """The 2D periodogram: its modes in a ring average to the radial PSD's bin (to 1e-12),
+    Parseval (sum C / A = variance) on a periodic map, moments with a kernel in (qx, qy)
+    of an anisotropic map (a wave along x: no power in qy), the same in um (C in um4 is
+    1e-12 of nm4), numpy = dask, a profile refused."""
+    rng = np.random.default_rng(3)
+    h = rng.normal(size=(32, 48))
+    topo = xrough.topography(h, spacing="2 nm", unit="nm", periodic=True)
+    C2 = topo.rough.psd_2d()
+    assert C2.dims == ("qy", "qx") and C2.attrs["units"] == "nm4"
+    radial = topo.rough.psd(bins="linear")
+    q = np.hypot(*np.meshgrid(C2.qy.values, C2.qx.values, indexing="ij"))
+    first = np.isclose(q, float(radial.q[0]), rtol=1e-12)
+    assert int(first.sum()) == int(radial.n_modes[0])
+    assert float(C2.values[first].mean()) == pytest.approx(float(radial[0]), rel=1e-12)
+    assert float(xrough.spectral_moment(C2, order=0)) == pytest.approx(h.var(), rel=1e-12)
+    x = np.arange(48) * 2.0
+    wave = xrough.topography(np.sin(2 * np.pi * x / 24)[None, :] * np.ones((32, 1)),
+                             spacing="2 nm", unit="nm", periodic=True)
+    W = wave.rough.psd_2d()
+    assert float(xrough.spectral_moment(W, lambda qx, qy: qy**2)) == pytest.approx(0,
+                                                                                  abs=1e-20)
+    assert float(xrough.spectral_moment(W, order=2)) == pytest.approx(
+        0.5 * (2 * np.pi / 24) ** 2, rel=1e-12)
+    um = xrough.convert_units(topo, "um", lateral="um").rough.psd_2d()
+    np.testing.assert_allclose(um.values, C2.values * 1e-12, rtol=1e-9,
+                               atol=1e-9 * float(um.max()))  # q = 0: round-off of the mean
+    stack = xr.concat([topo, 2 * topo], dim="scan")
+    lazy = stack.chunk({"scan": 1}).rough.psd_2d()
+    assert lazy.chunks is not None
+    xr.testing.assert_allclose(lazy.compute(), stack.rough.psd_2d())
+    with pytest.raises(ValueError, match="map"):
+        topo.isel(y=0).rough.psd_2d()
+    with pytest.raises(ValueError, match="one of them"):
+        xrough.spectral_moment(C2)

@@ -61,7 +61,7 @@ from .preprocess import (
     reliability_window,
     reliable,
 )
-from .psd import power_spectrum
+from .psd import power_spectrum, power_spectrum_2d, spectral_moment
 from .quality import QualityWarning
 from .separation import mean_gap
 from .solver import ConvergenceWarning, solve_contact
@@ -131,6 +131,8 @@ __all__ = [
     "solve_contact",
     "plot",
     "power_spectrum",
+    "power_spectrum_2d",
+    "spectral_moment",
     "reliability_window",
     "reliable",
     "self_affine_model",

@@ -127,6 +127,7 @@ class RoughDataArrayAccessor:
     solve_contact = _forward(solver.solve_contact)
     compare_with_simulation = _forward(validation.compare_with_simulation)
     spectrum = _forward(spectra.spectrum)
+    psd_2d = _forward(psd.power_spectrum_2d)
     psd = _forward(psd.power_spectrum)
     fit = _forward(fitting.fit_acf)
     energy = _forward(contact.elastic_energy)

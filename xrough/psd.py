@@ -21,12 +21,20 @@ from . import quality
 from . import units as u
 from ._kernels.binning import check_points_per_decade, linear_bin_edges, log_bins
 from ._kernels.checks import require_increasing
-from ._kernels.psd import WINDOWS, error_factors, mode_bins, mode_range, psd_kernel
+from ._kernels.psd import (
+    WINDOWS,
+    error_factors,
+    mode_bins,
+    mode_range,
+    psd2d_kernel,
+    psd_kernel,
+)
 from .acf import result_attrs
 from .topography import Grid, check_valid_points, grid_of, require_whole_maps
 from .units import QuantityLike
 
-__all__ = ["power_spectrum", "MIN_VALID_FRACTION", "WINDOWS"]
+__all__ = ["power_spectrum", "power_spectrum_2d", "spectral_moment", "MIN_VALID_FRACTION",
+           "WINDOWS"]
 
 #: A map with fewer valid points than this fraction gives a questionable spectrum.
 MIN_VALID_FRACTION = 0.9
@@ -362,3 +370,124 @@ def _result(topography, grid: Grid, packed: xr.DataArray, *, kind, window, n_mod
             "it is small (docs/psd.md)")
     return quality.mark_curves(C, codes, what="power_spectrum",
                                reason="few_valid_points", notes=note)
+
+
+@u.accepts_quantified
+def power_spectrum_2d(topography: xr.DataArray, *, window: str | None = "auto",
+                      workers: int | None = None) -> xr.DataArray:
+    r"""Compute the periodogram ``C(q_x, q_y)`` of a map, mode by mode (no ring average).
+
+    The definition of :func:`power_spectrum` (eq. 4, its window and missing points) on
+    every Fourier mode: ``C`` on ``(qy, qx)``, angular wavenumbers ``2 pi k / L`` with
+    ``q = 0`` in the middle. What anisotropy, a texture or any kernel of the two
+    components needs (:func:`spectral_moment`); its averages over rings of ``|q|`` are
+    :func:`power_spectrum`'s radial bins.
+
+    Parameters
+    ----------
+    topography : xarray.DataArray with dims (..., "y", "x")
+        A map (not a profile) with units; extra dims give one spectrum each (lazy on
+        dask, one map per chunk).
+    window, workers
+        As :func:`power_spectrum`.
+
+    Returns
+    -------
+    xarray.DataArray
+        ``C`` (lateral unit^4) on ``qy``, ``qx`` (inverse lateral unit), attrs as a
+        radial spectrum's plus ``mode_measure`` (``1 / A``: ``(C * mode_measure).sum()``
+        is the variance of the heights, Parseval).
+
+    Examples
+    --------
+    >>> import numpy as np, xrough
+    >>> h = np.random.default_rng(0).normal(size=(64, 64))
+    >>> topo = xrough.topography(h, spacing="2 nm", unit="nm", periodic=True)
+    >>> C = xrough.power_spectrum_2d(topo)
+    >>> C.dims, C.attrs["units"]
+    (('qy', 'qx'), 'nm4')
+    >>> bool(np.isclose(float((C * C.attrs["mode_measure"]).sum()), h.var()))
+    True
+    """
+    grid = grid_of(topography)
+    if len(grid.dims) != 2:
+        raise ValueError("power_spectrum_2d needs a map (dims ('y', 'x')); a profile has "
+                         "its 1D spectrum: power_spectrum(profile)")
+    name = _window(window, grid)
+    require_whole_maps(topography, grid, purpose="the power spectrum")
+    if topography.chunks is None:
+        check_valid_points(np.asarray(topography.transpose(..., *grid.dims).values), ndim=2)
+    factor = u.conversion_factor(grid.height_unit, grid.lateral_unit)
+    C = xr.apply_ufunc(
+        psd2d_kernel, topography * factor, input_core_dims=[list(grid.dims)],
+        output_core_dims=[["qy", "qx"]], dask="parallelized", output_dtypes=[float],
+        dask_gufunc_kwargs={"output_sizes": dict(zip(("qy", "qx"), grid.shape))},
+        kwargs={"spacing": grid.spacing, "window": name,
+                "workers": workers or os.cpu_count() or 1}, keep_attrs=False)
+    inverse = u.power_units(grid.lateral_unit, -1)
+    coords = {}
+    for dim, n, d in zip(("qy", "qx"), grid.shape, grid.spacing):
+        q = 2 * np.pi * np.fft.fftshift(np.fft.fftfreq(n, d))
+        coords[dim] = (dim, q, {"units": inverse,
+                                "long_name": f"angular wavenumber along {dim[1]}"})
+    area = float(np.prod(grid.size))
+    out = C.assign_coords(coords)
+    out.attrs = result_attrs(
+        topography, units=u.power_units(grid.lateral_unit, 4),
+        long_name="power spectral density C(q_x, q_y) (eq. 4, every mode)",
+        spectrum_kind="2D", window="none" if name is None else name,
+        periodic=int(grid.periodic), mode_measure=1.0 / area,
+        mode_measure_units=u.power_units(grid.lateral_unit, -2))
+    out.name = "C"
+    return out
+
+
+@u.accepts_quantified
+def spectral_moment(C: xr.DataArray, kernel=None, *, order: int | None = None) -> xr.DataArray:
+    r"""Sum ``kernel(q_x, q_y) C / A`` over the modes: a moment of the 2D spectrum.
+
+    ``order=n`` takes ``|q|^n`` (``n = 0``: the variance of the heights; ``2``: the mean
+    square gradient; ``4``: the mean square Laplacian); any ``kernel(q_x, q_y)`` of the
+    components (radians per lateral unit) weights each mode otherwise, e.g. ``q_x^2`` for
+    the mean square slope along ``x``: SurfaceTopography's moments of the PSD, with the
+    kernel in ``(q_x, q_y)``.
+
+    Parameters
+    ----------
+    C : xarray.DataArray
+        From :func:`power_spectrum_2d`.
+    kernel : callable, optional
+        ``kernel(q_x, q_y)`` broadcasting over the modes.
+    order : int, optional
+        Or the power of ``|q|``.
+
+    Returns
+    -------
+    xarray.DataArray
+        The moment per map (0-d for one), in ``C``'s unit times ``mode_measure``'s (the
+        unit of the kernel not included: ``units`` says so for ``order``).
+
+    Examples
+    --------
+    >>> import numpy as np, xrough
+    >>> x = np.arange(64) * 1.0
+    >>> h = np.sin(2 * np.pi * x / 16)[None, :] * np.ones((64, 1))  # a wave along x
+    >>> C = xrough.power_spectrum_2d(xrough.topography(h, spacing=1.0, unit="nm",
+    ...                                                periodic=True))
+    >>> sx = float(xrough.spectral_moment(C, lambda qx, qy: qx**2))  # <(dh/dx)^2>
+    >>> sy = float(xrough.spectral_moment(C, lambda qx, qy: qy**2))
+    >>> round(sx, 6), round(0.5 * (2 * np.pi / 16) ** 2, 6), round(sy, 12)
+    (0.077106, 0.077106, 0.0)
+    """
+    if (kernel is None) == (order is None):
+        raise ValueError("give a kernel or an order, one of them")
+    if not {"qx", "qy"} <= set(C.dims) or "mode_measure" not in C.attrs:
+        raise ValueError("spectral_moment needs the 2D spectrum of power_spectrum_2d")
+    qx, qy = C["qx"], C["qy"]
+    weight = (np.sqrt(qx**2 + qy**2) ** order if order is not None else kernel(qx, qy))
+    out = (C * weight).sum(("qy", "qx")) * float(C.attrs["mode_measure"])
+    lateral = str(C.qx.attrs.get("units", "")).removesuffix("-1")
+    units = (u.power_units(lateral, 2 - order) if order is not None and lateral else None)
+    out.attrs = result_attrs(C, long_name="moment of the 2D spectrum", order=(
+        -1 if order is None else int(order)), **({"units": units} if units else {}))
+    return out

@@ -37,7 +37,7 @@ from .pairs import few_points_message
 from .tiles import scaled_heights
 
 __all__ = ["WINDOWS", "DIRECTIONS", "window_1d", "mode_range", "mode_bins", "error_factors",
-           "psd_kernel"]
+           "psd_kernel", "psd2d_kernel"]
 
 #: Windows for open (non-periodic) maps, by their scipy names.
 WINDOWS = ("hann", "hamming", "blackman", "blackmanharris")
@@ -251,6 +251,58 @@ def _masked(h: np.ndarray, valid: np.ndarray, w, axes: tuple[int, ...]):
     return x, s1, np.sum(wm2, axis=axes), np.sum(wm2 * wm2, axis=axes)
 
 
+def _prepared(h: np.ndarray, windows) -> tuple:
+    """Return a map's windowed, mean-free heights, ``sum w^2 m`` and the mask factor.
+
+    ``(None, None, None)`` where the window leaves no weight on the valid points.
+    """
+    valid = np.isfinite(h)
+    if valid.all() and all(w is None for w in windows):  # the common case, at the least cost
+        return h - np.mean(h), float(h.size), 1.0
+    w = _window_nd(windows)
+    if valid.all():
+        return (h - np.sum(h * w) / np.sum(w)) * w, float(np.sum(w * w)), 1.0
+    x, s1, s2, s4 = _masked(h, valid, w, (0, 1))
+    if not s1 > 0:
+        return None, None, None
+    w2 = np.broadcast_to(w * w, h.shape)
+    g = (float(s4) / float(s2) ** 2) / (float(np.sum(w2 * w2)) / float(np.sum(w2)) ** 2)
+    return x, float(s2), g
+
+
+def psd2d_kernel(h: np.ndarray, *, spacing: tuple[float, float], window: str | None,
+                 workers: int = 1) -> np.ndarray:
+    """Compute the periodogram ``C(q_x, q_y)`` of each map, unbinned, ``q = 0`` centred.
+
+    The definition of :func:`psd_kernel` per mode (``fftshift`` order along both axes):
+    its ring averages are :func:`psd_kernel`'s ``'radial'`` bins.
+
+    Examples
+    --------
+    >>> h = np.random.default_rng(0).normal(size=(8, 8))
+    >>> C = psd2d_kernel(h, spacing=(1.0, 1.0), window=None)
+    >>> C.shape, bool(np.isclose(C.sum() / 64, h.var()))  # Parseval: sum C / A
+    ((8, 8), True)
+    """
+    h = np.asarray(h)
+    batch = h.shape[:-2]
+    flat = h.reshape((-1,) + h.shape[-2:])
+    windows = tuple(window_1d(window, n) for n in h.shape[-2:])
+    out = np.empty(flat.shape)
+    for b in range(flat.shape[0]):
+        scaled, exponent = scaled_heights(flat[b])
+        if exponent is None or int(np.isfinite(scaled).sum()) < 2:
+            raise ValueError(few_points_message(b, batch))
+        x, denominator, _ = _prepared(scaled, windows)
+        if x is None:
+            raise ValueError("the window leaves no weight on 2 or more valid (non-NaN) "
+                             "points of the map: pass window=None, or mask less")
+        power = _abs2(sfft.fftn(x, workers=workers))
+        C = float(np.prod(spacing)) * sfft.fftshift(power) / denominator
+        out[b] = np.ldexp(C, 2 * exponent)
+    return out.reshape(h.shape)
+
+
 def _map_psd(h: np.ndarray, spacing, windows, geometry, workers):
     """``C`` per kept bin of one map and its mask factor (None: no weight on valid points).
 
@@ -259,21 +311,9 @@ def _map_psd(h: np.ndarray, spacing, windows, geometry, workers):
     independent modes (for a compact hole; scattered points reduce it less).
     """
     idx, n_modes = geometry[:2]
-    valid = np.isfinite(h)
-    if valid.all() and all(w is None for w in windows):  # the common case, at the least cost
-        x, denominator, g = h - np.mean(h), float(h.size), 1.0
-    elif valid.all():
-        w = _window_nd(windows)
-        x = (h - np.sum(h * w) / np.sum(w)) * w
-        denominator, g = float(np.sum(w * w)), 1.0
-    else:
-        w = _window_nd(windows)
-        x, s1, s2, s4 = _masked(h, valid, w, (0, 1))
-        if not s1 > 0:
-            return None, None
-        w2 = np.broadcast_to(w * w, h.shape)
-        denominator = float(s2)
-        g = (float(s4) / float(s2) ** 2) / (float(np.sum(w2 * w2)) / float(np.sum(w2)) ** 2)
+    x, denominator, g = _prepared(h, windows)
+    if x is None:
+        return None, None
     power = _abs2(sfft.rfftn(x, workers=workers))
     sums = _binned(power, idx, h.shape[-1], n_modes.size)
     return float(np.prod(spacing)) * sums / (denominator * n_modes), g
