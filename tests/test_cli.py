@@ -635,8 +635,8 @@ def test_a_file_is_read_once_whatever_it_lacks(unlabelled, monkeypatch, capsys):
     keywords), so the command never reads a file again to find out; a corrupted file
     keeps the reader's own message."""
     reads = []
-    real = xrough.cli._files.open_topography
-    monkeypatch.setattr(xrough.cli._files, "open_topography",
+    real = xrough.ensemble.open_topography  # the command opens through open_measurement
+    monkeypatch.setattr(xrough.ensemble, "open_topography",
                         lambda path, **kw: reads.append(kw) or real(path, **kw))
     lines = (unlabelled / "matrix.txt").read_text().splitlines()
     (unlabelled / "cut.txt").write_text("\n".join(lines[:8] + ["1.0 abc"] + lines[8:]))
@@ -764,3 +764,19 @@ def test_report_of_a_folder_keeps_going_past_a_bad_file(files, monkeypatch, caps
     status, _, err = run("report", empty, "--E-star", E_STAR, "--p0", P0, cwd=tmp_path,
                          monkeypatch=monkeypatch, capsys=capsys)
     assert status == 1 and "no measurement file" in err
+
+
+def test_report_of_a_container_takes_the_unit_its_meta_states(monkeypatch, capsys, tmp_path):
+    """A contact.engineering container: the text profile states no unit, its meta.yml
+    does; report of the folder reads it with that unit (alone it asks for --unit)."""
+    x = np.arange(400) * 0.01
+    np.savetxt(tmp_path / "line.txt", np.column_stack([x, 0.05 * np.sin(7 * x)
+                                                       + 0.01 * np.cos(31 * x)]))
+    (tmp_path / "meta.yml").write_text(
+        "surfaces:\n- topographies:\n  - datafile: {original: line.txt}\n    unit: um\n")
+    status, out, err = run("report", tmp_path, "--E-star", E_STAR, "--p0", P0, "-o",
+                           "c.nc", cwd=tmp_path, monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 0, err
+    assert table(out)[0]["measurement"] == "line"
+    G = xrough.open_analysis(tmp_path / "c.nc")["line"]["G"]
+    assert G.dr.attrs["units"] == "um"

@@ -33,7 +33,8 @@ from .progress import progress_bar
 from .psd import power_spectrum
 from .units import QuantityLike, accepts_quantified
 
-__all__ = ["mean_acf", "mean_psd", "pooled_mean", "open_set", "analyse_set"]
+__all__ = ["mean_acf", "mean_psd", "pooled_mean", "open_set", "open_measurement",
+           "analyse_set"]
 
 
 def pooled_mean(values: xr.DataArray, weights: xr.DataArray, dim: str,
@@ -284,21 +285,34 @@ def mean_psd(measurements, *, unit: str | None = None, points_per_decade: float 
 _CONTAINER_OPTIONS = ("unit", "size")
 
 
-def _open_one(path: Path, entry: dict | None, options: dict) -> xr.DataArray:
-    """Open ``path``; what it lacks (a unit, a size) from its container entry, if any."""
+def open_measurement(path: str | Path, **options) -> xr.DataArray:
+    """Open one file as :func:`xrough.open_topography` does, what it lacks from its container.
+
+    A file that states no unit or size (:class:`~xrough.io.MissingOptionError`) takes
+    them from the ``meta.yml`` of a contact.engineering container beside it, when that
+    lists the file (``unit``, ``size``; a size given ``(x, y)`` there becomes ``(y, x)``);
+    the options given here always win.
+
+    Raises
+    ------
+    MissingOptionError
+        The file lacks what neither the options nor a container supply.
+    """
+    path = Path(path)
     try:
         return open_topography(path, **options)
     except MissingOptionError as err:
+        entry = next((e for e in container_entries(path.parent / META)
+                      if e["file"] == path.name), None)
         given = {k: entry[k] for k in _CONTAINER_OPTIONS
                  if entry and k in err.options and entry.get(k) is not None
-                 and k not in options}
+                 and options.get(k) is None}
         if not given:
             raise
         if "size" in given and isinstance(given["size"], (list, tuple)):
-            given["size"] = tuple(float(v) for v in given["size"])[::-1]  # (x, y) -> (y, x)
-            if len(given["size"]) == 1:
-                given["size"] = given["size"][0]
-        return open_topography(path, **options, **given)
+            size = tuple(float(v) for v in given["size"])[::-1]  # (x, y) -> (y, x)
+            given["size"] = size[0] if len(size) == 1 else size
+        return open_topography(path, **{**options, **given})
 
 
 def open_set(source: str | Path | Iterable[str | Path], *, keep_going: bool = True,
@@ -349,11 +363,9 @@ def open_set(source: str | Path | Iterable[str | Path], *, keep_going: bool = Tr
     if isinstance(source, (str, Path)):
         folder = Path(source)
         paths = measurement_files(folder)
-        entries = {e["file"]: e for e in container_entries(folder / META)}
         where = str(folder)
     else:
         paths = [Path(p) for p in source]
-        entries = {}
         where = ", ".join(str(p) for p in paths)
     names = measurement_names(paths)
     nodes: dict[str, xr.Dataset] = {}
@@ -361,7 +373,7 @@ def open_set(source: str | Path | Iterable[str | Path], *, keep_going: bool = Tr
     for path, name in progress_bar(desc="files", iterable=list(zip(paths, names)),
                                    progress=progress):
         try:
-            topo = _open_one(path, entries.get(path.name), open_kwargs)
+            topo = open_measurement(path, **open_kwargs)
         except (ValueError, OSError, KeyError, TypeError) as err:
             if not keep_going:
                 raise

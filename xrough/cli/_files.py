@@ -27,7 +27,8 @@ import xarray as xr
 
 from .. import units as u
 from .._kernels.binning import MAX_POINTS_PER_DECADE, check_points_per_decade
-from ..io import BRIDGE, FORMATS, MissingOptionError, detect_format, open_topography
+from ..ensemble import open_measurement
+from ..io import BRIDGE, FORMATS, MissingOptionError, detect_format
 from ..io.folders import measurement_files, measurement_names
 from ..preprocess import DETREND_MODES, detrend
 from ..progress import progress_bar
@@ -224,7 +225,7 @@ def open_file(path: str, args: argparse.Namespace) -> xr.DataArray:
         name = args.format or detect_format(readable_path)
         _refuse_foreign_options(path, name, options)
         try:
-            topo = open_topography(readable_path, format=name, **options)
+            topo = open_measurement(readable_path, format=name, **options)
         except MissingOptionError as err:
             raise (_as_options(err) or err) from err
         return topo.load() if readable_path != path else topo

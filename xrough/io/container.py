@@ -6,9 +6,10 @@ is a folder (or zip) whose ``meta.yml`` lists its topographies with their file
 the uploader chose.  Opening one of those files, :func:`xrough.open_topography` keeps what
 the container says about it as attrs named ``container_<key>``: descriptions often state
 what no file header does (the tip radius of an AFM, the stylus of a profilometer), which
-:func:`xrough.preprocess.stated_tip_radius` reads.  Nothing of it changes the data (its
-``unit``, ``size`` and ``height_scale`` are recorded, not applied: pass them to
-``open_topography`` to apply them).
+:func:`xrough.preprocess.stated_tip_radius` reads.  ``open_topography`` changes nothing
+of the data by it (its ``unit``, ``size`` and ``height_scale`` are recorded, not applied);
+:func:`xrough.ensemble.open_measurement` (``open_set``, the command line) takes the unit
+and size from it for a file that states none, and only then.
 """
 
 from __future__ import annotations
