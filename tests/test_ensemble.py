@@ -175,3 +175,23 @@ def test_mean_psd_of_instruments_in_other_units():
     line = maps["s0"].isel(y=0).drop_vars("y")
     mixed = xrough.mean_psd({"map": maps["s0"], "line": line})
     assert mixed.attrs["units"] == "nm3" and mixed.attrs["spectrum_kind"] == "1D along x"
+
+
+@pytest.mark.data
+def test_open_set_of_the_instruments_folder():
+    """Every file of the real instruments folder is a node or a line of ``failed`` that
+    says why (three text files state no unit); files only SurfaceTopography reads are in
+    the listing when it is installed."""
+    import importlib.util
+
+    from conftest import data_path
+
+    folder = data_path("instruments")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        tree = xrough.open_set(folder, progress=False)
+    failed = [line for line in tree.attrs["failed"].splitlines() if line]
+    bridged = importlib.util.find_spec("SurfaceTopography") is not None
+    assert len(tree.children) + len(failed) == (16 if bridged else 11)
+    assert {"di-1", "x3p-2", "dektak-1"} <= set(tree.children)
+    assert all("unit" in line for line in failed if line.startswith(("xy-1", "xyz-1")))

@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from . import FORMATS
+from . import BRIDGE, FORMATS, detect_format
 from .archive import safe_name
 from .container import META, container_entries
 
@@ -26,8 +26,9 @@ def measurement_files(folder: str | Path) -> list[Path]:
 
     With a ``meta.yml`` of contact.engineering, the files it lists (that exist), in its
     order; else the files (not subfolders) whose extension is a reader's
-    (:data:`EXTENSIONS`), leaving out hidden files and archives xrough wrote
-    (``xrough-*``).
+    (:data:`EXTENSIONS`) or that SurfaceTopography reads when it is installed (the
+    bridge: ``.al3d``, ``.opd``, ``.nid``...), leaving out hidden files and archives
+    xrough wrote (``xrough-*``).
 
     Raises
     ------
@@ -49,12 +50,20 @@ def measurement_files(folder: str | Path) -> list[Path]:
     listed = [folder / e["file"] for e in container_entries(folder / META)]
     found = [p for p in listed if p.is_file()] if listed else sorted(
         f for f in folder.iterdir()
-        if f.is_file() and f.suffix.lower() in EXTENSIONS
-        and not f.name.startswith((".", "xrough-")))
+        if f.is_file() and not f.name.startswith((".", "xrough-")) and f.name != META
+        and (f.suffix.lower() in EXTENSIONS or _bridged(f)))
     if not found:
         raise ValueError(f"{folder}: a folder with no measurement file (extensions "
                          f"{', '.join(sorted(EXTENSIONS))}, or a {META} listing them)")
     return found
+
+
+def _bridged(path: Path) -> bool:
+    """Whether SurfaceTopography (the optional bridge) reads a file of no native extension."""
+    try:
+        return detect_format(path) == BRIDGE
+    except (OSError, ValueError):
+        return False
 
 
 def measurement_names(paths: Sequence[str | Path]) -> list[str]:
