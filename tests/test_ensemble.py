@@ -195,3 +195,25 @@ def test_open_set_of_the_instruments_folder():
     assert len(tree.children) + len(failed) == (16 if bridged else 11)
     assert {"di-1", "x3p-2", "dektak-1"} <= set(tree.children)
     assert all("unit" in line for line in failed if line.startswith(("xy-1", "xyz-1")))
+
+
+@pytest.mark.data
+def test_open_set_of_a_contact_engineering_container():
+    """The UNCD demo container: its meta.yml names the three files and the unit the two
+    text profiles lack; the TEM profile, sampled non-uniformly, is resampled onto as many
+    uniform points and says so; the averaged PSD of the three covers seven decades."""
+    from conftest import data_path
+
+    folder = data_path("uncd")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        tree = xrough.open_set(folder, progress=False)
+        C = xrough.mean_psd({n: xrough.detrend(tree[n].to_dataset()["heights"])
+                             for n in tree.children}, unit="um")
+    assert len(tree.children) == 3 and tree.attrs["failed"] == ""
+    tem = tree["80_Scale10.472_FIXEDv2p1_D7eHXiT"].to_dataset()["heights"]
+    assert tem.attrs["sampling"] == "resampled" and tem.x.attrs["units"] == "nm"
+    stylus = tree["uncd_stylus_300um_5mar_3_k0HpKJt"].to_dataset()["heights"]
+    assert stylus.x.attrs["units"] == "mm"
+    assert C.attrs["spectrum_kind"] == "1D along x"
+    assert float(C.q.max() / C.q.min()) > 1e5 and int(C.n_measurements.max()) >= 2

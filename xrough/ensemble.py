@@ -327,7 +327,10 @@ def open_set(source: str | Path | Iterable[str | Path], *, keep_going: bool = Tr
         or size a file does not state), or the files themselves.
     keep_going : bool
         A file that does not read is left out and said why (root attr ``failed``: one
-        line ``name: reason`` each); False raises at the first.
+        line ``name: reason`` each); False raises at the first. A non-uniformly sampled
+        profile is resampled onto as many uniform points (``resample=True`` of
+        :func:`xrough.open_topography`; its attrs ``sampling`` and ``resampling`` say
+        so) unless ``resample`` is given.
     progress : bool or None
         A progress bar over the files (None: in an interactive terminal only).
     **open_kwargs
@@ -374,6 +377,10 @@ def open_set(source: str | Path | Iterable[str | Path], *, keep_going: bool = Tr
                                    progress=progress):
         try:
             topo = open_measurement(path, **open_kwargs)
+            if topo.attrs.get("sampling") == "non-uniform" and "resample" not in open_kwargs:
+                # every estimator needs a uniform grid: as the file's own points, linearly
+                # (the attrs 'sampling' and 'resampling' say so)
+                topo = open_measurement(path, **open_kwargs, resample=True)
         except (ValueError, OSError, KeyError, TypeError) as err:
             if not keep_going:
                 raise
