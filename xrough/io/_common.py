@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import struct
+import threading
 import zipfile
 import zlib
 from collections.abc import Callable
@@ -20,7 +21,14 @@ __all__ = ["CONVENTIONS", "CorruptedFileError",
            "fail", "MissingOptionError", "reader_errors", "check_file", "check_points",
            "check_height_scale", "MAX_POINTS", "MAX_HEIGHT_TO_SIZE",
            "micro_as_u", "describe_channel", "channel_listing", "select_channel",
-           "default_channel_reader", "nonuniform_profile"]
+           "default_channel_reader", "nonuniform_profile", "HDF5_LOCK"]
+
+
+#: One lock for every NetCDF (HDF5) file xrough opens or writes itself: the HDF5 library
+#: here is not thread-safe, and 20 threads saving their own archives crashed the
+#: interpreter (SIGSEGV, SIGBUS). Reentrant, process-wide; lazy reads that dask makes later
+#: go through xarray's own lock.
+HDF5_LOCK = threading.RLock()
 
 #: Largest number of points a reader of this package's native formats (X3P, SUR, SDF)
 #: accepts unless the caller passes ``max_points=``: a larger header is taken as corrupted.

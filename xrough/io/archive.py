@@ -80,6 +80,7 @@ Nothing is lost
 from __future__ import annotations
 
 import base64
+import contextlib
 import datetime as _dt
 import json
 import os
@@ -98,7 +99,7 @@ import xarray as xr
 
 from .._version import __version__
 from . import _checksum
-from ._common import CONVENTIONS, CorruptedFileError
+from ._common import CONVENTIONS, HDF5_LOCK, CorruptedFileError
 
 __all__ = ["save_analysis", "open_analysis", "safe_name", "PROVENANCE_KEY"]
 
@@ -655,9 +656,10 @@ def _write_atomic(tree: xr.DataTree, record: Mapping[str, dict], path: Path,
     write = _write_netcdf if format == "netcdf" else _write_zarr
     tmp = temporary_name(path, "tmp")
     try:
-        write(tree, tmp)
-        _add_checksums(tmp, format, record)
-        _move_into_place(tmp, path)
+        with HDF5_LOCK if format == "netcdf" else contextlib.nullcontext():
+            write(tree, tmp)
+            _add_checksums(tmp, format, record)
+            _move_into_place(tmp, path)
     except BaseException as err:
         _remove(tmp)
         if isinstance(err, (OSError, KeyboardInterrupt, SystemExit, MemoryError)):
@@ -883,6 +885,12 @@ def open_analysis(path: str | Path, *, format: str | None = None, chunks=None) -
         raise IsADirectoryError(f"{path} is a directory, not a NetCDF file (a Zarr "
                                 "store opens with format='zarr' or without format=)")
     lazy = chunks is not None
+    with HDF5_LOCK if fmt == "netcdf" else contextlib.nullcontext():
+        return _open_archive(path, fmt, chunks, lazy)
+
+
+def _open_archive(path: Path, fmt: str, chunks, lazy: bool) -> dict:
+    """Open, check and read an archive (:func:`open_analysis`, under the HDF5 lock)."""
     try:
         dt = _open_tree(path, fmt, chunks, **(
             {"from_array_kwargs": _checksum.lazy_kwargs(str(path))} if lazy else {}))

@@ -39,6 +39,7 @@ from ..topography import topography
 from . import _checksum
 from ._common import (
     CONVENTIONS,
+    HDF5_LOCK,
     MissingOptionError,
     check_file,
     micro_as_u,
@@ -379,7 +380,7 @@ def read(path, *, variable: str | None = None, group: str | None = None,
     """
     path = Path(path)
     check_file(path)
-    with reader_errors(path, "NetCDF"):
+    with reader_errors(path, "NetCDF"), HDF5_LOCK:
         return _read(path, variable, group, unit, height_unit, size)
 
 
@@ -499,6 +500,11 @@ def write(topo: xr.DataArray, path, *, format: str = "NETCDF4") -> None:
     >>> back.identical(topo)
     True
     """
+    with HDF5_LOCK:  # the HDF5 library is not thread-safe
+        _write(topo, path, format)
+
+
+def _write(topo: xr.DataArray, path, format: str) -> None:
     topography(topo)  # validate before writing
     path = Path(path)
     fmt = "netcdf4" if format.upper().startswith("NETCDF4") else "netcdf3"
