@@ -596,3 +596,31 @@ print(len(errors), errors[:1])
                           timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout.split()[0] == "0", done.stdout
+
+
+@pytest.mark.skipif(importlib.util.find_spec("zarr") is None, reason="zarr not installed")
+def test_a_store_set_aside_by_a_killed_save_comes_back(tmp_path):
+    """A Zarr store is replaced by renaming the old one aside, then the new one in; a save
+    killed between the two left nothing at the path, and the next save deleted the store
+    set aside. Now open and save put it back first, with a warning, and it reads as it
+    was; a store set aside by a process still running (this one) is left alone."""
+    import os
+
+    from xrough.io.archive import temporary_name
+
+    G = xrough.self_affine_surface(hurst=0.8, n=64, size="64 nm", lambda_r="32 nm",
+                                   lambda_s="2 nm", rms_gradient=0.1, unit="nm",
+                                   seed=1).rough.acf()
+    store = tmp_path / "a.zarr"
+    xrough.save_analysis(store, {"m": {"G": G}})
+    aside = temporary_name(store, "old")
+    dead = aside.with_name(aside.name.replace(f".{os.getpid()}-", ".999999999-"))
+    os.replace(store, dead)  # the kill: the old store aside, nothing at the path
+    with pytest.warns(UserWarning, match="is back in place"):
+        back = xrough.open_analysis(store)
+    xr.testing.assert_identical(back["m"]["G"], G)
+    assert store.exists() and not dead.exists()
+    os.replace(store, aside)  # set aside by a running process (this one): not touched
+    with pytest.raises(FileNotFoundError):
+        xrough.open_analysis(store)
+    assert aside.exists()

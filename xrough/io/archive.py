@@ -537,6 +537,41 @@ def _temp_of(name: str, target: str) -> tuple[bool, str | None]:
     return depth > 0, pid
 
 
+def restore_set_aside(path: Path) -> bool:
+    """Put back the store a killed save set aside, if nothing is at ``path``.
+
+    A Zarr store is replaced by renaming the old one aside (``.<name>.<pid>-<hex>.old``),
+    then the new one in: a kill between the two renames leaves nothing at the path. The
+    newest store set aside for ``path`` by a process no longer running goes back, with a
+    warning. Called before every save and open.
+
+    Returns
+    -------
+    bool
+        Whether a store was put back.
+    """
+    if path.exists():
+        return False
+    aside = []
+    try:
+        with os.scandir(path.parent) as entries:
+            for entry in entries:
+                ours, pid = _temp_of(entry.name, path.name)
+                if ours and entry.name.endswith(".old") and pid is not None and not _running(
+                        int(pid)):
+                    aside.append(Path(entry.path))
+    except OSError:
+        return False
+    if not aside:
+        return False
+    newest = max(aside, key=lambda p: p.stat().st_mtime)
+    os.replace(newest, path)
+    warnings.warn(f"{path}: a save was killed while it replaced this archive; the previous "
+                  f"archive, set aside as {newest.name}, is back in place", UserWarning,
+                  stacklevel=3)
+    return True
+
+
 def remove_stale_temporaries(path: Path) -> None:
     """Remove the temporary files that killed saves to ``path`` left behind.
 
@@ -758,6 +793,7 @@ def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = 
                         f"{type(analysis).__name__}")
     path = Path(path)
     fmt = _format(path, format)
+    restore_set_aside(path)  # a killed replacement left the previous store aside
     tree = _tree(analysis)
     now = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
     root = xr.Dataset(attrs={
@@ -875,6 +911,7 @@ def open_analysis(path: str | Path, *, format: str | None = None, chunks=None) -
     >>> G = lazy.rough.acf(pool="scan").compute()
     """
     path = Path(path)
+    restore_set_aside(path)  # a killed replacement left the previous store aside
     if not path.exists():
         raise FileNotFoundError(f"no such archive: {path}")
     fmt = _format(path, format) if format is not None else (
