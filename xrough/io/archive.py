@@ -557,8 +557,8 @@ def restore_set_aside(path: Path) -> bool:
         with os.scandir(path.parent) as entries:
             for entry in entries:
                 ours, pid = _temp_of(entry.name, path.name)
-                if ours and entry.name.endswith(".old") and pid is not None and not _running(
-                        int(pid)):
+                if (ours and entry.name.endswith(".old") and pid is not None
+                        and not _running(int(pid)) and _is_zarr_store(Path(entry.path))):
                     aside.append(Path(entry.path))
     except OSError:
         return False
