@@ -193,3 +193,18 @@ def test_the_fit_says_what_its_errors_are_of():
     model = xrough.acf_from_spectrum(C, G.dr.values)
     assert xrough.fit_acf(model).hurst_std.attrs["error_of"].startswith("G's bins")
 
+
+
+@pytest.mark.parametrize("attrs, match", [
+    ({"scan_size": -1e4}, "scan_size"), ({"scan_size": np.nan}, "scan_size"),
+    ({"scan_size": np.inf}, "scan_size"), ({"pixel_size": 1e9}, "pixel"),
+    ({"lag_geometry": "hexagonal"}, "lag_geometry"), ({"pooled_count": 0}, "pooled_count"),
+    ({"pooled_count": -3}, "pooled_count")])
+def test_invalid_map_geometry_is_refused(attrs, match):
+    """A G whose attrs state an impossible map geometry gave errors 2.7x too small as the
+    surface's (or an OverflowError): its results now refuse it, naming the attr."""
+    topo = xrough.self_affine_surface(hurst=0.8, n=64, size="64 nm", lambda_r="32 nm",
+                                      lambda_s="2 nm", rms_gradient=0.1, unit="nm", seed=1)
+    G = topo.rough.acf()
+    with pytest.raises(ValueError, match=match):
+        G.assign_attrs(attrs).rough.fit()

@@ -376,10 +376,26 @@ def error_model(G: xr.DataArray) -> dict | None:
     """
     geometry = G.attrs.get("lag_geometry")
     size, pixel = G.attrs.get("scan_size"), G.attrs.get("pixel_size")
-    if geometry not in ("radial", "axis", "profile") or not size or not pixel:
-        return None
-    return {"size": float(size), "pixel": float(pixel), "geometry": geometry,
-            "n_maps": int(G.attrs.get("pooled_count", 1))}
+    if geometry is None or size is None or pixel is None:
+        return None  # no map geometry: a stitched or model G
+    if geometry not in ("radial", "axis", "profile"):
+        raise ValueError(f"G's attrs: lag_geometry {geometry!r} is none of 'radial', "
+                         "'axis', 'profile' (the map geometry of its errors)")
+    n_maps = G.attrs.get("pooled_count", 1)
+    try:
+        size_f, pixel_f, maps = float(size), float(pixel), float(n_maps)
+    except (TypeError, ValueError):
+        raise ValueError(f"G's attrs: scan_size {size!r}, pixel_size {pixel!r} and "
+                         f"pooled_count {n_maps!r} must be numbers (the map geometry of "
+                         "its errors)") from None
+    if not (np.isfinite(size_f) and np.isfinite(pixel_f) and 0 < pixel_f <= size_f):
+        raise ValueError(f"G's attrs: scan_size {size!r} and pixel_size {pixel!r} must be "
+                         "finite, positive, the pixel not above the scan (the map geometry "
+                         "of its errors); a G with no geometry has neither attr")
+    if not (maps >= 1 and float(maps).is_integer()):
+        raise ValueError(f"G's attrs: pooled_count {n_maps!r} must be a whole number of "
+                         "maps, at least 1")
+    return {"size": size_f, "pixel": pixel_f, "geometry": geometry, "n_maps": int(maps)}
 
 
 def inflation_of(G: xr.DataArray) -> xr.DataArray | None:
