@@ -19,6 +19,7 @@ Two layers, each doing what the other cannot:
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import json
@@ -32,7 +33,7 @@ import numpy as np
 import xarray as xr
 from dask.array.core import getter
 
-from ._common import CorruptedFileError
+from ._common import HDF5_LOCK, CorruptedFileError
 
 __all__ = ["KEY", "LEGACY", "chunk_encoding", "digests", "stamp", "stored", "verify",
            "reading", "checked_getter", "lazy_kwargs", "missing_counts", "check_missing"]
@@ -345,17 +346,23 @@ def _described(array: Any) -> str:
     return "a variable"
 
 
-def checked_getter(name: str, array, index, asarray=True, lock=None):
+def checked_getter(name: str, array, index, asarray=True, lock=None, *,
+                   serialize: bool = False):
     """Dask's getter of a chunk, its read failures as :class:`CorruptedFileError`.
 
     Pass it to :func:`xarray.open_datatree` as ``from_array_kwargs={"getitem":
     functools.partial(checked_getter, name)}``: each dask task reads its chunk once, the
-    storage library checks it, and a failure names the file and the variable.
+    storage library checks it, and a failure names the file and the variable. With
+    ``serialize`` (NetCDF: HDF5 is not thread-safe here) one chunk is read at a time
+    under :data:`~xrough.io._common.HDF5_LOCK`: dask's threads reading and closing one
+    NetCDF file at once crashed the interpreter.
     """
-    with reading(name, f"a chunk of {_described(array)}"):
+    with HDF5_LOCK if serialize else contextlib.nullcontext(), reading(
+            name, f"a chunk of {_described(array)}"):
         return getter(array, index, asarray=asarray, lock=lock)
 
 
-def lazy_kwargs(name: str) -> dict:
+def lazy_kwargs(name: str, fmt: str = "netcdf") -> dict:
     """``from_array_kwargs`` for a lazy open whose chunk reads fail as corruption errors."""
-    return {"getitem": functools.partial(checked_getter, name)}
+    return {"getitem": functools.partial(checked_getter, name,
+                                         serialize=fmt != "zarr")}

@@ -930,7 +930,7 @@ def _open_archive(path: Path, fmt: str, chunks, lazy: bool) -> dict:
     """Open, check and read an archive (:func:`open_analysis`, under the HDF5 lock)."""
     try:
         dt = _open_tree(path, fmt, chunks, **(
-            {"from_array_kwargs": _checksum.lazy_kwargs(str(path))} if lazy else {}))
+            {"from_array_kwargs": _checksum.lazy_kwargs(str(path), fmt)} if lazy else {}))
     except ImportError:
         raise
     except PermissionError as err:
