@@ -5,6 +5,7 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+import pandas as pd
 import pytest
 import xarray as xr
 
@@ -113,6 +114,8 @@ def test_open_set_keeps_going_and_tabulates(tmp_path):
     assert list(table.measurement.values) == ["scan0", "scan1", "scan2", "broken"]
     assert table.quality.sel(measurement="broken") == "failed"
     assert "broken.nc" in str(table.error.sel(measurement="broken").values)
+    assert np.isnan(table.Sq.sel(measurement="broken")) and np.isnan(
+        table.hurst.sel(measurement="broken"))
     topo = tree["scan1"].to_dataset()["heights"]
     clean = xrough.detrend(topo)
     assert float(table.Sq.sel(measurement="scan1")) == pytest.approx(
@@ -131,6 +134,32 @@ def test_open_set_keeps_going_and_tabulates(tmp_path):
     xr.testing.assert_identical(xr.open_dataset(path).load(), table)
     with pytest.raises(ValueError, match="broken"):
         xrough.open_set(folder, keep_going=False, progress=False)
+
+
+def test_analyse_set_rows_as_dask_tasks_in_one_unit(tmp_path):
+    """The rows are dask tasks: the table is identical on the sync and threaded
+    schedulers; a scan stored in um is converted to the first row's nm (its Sq and fitted
+    lambda_r are those of the same scan in nm, to 1e-9)."""
+    for seed in range(2):
+        xrough.self_affine_surface(**{**MAP, "n": 128, "size": "128 nm"}, unit="nm",
+                                   seed=seed).to_netcdf(tmp_path / f"scan{seed}.nc")
+    same = xrough.self_affine_surface(**{**MAP, "n": 128, "size": "128 nm"}, unit="nm",
+                                      seed=1)
+    xrough.convert_units(same, "um", lateral="um").to_netcdf(tmp_path / "scan9_um.nc")
+    tree = xrough.open_set(tmp_path, progress=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        sync = xrough.analyse_set(tree, E_star="1 MPa", p0="1 kPa", progress=False,
+                                  scheduler="sync")
+        threads = xrough.analyse_set(tree, E_star="1 MPa", p0="1 kPa", progress=False,
+                                     scheduler="threads")
+        plain = xrough.analyse_set(tree, progress=False, scheduler="sync")
+    xr.testing.assert_identical(sync, threads)
+    assert sync.Sq.attrs["units"] == "nm" and sync.lambda_r.attrs["units"] == "nm"
+    for key in ("Sq", "lambda_r", "hurst", "a_r", "a_r_dr"):
+        np.testing.assert_allclose(float(sync[key].sel(measurement="scan9_um")),
+                                   float(sync[key].sel(measurement="scan1")), rtol=1e-9)
+    assert "a_r" not in plain and np.all(np.isfinite(plain.Sq))
 
 
 def test_container_supplies_what_a_file_lacks(tmp_path):
@@ -175,6 +204,52 @@ def test_mean_psd_of_instruments_in_other_units():
     line = maps["s0"].isel(y=0).drop_vars("y")
     mixed = xrough.mean_psd({"map": maps["s0"], "line": line})
     assert mixed.attrs["units"] == "nm3" and mixed.attrs["spectrum_kind"] == "1D along x"
+
+
+@pytest.mark.parametrize("quantity", ["slope", "curvature"])
+def test_mean_scale_dependent_of_instruments_in_other_units(quantity):
+    """Three maps, one in um: the averaged scale-dependent slope (curvature) in nm is, in
+    each log bin (``rint(10 log10 dr)``: steps 6 and 7 px share one), the count-weighted
+    mean of the three converted curves' values (to 1e-9), its error their weighted
+    scatter; the same map twice has zero scatter; in um it is the same physics (slope
+    unchanged, curvature x 1000)."""
+    maps = {f"s{k}": xrough.self_affine_surface(**{**MAP, "n": 128, "size": "128 nm"},
+                                                unit="nm", seed=k) for k in range(3)}
+    maps["s1"] = xrough.convert_units(maps["s1"], "um", lateral="um")
+    mean = xrough.mean_scale_dependent(maps, quantity)
+    analysis = getattr(xrough, f"scale_dependent_{quantity}")
+    own = [analysis(xrough.convert_units(m, "nm", lateral="nm")) for m in maps.values()]
+    count = "pair_count" if quantity == "slope" else "point_count"
+    frame = pd.concat([pd.DataFrame({"scan": k, "dr": c.dr.values, "v": c.values,
+                                     "w": c.coords[count].values.astype(float)})
+                       for k, c in enumerate(own)])
+    frame["bin"] = np.rint(10 * np.log10(frame.dr)).astype(int)
+    frame["wv"], frame["wdr"] = frame.w * frame.v, frame.w * frame.dr
+    per = frame.groupby(["bin", "scan"])[["w", "wv", "wdr"]].sum()
+    per["v"] = per.wv / per.w
+    w, v = per.w.unstack().values.T, per.v.unstack().values.T
+    expected = (w * v).sum(axis=0) / w.sum(axis=0)
+    dr = per.wdr.groupby("bin").sum() / per.w.groupby("bin").sum()
+    np.testing.assert_allclose(mean.dr, dr.values, rtol=1e-9)
+    assert mean.dr.size < own[0].dr.size  # steps merged: the test is not vacuous
+    np.testing.assert_allclose(mean.values, expected, rtol=1e-9)
+    n_eff = w.sum(axis=0) ** 2 / (w**2).sum(axis=0)
+    scatter = np.sqrt((w * (v - expected) ** 2).sum(axis=0) / w.sum(axis=0) / (n_eff - 1))
+    np.testing.assert_allclose(mean.standard_error, scatter, rtol=1e-9)
+    assert np.all(mean.n_measurements == 3) and mean.name == quantity
+    twice = xrough.mean_scale_dependent({"a": maps["s0"], "b": maps["s0"]}, quantity)
+    np.testing.assert_allclose(twice.values, mean_of_one := xrough.mean_scale_dependent(
+        {"a": maps["s0"]}, quantity).values, rtol=1e-12)
+    np.testing.assert_allclose(twice.standard_error, 0.0, atol=1e-12 * float(own[0].max()))
+    in_um = xrough.mean_scale_dependent(maps, quantity, unit="um")
+    assert in_um.dr.attrs["units"] == "um"
+    np.testing.assert_allclose(in_um.dr * 1e3, mean.dr, rtol=1e-12)
+    np.testing.assert_allclose(in_um.values, mean.values * (1e3 if quantity == "curvature"
+                                                            else 1.0), rtol=1e-12)
+    one = xrough.mean_scale_dependent({"a": maps["s0"]}, quantity)
+    assert np.all(np.isnan(one.standard_error)) and np.array_equal(one.values, mean_of_one)
+    with pytest.raises(ValueError, match="quantity 'height'"):
+        xrough.mean_scale_dependent(maps, "height")
 
 
 @pytest.mark.data

@@ -43,3 +43,20 @@ def test_off_and_on():
     assert list(progress.progress_bar(desc="x", iterable="ab", progress=False)) == ["a", "b"]
     bar = progress.progress_bar(desc="x", iterable=range(3), progress=True)
     assert list(bar) == [0, 1, 2]
+
+
+def test_dask_bar_counts_the_tasks(capsys):
+    """A computation of three dask tasks inside ``dask_progress`` draws a bar of 3 tasks
+    on stderr, with no warning; ``progress=False`` draws nothing."""
+    import dask
+
+    tasks = [dask.delayed(abs)(-k) for k in range(3)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with progress.dask_progress(desc="rows", progress=True):
+            assert dask.compute(*tasks, scheduler="sync") == (0, 1, 2)
+    err = capsys.readouterr().err
+    assert "rows" in err and "/3 " in err  # leave=False clears the bar when done
+    with progress.dask_progress(desc="rows", progress=False):
+        dask.compute(*tasks, scheduler="sync")
+    assert capsys.readouterr().err == ""

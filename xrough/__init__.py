@@ -29,7 +29,7 @@ from .contact import (
     stress_acf_from_spectrum,
 )
 from .correlation import height_difference_acf
-from .ensemble import analyse_set, mean_acf, mean_psd, open_set
+from .ensemble import analyse_set, mean_acf, mean_psd, mean_scale_dependent, open_set
 from .filters import fourier_filter, longcut, shortcut
 from .fitting import fit_acf, model_acf
 from .gradient import (
@@ -121,6 +121,7 @@ __all__ = [
     "mean_gap",
     "mean_acf",
     "mean_psd",
+    "mean_scale_dependent",
     "open_set",
     "analyse_set",
     "quality",

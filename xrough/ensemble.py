@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from pathlib import Path
 
+import dask
 import numpy as np
 import xarray as xr
 
@@ -27,14 +28,14 @@ from .fitting import fit_acf
 from .io import MissingOptionError, open_topography
 from .io.container import META, container_entries
 from .io.folders import measurement_files, measurement_names
-from .parameters import roughness_parameters
+from .parameters import roughness_parameters, scale_dependent_curvature, scale_dependent_slope
 from .preprocess import detrend
-from .progress import progress_bar
+from .progress import dask_progress, progress_bar
 from .psd import power_spectrum
 from .units import QuantityLike, accepts_quantified
 
-__all__ = ["mean_acf", "mean_psd", "pooled_mean", "open_set", "open_measurement",
-           "analyse_set"]
+__all__ = ["mean_acf", "mean_psd", "mean_scale_dependent", "pooled_mean", "open_set",
+           "open_measurement", "analyse_set"]
 
 
 def pooled_mean(values: xr.DataArray, weights: xr.DataArray, dim: str,
@@ -193,6 +194,37 @@ def _topographies(measurements) -> dict[str, xr.DataArray]:
     return {str(k): v for k, v in dict(measurements).items()}
 
 
+def _on_common_bins(curves: list[tuple], points_per_decade: float, dim: str) -> tuple:
+    """Put curves of several measurements on common log bins and pool them bin by bin.
+
+    ``curves``: ``(x, values, errors, weights)`` per measurement, ``x`` in one unit (> 0);
+    a point belongs to the bin ``rint(log10(x) * points_per_decade)``, the same in every
+    unit of one decade's multiples, and points of one curve sharing a bin merge
+    (weighted). Returns ``(x, values, weights, mean, error)``: the weighted mean ``x`` of
+    each bin, the stacked values and weights (measurement, bin) and
+    :func:`pooled_mean`'s mean and error over the measurements.
+    """
+    keyed = [np.rint(np.log10(c[0]) * points_per_decade).astype(int) for c in curves]
+    keys = np.unique(np.concatenate(keyed))
+    shape = (len(curves), keys.size)
+    sums = {k: np.zeros(shape) for k in ("w", "wx", "wv", "wwe")}
+    for i, ((x, v, e, w), key) in enumerate(zip(curves, keyed)):
+        ok = np.isfinite(v) & (w > 0)
+        at = np.searchsorted(keys, key[ok])
+        for name, term in (("w", w[ok]), ("wx", w[ok] * x[ok]), ("wv", w[ok] * v[ok]),
+                           ("wwe", (w[ok] * np.nan_to_num(e[ok])) ** 2)):
+            np.add.at(sums[name][i], at, term)
+    w = sums["w"]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        values = np.where(w > 0, sums["wv"] / w, np.nan)
+        errors = np.where(w > 0, np.sqrt(sums["wwe"]) / w, np.nan)
+        x = sums["wx"].sum(axis=0) / w.sum(axis=0)
+    dims = ("measurement", dim)
+    mean, error, _ = pooled_mean(xr.DataArray(values, dims=dims), xr.DataArray(w, dims=dims),
+                                 "measurement", xr.DataArray(np.nan_to_num(errors), dims=dims))
+    return x, values, w, mean, error
+
+
 @accepts_quantified
 def mean_psd(measurements, *, unit: str | None = None, points_per_decade: float = 20,
              window: str | None = "auto") -> xr.DataArray:
@@ -240,35 +272,22 @@ def mean_psd(measurements, *, unit: str | None = None, points_per_decade: float 
     first = next(iter(topos.values()))
     target = unit or u.format_units(u.units_of(first.coords["x"], what="coordinate 'x'"))
     profiles = any("y" not in t.dims for t in topos.values())
-    curves = {}
-    for name, topo in topos.items():
+    power = 3 if profiles else 4
+    curves = []
+    for topo in topos.values():
         spec = power_spectrum(topo, direction="x" if profiles else "radial", window=window,
                               points_per_decade=points_per_decade)
-        own = u.units_of(spec.coords["q"], what="q")
-        fq = u.conversion_factor(own, u.power_units(target, -1))
-        power = 3 if profiles else 4
+        fq = u.conversion_factor(u.units_of(spec.coords["q"], what="q"),
+                                 u.power_units(target, -1))
         fc = u.conversion_factor(spec.attrs["units"], u.power_units(target, power))
-        key = np.rint(np.log10(spec.q.values * fq) * points_per_decade).astype(int)
         err = (spec.coords["standard_error"].values * fc if "standard_error" in spec.coords
                else np.full(spec.q.size, np.nan))
-        curves[name] = (key, spec.q.values * fq, spec.values * fc, err, spec.n_modes.values)
-    keys = np.unique(np.concatenate([c[0] for c in curves.values()]))
-    shape = (len(curves), keys.size)
-    q, C, se, n = (np.full(shape, np.nan), np.full(shape, np.nan), np.full(shape, np.nan),
-                   np.zeros(shape))
-    for i, (key, qq, cc, ee, nn) in enumerate(curves.values()):
-        at = np.searchsorted(keys, key)
-        q[i, at], C[i, at], se[i, at], n[i, at] = qq, cc, ee, nn
-    dims = ("measurement", "q")
-    stack = xr.DataArray(C, dims=dims)
-    weights = xr.DataArray(n, dims=dims)
-    mean, error, _ = pooled_mean(stack, weights, "measurement",
-                                 xr.DataArray(np.nan_to_num(se), dims=dims))
-    q_mean, _, _ = pooled_mean(xr.DataArray(q, dims=dims), weights, "measurement")
+        curves.append((spec.q.values * fq, spec.values * fc, err, spec.n_modes.values))
+    q, C, n, mean, error = _on_common_bins(curves, points_per_decade, "q")
     kind = "1D along x" if profiles else "isotropic 2D"
     return mean.assign_coords(
-        q=("q", q_mean.values, {"units": u.power_units(target, -1),
-                                "long_name": "angular wavenumber (mode-weighted mean)"}),
+        q=("q", q, {"units": u.power_units(target, -1),
+                    "long_name": "angular wavenumber (mode-weighted mean)"}),
         standard_error=("q", error.values, {"units": u.power_units(target, power)}),
         n_modes=("q", n.sum(axis=0).astype(np.int64), {"long_name": "modes in the bin"}),
         n_measurements=("q", np.isfinite(C).sum(axis=0), {
@@ -277,6 +296,99 @@ def mean_psd(measurements, *, unit: str | None = None, points_per_decade: float 
         None, units=u.power_units(target, power), long_name=f"averaged PSD ({kind})",
         spectrum_kind=kind, averaged_from=", ".join(topos), points_per_decade=float(
             points_per_decade))).rename("C")
+
+
+#: The scale-dependent analyses :func:`mean_scale_dependent` averages, and their powers of
+#: the lateral unit.
+_SCALE_DEPENDENT = {"slope": (scale_dependent_slope, 0, "pair_count"),
+                    "curvature": (scale_dependent_curvature, -1, "point_count")}
+
+
+@accepts_quantified
+def mean_scale_dependent(measurements, quantity: str = "slope", *, unit: str | None = None,
+                         points_per_decade: float = 10) -> xr.DataArray:
+    """Average the scale-dependent slope or curvature of several measurements step by step.
+
+    Each measurement's :func:`xrough.scale_dependent_slope` (or ``_curvature``) on its
+    own whole-pixel steps, in one lateral unit; the steps fall into log bins centred on
+    ``10^(k / points_per_decade)`` (the same in nm and um), and per bin the mean weighted
+    by the differences each measurement averaged. contact.engineering's averaged
+    scale-dependent slope and curvature (its "SDRP"); :func:`mean_psd` and
+    :func:`mean_acf` are the same average of the PSD and of G.
+
+    The rms values of a bin are averaged, not their squares: where scans differ, the mean
+    of the rms slopes is at most the rms of the pooled differences (by less than the
+    scatter, ``standard_error``).
+
+    Parameters
+    ----------
+    measurements : xarray.DataTree or mapping of DataArray
+        From :func:`open_set`, or topographies by name (maps and profiles alike: a
+        profile's slope is along it, a map's the rms gradient, see
+        :func:`xrough.scale_dependent_slope`; mix them knowingly).
+    quantity : {'slope', 'curvature'}
+        The analysis.
+    unit : str, optional
+        Lateral unit of the result (default: the first measurement's).
+    points_per_decade : float
+        Density of the steps and of the common bins.
+
+    Returns
+    -------
+    xarray.DataArray
+        ``slope`` (``1``) or ``curvature`` (``unit``-1) on ``dr`` (``unit``, the weighted
+        mean step of the bin), with ``standard_error`` (the scatter between the
+        measurements, :func:`pooled_mean`; NaN where fewer than two hold the bin),
+        ``n_measurements`` and the summed ``pair_count`` / ``point_count``.
+
+    Raises
+    ------
+    ValueError
+        No measurement, or an unknown ``quantity``.
+
+    Examples
+    --------
+    >>> import xrough
+    >>> nm = xrough.self_affine_surface(hurst=0.8, n=64, size="64 nm", lambda_r="32 nm",
+    ...                                 lambda_s="4 nm", rms_gradient=0.1, unit="nm")
+    >>> um = xrough.convert_units(nm, "um", lateral="um")  # the same scan in um
+    >>> s = xrough.mean_scale_dependent({"nm": nm, "um": um}, "curvature", unit="um")
+    >>> s.attrs["units"], int(s.n_measurements[0]), float(s.standard_error[0]) < 1e-9
+    ('um-1', 2, True)
+    """
+    if quantity not in _SCALE_DEPENDENT:
+        raise ValueError(f"mean_scale_dependent: quantity {quantity!r} is not one of "
+                         f"{sorted(_SCALE_DEPENDENT)}")
+    analysis, power, count = _SCALE_DEPENDENT[quantity]
+    topos = _topographies(measurements)
+    if not topos:
+        raise ValueError("mean_scale_dependent: no measurement")
+    first = next(iter(topos.values()))
+    target = unit or u.format_units(u.units_of(first.coords["x"], what="coordinate 'x'"))
+    curves = []
+    for topo in topos.values():
+        with quality.quiet():  # a tip check's marks are the measurement's own
+            curve = analysis(topo, points_per_decade=points_per_decade)
+        fx = u.conversion_factor(u.units_of(curve.coords["dr"], what="dr"), target)
+        fv = (1.0 if power == 0 else
+              u.conversion_factor(curve.attrs["units"], u.power_units(target, power)))
+        curves.append((curve.dr.values * fx, curve.values * fv,
+                       np.zeros(curve.dr.size), curve.coords[count].values.astype(float)))
+    dr, values, w, mean, error = _on_common_bins(curves, points_per_decade, "dr")
+    held = np.isfinite(values).sum(axis=0)
+    units = "1" if power == 0 else u.power_units(target, power)
+    return mean.assign_coords(
+        dr=("dr", dr, {"units": target, "long_name": "finite-difference step (weighted mean "
+                                                     "of the bin)"}),
+        standard_error=("dr", np.where(held > 1, error.values, np.nan), {
+            "units": units, "long_name": "scatter of the measurements' values"}),
+        n_measurements=("dr", held, {"long_name": "measurements holding the bin"}),
+        **{count: ("dr", w.sum(axis=0).astype(np.int64), {
+            "long_name": "differences averaged (all measurements)"})},
+    ).assign_attrs(result_attrs(
+        None, units=units, long_name=f"averaged scale-dependent rms {quantity}",
+        averaged_from=", ".join(topos), points_per_decade=float(points_per_decade))
+    ).rename(quantity)
 
 
 # ------------------------------------------------------------------------------ a folder
@@ -402,7 +514,8 @@ _FIT_COLUMNS = ("hurst", "hurst_std", "sigma_h", "sigma_h_std", "lambda_r", "lam
 @accepts_quantified
 def analyse_set(tree: xr.DataTree, *, mode: str = "plane",
                 E_star: QuantityLike | None = None, p0: QuantityLike | None = None,
-                points_per_decade: float = 10, progress: bool | None = None) -> xr.Dataset:
+                points_per_decade: float = 10, progress: bool | None = None,
+                scheduler: str | None = None) -> xr.Dataset:
     """Tabulate a set of measurements: one row per file, as contact.engineering shows it.
 
     For each measurement of :func:`open_set`: detrend (``mode``), G, its fit, the
@@ -422,6 +535,9 @@ def analyse_set(tree: xr.DataTree, *, mode: str = "plane",
         G's log bins.
     progress : bool or None
         A progress bar over the measurements.
+    scheduler : str, optional
+        dask's scheduler for the rows, one task each (``"threads"``, ``"processes"``,
+        ``"sync"``; default dask's configured one, or a distributed client's).
 
     Returns
     -------
@@ -448,14 +564,14 @@ def analyse_set(tree: xr.DataTree, *, mode: str = "plane",
     names = [n for n in tree.children if "heights" in tree[n].data_vars]
     failed = [line.split(": ", 1) for line in str(tree.attrs.get("failed", "")).splitlines()
               if ": " in line]
-    rows: list[dict] = []
-    units: dict[str, str] = {}
-    for name in progress_bar(desc="measurements", iterable=names, progress=progress):
-        topo = tree[name].to_dataset()["heights"]
-        rows.append(_row(name, topo, mode, E_star, p0, points_per_decade, units))
+    tasks = [dask.delayed(_row, pure=True, name=f"analyse_set-{name}")(
+        name, tree[name].to_dataset()["heights"], mode, E_star, p0, points_per_decade)
+        for name in names]
+    with dask_progress(desc="measurements", progress=progress):
+        rows = list(dask.compute(*tasks, scheduler=scheduler))
     rows += [{"measurement": n, "file": "", "quality": "failed", "notes": "",
               "error": reason} for n, reason in failed]
-    table = _table(rows, units)
+    table = _table(rows)
     flagged = [r["measurement"] for r in rows if r["quality"] != "good"]
     if flagged:
         quality.warn(f"analyse_set: {len(flagged)} of {len(rows)} measurements are not good "
@@ -465,9 +581,9 @@ def analyse_set(tree: xr.DataTree, *, mode: str = "plane",
     return table
 
 
-def _row(name: str, topo: xr.DataArray, mode: str, E_star, p0, points_per_decade: float,
-         units: dict[str, str]) -> dict:
-    """Compute a row of :func:`analyse_set` (numbers in ``units``, set by the first row)."""
+def _row(name: str, topo: xr.DataArray, mode: str, E_star, p0,
+         points_per_decade: float) -> dict:
+    """Compute a row of :func:`analyse_set`: numbers as ``(value, unit)`` pairs."""
     row: dict = {"measurement": name, "file": str(topo.attrs.get("source_file", "")),
                  "error": ""}
     try:
@@ -478,7 +594,8 @@ def _row(name: str, topo: xr.DataArray, mode: str, E_star, p0, points_per_decade
             params = roughness_parameters(clean)
             results = [G, fit]
             if E_star is not None and p0 is not None:
-                contact = persson(G, E_star=E_star, p0=p0, fit=fit)  # the fit once
+                # the fit once; the one variable the table shows
+                contact = persson(G, E_star=E_star, p0=p0, fit=fit, variables=("a_r",))
                 results.append(contact)
                 finite = np.flatnonzero(np.isfinite(contact.a_r.values))
                 if finite.size:
@@ -495,22 +612,25 @@ def _row(name: str, topo: xr.DataArray, mode: str, E_star, p0, points_per_decade
             row[str(name_)] = (float(var), var.attrs.get("units", "1"))
     except (ValueError, RuntimeError, np.linalg.LinAlgError) as err:
         row.update(quality="failed", notes="", error=str(err).splitlines()[0])
-    for key, value in list(row.items()):
-        if isinstance(value, tuple):
-            number, unit = value
-            target = units.setdefault(key, unit)
-            row[key] = number * (u.conversion_factor(unit, target) if unit != target else 1.0)
     return row
 
 
-def _table(rows: list[dict], units: dict[str, str]) -> xr.Dataset:
-    """Build the Dataset of the rows on ``measurement`` (NaN or "" where a row has none)."""
+def _table(rows: list[dict]) -> xr.Dataset:
+    """Build the Dataset of the rows on ``measurement`` (NaN or "" where a row has none).
+
+    A number is a ``(value, unit)`` pair; each column takes the unit of its first row, the
+    others converted to it.
+    """
     keys = list(dict.fromkeys(k for r in rows for k in r if k != "measurement"))
     data: dict[str, tuple] = {}
     for key in keys:
-        if key in units:
-            data[key] = ("measurement", np.array([r.get(key, np.nan) for r in rows],
-                                                 dtype=float), {"units": units[key]})
+        pairs = [r[key] for r in rows if isinstance(r.get(key), tuple)]
+        if pairs:
+            unit = pairs[0][1]
+            values = [r[key][0] * (u.conversion_factor(r[key][1], unit)
+                                   if r[key][1] != unit else 1.0)
+                      if isinstance(r.get(key), tuple) else np.nan for r in rows]
+            data[key] = ("measurement", np.array(values, dtype=float), {"units": unit})
         else:
             data[key] = ("measurement", np.array([str(r.get(key, "")) for r in rows]))
     return xr.Dataset(data, coords={"measurement": [r["measurement"] for r in rows]},

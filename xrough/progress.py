@@ -7,6 +7,7 @@ found" in every notebook instead). A bar can be interrupted like the loop it wra
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import importlib.util
 from collections.abc import Iterable
@@ -14,7 +15,7 @@ from typing import Any
 
 from tqdm.std import tqdm as plain_tqdm
 
-__all__ = ["progress_bar"]
+__all__ = ["progress_bar", "dask_progress"]
 
 
 @functools.lru_cache(maxsize=1)
@@ -55,3 +56,23 @@ def progress_bar(*, desc: str, progress: bool | None = None, total: int | None =
         return iterable
     return _tqdm_class()(iterable, total=total, desc=desc, unit=unit, leave=False,
                          disable=None if progress is None else not progress)
+
+
+def dask_progress(*, desc: str, progress: bool | None = None) -> Any:
+    """Return a context in which dask's local schedulers draw a bar of their tasks.
+
+    tqdm's dask callback with the bar class of :func:`progress_bar`; a context doing
+    nothing when ``progress`` is False. A distributed client shows its own dashboard.
+
+    Examples
+    --------
+    >>> import dask
+    >>> with dask_progress(desc="rows", progress=False):
+    ...     dask.compute(dask.delayed(sum)([1, 2]))
+    (3,)
+    """
+    if progress is False:
+        return contextlib.nullcontext()
+    from tqdm.dask import TqdmCallback  # imports tqdm.auto: at the first bar only
+    return TqdmCallback(desc=desc, tqdm_class=_tqdm_class(), leave=False,
+                        disable=None if progress is None else not progress)
