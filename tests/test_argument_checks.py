@@ -104,7 +104,7 @@ def _G():
     (lambda G: G.isel(dr=slice(0, 0)), "has 0 lag"),
     (lambda G: G.isel(dr=slice(0, 1)), "has 1 lag"),
     (lambda G: G * np.nan, "is all NaN"),
-    (lambda G: -G, "is not positive"),
+    (lambda G: -G, "has negative values"),  # the rules of every G (check_acf)
 ])
 def test_stitch_refuses_a_g_with_nothing_to_stitch(bad, message):
     """An empty G raised numpy's zero-size error; an all-NaN, negative or one-lag G was

@@ -257,3 +257,48 @@ def test_the_counting_scheduler_counts():
         assert counter.calls == 1
         float(data.sum())  # every conversion to numbers is one more run
         assert counter.calls == 2
+
+
+def test_fft_threads_one_per_dask_task(monkeypatch):
+    """Inside a task of dask's threaded scheduler every FFT kernel (G, PSD) resolves its
+    default threads to one (dask's workers use the cores: a full set of threads per task
+    oversubscribed them, benchmarks/bench_dask_threads.py); in the main thread, all
+    cores; an explicit ``workers`` always wins. G is the same either way (to 1e-12: the
+    threads add the blocks' sums in another order)."""
+    import os
+    import threading
+
+    from xrough._kernels import pairs
+    from xrough._kernels import psd as psd_kernels
+    from xrough.correlation import _fft
+
+    seen: list = []
+
+    def spy(workers):
+        n = pairs.resolve_workers(workers)
+        seen.append((threading.current_thread() is threading.main_thread(), workers, n))
+        return n
+
+    monkeypatch.setattr(_fft, "resolve_workers", spy)
+    monkeypatch.setattr(psd_kernels, "resolve_workers", spy)
+    maps = xr.concat([xrough.self_affine_surface(hurst=0.8, n=64, size="64 nm",
+                                                 lambda_r="16 nm", lambda_s="4 nm",
+                                                 rms_gradient=0.1, unit="nm", seed=s)
+                      for s in range(4)], dim="scan")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", xrough.QualityWarning)
+        lazy = maps.chunk({"scan": 1})
+        G = lazy.rough.acf().compute(scheduler="threads")
+        lazy.rough.psd().compute(scheduler="threads")
+        in_tasks = list(seen)
+        seen.clear()
+        G_main = maps.rough.acf()
+        maps.rough.psd()
+        in_main = list(seen)
+        seen.clear()
+        lazy.rough.acf(workers=3).compute(scheduler="threads")
+    assert len(in_tasks) >= 8 and all(n == 1 for main, _, n in in_tasks if not main)
+    assert any(not main for main, _, _ in in_tasks)
+    assert in_main and all(n == (os.cpu_count() or 1) for _, _, n in in_main)
+    assert seen and all(n == 3 for _, _, n in seen)
+    np.testing.assert_allclose(G.values, G_main.values, rtol=1e-12)

@@ -916,3 +916,26 @@ def test_flat_from_the_first_lag_is_a_slope_below_a_tenth_per_curve(slope, flat)
     assert bool(np.isfinite(S.isel(scan=1, dr=slice(1, None))).all())
     assert np.isnan(float(S.isel(scan=1, dr=0)))
     assert len(_flat_notes(caught)) == (1 if flat else 0)
+
+
+def test_persson_in_threads_leaves_xarray_options_as_it_found_them():
+    """Four threads running persson and mean_gap at once, eight times over: afterwards
+    xarray's keep_attrs is what it was ("default"), and arithmetic on a topography keeps
+    its units (two overlapping ``with xr.set_options`` exits left it off for good, and
+    every later ``topo + tilt`` lost its units)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    topo = xrough.self_affine_surface(hurst=0.8, n=64, size="64 nm", lambda_r="16 nm",
+                                      lambda_s="4 nm", rms_gradient=0.1, unit="nm", seed=3)
+    G = topo.rough.acf()
+    before = xr.get_options()["keep_attrs"]
+
+    def run(k):
+        with xrough.quality.quiet():  # per thread (warnings.catch_warnings is not)
+            xrough.persson(G, E_star="25 MPa", p0=f"{0.1 * (k + 1)} MPa")
+            xrough.mean_gap(G, E_star="25 MPa", p0=f"{0.1 * (k + 1)} MPa")
+
+    with ThreadPoolExecutor(4) as pool:
+        list(pool.map(run, range(32)))
+    assert xr.get_options()["keep_attrs"] == before
+    assert (topo + 0.01 * topo.x).attrs["units"] == "nm"

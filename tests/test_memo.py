@@ -147,3 +147,26 @@ def test_arguments_that_cannot_be_hashed_are_computed_not_kept():
             assert float(length(xr.DataArray([1.0, 2.0]), extra=object())) == 2.0
     assert len(calls) == 2 and length.cache_info()["size"] == 0
     assert length.peek(xr.DataArray([1.0, 2.0]), extra=object()) is None
+
+
+def test_switched_off_every_call_computes_and_nothing_is_kept(G, fits):
+    """Inside ``disabled()`` (and after ``set_enabled(False)``) a repeated fit fits again
+    and keeps nothing; the results equal the memoised ones; the switch comes back."""
+    from xrough import memo
+
+    kept = xrough.fit_acf(G)
+    with memo.disabled():
+        first, second = xrough.fit_acf(G), xrough.fit_acf(G)
+        assert xrough.fit_acf.peek(G) is None
+    assert len(fits) == 3
+    xr.testing.assert_identical(first, kept)
+    xr.testing.assert_identical(second, kept)
+    assert xrough.fit_acf.cache_info()["size"] == 1  # the one kept before
+    previous = memo.set_enabled(False)
+    try:
+        xrough.fit_acf(G)
+        assert len(fits) == 4
+    finally:
+        memo.set_enabled(previous)
+    xrough.fit_acf(G)
+    assert len(fits) == 4 and previous is True

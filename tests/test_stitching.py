@@ -409,3 +409,17 @@ def test_window_of_a_map_with_y_and_x_in_other_units():
     c = stitch_curves({"nm": t, "mixed": kept}, parallel=False)
     np.testing.assert_allclose(c.dr_min.values * f, [62.5, 40.0], rtol=1e-12)
     np.testing.assert_allclose(c.dr_max.values * f, [500.0, 400.0], rtol=1e-12)
+
+
+def test_refuses_a_g_that_is_no_g(three):
+    """A G holding inf (one bin of an overflowed estimate) or in the wrong units is
+    refused by name, as every estimator refuses it (xrough.acf.check_acf): stitch dropped
+    the bin and combined the rest without a word."""
+    G = {name: t.rough.acf() for name, t in three.items()}
+    name = next(iter(G))
+    bad = G[name].copy()
+    bad[5] = np.inf
+    with pytest.raises(ValueError, match=f"measurement '{name}'.*infinite"):
+        xrough.stitch({**G, name: bad})
+    with pytest.raises(ValueError, match=f"measurement '{name}'.*length\\^2"):
+        xrough.stitch({**G, name: G[name].assign_attrs(units="nm")})

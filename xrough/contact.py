@@ -12,7 +12,10 @@ array and ``.compute()`` runs the graph once.
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import threading
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -310,11 +313,39 @@ def _past(lags: xr.DataArray, spec: AcfSpec) -> str:
     return "questionable" if bool((lags > spec.gaps[:, 0].min()).any()) else "good"
 
 
+#: Calls inside :func:`own_attrs` (all threads) and the ``keep_attrs`` option before them.
+_ATTRS_OFF: dict = {"depth": 0, "saved": None}
+_ATTRS_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _attrs_off() -> Iterator[None]:
+    """Turn xarray's ``keep_attrs`` off from the first entry to the last exit of any thread.
+
+    xarray's options are one dict for the process: ``with xr.set_options(...)`` in two
+    threads at once can exit out of order and leave the option off for good (two
+    ``persson`` running in dask's threads did, and a user's ``topo + tilt`` lost its
+    units afterwards). Counted here, the last exit restores what the first entry found.
+    """
+    with _ATTRS_LOCK:
+        if _ATTRS_OFF["depth"] == 0:
+            _ATTRS_OFF["saved"] = xr.get_options()["keep_attrs"]
+            xr.set_options(keep_attrs=False)
+        _ATTRS_OFF["depth"] += 1
+    try:
+        yield
+    finally:
+        with _ATTRS_LOCK:
+            _ATTRS_OFF["depth"] -= 1
+            if _ATTRS_OFF["depth"] == 0:
+                xr.set_options(keep_attrs=_ATTRS_OFF["saved"])
+
+
 def own_attrs(func):
     """Run ``func`` with xarray's attrs propagation off: each result sets its own attrs."""
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
-        with xr.set_options(keep_attrs=False):
+        with _attrs_off():
             return func(*args, **kwargs)
     return wrapper
 
@@ -440,11 +471,11 @@ def _nan_where(result, mask: xr.DataArray):
 def _blank(ds: xr.Dataset, mask: xr.DataArray, select) -> xr.Dataset:
     """``ds`` with each data variable that ``select(v)`` picks NaN where ``mask`` holds.
 
-    As ``v.where(~mask)`` with ``v``'s attrs, variable by variable, but on the data (a
-    tenth of the time of the DataArray's alignment, 17 variables of a contact result:
-    6 ms): where ``mask``'s dims are among ``v``'s and its indexes are ``ds``'s, and ``v``
-    is float. Otherwise (and for the rest) ``DataArray.where``. Nothing to do (an eager
-    mask that holds nowhere): ``ds`` itself.
+    As ``v.where(~mask)`` with ``v``'s attrs, variable by variable, but on the data
+    (without the DataArray's alignment for each variable of a contact result): where
+    ``mask``'s dims are among ``v``'s and its indexes are ``ds``'s, and ``v`` is float.
+    Otherwise (and for the rest) ``DataArray.where``. Nothing to do (an eager mask that
+    holds nowhere): ``ds`` itself.
     """
     if mask.chunks is None and not bool(mask.any()):
         return ds

@@ -635,8 +635,8 @@ def fit_acf(
     40 seeds each) the default fit gives ``H`` with a mean pull of -0.04 to +0.33 and a
     pull scatter of 0.85 to 1.00, ``sigma_h_std`` 1.03 to 1.48 times the scatter of
     ``sigma_h``; on eq. 35 maps it keeps the sharp cutoff in 80 of 80.  The Gaussian's G is
-    a quadrature (about 3 ms per evaluation): where it is fitted the fit costs 2 to 3 times
-    the sharp one.
+    a quadrature: where it is fitted the fit costs more than the sharp one
+    (``python benchmarks/bench_fit.py``).
 
     *Which model.*  Eq. 36 approaches the self-affine law as ``dr^(2H-2)`` from the
     ballistic side and as ``dr^(2H)`` from the plateau side, whereas G of eq. 35 does so

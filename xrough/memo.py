@@ -13,15 +13,23 @@ What a hit hands out is what the computation returned: a deep copy of it (changi
 not change the next answer), with the same :class:`xrough.QualityWarning` issued again at
 the caller's line. ``cache_clear()`` empties a function's cache, ``cache_info()`` counts,
 :func:`forget` empties them all.
+
+What is kept, and for how long: at most ``maxsize`` results per function (32; the least
+recently used goes first), each a small result of G (a fit, a curve on G's lags), for the
+life of the process. :func:`disabled` (a block) or :func:`set_enabled` (the process) turn
+the keeping off: every call computes, nothing is kept, the results are the same. The
+explicit way to hand a step's result on is the argument (``persson(G, fit=fit,
+gradient=gbar)``); the memo only spares a chain that does not.
 """
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import inspect
 import threading
 from collections import OrderedDict
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any, Generic, ParamSpec, Protocol, TypeVar, cast
 
 import xarray as xr
@@ -29,10 +37,12 @@ from dask.base import tokenize
 
 from . import quality
 
-__all__ = ["by_content", "forget"]
+__all__ = ["by_content", "forget", "disabled", "set_enabled"]
 
 #: ``cache_clear`` of every function decorated in this session.
 _CLEARS: list[Callable[[], None]] = []
+#: Whether results are kept (:func:`set_enabled`), for every thread of the process.
+_STATE = {"enabled": True}
 
 _P = ParamSpec("_P")
 _R = TypeVar("_R")
@@ -127,6 +137,8 @@ def by_content(maxsize: int = 32) -> Callable[[Callable[_P, _R]], _Memoized[_P, 
 
         @functools.wraps(func)
         def wrapper(*args, **kwargs):
+            if not _STATE["enabled"]:
+                return func(*args, **kwargs)
             try:
                 key = key_of(args, kwargs)
             except Exception:  # noqa: BLE001  (unhashable arguments: computed, not kept)
@@ -150,6 +162,8 @@ def by_content(maxsize: int = 32) -> Callable[[Callable[_P, _R]], _Memoized[_P, 
 
         def peek(*args, **kwargs):
             """Return the kept result of an equal call (a copy; nothing said), or None."""
+            if not _STATE["enabled"]:
+                return None
             try:
                 key = key_of(args, kwargs)
             except Exception:  # noqa: BLE001
@@ -187,3 +201,37 @@ def forget() -> None:
     """
     for clear in _CLEARS:
         clear()
+
+
+def set_enabled(enabled: bool) -> bool:
+    """Turn the keeping of results on or off for the whole process; the previous state.
+
+    Off, every decorated function computes at each call and keeps nothing (what is kept
+    already stays, unused until it is turned on again; :func:`forget` empties it).
+
+    Examples
+    --------
+    >>> previous = set_enabled(False)
+    >>> previous, set_enabled(previous)
+    (True, False)
+    """
+    previous = _STATE["enabled"]
+    _STATE["enabled"] = bool(enabled)
+    return previous
+
+
+@contextlib.contextmanager
+def disabled() -> Iterator[None]:
+    """Compute every call inside the block afresh, keeping nothing (:func:`set_enabled`).
+
+    Examples
+    --------
+    >>> import xrough
+    >>> with disabled():
+    ...     pass  # e.g. time a first run, or check a result does not come from the memo
+    """
+    previous = set_enabled(False)
+    try:
+        yield
+    finally:
+        set_enabled(previous)

@@ -847,7 +847,7 @@ def plot(da: xr.DataArray, *, ax=None, **kwargs):
     -------
     matplotlib.axes.Axes
     """
-    if hasattr(xr, "DataTree") and isinstance(da, xr.DataTree):
+    if isinstance(da, xr.DataTree):
         return plot_stitched(da, ax=ax, **kwargs)
     if isinstance(da, xr.Dataset):
         return plot_dataset(da, **kwargs)

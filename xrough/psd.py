@@ -11,7 +11,6 @@ missing points and a comparison with ``spectrum(G)`` are in docs/psd.md.
 
 from __future__ import annotations
 
-import os
 from typing import Any
 
 import numpy as np
@@ -250,7 +249,7 @@ def power_spectrum(
         output_core_dims=[["packed"]], dask="parallelized", output_dtypes=[float],
         dask_gufunc_kwargs={"output_sizes": {"packed": nb + 2}}, keep_attrs=False,
         kwargs={"direction": kind, "spacing": grid.spacing, "window": name,
-                "edges": tuple(edges), "workers": workers or os.cpu_count() or 1})
+                "edges": tuple(edges), "workers": workers})
     factors = (error_factors(shape, spacing, tuple(edges), name)
                if kind in ("radial", "profile") else None)
     return _result(topography, grid, packed, kind=kind, window=name, n_modes=n_modes,
@@ -423,7 +422,7 @@ def power_spectrum_2d(topography: xr.DataArray, *, window: str | None = "auto",
         output_core_dims=[["qy", "qx"]], dask="parallelized", output_dtypes=[float],
         dask_gufunc_kwargs={"output_sizes": dict(zip(("qy", "qx"), grid.shape))},
         kwargs={"spacing": grid.spacing, "window": name,
-                "workers": workers or os.cpu_count() or 1}, keep_attrs=False)
+                "workers": workers}, keep_attrs=False)
     inverse = u.power_units(grid.lateral_unit, -1)
     coords = {}
     for dim, n, d in zip(("qy", "qx"), grid.shape, grid.spacing):

@@ -538,7 +538,7 @@ def _own_output_layers(obj):
 
     if isinstance(obj, xr.Dataset):
         if all(v.chunks is None for v in obj.data_vars.values()):
-            return obj  # nothing lazy: no copy (assign took a tenth of a contact result)
+            return obj  # nothing lazy: no copy (assign costs a copy of every variable)
         return obj.assign({k: fresh(v) for k, v in obj.data_vars.items()})
     return fresh(obj)
 

@@ -8,7 +8,6 @@ topography and parameters, converts units and labels the result.
 
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -19,6 +18,7 @@ import xarray as xr
 from . import quality
 from . import units as u
 from ._kernels.checks import require_count, require_flag
+from ._kernels.pairs import resolve_workers
 from ._kernels.separation import GAP_SHARES
 from ._kernels.solver import (
     ElasticOperator,
@@ -283,7 +283,7 @@ def solve_contact(
     opts = _options(tol, max_iter, precision, precondition, coarse_to_fine)
     to_lat = u.conversion_factor(grid.height_unit, grid.lateral_unit)
     loads = _loads(p0, displacement, E, grid.height_unit, to_lat)
-    workers = workers if workers is not None else (os.cpu_count() or 1)
+    workers = resolve_workers(workers)
     op = ElasticOperator(h.shape, grid.spacing, periodic=grid.periodic, workers=workers)
     # the problem is linear in (h, p0/E*, delta): solve it with heights scaled by the power
     # of two 2**e nearest max|h| (exact in floating point), so that no height, square or

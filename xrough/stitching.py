@@ -51,7 +51,7 @@ from . import quality
 from . import units as u
 from ._kernels.binning import check_points_per_decade, log_bin_edges, log_bins
 from ._kernels.checks import require_positive
-from .acf import result_attrs
+from .acf import check_acf, result_attrs
 from .correlation import height_difference_acf
 from .preprocess import TIP_SAFETY_FACTOR, reliability_window, stated_tip_radius, tip_cutoff
 from .topography import grid_of
@@ -155,16 +155,18 @@ def _height_unit(da: xr.DataArray) -> str:
 
 
 def _require_curve(name: str, da: xr.DataArray) -> None:
-    """Refuse a G that has nothing to stitch (it was dropped without a word).
+    """Refuse a G that has nothing to stitch (it was dropped without a word), or no G.
 
-    Fewer than two lags, or (computed) fewer than two finite, positive values at positive
-    lags.
+    Fewer than two lags, or (computed) a G that breaks the rules of :mod:`xrough.acf`
+    (an infinite value, wrong units) or has fewer than two finite, positive values at
+    positive lags.
     """
     if da.sizes["dr"] < 2:
         raise ValueError(f"measurement {name!r}: its G has {da.sizes['dr']} lag(s); "
                          "stitching needs at least two")
     if _is_lazy(da):
         return
+    check_acf(da, what=f"measurement {name!r}: its G")  # inf, units, ... (xrough.acf)
     values, dr = np.asarray(da.values, dtype=float), np.asarray(da["dr"].values, dtype=float)
     usable = np.isfinite(values) & (values > 0) & (dr > 0)
     if np.count_nonzero(usable) < 2:
@@ -188,8 +190,7 @@ def _window_of(name: str, da: xr.DataArray, override, lunit: str, min_pixels: fl
                                                                                     None)
     recorded_lo = lo is not None
     rule_lo = rule_hi = "reliable_dr (recorded)"
-    if _is_acf(da):
-        _require_curve(name, da)
+    if _is_acf(da):  # checked by stitch_curves (_require_curve)
         pixel = da.attrs.get("pixel_size", float(da.dr.min()))
         scan = da.attrs.get("scan_size")
     else:
@@ -462,6 +463,9 @@ def stitch_curves(
     A precomputed G keeps the window it records.
     """
     items = _as_mapping(measurements)
+    for name, da in items.items():  # a G that is no G, named before any unit is read
+        if _is_acf(da):
+            _require_curve(name, da)
     windows = _checked_windows(windows, items, acf_kwargs)
     first = next(iter(items.values()))
     lunit = unit or _lateral_unit(first)

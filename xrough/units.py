@@ -114,7 +114,7 @@ def _did_you_mean(text: str) -> str:
 def _unit(text: str) -> pint.Unit:
     """Return ``ureg.Unit(text)``, parsed once per string.
 
-    pint's parser took 0.4 ms a call, a tenth of a small map's G; a Unit is immutable.
+    pint's parser is slow next to a small map's G; a Unit is immutable.
     """
     return ureg.Unit(text)
 

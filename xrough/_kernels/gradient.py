@@ -46,7 +46,7 @@ __all__ = ["AUTO_METHODS", "BEYOND_RESOLUTION", "beyond_resolution", "EVEN_START
 #: of them cost twice the time for 1-2 % more (256^2 maps, 100 seeds).
 GRADIENT_ERROR_CAPTURED = 0.999
 #: At most this many axes are propagated through eq. 26 (5-10 on maps, whose bins are
-#: nearly rigidly correlated; up to 26 on long profiles, 4 ms each); the variance left
+#: nearly rigidly correlated; up to 26 on long profiles); the variance left
 #: over, mostly of single bins, enters as the ballistic response (half the relative
 #: error of G at the lag).
 GRADIENT_ERROR_AXES = 8

@@ -14,7 +14,7 @@ and how much rougher the surface is at G's largest lags. :func:`area_model_error
 the expected ``ln(a / a_exact)`` as a cubic polynomial in ``ln p*`` and those three,
 fitted by least squares to the table (open maps with a term of their own), and its spread
 from the residuals of the study's surfaces nearest in those variables, each left out of
-the fit in turn (fitted once per process, in 0.1 s). Outside the table's range of ``p*``
+the fit in turn (fitted once per process). Outside the table's range of ``p*``
 and of G's shape it is NaN, with the reason (:func:`outside_domain`).
 """
 
@@ -224,8 +224,7 @@ def read_table(name: str) -> dict[str, np.ndarray]:
     """Read one of the study's tables in ``xrough/data``, one array per column.
 
     Columns whose first value is a number are floats (``nan`` for a missing value), the
-    others text (set, roll-off, cutoff); numpy's C parser reads them (0.1 s for 50,000
-    rows).
+    others text (set, roll-off, cutoff); numpy's C parser reads them.
     """
     data = resources.files("xrough").joinpath(f"data/{name}").read_bytes()
     text = (gzip.decompress(data) if name.endswith(".gz") else data).decode()

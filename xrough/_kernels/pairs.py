@@ -44,7 +44,7 @@ from .uncertainty import finite_area_variance
 __all__ = ["folded_pair_sums", "binned_map_sums", "map_kernel_applies", "extremes",
            "folded_geometric_counts", "padded_shape", "binned_geometry", "require_no_inf",
            "few_points_message", "packed", "pool", "g_from_packed", "area_variance",
-           "times_power_of_two"]
+           "times_power_of_two", "resolve_workers"]
 
 
 def padded_shape(shape: tuple[int, ...], ks: tuple[int, ...], periodic: bool) -> tuple[int, ...]:
@@ -175,7 +175,7 @@ def cumulative_rows(t: np.ndarray) -> np.ndarray:
     """``t`` replaced by its cumulative sum along axis -2 (the rows of each map), in place.
 
     Row by row, each addition vectorised along a row: numpy's ``cumsum(axis=0)`` walks
-    each column with the row stride and took 14 times as long on a 1024^2 map.
+    each column with the row stride, out of the cache.
     """
     for y in range(1, t.shape[-2]):
         np.add(t[..., y - 1, :], t[..., y, :], out=t[..., y, :])
@@ -424,8 +424,8 @@ def extremes(h: np.ndarray, workers: int = 1) -> tuple[float, float]:
     """Return ``(max, min)`` of ``h`` (NaN if any point is), a block of rows at a time.
 
     Both reductions of a block run while it is in the cache, the blocks on ``workers``
-    threads (:func:`_in_threads`): the two passes of ``np.max`` and ``np.min`` over a
-    4096^2 map took 7.7 ms, a tenth of its G.
+    threads (:func:`_in_threads`), not two passes of ``np.max`` and ``np.min`` over the
+    whole map.
     """
     if h.ndim != 2:
         return float(np.max(h)), float(np.min(h))
@@ -582,9 +582,8 @@ def _folded_power(slab: np.ndarray, m0: int, workers: int) -> np.ndarray:
 
 
 #: Arrays below this many elements are not split over threads (:func:`_in_threads`):
-#: 512^2 open maps and 1024^2 periodic ones and larger are. Paired with the code before
-#: the threads: a 4096^2 periodic map 102-113 ms against 143-147 ms, an open one 474 ms
-#: against 541-550 ms; the columns of a 1024^2 periodic map 2.2 ms against 4.3 ms.
+#: 512^2 open maps and 1024^2 periodic ones and larger are (below, starting the threads
+#: costs more than they win; ``python benchmarks/bench_acf.py`` times both sides).
 THREAD_MIN_ELEMENTS = 2**18
 
 
@@ -599,10 +598,10 @@ def _in_threads(func, rows: int, width: int, workers: int) -> list:
     not.  One thread, which transforms with ``workers``, where the array (``rows *
     width``) is small or the machine has one core.
 
-    The helper threads are started per call (tens of microseconds): a pool's idle
-    threads woke one at a time, and a second slab waited for the first (a
-    ``ThreadPoolExecutor`` ran the two slabs of a 1024^2 map one after the other). An
-    interrupt (or an error, in any thread) stops every thread after its current block.
+    The helper threads are started per call: a pool's idle threads wake one at a time,
+    and a second slab waits for the first (a ``ThreadPoolExecutor`` runs the two slabs
+    of a 1024^2 map one after the other). An interrupt (or an error, in any thread)
+    stops every thread after its current block.
     """
     threads = _thread_count(workers)
     if threads <= 1 or rows * width < THREAD_MIN_ELEMENTS:
@@ -651,8 +650,8 @@ def _power_slabs(spec: np.ndarray, workers: int) -> np.ndarray:
     ``spec``: ``(m0, width)`` complex, all of the map's rows (no padding); the mean is
     removed (exactly: the power at ``k = 0`` set to 0). Returns the real quarter (rows
     ``0..m0/2``), a strided view into ``spec``: no array of the map's size is made (a
-    contiguous copy, for the rows' transforms and binning, cost more than it saved:
-    113 ms against 100-112 for a 4096^2 map). The slabs (disjoint columns) run on
+    contiguous copy, for the rows' transforms and binning, costs more than it saves).
+    The slabs (disjoint columns) run on
     ``workers`` threads.
     """
     m0 = spec.shape[0]
@@ -673,6 +672,28 @@ def _thread_count(workers: int) -> int:
     """Threads for ``workers`` as :mod:`scipy.fft` reads it (negative: from the CPUs)."""
     cpus = os.cpu_count() or 1
     return max(1, cpus + 1 + workers if workers < 0 else workers)
+
+
+def resolve_workers(workers: int | None) -> int:
+    """Return the FFT threads of a kernel: ``workers``, or by default where it runs.
+
+    ``None`` means all cores when the kernel runs in the main thread, and one thread
+    anywhere else: in a task of dask's threaded scheduler, of a distributed worker or of
+    the caller's own thread pool, whose threads already use the cores (a full set of
+    threads per task would oversubscribe them). Resolved when the kernel runs, in the
+    thread that runs it, so a graph built in the main thread and computed by dask gets
+    one thread per task.
+
+    Examples
+    --------
+    >>> resolve_workers(3), resolve_workers(None) == (os.cpu_count() or 1)
+    (3, True)
+    """
+    if workers is not None:
+        return int(workers)
+    if threading.current_thread() is not threading.main_thread():
+        return 1
+    return os.cpu_count() or 1
 
 
 def _power_quarter(rows: np.ndarray, m0: int, workers: int) -> np.ndarray:

@@ -33,7 +33,7 @@ import numpy as np
 import scipy.fft as sfft
 
 from .binning import bin_index
-from .pairs import few_points_message
+from .pairs import few_points_message, resolve_workers
 from .tiles import scaled_heights
 
 __all__ = ["WINDOWS", "DIRECTIONS", "window_1d", "mode_range", "mode_bins", "error_factors",
@@ -66,7 +66,7 @@ def window_1d(name: str | None, n: int) -> np.ndarray | None:
         return None
     if name not in WINDOWS:
         raise ValueError(f"window must be one of {WINDOWS} or None, got {name!r}")
-    from scipy.signal import get_window  # here: scipy.signal costs 0.3 s to import
+    from scipy.signal import get_window  # here: scipy.signal is slow to import
 
     w = np.asarray(get_window(name, n, fftbins=True), dtype=float)
     return w / np.sqrt(np.mean(w**2))
@@ -271,7 +271,7 @@ def _prepared(h: np.ndarray, windows) -> tuple:
 
 
 def psd2d_kernel(h: np.ndarray, *, spacing: tuple[float, float], window: str | None,
-                 workers: int = 1) -> np.ndarray:
+                 workers: int | None = None) -> np.ndarray:
     """Compute the periodogram ``C(q_x, q_y)`` of each map, unbinned, ``q = 0`` centred.
 
     The definition of :func:`psd_kernel` per mode (``fftshift`` order along both axes):
@@ -284,6 +284,7 @@ def psd2d_kernel(h: np.ndarray, *, spacing: tuple[float, float], window: str | N
     >>> C.shape, bool(np.isclose(C.sum() / 64, h.var()))  # Parseval: sum C / A
     ((8, 8), True)
     """
+    workers = resolve_workers(workers)
     h = np.asarray(h)
     batch = h.shape[:-2]
     flat = h.reshape((-1,) + h.shape[-2:])
@@ -350,7 +351,8 @@ def _abs2(a: np.ndarray) -> np.ndarray:
 
 
 def psd_kernel(h: np.ndarray, *, direction: str, spacing: tuple[float, ...],
-               window: str | None, edges: tuple[float, ...], workers: int = 1) -> np.ndarray:
+               window: str | None, edges: tuple[float, ...],
+               workers: int | None = None) -> np.ndarray:
     """Binned power spectral density of each map or line profile of a stack.
 
     Parameters
@@ -366,8 +368,9 @@ def psd_kernel(h: np.ndarray, *, direction: str, spacing: tuple[float, ...],
         Window (:data:`WINDOWS`) along each transformed axis.
     edges : tuple of float
         Bin edges in ``|q|`` (angular wavenumber, inverse unit of ``spacing``).
-    workers : int
-        FFT threads.
+    workers : int, optional
+        FFT threads (:func:`~xrough._kernels.pairs.resolve_workers`: by default all cores
+        in the main thread, one in a dask task).
 
     Returns
     -------
@@ -382,6 +385,7 @@ def psd_kernel(h: np.ndarray, *, direction: str, spacing: tuple[float, ...],
         A map (or every line of one) with fewer than 2 valid points (naming the map of a
         stack), infinite heights, or a ``C`` beyond the float64 range.
     """
+    workers = resolve_workers(workers)
     h = np.asarray(h)
     core = 1 if direction == "profile" else 2
     if direction == "y":

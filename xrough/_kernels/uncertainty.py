@@ -301,7 +301,7 @@ def g_covariance(dr: np.ndarray, q: np.ndarray, C: np.ndarray, *, size: float,
         weight, mean_weight = width * power**2, width * power
     elif geometry == "axis":
         # the sum over the other axis is smooth in it beyond its first modes: bands there
-        # (a 2048^2 map summed 4 million modes one by one, 0.1 s per G)
+        # (not the millions of modes of a large map one by one)
         # the modes +ky and -ky have the same power: the half plane ky >= 0, doubled
         kq, wn = _cross_modes(float(size), n_max, int(exact_modes),
                               min(exact_modes, CROSS_EXACT_MODES), float(bands_per_decade),

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import functools
-import os
 from dataclasses import replace
 from typing import Any
 
@@ -349,7 +348,6 @@ def _in_memory(da: xr.DataArray, grid: Grid, estimator: str, *, n_pairs, seed, o
         n_pairs = check_n_pairs(n_pairs)
         sums = _random_sums(da, grid, p, n_pairs=n_pairs, seed=seed, progress=progress)
     else:
-        workers = workers if workers is not None else (os.cpu_count() or 1)
         # G along each axis too, for the check of directions: of a computed map only (a
         # lazy G is not judged, so its graph carries nothing for it)
         directional = judge and p.directional and da.chunks is None

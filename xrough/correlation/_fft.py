@@ -13,11 +13,12 @@ from .._kernels.pairs import (
     map_kernel_applies,
     packed,
     require_no_inf,
+    resolve_workers,
 )
 from ._plan import Plan, progress_bar
 
 
-def fft_kernel(h: np.ndarray, *, plan: Plan, workers: int, progress,
+def fft_kernel(h: np.ndarray, *, plan: Plan, workers: int | None, progress,
                directional: bool = False) -> np.ndarray:
     """Map (..., *core) heights to their sums of G per kept bin, packed.
 
@@ -29,6 +30,7 @@ def fft_kernel(h: np.ndarray, *, plan: Plan, workers: int, progress,
     the scaled heights, and the exponent of each map is packed with them
     (:func:`xrough._kernels.pairs.packed`).
     """
+    workers = resolve_workers(workers)  # in the thread that runs it (a dask task: 1)
     batch, flat = plan.maps(h)
     # the lags along each pixel axis are among the folded sums (free), as further blocks
     directional = directional and plan.directional
