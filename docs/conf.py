@@ -125,6 +125,7 @@ suppress_warnings = [
 API_MODULES = [
     "xrough.topography",
     "xrough.io",
+    "xrough.io.readers",
     "xrough.io.archive",
     "xrough.preprocess",
     "xrough.correlation",

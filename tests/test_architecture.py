@@ -15,11 +15,14 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "xrough"
 #: Imports allowed inside functions: optional extras only.
-OPTIONAL = {"SurfaceTopography", "SurfaceTopography.IO", "zarr", "pint_xarray"}
+#: (h5py: what HDF5 stores of a NetCDF-4 file's variables, to refuse unwritten data;
+#: xrough.io.netcdf.check_declared_sizes falls back to bounds by the file's size without.)
+OPTIONAL = {"SurfaceTopography", "SurfaceTopography.IO", "zarr", "pint_xarray", "h5py"}
 #: Imported where first needed, for the import time of xrough (xrough.plot.pyplot; a
 #: window of xrough.psd: scipy.signal takes 0.27 s to import, for one function), or only
-#: where it works (tqdm.auto, which warns in a notebook without ipywidgets).
-DEFERRED = {"matplotlib", "matplotlib.pyplot", "scipy.signal", "tqdm.auto"}
+#: where it works (tqdm.auto, which warns in a notebook without ipywidgets; tqdm.dask
+#: imports it).
+DEFERRED = {"matplotlib", "matplotlib.pyplot", "scipy.signal", "tqdm.auto", "tqdm.dask"}
 
 
 def _module_name(path: Path) -> str:

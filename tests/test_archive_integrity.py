@@ -10,6 +10,7 @@ open: when the chunk is computed), or leaves the values identical.
 import importlib.util
 import json
 import os
+import re
 import subprocess
 import sys
 import time
@@ -382,3 +383,135 @@ def test_a_damaged_index_of_chunks_is_refused(tmp_path, chunks):
                 assert path.name in str(err), (position, err)
             else:
                 _assert_same(back, analysis)
+
+
+# --- files that declare more than they hold ----------------------------------------------
+#
+# A header is cheap to forge: a few kB declare a 100000 x 100000 variable whose chunks are
+# not written (read as 74.5 GiB of fill values), a shape edited in a Zarr store's metadata
+# declares 244 million chunks to look up. Each is refused from the metadata alone: the
+# functions that would read the data, or list the chunks, are replaced by ones that fail
+# the test, so a check that came too late could neither allocate nor hang.
+
+
+def _never(*args, **kwargs):
+    raise AssertionError("reached the data: the declared sizes were not checked first")
+
+
+def _forged_netcdf(path, shape=(100_000, 100_000), **kwargs):
+    """A NetCDF-4 file declaring a float64 ``height`` of ``shape``, none of it written."""
+    with netCDF4.Dataset(path, "w") as nc:
+        for dim, n in zip(("y", "x"), shape):
+            nc.createDimension(dim, n)
+        nc.createVariable("height", "f8", ("y", "x"), **kwargs).units = "nm"
+    return path
+
+
+@pytest.mark.parametrize("h5py_installed", [True, False], ids=["h5py", "no-h5py"])
+@pytest.mark.parametrize(("shape", "kwargs"), [
+    ((100_000, 100_000), {"zlib": True, "chunksizes": (1000, 1000)}),  # above MAX_POINTS
+    ((40_000, 40_000), {"zlib": True, "chunksizes": (1000, 1000)}),  # 12 GiB, below it
+    ((20_000, 20_000), {"contiguous": True}),  # uncompressed: 3.2 GB, never stored
+], ids=["deflated-huge", "deflated-below-cap", "contiguous"])
+def test_netcdf_declaring_unwritten_data_is_refused_before_reading(
+        tmp_path, monkeypatch, shape, kwargs, h5py_installed):
+    if h5py_installed:
+        pytest.importorskip("h5py")
+    else:  # the bounds by the file's size alone
+        monkeypatch.setattr(netcdf, "_open_h5", lambda path: None)
+    path = _forged_netcdf(tmp_path / "forged.nc", shape, **kwargs)
+    assert path.stat().st_size < 100_000
+    monkeypatch.setattr(netcdf, "_open", _never)
+    expected = (r"forged\.nc: variable 'height' of group '/' declares shape "
+                + re.escape(str(shape)))
+    with pytest.raises(ValueError, match=expected) as err:
+        xrough.open_topography(path)
+    assert "refused before reading" in str(err.value)
+    with pytest.raises(ValueError, match=expected + r".*(written|in the file)"):
+        netcdf.read(path, max_points=10**11)  # not the limit of points: the missing data
+    if shape[0] > 50_000:
+        with pytest.raises(ValueError, match=r"more than the limit of 2147483648 points"):
+            xrough.open_topography(path)
+
+
+def test_netcdf_within_the_limits_still_reads(tmp_path):
+    topo = xrough.topography(np.random.default_rng(0).normal(size=(64, 64)), spacing=1.0,
+                             unit="nm")
+    netcdf.write(topo, tmp_path / "t.nc")
+    xr.testing.assert_identical(netcdf.read(tmp_path / "t.nc"), topo)
+    with pytest.raises(ValueError, match=r"t.nc: variable '\w+' of group '/' declares shape "
+                                         r"\(64, 64\).*more than the limit of 100 points"):
+        netcdf.read(tmp_path / "t.nc", max_points=100)
+
+
+@pytest.mark.parametrize("chunks", [None, {}], ids=["eager", "lazy"])
+def test_archive_declaring_unwritten_data_is_refused_before_reading(tmp_path, monkeypatch,
+                                                                    chunks):
+    path = xrough.save_analysis(tmp_path / "a.nc", _small())
+    with netCDF4.Dataset(path, "a") as nc:
+        group = nc["m/topography"]
+        group.createDimension("big_y", 100_000)
+        group.createDimension("big_x", 100_000)
+        group.createVariable("forged", "f8", ("big_y", "big_x"), zlib=True,
+                             chunksizes=(1000, 1000))
+    assert path.stat().st_size < 64_000
+    monkeypatch.setattr(archive, "_open_tree", _never)
+    with pytest.raises(ValueError, match=r"a\.nc: variable 'forged' of group '/m/topography' "
+                                         r"declares shape \(100000, 100000\)"):
+        xrough.open_analysis(path, chunks=chunks)
+
+
+def _edit_zarr_shape(store, array, shape):
+    """Edit an array's shape in the store's metadata, consolidated and its own."""
+    own = store / array / ".zarray"
+    meta = json.loads(own.read_text())
+    meta["shape"] = list(shape)
+    own.write_text(json.dumps(meta))
+    consolidated = json.loads((store / ".zmetadata").read_text())
+    consolidated["metadata"][f"{array}/.zarray"]["shape"] = list(shape)
+    (store / ".zmetadata").write_text(json.dumps(consolidated))
+
+
+@needs_zarr
+@pytest.mark.parametrize("chunks", [None, {}], ids=["eager", "lazy"])
+def test_zarr_shape_edited_to_a_million_squared_is_refused_before_listing(
+        tmp_path, monkeypatch, chunks):
+    store = xrough.save_analysis(tmp_path / "a.zarr", _small())
+    _edit_zarr_shape(store, "m/topography/height", (10**6, 10**6))  # 244 M chunks of 64^2
+    monkeypatch.setattr(archive, "_store_files", _never)
+    monkeypatch.setattr(archive, "_open_tree", _never)
+    why = "points, more than the limit" if chunks is None else "chunks.*more than the limit"
+    with pytest.raises(ValueError, match=rf"a\.zarr: array 'm/topography/height' of the Zarr "
+                                         rf"store declares shape \(1000000, 1000000\).*{why}"):
+        xrough.open_analysis(store, chunks=chunks)
+
+
+@needs_zarr
+@pytest.mark.parametrize("chunks", [None, {}], ids=["eager", "lazy"])
+def test_zarr_v3_array_of_a_million_squared_is_refused_before_listing(
+        tmp_path, monkeypatch, chunks):
+    import zarr
+
+    store = tmp_path / "v3.zarr"
+    group = zarr.open_group(store, mode="w", zarr_format=3)
+    group.create_array("height", shape=(10**6, 10**6), chunks=(64, 64), dtype="f8")
+    assert (store / "zarr.json").is_file() and (store / "height" / "zarr.json").is_file()
+    monkeypatch.setattr(archive, "_store_files", _never)
+    with pytest.raises(ValueError, match=r"v3\.zarr: array 'height' of the Zarr store "
+                                         r"declares shape \(1000000, 1000000\) with chunks "
+                                         r"\(64, 64\)"):
+        xrough.open_analysis(store, chunks=chunks)
+
+
+@needs_zarr
+def test_zarr_chunks_are_looked_up_in_one_listing(tmp_path):
+    """The chunks of a store are looked up in one listing of its files (zarr's own count
+    compared every name with every file: 9 s for 30000 chunks); a lost one is named."""
+    many = xr.DataArray(np.arange(300.0), dims="i", name="v").chunk({"i": 1})
+    store = xrough.save_analysis(tmp_path / "many.zarr", {"v": many})
+    xr.testing.assert_identical(xrough.open_analysis(store, chunks={})["v"].compute(),
+                                many.compute())
+    (store / "v" / "v" / "299").unlink()
+    with pytest.raises(ValueError, match=r"incomplete Zarr store: chunks missing from "
+                                         r"'v/v' \(1 of 300\)"):
+        xrough.open_analysis(store, chunks={})

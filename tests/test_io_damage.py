@@ -223,6 +223,45 @@ def test_gwyddion_export_with_a_damaged_first_line_is_refused(tmp_path, first):
         text.read(path)
 
 
+@pytest.mark.parametrize("rows, match", [
+    (["garbage", *GWY_ROWS[1:]], r"line 5 \('garbage'\), before the first row of numbers "
+                                 r"of a Gwyddion text export"),
+    (["abc\t-5.2270e-01", *GWY_ROWS[1:]], r"line 5 \('abc\\t-5\.2270e-01'\), before the "
+                                          r"first row"),
+    (["---", *GWY_ROWS[1:]], r"line 5 \('---'\), before the first row"),
+    (["1.8910e-01: -5.2270e-01\t-4.1310e-01\t-2.4415e+00", *GWY_ROWS[1:]],
+     r"line 5 .*, before the first row"),
+    ([*GWY_ROWS[:3], "garbage"], r"line 8 \('garbage'\), after the last row"),
+    (["1.8910e-01\t-5.2270e-01\t-4.1310e-01", *GWY_ROWS[1:]],
+     r"line 5 has 3 values where 3 of the 4 lines of numbers have 4: every line must"),
+    (["1.8910e-01", *GWY_ROWS[1:]], r"line 5 has 1 value where 3 of the 4 lines"),
+    ([*GWY_ROWS[:2], "9.7760e-01\t-3.1060e-01", GWY_ROWS[3]], r"line 7 has 2 values where"),
+], ids=["garbage-line", "garbage-token-and-fewer", "dashes", "colon", "garbage-last",
+        "fewer-values", "one-value", "fewer-values-inside"])
+def test_gwyddion_export_with_a_first_row_that_is_not_numbers_is_refused(tmp_path, rows,
+                                                                         match):
+    """A first row replaced by garbage (a line that is not numbers at all, or starts with
+    one) was taken for a header line: a 4 x 4 export read as 3 x 4 with the stated
+    Height spread over 3 rows (pixel 33 % too tall). After Gwyddion's commented header
+    only rows of numbers may follow; rows of another width are named by their own line
+    (the first row's width is no longer taken for the file's)."""
+    path = gwyddion(tmp_path / "gwy.txt", rows)
+    with pytest.raises(ValueError, match=r"gwy\.txt: " + match):
+        read_quietly(path)
+
+
+def test_gwyddion_export_rows_are_checked_against_stated_points(tmp_path):
+    """Where the header states the points (``XRes``/``YRes``), the rows must match them:
+    a row lost cleanly at a line boundary cannot be told from rectangular pixels
+    otherwise."""
+    path = tmp_path / "gwy.txt"
+    path.write_bytes((GWY_HEADER + "# XRes: 4\n# YRes: 4\n" + "\n".join(GWY_ROWS[1:])
+                      + "\n").encode("utf-8"))
+    with pytest.raises(ValueError, match=r"gwy\.txt: the header states 4 points along y "
+                                         r"but the matrix has 3"):
+        read_quietly(path)
+
+
 def test_text_profile_cut_inside_its_last_number_is_refused(tmp_path):
     path = tmp_path / "p.txt"
     path.write_text("x [um]\th [nm]\n0.000\t0.1891\n0.500\t-0.5227\n1.000\t-0.4")

@@ -133,7 +133,7 @@ def test_metropro_dat_goes_to_the_bridge_not_the_text_reader(tmp_path):
 def test_binary_dat_without_bridge_is_unknown_not_bad_text(tmp_path, monkeypatch):
     path = tmp_path / "zygo.dat"
     path.write_bytes(b"\x88\x1b\x03\x6f" + bytes(range(256)) * 8)
-    monkeypatch.setattr(xrough.io, "_bridge_reads", lambda head, p: False)
+    monkeypatch.setattr(xrough.io, "available", lambda name: False)  # no bridge
     with pytest.raises(ValueError, match=r"zygo\.dat: unknown file format") as err:
         detect_format(path)
     assert "binary content" not in str(err.value)

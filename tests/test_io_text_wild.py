@@ -17,7 +17,8 @@ import pytest
 from test_io_text_nc import st_topography
 
 import xrough
-from xrough.io import open_topography
+from conftest import data_path, needs_bridge
+from xrough.io import open_topography, text
 from xrough.topography import grid_of
 
 
@@ -393,4 +394,94 @@ def test_a_text_file_with_a_nul_byte_is_refused_not_bridged(tmp_path, suffix):
     path = tmp_path / f"profile{suffix}"
     path.write_bytes(lines[:200] + b"\x00" + lines[200:])
     with pytest.raises(ValueError, match="a NUL byte at offset 200 .line 15.: a damaged text"):
+        xrough.open_topography(path, unit="um")
+
+
+def _xy_profile(n=132):
+    """A profile of ``n`` x-y pairs, one per line, of 14 or 15 bytes each."""
+    return "".join(f"{i * 0.1:.3f} {np.sin(i / 5):.5f}\n" for i in range(n)).encode()
+
+
+#: Damage by blocks of NUL bytes: zeroed bytes in place of some lines (more than the two
+#: NULs a text file was allowed before it counted as binary), or a zeroed first 4 kB (no
+#: line of numbers left where the format is detected).
+NUL_DAMAGE = {"zeroed-block": (1000, 512), "zeroed-start": (0, 4096)}
+
+
+def _nul_damaged(path, where):
+    at, n = NUL_DAMAGE[where]
+    raw = _xy_profile(132 if where == "zeroed-block" else 600)
+    path.write_bytes(raw[:at] + b"\x00" * n + raw[at + n:])
+    return at, raw[:at].count(b"\n") + 1
+
+
+@pytest.mark.parametrize("suffix", [".txt", ".xy", ".dat"])
+@pytest.mark.parametrize("options", [{}, {"format": "text"}], ids=["detected", "text"])
+def test_a_text_profile_with_a_block_of_nul_bytes_is_refused(tmp_path, suffix, options):
+    """A block of 512 zeroed bytes in a 132-point x-y profile made it binary for the
+    format detection (more than two NULs): SurfaceTopography read 27 of the 132 points,
+    silently (``format="text"`` said "binary content"). Text with lines of numbers and no
+    control byte but NUL is damaged text: the text reader refuses it, naming the first
+    NUL's offset and line, whatever the extension (``.xy`` is none of the text reader's)."""
+    path = tmp_path / f"profile{suffix}"
+    at, line = _nul_damaged(path, "zeroed-block")
+    with pytest.raises(ValueError, match=rf"profile\{suffix}: contains a NUL byte at offset "
+                                         rf"{at} \(line {line}\): a damaged text file"):
+        xrough.open_topography(path, unit="um", **options)
+
+
+@needs_bridge
+@pytest.mark.parametrize("where", list(NUL_DAMAGE))
+@pytest.mark.parametrize("options", [{}, {"format": "surfacetopography"}],
+                         ids=["detected", "bridge"])
+def test_the_bridge_refuses_a_text_profile_with_nul_bytes(tmp_path, where, options):
+    """The bridge refuses text with NUL bytes too, before SurfaceTopography reads it: a
+    file whose first 4 kB are zeroed has no line of numbers where the format is detected
+    and goes to the bridge (which read 328 of its 600 points); ``format="surfacetopography"``
+    sends any file there. The intact profile still reads through the bridge, every point
+    of it."""
+    path = tmp_path / "profile.txt"
+    at, line = _nul_damaged(path, where)
+    with pytest.raises(ValueError, match=rf"profile\.txt: contains a NUL byte at offset "
+                                         rf"{at} \(line {line}\)"):
+        xrough.open_topography(path, unit="um", **options)
+    path.write_bytes(_xy_profile())  # intact, the same profile reads: all its points
+    assert xrough.open_topography(path, unit="um", **options).size == 132
+
+
+def test_utf16_text_without_a_byte_order_mark_is_told_its_encoding(tmp_path):
+    """UTF-16 without a byte-order mark has a NUL in every other byte: not damage. The
+    message says which encoding= reads it, and that reads it (all 132 points)."""
+    path = tmp_path / "profile.txt"
+    path.write_bytes(_xy_profile().decode().encode("utf-16-le"))
+    with pytest.raises(ValueError, match=r"profile\.txt: a NUL byte at offset 1 .*UTF-16 "
+                                         r"text without a byte-order mark\? pass "
+                                         r"encoding='utf-16-le'"):
+        xrough.open_topography(path, unit="um")
+    assert xrough.open_topography(path, unit="um", encoding="utf-16-le").size == 132
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("name", ["al3d-1.al3d", "di-1.di", "mi-1.mi", "nid-1.nid",
+                                  "opd-1.opd", "plu-1.plu", "spot_1-1000nm.ibw",
+                                  "sur-2.sur", "x3p-2.x3p", "nc-1.nc"])
+def test_binary_instrument_files_are_not_taken_for_damaged_text(name):
+    """Text with NUL bytes is told from binary data by the absence of any other control
+    byte: the start of every binary instrument file of the test data (4 kB as detected,
+    64 kB as the bridge looks) has some, or no NUL at all."""
+    raw = data_path("instruments", name).read_bytes()
+    for size in (4096, 65536):
+        assert not text.text_with_nul(raw[:size])
+    assert xrough.io.detect_format(data_path("instruments", name)) != "text"
+
+
+@pytest.mark.data
+def test_real_xy_profile_with_a_nul_block_is_refused(tmp_path):
+    """The instrument's own x-y profile (132 points), 40 bytes zeroed at byte 990: read
+    as 100 points through the bridge before, silently; refused now, naming the offset."""
+    raw = data_path("instruments", "xy-1.txt").read_bytes()
+    path = tmp_path / "xy-damaged.txt"
+    path.write_bytes(raw[:990] + b"\x00" * 40 + raw[1030:])
+    with pytest.raises(ValueError, match=r"xy-damaged\.txt: contains a NUL byte at offset "
+                                         r"990 \(line 31\)"):
         xrough.open_topography(path, unit="um")

@@ -512,6 +512,47 @@ def test_sdf_corrupted(tmp_path, text, match):
         sdf.read(path)
 
 
+def _binary_sdf(path, dx=1e-6, dy=2e-6, dz=1e-9, ny=2):
+    values = np.arange(1, 3 * ny + 1, dtype="<i2")
+    path.write_bytes(struct.pack("<8s10s12s12sHHddddBBB", b"bISO-1.0", b"Bin",
+                                 b"010120240000", b"010120240000", 3, ny, dx, dy, dz, -1.0,
+                                 0, 5, 0) + values.tobytes())
+    return path
+
+
+@pytest.mark.parametrize("field, value", [
+    ("Zscale", "0"), ("Zscale", "0.0E+00"), ("Zscale", "nan"), ("Zscale", "inf"),
+    ("Xscale", "0"), ("Xscale", "-2.0E-6"), ("Yscale", "0"), ("Yscale", "nan"),
+])
+def test_sdf_scale_that_is_zero_or_not_finite_is_refused(tmp_path, field, value):
+    """``Zscale = 0`` read every height as exactly 0, silently (a flat map of the right
+    size: no later check can tell). Zscale must be finite and nonzero, the spacings
+    Xscale and Yscale finite and positive; the message names the field and its value,
+    for text and binary files, through open_topography too."""
+    text = SDF_HEADER.format(nx=3, ny=2, dz="1.0E-9", code=5) + "1 2 3\n4 5 6\n*\n"
+    text = re.sub(rf"^{field} = .*$", f"{field} = {value}", text, flags=re.M)
+    path = tmp_path / "scale.sdf"
+    path.write_text(text)
+    shown = re.escape(repr(float(value)))
+    with pytest.raises(ValueError, match=rf"scale\.sdf: header field {field} = {shown} "
+                                         r"must be a finite, (nonzero|positive)"):
+        open_topography(path)
+    binary = _binary_sdf(tmp_path / "scale_b.sdf", **{f"d{field[0].lower()}": float(value)})
+    with pytest.raises(ValueError, match=rf"scale_b\.sdf: header field {field} = {shown}"):
+        sdf.read(binary)
+
+
+def test_sdf_scales_that_are_valid_still_read(tmp_path):
+    """A negative Zscale flips the heights, as the header states (read exactly: the
+    products of small integers and a power of ten compare to 1e-15 relative); a single
+    profile's Yscale is not used and may be 0, as some files write it."""
+    topo = sdf.read(_binary_sdf(tmp_path / "neg.sdf", dz=-1e-9))
+    np.testing.assert_allclose(topo.values, -np.array([[4, 5, 6], [1, 2, 3]]) * 1e-9,
+                               rtol=1e-15)
+    profile = sdf.read(_binary_sdf(tmp_path / "profile.sdf", dy=0.0, ny=1))
+    assert profile.dims == ("x",) and float(profile.x[1]) == 1e-6
+
+
 # ------------------------------------------------------------------------------ SUR
 
 

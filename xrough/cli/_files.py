@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import importlib
 import inspect
 import re
 import shutil
@@ -28,8 +27,9 @@ import xarray as xr
 from .. import units as u
 from .._kernels.binning import MAX_POINTS_PER_DECADE, check_points_per_decade
 from ..ensemble import open_measurement
-from ..io import BRIDGE, FORMATS, MissingOptionError, detect_format
+from ..io import MissingOptionError, detect_format, registered
 from ..io.folders import measurement_files, measurement_names
+from ..io.readers import reader_of
 from ..preprocess import DETREND_MODES, detrend
 from ..progress import progress_bar
 from ._common import CLIError, fail, first_line, warn_lines
@@ -45,7 +45,7 @@ _FILE_OPTIONS = ("size", "unit", "height_unit", "height_scale", "periodic", "cha
 def add_file_options(p: argparse.ArgumentParser, *, detrend: bool = True) -> None:
     """Add the files and the options that say how to read them."""
     p.add_argument("files", nargs="+", help="topography files (any supported format)")
-    p.add_argument("--format", choices=[*FORMATS, BRIDGE],
+    p.add_argument("--format", choices=list(registered()),
                    help="file format (default: detected from the content)")
     p.add_argument("--size", help="physical size replacing the file's, e.g. '100 nm' or "
                    "'10 um,20 um' (y, x)")
@@ -147,8 +147,7 @@ def _check_points_per_decade(args: argparse.Namespace) -> None:
 def _reader_keywords(name: str) -> set[str] | None:
     """Keyword options the format's reader takes (``None``: any)."""
     try:
-        module = importlib.import_module(FORMATS[name].module if name in FORMATS
-                                         else "xrough.io.bridge")
+        module = reader_of(name)
         params = inspect.signature(module.read).parameters.values()
     except (ImportError, TypeError, ValueError):
         return None

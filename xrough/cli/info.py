@@ -9,7 +9,7 @@ import numpy as np
 import xarray as xr
 
 from .._version import __version__
-from ..io import FORMATS, list_channels
+from ..io import list_channels, registered
 from ._common import EXIT_OK, CLIError, emit_json, fail, number, text, warn_lines
 from ._files import add_file_options, open_file
 
@@ -65,8 +65,8 @@ def _facts(path: str, topo: xr.DataArray) -> dict:
             "lateral": topo["x"].attrs["units"], "height": topo.attrs["units"],
             "rms": float(np.std(values[valid])) if n_valid else float("nan"),
             "n_valid": n_valid, "n": values.size, "format": fmt,
-            "description": (FORMATS[fmt].description if fmt in FORMATS
-                            else "read by SurfaceTopography"),
+            "description": (registered()[fmt].description if fmt in registered()
+                            else fmt),
             "kind": "map" if len(dims) == 2 else "profile",
             "channels": _channels(topo, path)}
 

@@ -1,13 +1,9 @@
 """Read and write topographies: instrument formats, detection by content, overrides.
 
-Each format lives in its own module ``xrough.io.<name>`` with
-
-- ``sniff(head: bytes, path: pathlib.Path) -> bool``: does this file look like the format
-  (by content; the extension only as a last hint);
-- ``read(path, **options) -> xarray.DataArray``: a validated topography
-  (:func:`xrough.topography`) with heights and sizes as the file states them, units on data
-  and coordinates, and the file's metadata in attrs (netCDF-legal values only);
-- optionally ``write(topography, path)``.
+Each format has a reader (:class:`xrough.io.readers.Reader`): xrough's own are the modules
+``xrough.io.<name>`` of :data:`FORMATS`; other packages register theirs in the entry-point
+group ``xrough.readers`` (:mod:`xrough.io.readers`), as xrough registers its bridge to
+SurfaceTopography (:data:`BRIDGE`).
 
 :func:`open_topography` detects the format, reads, applies the user's overrides (size,
 unit, height scale, periodicity) and records provenance (file name, SHA-256).
@@ -23,7 +19,6 @@ import inspect
 import math
 import os
 import struct
-from dataclasses import dataclass
 from pathlib import Path
 
 from .. import units as u
@@ -31,41 +26,10 @@ from .._kernels.checks import require_flag
 from ..topography import topography
 from ._common import MissingOptionError
 from .container import container_attrs
+from .readers import BRIDGE, FORMATS, Format, Reader, available, reader_of, registered
 
-__all__ = ["FORMATS", "BRIDGE", "detect_format", "open_topography", "file_sha256",
-           "list_channels", "MissingOptionError"]
-
-
-@dataclass(frozen=True)
-class Format:
-    """A file format: the module implementing it and its usual extensions."""
-
-    module: str
-    extensions: tuple[str, ...]
-    description: str
-
-
-#: Known formats, in the order their ``sniff`` functions are tried.
-FORMATS: dict[str, Format] = {
-    "x3p": Format("xrough.io.x3p", (".x3p",), "ISO 25178-72 XML 3D surface profile"),
-    "sur": Format("xrough.io.sur", (".sur",), "Digital Surf SUR"),
-    "sdf": Format("xrough.io.sdf", (".sdf",), "ISO 25178-71 surface data file"),
-    "nanoscope": Format("xrough.io.nanoscope", (".di", ".spm", ".001", ".002", ".003"),
-                        "Digital Instruments / Bruker Nanoscope AFM"),
-    "gwy": Format("xrough.io.gwy", (".gwy",), "Gwyddion native"),
-    "ibw": Format("xrough.io.ibw", (".ibw",), "Igor binary wave (Asylum AFM)"),
-    "netcdf": Format("xrough.io.netcdf", (".nc", ".nc4", ".netcdf"), "NetCDF"),
-    "npy": Format("xrough.io.npy", (".npy",), "NumPy array"),
-    "text": Format("xrough.io.text", (".txt", ".asc", ".csv", ".dat", ".xyz", ".hfm"),
-                   "plain text: matrix, x-y profile, x-y-z points, CSV with header"),
-}
-
-
-#: Name of the fallback format: any file SurfaceTopography reads (optional dependency,
-#: ``pip install xrough[formats]``), tried when no native format recognises the file.
-BRIDGE = "surfacetopography"
-_BRIDGE_MODULE = "xrough.io.bridge"
-_BRIDGE_DESCRIPTION = "a format read by SurfaceTopography"
+__all__ = ["FORMATS", "BRIDGE", "Reader", "detect_format", "open_topography", "file_sha256",
+           "list_channels", "registered", "MissingOptionError"]
 
 
 def file_sha256(path: str | Path) -> str:
@@ -77,25 +41,11 @@ def file_sha256(path: str | Path) -> str:
     return digest.hexdigest()
 
 
-def _module(name: str):
-    if name == BRIDGE:
-        return importlib.import_module(_BRIDGE_MODULE)
-    return importlib.import_module(FORMATS[name].module)
-
-
-def _has_module(name: str) -> bool:
+def _has_module(name: str, formats: dict[str, Format]) -> bool:
     try:
-        return importlib.util.find_spec(FORMATS[name].module) is not None
+        return importlib.util.find_spec(formats[name].module.partition(":")[0]) is not None
     except (ImportError, ValueError):
         return False
-
-
-def _bridge_reads(head: bytes, path: Path) -> bool:
-    try:
-        bridge = _module(BRIDGE)
-    except ImportError:
-        return False
-    return bridge.available() and bridge.sniff(head, path)
 
 
 def detect_format(path: str | Path) -> str:
@@ -130,39 +80,34 @@ def detect_format(path: str | Path) -> str:
         raise OSError(f"{path.name}: cannot read the file ({err.strerror or err})") from err
     if not head:
         raise ValueError(f"{path.name}: the file is empty")
-    for name in list(FORMATS):
+    formats = registered()
+    first = [n for n, f in formats.items() if not f.fallback]
+    for name in first:
         try:
-            if _module(name).sniff(head, path):
+            if reader_of(name).sniff(head, path):
                 return name
         except ImportError:  # optional reader dependency missing
             continue
-    by_extension = [n for n, f in FORMATS.items()
-                    if path.suffix.lower() in f.extensions and _has_module(n)
-                    and _plausible(n, head)]
+    by_extension = [n for n in first if path.suffix.lower() in formats[n].extensions
+                    and _has_module(n, formats) and _plausible(n, head)]
     if by_extension:
         return by_extension[0]
-    if _bridge_reads(head, path):
-        return BRIDGE
+    for name in (n for n, f in formats.items() if f.fallback):
+        if available(name) and reader_of(name).sniff(head, path):
+            return name
     hint = ""
-    if not _bridge_available():
+    if BRIDGE in formats and not available(BRIDGE):
         hint = ("; SurfaceTopography (pip install xrough[formats]) reads many more "
                 "formats and is not installed")
-    raise ValueError(f"{path.name}: unknown file format (known: {', '.join(FORMATS)}"
+    raise ValueError(f"{path.name}: unknown file format (known: {', '.join(first)}"
                      f"{hint})")
 
 
 def _plausible(name: str, head: bytes) -> bool:
     """Whether the content does not rule out ``name`` (binary bytes rule out text)."""
     if name == "text":
-        return not _module("text").looks_binary(head)
+        return not reader_of("text").looks_binary(head)
     return True
-
-
-def _bridge_available() -> bool:
-    try:
-        return _module(BRIDGE).available()
-    except ImportError:  # pragma: no cover - the bridge module itself always imports
-        return False
 
 
 def list_channels(path: str | Path, *, format: str | None = None) -> list[dict]:
@@ -173,7 +118,8 @@ def list_channels(path: str | Path, *, format: str | None = None) -> list[dict]:
     path : str or Path
         The file.
     format : str, optional
-        One of :data:`FORMATS` or :data:`BRIDGE` (default: detected from the content).
+        A registered format (:func:`xrough.io.readers.registered`: :data:`FORMATS`,
+        :data:`BRIDGE`, plugins; default: detected from the content).
 
     Returns
     -------
@@ -202,9 +148,7 @@ def list_channels(path: str | Path, *, format: str | None = None) -> list[dict]:
                         f"{type(path).__name__} {path!r}")
     path = Path(path)
     name = format or detect_format(path)
-    if name not in FORMATS and name != BRIDGE:
-        raise ValueError(f"unknown format {name!r}; known: {', '.join(FORMATS)}, {BRIDGE}")
-    module = _module(name)
+    module = reader_of(name)
     lister = getattr(module, "channels", None)
     if lister is None:
         return []
@@ -258,7 +202,8 @@ def open_topography(
     path : str or Path
         The file.
     format : str, optional
-        One of :data:`FORMATS` or :data:`BRIDGE` (default: detected from the content).
+        A registered format (:func:`xrough.io.readers.registered`: :data:`FORMATS`,
+        :data:`BRIDGE`, plugins; default: detected from the content).
     size : float, str, Quantity or pair, optional
         Physical size ``(Ly, Lx)`` (or ``Lx`` of a profile) replacing the file's (which is
         often missing or wrong); numbers are in ``unit`` or the file's lateral unit.
@@ -294,11 +239,9 @@ def open_topography(
                         f"{type(path).__name__} {path!r}")
     path = Path(path)
     name = format or detect_format(path)
-    if name not in FORMATS and name != BRIDGE:
-        raise ValueError(f"unknown format {name!r}; known: {', '.join(FORMATS)}, {BRIDGE}")
-    description = FORMATS[name].description if name in FORMATS else _BRIDGE_DESCRIPTION
+    description = registered()[name].description if name in registered() else name
     with _reader_errors_in_words(path, description):
-        read = _module(name).read
+        read = reader_of(name).read
         stated = {"size": size, "unit": unit, "height_unit": height_unit}
         da = read(path, **_reader_options(path, name, read, options, stated))
     da, applied = _overrides(da, size=size, unit=unit, height_unit=height_unit,

@@ -253,19 +253,41 @@ def verify(name: str, group: str, ds: xr.Dataset, children: Iterable[str],
                 "changed numbers")
 
 
-def missing_counts(variables: Mapping[Any, xr.Variable]) -> dict[str, int]:
-    """Missing values (NaN) of each floating variable in memory with a per-chunk checksum.
+def _unwritten(values: np.ndarray) -> np.ndarray:
+    """Mask of the values a skipped chunk reads as: NaN, or NetCDF's default fill value.
 
-    Recorded when written and compared by :func:`check_missing`: a damaged index of
-    chunks (HDF5's B-tree nodes have no checksum) makes the library skip a chunk and
-    return fill values, NaN, without reading it, hence without checking it.
+    xarray gives floating variables a ``_FillValue`` of NaN; a variable without one (a
+    coordinate variable, which CF forbids it; integers) reads as the NetCDF library's
+    default fill value of its type (``9.97e36``, ``-2147483647``...).
     """
-    return {str(n): int(np.isnan(v.values).sum()) for n, v in variables.items()
-            if v.dtype.kind == "f" and v.ndim and v.chunks is None}
+    mask = np.isnan(values) if values.dtype.kind == "f" else np.zeros(values.shape, bool)
+    fill = netCDF4.default_fillvals.get(f"{values.dtype.kind}{values.dtype.itemsize}")
+    if fill is not None:
+        mask |= values == fill
+    return mask
+
+
+def missing_counts(variables: Mapping[Any, xr.Variable]) -> dict[str, int]:
+    """Count the missing values of each numeric variable in memory with a per-chunk checksum.
+
+    Missing values are NaN and the NetCDF library's default fill value of the type (what
+    a chunk it skips reads as without a ``_FillValue``). Recorded when written and
+    compared by :func:`check_missing`: a damaged index of chunks (HDF5's B-tree nodes have
+    no checksum) makes the library skip a chunk and return fill values without reading,
+    hence without checking, it.
+
+    Examples
+    --------
+    >>> missing_counts({"x": xr.Variable(("x",), [0.0, np.nan, 9.969209968386869e36]),
+    ...                 "n": xr.Variable(("n",), np.array([1, -2147483647], "i4"))})
+    {'x': 2, 'n': 1}
+    """
+    return {str(n): int(_unwritten(v.values).sum()) for n, v in variables.items()
+            if v.dtype.kind in "iuf" and v.ndim and v.chunks is None}
 
 
 def _no_missing(name: str, where: str, block: np.ndarray) -> np.ndarray:
-    if np.isnan(block).any():
+    if _unwritten(block).any():
         raise CorruptedFileError(f"{name}: corrupted data in {where}: a chunk reads as "
                                  "missing values, none were written (a damaged index of "
                                  "chunks); refused rather than returning changed numbers")
@@ -285,7 +307,7 @@ def check_missing(name: str, group: str, ds: xr.Dataset, counts: Mapping[str, in
     """
     for var_name, count in counts.items():
         var, where = ds.variables[var_name], f"variable {var_name!r} of group {group!r}"
-        if var.chunks is None and int(np.isnan(var.values).sum()) != count:
+        if var.chunks is None and int(_unwritten(var.values).sum()) != count:
             raise CorruptedFileError(f"{name}: corrupted data in {where}: {count} missing "
                                      "values were written, other ones read (a damaged "
                                      "index of chunks); refused")

@@ -19,7 +19,7 @@ from ..topography import topography
 
 __all__ = ["CONVENTIONS", "CorruptedFileError",
            "fail", "MissingOptionError", "reader_errors", "check_file", "check_points",
-           "check_height_scale", "MAX_POINTS", "MAX_HEIGHT_TO_SIZE",
+           "check_height_scale", "MAX_POINTS", "MAX_CHUNKS", "MAX_HEIGHT_TO_SIZE",
            "micro_as_u", "describe_channel", "channel_listing", "select_channel",
            "default_channel_reader", "nonuniform_profile", "HDF5_LOCK"]
 
@@ -33,6 +33,12 @@ HDF5_LOCK = threading.RLock()
 #: Largest number of points a reader of this package's native formats (X3P, SUR, SDF)
 #: accepts unless the caller passes ``max_points=``: a larger header is taken as corrupted.
 MAX_POINTS = 2**31
+
+#: Largest number of chunks one array of a NetCDF-4 file or Zarr store may declare: each is
+#: a name to look up (Zarr), an entry of the index of chunks and a dask task (a lazy open).
+#: A larger number is taken as a corrupted or forged header (a shape edited to 1e6 x 1e6
+#: with chunks of 64 x 64 declares 244 million chunks), refused before any is looked up.
+MAX_CHUNKS = 2**20
 
 #: Largest height (in absolute value) a map or profile may have, as a multiple of its
 #: lateral extent, before :func:`check_height_scale` takes the values as damaged binary

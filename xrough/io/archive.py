@@ -42,7 +42,10 @@ Nothing is lost
   whose values or attributes changed since (a flipped byte) is refused with a
   :class:`~xrough.io._common.CorruptedFileError` naming the file and the variable. An
   archive of an earlier version opens with one ``UserWarning`` that it is unverified.
-- **Clean for other tools.** Groups and variables hold only their own, CF, attributes;
+- **Clean for other tools.** Each group is CF on its own: coordinate variables have no
+  ``_FillValue``, and one of strings (the fit's ``cov_i``) is stored as a label
+  ``<dim>_label`` on a dimension without coordinate variable, turned back when opened.
+  Groups and variables hold only their own, CF, attributes;
   what xrough needs to reopen an object as it was (DataArray or Dataset, its name, the
   types of attributes NetCDF cannot hold, a measurement's original name) and the digests
   are one JSON global attribute ``xrough``, so that :func:`xarray.open_datatree`,
@@ -54,6 +57,11 @@ Nothing is lost
   missing values, so :func:`open_analysis` can tell an incomplete store (a chunk file lost
   in a copy) from a complete one: it is refused, naming the store and the variable,
   instead of reading the missing chunk as missing values.
+- **Sizes checked before reading.** A file or store whose metadata declare more than it
+  holds is refused from its metadata alone, naming the variable and its shape: a
+  variable of more than :data:`~xrough.io._common.MAX_POINTS` points (unless opened
+  lazily), more than :data:`~xrough.io._common.MAX_CHUNKS` chunks, or NetCDF data that
+  are not in the file (:func:`xrough.io.netcdf.check_declared_sizes`).
 - **Checked before writing.** Every attribute, variable, coordinate and dimension name
   is checked first; what NetCDF cannot hold raises a :class:`ValueError` naming the
   object and the attribute before anything is written.
@@ -83,6 +91,7 @@ import base64
 import contextlib
 import datetime as _dt
 import json
+import math
 import os
 import re
 import secrets
@@ -99,7 +108,8 @@ import xarray as xr
 
 from .._version import __version__
 from . import _checksum
-from ._common import CONVENTIONS, HDF5_LOCK, CorruptedFileError
+from ._common import CONVENTIONS, HDF5_LOCK, MAX_CHUNKS, MAX_POINTS, CorruptedFileError
+from .netcdf import check_declared_sizes
 
 __all__ = ["save_analysis", "open_analysis", "safe_name", "PROVENANCE_KEY"]
 
@@ -639,24 +649,61 @@ def _open_tree(path: Path, fmt: str, chunks=None, **kwargs) -> xr.DataTree:
     return xr.open_datatree(path, chunks=chunks, engine="netcdf4", **kwargs)
 
 
-def _lift(tree: Mapping[str, xr.Dataset], fmt: str) -> dict:
+def _lift(tree: dict[str, xr.Dataset], fmt: str) -> dict:
     """Move xrough's own attributes of every group and variable into a record, in place.
 
-    Each variable also gets the encoding of its per-chunk checksum. Returns ``{group path:
-    {"attrs": {...}, "variables": {name: {...}}}}`` as JSON reads it back.
+    Each variable also gets the encoding of its per-chunk checksum, each coordinate
+    variable none of ``_FillValue`` (CF forbids it there), and string coordinate variables
+    become labels (:func:`_as_labels`). Returns ``{group path: {"attrs": {...},
+    "variables": {name: {...}}, "labels": {label: dimension}}}`` as JSON reads it back.
     """
     record: dict = {}
-    for group, ds in tree.items():
+    for group in list(tree):
+        ds, labels = _as_labels(tree[group])
+        tree[group] = ds
         entry = {"attrs": {k: ds.attrs.pop(k) for k in _LIFTED if k in ds.attrs},
-                 "variables": {}}
+                 "variables": {}, "labels": labels}
         for name, var in ds.variables.items():
             lifted = {k: var.attrs.pop(k) for k in _LIFTED if k in var.attrs}
             if lifted:
                 entry["variables"][str(name)] = lifted
             var.encoding = _checksum.chunk_encoding(var, "zarr" if fmt == "zarr" else "netcdf4")
+            if var.dims == (name,):  # a coordinate variable: CF forbids _FillValue
+                var.encoding["_FillValue"] = None
         entry["missing"] = _checksum.missing_counts(ds.variables)
         record[group] = {k: v for k, v in entry.items() if v}
     return json.loads(json.dumps(record, default=_json_default))
+
+
+def _as_labels(ds: xr.Dataset) -> tuple[xr.Dataset, dict[str, str]]:
+    """Store string coordinate variables as labels: CF's coordinate variables are numbers.
+
+    A coordinate variable of strings (the fit's ``cov_i``, ``cov_j``) becomes an
+    auxiliary coordinate ``<dim>_label`` on the same dimension, which then has no
+    coordinate variable (CF 1.10, sections 5 and 6.1); :func:`_from_labels` turns it back.
+    Returns the dataset and ``{label: dimension}``.
+    """
+    strings = [str(name) for name, var in ds.variables.items()
+               if var.dims == (name,) and var.dtype.kind in "USO"]
+    labels: dict[str, str] = {}
+    taken = {str(n) for n in ds.variables} | {str(d) for d in ds.dims}
+    for name in strings:
+        label = safe_name(f"{name}_label", taken)
+        taken.add(label)
+        labels[label] = name
+        var = ds.variables[name]
+        ds = ds.drop_vars(name).assign_coords(
+            {label: xr.Variable(var.dims, var.values, var.attrs, encoding=var.encoding)})
+    return ds, labels
+
+
+def _from_labels(ds: xr.Dataset, labels: Mapping[str, str]) -> xr.Dataset:
+    """Turn the labels :func:`_as_labels` wrote back into string coordinate variables."""
+    for label, name in labels.items():
+        var = ds.variables[label]
+        ds = ds.drop_vars(label).assign_coords(
+            {name: xr.Variable(var.dims, np.asarray(var.values), var.attrs)})
+    return ds
 
 
 def _add_checksums(tmp: Path, fmt: str, record: Mapping[str, dict]) -> None:
@@ -811,8 +858,16 @@ def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = 
     return path
 
 
-def _check_zarr_store(path: Path) -> None:
-    """Refuse a directory that is no Zarr store, or a store with missing chunks."""
+def _check_zarr_store(path: Path, lazy: bool) -> None:
+    """Refuse a directory that is no Zarr store, or a store with missing or too many chunks.
+
+    The chunks each array declares (its shape by its chunks, or shards) are counted from
+    its metadata and refused beyond :data:`~xrough.io._common.MAX_CHUNKS` in all, and
+    each array of more than :data:`~xrough.io._common.MAX_POINTS` points too unless the
+    open is ``lazy``, before any chunk is looked up: a shape edited to 1e6 x 1e6 declares
+    244 million chunks. The names of the chunks are then looked up in one listing of the
+    store's files.
+    """
     if not path.is_dir():
         raise ValueError(f"{path}: not a Zarr store (a Zarr store is a directory); a "
                          "NetCDF archive opens with format='netcdf' or without format=")
@@ -824,9 +879,25 @@ def _check_zarr_store(path: Path) -> None:
         group = zarr.open_group(path, mode="r")
         arrays = [(name, node) for name, node in group.members(max_depth=None)
                   if isinstance(node, zarr.Array)]
-        missing = [(name, node.nchunks - node.nchunks_initialized, node.nchunks)
-                   for name, node in arrays if node.nchunks_initialized < node.nchunks]
+        grids = [_chunk_grid(path, name, node, lazy) for name, node in arrays]
+        total = 0
+        for (name, node), grid in zip(arrays, grids):
+            total += math.prod(grid)
+            if total > MAX_CHUNKS:
+                before = f" ({total} with the arrays before it)" * (total > math.prod(grid))
+                raise _too_large(path, name, node, f"{math.prod(grid)} chunks{before}, more "
+                                 f"than the limit of {MAX_CHUNKS}")
+        files = _store_files(path)
+        missing = []
+        for (name, node), grid in zip(arrays, grids):
+            prefix = f"{node.path}/" if node.path else ""
+            lost = sum(f"{prefix}{node.metadata.encode_chunk_key(index)}" not in files
+                       for index in np.ndindex(*grid))
+            if lost:
+                missing.append((name, lost, math.prod(grid)))
     except Exception as err:  # corrupted metadata: zarr's own errors, JSON errors...
+        if isinstance(err, ValueError) and str(err).startswith(f"{path}: "):
+            raise  # one of ours, naming the array
         raise ValueError(f"{path}: corrupted Zarr store ({type(err).__name__}: "
                          f"{str(err)[:300]})") from err
     if missing:
@@ -834,6 +905,33 @@ def _check_zarr_store(path: Path) -> None:
         raise ValueError(f"{path}: incomplete Zarr store: chunks missing from {listed}; "
                          "save_analysis writes every chunk, so files of the store were "
                          "lost (an interrupted copy?)")
+
+
+def _too_large(path: Path, name: str, node: Any, why: str) -> ValueError:
+    return ValueError(f"{path}: array {name!r} of the Zarr store declares shape "
+                      f"{tuple(node.shape)} with chunks {tuple(node.chunks)}: {why}; refused "
+                      "before reading it (a corrupted or forged store?)")
+
+
+def _chunk_grid(path: Path, name: str, node: Any, lazy: bool) -> tuple[int, ...]:
+    """Return the number of stored chunks (shards) along each dimension of a Zarr array."""
+    points = math.prod(node.shape)
+    if not lazy and points > MAX_POINTS:
+        raise _too_large(path, name, node, f"{points} points, more than the limit of "
+                         f"{MAX_POINTS} (open the archive lazily with chunks= to compute it "
+                         "chunk by chunk)")
+    stored = node.shards or node.chunks
+    return tuple(-(-int(n) // max(int(c), 1)) for n, c in zip(node.shape, stored))
+
+
+def _store_files(path: Path) -> set[str]:
+    """Return the paths of the files of a directory store, relative and with ``/``."""
+    files: set[str] = set()
+    for folder, _, names in os.walk(path):
+        relative = Path(folder).relative_to(path).as_posix()
+        prefix = "" if relative == "." else f"{relative}/"
+        files.update(prefix + name for name in names)
+    return files
 
 
 def _unreadable(path: Path, fmt: str, err: Exception) -> ValueError:
@@ -916,12 +1014,12 @@ def open_analysis(path: str | Path, *, format: str | None = None, chunks=None) -
         raise FileNotFoundError(f"no such archive: {path}")
     fmt = _format(path, format) if format is not None else (
         "zarr" if path.is_dir() else "netcdf")
+    lazy = chunks is not None
     if fmt == "zarr":
-        _check_zarr_store(path)
+        _check_zarr_store(path, lazy)
     elif path.is_dir():
         raise IsADirectoryError(f"{path} is a directory, not a NetCDF file (a Zarr "
                                 "store opens with format='zarr' or without format=)")
-    lazy = chunks is not None
     with HDF5_LOCK if fmt == "netcdf" else contextlib.nullcontext():
         return _open_archive(path, fmt, chunks, lazy)
 
@@ -929,12 +1027,21 @@ def open_analysis(path: str | Path, *, format: str | None = None, chunks=None) -
 def _open_archive(path: Path, fmt: str, chunks, lazy: bool) -> dict:
     """Open, check and read an archive (:func:`open_analysis`, under the HDF5 lock)."""
     try:
+        if fmt == "netcdf":  # nothing read of a variable that declares more than is there
+            check_declared_sizes(path, str(path), recursive=True,
+                                 max_points=None if lazy else MAX_POINTS,
+                                 advice="open the archive lazily with chunks= to compute "
+                                 "it chunk by chunk")
         dt = _open_tree(path, fmt, chunks, **(
             {"from_array_kwargs": _checksum.lazy_kwargs(str(path), fmt)} if lazy else {}))
     except ImportError:
         raise
     except PermissionError as err:
         raise PermissionError(f"{path}: cannot read the archive ({err})") from err
+    except ValueError as err:
+        if str(err).startswith(f"{path}: "):
+            raise  # already says what is wrong with which file
+        raise _unreadable(path, fmt, err) from err
     except Exception as err:  # the NetCDF library's OSErrors (also FileNotFoundError for a
         raise _unreadable(path, fmt, err) from err  # corrupted file), zarr's errors, JSON
     try:
@@ -985,7 +1092,7 @@ def _read_tree(dt: xr.DataTree, path: Path, lazy: bool) -> dict:
         for var_name, var in ds.variables.items():
             var.attrs = ({k: v for k, v in var.attrs.items() if k != _checksum.LEGACY}
                          | entry.get("variables", {}).get(str(var_name), {}))
-        return ds
+        return _from_labels(ds, entry.get("labels", {}))
 
     out: dict = {PROVENANCE_KEY: opened(dt).attrs}
 

@@ -24,10 +24,11 @@ of Alicona ``.al3d``, Nanosurf ``.nid``/``.ezd`` and Molecular Imaging ``.mi`` f
 against the file's size (:func:`xrough.io._layout.check_layout`), and, for every format,
 that no height is more than a billion times the lateral size of the scan
 (:func:`xrough.io._common.check_height_scale`: float bytes read out of step give heights
-up to ``3.4e38``). A file that fails is refused with a ``ValueError`` naming it. A file
-SurfaceTopography would take for an SRTM ``.hgt`` elevation tile (which has no magic
-bytes: any file of ``2 n**2`` bytes) is one only when its name and size are an SRTM
-tile's (:func:`srtm_tile`).
+up to ``3.4e38``), and that the file is not text with NUL bytes (a damaged text file, which
+SurfaceTopography reads up to the first NUL: :func:`xrough.io.text.text_with_nul`). A file
+that fails is refused with a ``ValueError`` naming it. A file SurfaceTopography would take
+for an SRTM ``.hgt`` elevation tile (which has no magic bytes: any file of ``2 n**2``
+bytes) is one only when its name and size are an SRTM tile's (:func:`srtm_tile`).
 """
 
 from __future__ import annotations
@@ -52,9 +53,17 @@ from ._common import (
     select_channel,
 )
 from ._layout import check_layout
+from .text import damaged_text, text_with_nul
 
 __all__ = ["available", "sniff", "read", "read_with_surfacetopography", "channels",
-           "default_channel", "info_attrs", "srtm_tile"]
+           "default_channel", "info_attrs", "srtm_tile", "EXTENSIONS", "DESCRIPTION",
+           "FALLBACK"]
+
+#: What the bridge says of itself as a reader (:mod:`xrough.io.readers`): no extension of
+#: its own (it reads many), tried after every native reader.
+EXTENSIONS: tuple[str, ...] = ()
+DESCRIPTION = "a format read by SurfaceTopography"
+FALLBACK = True
 
 _INSTALL_HINT = ("reading this format needs SurfaceTopography: pip install xrough[formats] "
                  "(or pip install SurfaceTopography)")
@@ -375,6 +384,7 @@ def read_with_surfacetopography(path, *, channel: int | str | None = None, size=
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no such file: {path}")
+    _refuse_damaged_text(path)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -396,6 +406,20 @@ def read_with_surfacetopography(path, *, channel: int | str | None = None, size=
                          channel_index=int(data["channel"].index))
     with _data_errors(path.name):  # sizes of zero, say
         return _as_topography(data, path.name, size, unit, height_unit, resample)
+
+
+def _refuse_damaged_text(path: Path) -> None:
+    """Refuse a text file with NUL bytes, which SurfaceTopography reads up to the first NUL.
+
+    Refused when the start of the file (64 kB, as far as the text reader looks for binary
+    bytes) is text with lines of numbers but for its NUL bytes
+    (:func:`xrough.io.text.text_with_nul`); a binary format's bytes hold other control
+    bytes.
+    """
+    with open(path, "rb") as fh:
+        head = fh.read(65536)
+    if text_with_nul(head):
+        damaged_text(path.name, head)
 
 
 def _check_file(path: Path, reader: str) -> None:

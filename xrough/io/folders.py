@@ -11,13 +11,15 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from . import BRIDGE, FORMATS, detect_format
+from . import FORMATS, detect_format
 from .archive import safe_name
 from .container import META, container_entries
+from .readers import registered
 
 __all__ = ["EXTENSIONS", "measurement_files", "measurement_names"]
 
-#: The file extensions a folder is searched for (every reader's).
+#: The file extensions of xrough's own readers (a folder is searched for these and those of
+#: the readers of plugins, :func:`xrough.io.readers.registered`).
 EXTENSIONS = frozenset(ext for f in FORMATS.values() for ext in f.extensions)
 
 
@@ -48,20 +50,21 @@ def measurement_files(folder: str | Path) -> list[Path]:
     if not folder.is_dir():
         raise ValueError(f"{folder}: not a folder")
     listed = [folder / e["file"] for e in container_entries(folder / META)]
+    extensions = {ext for f in registered().values() for ext in f.extensions}
     found = [p for p in listed if p.is_file()] if listed else sorted(
         f for f in folder.iterdir()
         if f.is_file() and not f.name.startswith((".", "xrough-")) and f.name != META
-        and (f.suffix.lower() in EXTENSIONS or _bridged(f)))
+        and (f.suffix.lower() in extensions or _by_a_fallback(f)))
     if not found:
         raise ValueError(f"{folder}: a folder with no measurement file (extensions "
-                         f"{', '.join(sorted(EXTENSIONS))}, or a {META} listing them)")
+                         f"{', '.join(sorted(extensions))}, or a {META} listing them)")
     return found
 
 
-def _bridged(path: Path) -> bool:
-    """Whether SurfaceTopography (the optional bridge) reads a file of no native extension."""
+def _by_a_fallback(path: Path) -> bool:
+    """Say whether a fallback reader (SurfaceTopography's bridge) reads the file."""
     try:
-        return detect_format(path) == BRIDGE
+        return registered()[detect_format(path)].fallback
     except (OSError, ValueError):
         return False
 

@@ -26,6 +26,7 @@ naming the file.
 
 from __future__ import annotations
 
+import math
 import mmap
 from pathlib import Path
 from typing import Any
@@ -40,6 +41,8 @@ from . import _checksum
 from ._common import (
     CONVENTIONS,
     HDF5_LOCK,
+    MAX_CHUNKS,
+    MAX_POINTS,
     MissingOptionError,
     check_file,
     micro_as_u,
@@ -58,6 +61,11 @@ _DATAARRAY_DEFAULT = "__xarray_dataarray_variable__"
 _NC_TYPE_SIZES = {1: 1, 2: 1, 3: 2, 4: 4, 5: 4, 6: 8, 7: 1, 8: 2, 9: 4, 10: 8, 11: 8}
 _NC_DIMENSION, _NC_VARIABLE, _NC_ATTRIBUTE = 10, 11, 12
 _MAX_NESTING = 10_000  # more dims, attributes or variables than this: a corrupted header
+#: The most bytes deflate (zlib) data decompress to per byte stored (its limit is 1032:1).
+_DEFLATE_RATIO = 1032
+#: Bytes a NetCDF-4 file may leave unwritten in all (read as fill values from nothing), or
+#: the file's size if larger: chunks a writer left out of a sparse variable, not a forgery.
+_UNWRITTEN_BYTES = 2**26
 
 
 class _Header:
@@ -268,6 +276,161 @@ def _check_netcdf3_header(buf, name: str) -> None:
                      "and sizes): bytes inserted into the file shift the data")
 
 
+def _walk(group, recursive: bool):
+    yield group
+    if recursive:
+        for child in group.groups.values():
+            yield from _walk(child, recursive)
+
+
+def _storage(h5, var) -> tuple[int, int] | None:
+    """Return the chunks allocated (-1: not chunked) and bytes stored of ``var``, or ``None``."""
+    if h5 is None:
+        return None
+    group = var.group().path.rstrip("/")
+    try:  # a variable named as a dimension it does not span has an internal HDF5 name
+        found = h5.get(f"{group}/{var.name}") or h5.get(f"{group}/_nc4_non_coord_{var.name}")
+        if found is None or not hasattr(found, "id"):
+            return None
+        chunked = found.chunks is not None
+        return (found.id.get_num_chunks() if chunked else -1), found.id.get_storage_size()
+    except Exception:  # noqa: BLE001 - a damaged index: left to the NetCDF library
+        return None
+
+
+def _open_h5(path: Path):
+    """Open the file with h5py, to ask HDF5 what it stores; ``None`` without h5py."""
+    try:
+        import h5py
+    except ImportError:
+        return None
+    try:
+        return h5py.File(path, "r", locking=False)
+    except Exception:  # noqa: BLE001 - not HDF5, or damaged: left to the NetCDF library
+        return None
+
+
+def check_declared_sizes(path: Path, name: str, *, group: str | None = None,
+                         recursive: bool = False, max_points: int | None = MAX_POINTS,
+                         advice: str = "pass max_points= to read a larger variable") -> None:
+    """Refuse a NetCDF file whose variables declare more data than it holds, before reading.
+
+    Only the metadata are read. A header is cheap to forge: a 1.5 MB file can declare a
+    compressed 100000 x 100000 variable whose chunks are not written, which the NetCDF
+    library reads as 74.5 GiB of fill values. Refused, naming the variable, its shape and
+    why, are a variable
+
+    - with more than ``max_points`` points;
+    - with more than :data:`~xrough.io._common.MAX_CHUNKS` chunks (each an entry of the
+      index and a dask task);
+    - whose data are not in the file: with h5py installed, chunks HDF5 has not allocated
+      (or contiguous data not stored) that, with those of the variables before it, would
+      fill more than the file's size or 64 MiB, whichever is larger, with fill values;
+      without h5py, variables whose data, uncompressed or deflated at zlib's largest
+      ratio (1032:1), need more than twice the file's size (data compressed otherwise are
+      bounded by ``max_points`` only).
+
+    Parameters
+    ----------
+    path : Path
+        The file (NetCDF-3 or NetCDF-4).
+    name : str
+        How messages name the file.
+    group : str, optional
+        The group whose variables are read (default: the root group).
+    recursive : bool
+        Also check the groups below it (an archive opens them all).
+    max_points : int or None
+        Most points of one variable; ``None``: no limit (a lazy open reads no variable
+        whole).
+    advice : str
+        What to do about a variable of more than ``max_points``, for the message.
+
+    Raises
+    ------
+    ValueError
+        The message starts with ``name`` and names the variable, its group and shape.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = Path(tmp) / "forged.nc"
+    ...     with netCDF4.Dataset(path, "w") as nc:
+    ...         _ = nc.createDimension("x", 10**6)
+    ...         _ = nc.createVariable("height", "f8", ("x",), chunksizes=(10**3,))
+    ...     check_declared_sizes(path, "forged.nc", max_points=100)
+    Traceback (most recent call last):
+    ...
+    ValueError: forged.nc: variable 'height' of group '/' declares shape (1000000,) ...
+    """
+    size = path.stat().st_size
+    with open(path, "rb") as fh:
+        hdf5 = fh.read(len(_HDF5)) == _HDF5
+    h5 = _open_h5(path) if hdf5 else None
+    try:
+        with netCDF4.Dataset(path) as nc:
+            top = nc if group in (None, "", "/") else nc[group]
+            _check_sizes(nc.data_model, _walk(top, recursive), h5, size, name, max_points,
+                         advice)
+    finally:
+        if h5 is not None:
+            h5.close()
+
+
+_COMPRESSORS = ("zlib", "szip", "zstd", "bzip2", "blosc")
+
+
+def _check_sizes(model: str, groups, h5, size: int, name: str, max_points: int | None,
+                 advice: str) -> None:
+    unwritten = needed = 0  # bytes of fill values from nothing; bytes the data need stored
+    budget = max(size, _UNWRITTEN_BYTES)
+    for grp in groups:
+        for var in grp.variables.values():
+            shape = tuple(int(n) for n in var.shape)
+            points = math.prod(shape)
+            itemsize = (var.dtype.itemsize if isinstance(var.dtype, np.dtype) else 0) or 8
+            declared = points * itemsize
+            head = (f"{name}: variable {var.name!r} of group {grp.path!r} declares shape "
+                    f"{shape} ({points} points of {var.dtype}, {declared} bytes)")
+            tail = "; refused before reading it (a corrupted or forged file?)"
+            if max_points is not None and points > max_points:
+                raise ValueError(f"{head}: more than the limit of {max_points} points "
+                                 f"({advice}){tail}")
+            layout = var.chunking() if model.startswith("NETCDF4") else "contiguous"
+            chunked = layout != "contiguous"
+            chunks = math.prod(-(-n // int(c)) for n, c in zip(shape, layout)) if chunked else 1
+            if chunks > MAX_CHUNKS:
+                raise ValueError(f"{head}: {chunks} chunks of {tuple(layout)}, more than "
+                                 f"the limit of {MAX_CHUNKS}{tail}")
+            stored = _storage(h5, var)
+            if stored is not None:  # what HDF5 holds: allocated chunks, bytes stored
+                allocated, nbytes = stored
+                if allocated >= 0:
+                    backed = allocated * math.prod(map(int, layout)) * itemsize
+                    written = f"{allocated} of its {chunks} chunks are"
+                else:
+                    backed, written = nbytes, f"{nbytes} of its bytes are"
+                unwritten += max(declared - backed, 0)
+                if unwritten > budget:
+                    raise ValueError(
+                        f"{head}: only {written} written in the file of {size} bytes, the "
+                        f"rest would be read as fill values ({declared - min(backed, declared)}"
+                        f" bytes from nothing){tail}")
+                continue
+            filters = (var.filters() or {}) if chunked else {}
+            compressed = [k for k in _COMPRESSORS if filters.get(k)]
+            if not compressed:
+                needed += declared
+            elif compressed == ["zlib"]:
+                needed += -(-declared // _DEFLATE_RATIO)
+            if needed > 2 * size:
+                how = "deflated at most 1032:1" if compressed else "uncompressed"
+                raise ValueError(f"{head}: its data ({how}) cannot be in the file of {size} "
+                                 "bytes: they are not written, and would be read as fill "
+                                 f"values{tail}")
+
+
 def sniff(head: bytes, path: Path) -> bool:
     """Whether ``head`` starts like a NetCDF file.
 
@@ -337,7 +500,8 @@ def _choose(ds: xr.Dataset, name: str, variable: str | None) -> str:
 
 
 def read(path, *, variable: str | None = None, group: str | None = None,
-         unit: str | None = None, height_unit: str | None = None, size=None) -> xr.DataArray:
+         unit: str | None = None, height_unit: str | None = None, size=None,
+         max_points: int | None = None) -> xr.DataArray:
     """Read a topography from a NetCDF file.
 
     Parameters
@@ -353,6 +517,10 @@ def read(path, *, variable: str | None = None, group: str | None = None,
         :func:`xrough.io.open_topography`).
     size : float, str, Quantity or pair, optional
         Physical size ``(Ly, Lx)`` for files without coordinates.
+    max_points : int, optional
+        Refuse a variable of more points (default :data:`xrough.io._common.MAX_POINTS`);
+        variables whose data the file does not hold are refused whatever their size
+        (:func:`check_declared_sizes`).
 
     Returns
     -------
@@ -363,8 +531,8 @@ def read(path, *, variable: str | None = None, group: str | None = None,
     ------
     ValueError
         No or several candidate variables, dims other than ``x``/``y``, missing units, a
-        truncated or corrupted file, a checksum that does not match (the message names
-        the file).
+        truncated or corrupted file, a checksum that does not match, a variable declaring
+        more data than ``max_points`` or than the file holds (the message names the file).
     FileNotFoundError, IsADirectoryError
         ``path`` is not a file.
 
@@ -381,7 +549,7 @@ def read(path, *, variable: str | None = None, group: str | None = None,
     path = Path(path)
     check_file(path)
     with reader_errors(path, "NetCDF"), HDF5_LOCK:
-        return _read(path, variable, group, unit, height_unit, size)
+        return _read(path, variable, group, unit, height_unit, size, max_points)
 
 
 def _open(path: Path, group: str | None = None) -> xr.Dataset:
@@ -394,10 +562,12 @@ def _root_attrs(path: Path) -> dict:
         return {k: nc.getncattr(k) for k in nc.ncattrs()}
 
 
-def _read(path: Path, variable, group, unit, height_unit, size) -> xr.DataArray:
+def _read(path: Path, variable, group, unit, height_unit, size, max_points) -> xr.DataArray:
     name = path.name
     check_netcdf3(path)
     check_hdf5_size(path)
+    check_declared_sizes(path, name, group=group,
+                         max_points=MAX_POINTS if max_points is None else int(max_points))
     try:
         with _open(path, group) as ds:
             for var_name, stored in ds.variables.items():
@@ -513,6 +683,9 @@ def _write(topo: xr.DataArray, path, format: str) -> None:
         name = _DATAARRAY_DEFAULT  # what DataArray.to_netcdf names it
     variables = {name: topo.variable, **topo.coords.variables}
     encoding = {k: _checksum.chunk_encoding(v, fmt) for k, v in variables.items()}
+    for k, v in variables.items():
+        if v.dims == (k,):  # a coordinate variable: CF forbids it a _FillValue
+            encoding[k]["_FillValue"] = None
     topo.to_netcdf(path, engine="netcdf4", format=format,  # type: ignore[call-overload]
                    encoding=encoding)  # format is checked by netCDF4 (a clear message)
     with netCDF4.Dataset(path, "a") as nc:  # what the file follows, as the archives say

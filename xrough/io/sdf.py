@@ -32,11 +32,14 @@ software displays it, so the profiles are reversed on read (the last profile is 
 
 Safety: the number of points the header declares is checked against the data the file
 holds, and against ``max_points`` (default :data:`xrough.io._common.MAX_POINTS`), before any
-array is allocated; every failure is a ``ValueError`` naming the file.
+array is allocated; ``Zscale`` must be finite and nonzero (0 made every height 0),
+``Xscale`` and ``Yscale`` (of a map) finite and positive. Every failure is a
+``ValueError`` naming the file (and the field, with its value).
 """
 
 from __future__ import annotations
 
+import math
 import re
 import struct
 from pathlib import Path
@@ -224,6 +227,7 @@ def _read(path: Path, max_points: int | None):
         raise ValueError(f"{path.name}: NumPoints = {nx} and NumProfiles = {ny} must be "
                          "positive")
     check_points(path, nx * ny, max_points, f"the header ({nx} x {ny})")
+    _check_scales(field, ny, path)
     heights, step = _heights(data, field, nx, ny, path)
     attrs = _attrs(header, trailer, path)
     if step is not None:  # float32 heights: their rounding, said by acf()
@@ -251,6 +255,26 @@ def _fields(header: dict[str, str], path: Path):
         return _number(header[lower[key.lower()]], key, path, kind)
 
     return field
+
+
+def _check_scales(field, ny: int, path: Path) -> None:
+    """Refuse a zero or non-finite ``Zscale`` and a spacing that is not a positive length.
+
+    ``Zscale`` multiplies every stored value: 0 would make every height 0, NaN or inf
+    every height missing or infinite (a negative one flips the heights, as stated).
+    ``Yscale`` of a single profile is not used (files write 0 there).
+    """
+    z = field("Zscale")
+    if not (math.isfinite(z) and z != 0):
+        effect = "0" if z == 0 else "missing or infinite"
+        raise ValueError(f"{path.name}: header field Zscale = {z!r} must be a finite, "
+                         f"nonzero number of metres per stored value (every height would be "
+                         f"{effect}); a damaged header")
+    for key in ("Xscale", "Yscale") if ny > 1 else ("Xscale",):
+        value = field(key)
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{path.name}: header field {key} = {value!r} must be a "
+                             "finite, positive spacing (metres); a damaged header")
 
 
 def _heights(data, field, nx: int, ny: int, path: Path) -> tuple[np.ndarray, float | None]:

@@ -34,7 +34,11 @@ whole number on the line before x-y pairs is their count (``attrs["points"]``), 
 against them (equal, or one less: the last index counted from 0).
 
 Header-stated sizes are checked against the data, never silently spread over fewer
-points: stated point counts must match and a profile must cover the stated ``Length``. A
+points: stated point counts must match and a profile must cover the stated ``Length``.
+Every line of numbers must have the same number of values (the line that differs is
+named), and after a Gwyddion export's commented header (``# Channel``, ``# Width``,
+``# Height``) every line that is not a comment must be a row of numbers. A NUL byte
+refuses the file as damaged text (:func:`damaged_text`), however many there are. A
 matrix's ``Width``/``Height`` are ``n * spacing`` along x and y, each with its own pixel
 size: rectangular pixels are read as stated (a matrix cut at a line boundary without
 stated point counts cannot be told from one with rectangular pixels).
@@ -53,6 +57,7 @@ linear interpolation onto a uniform grid.
 from __future__ import annotations
 
 import re
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -64,7 +69,7 @@ from ..topography import grid_of, topography
 from ..units import QuantityLike
 from ._common import MissingOptionError, micro_as_u, nonuniform_profile, reader_errors
 
-__all__ = ["sniff", "read", "write", "looks_binary"]
+__all__ = ["sniff", "read", "write", "looks_binary", "text_with_nul", "damaged_text"]
 
 _NUM = r"[-+]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|nan|inf|infinity)"
 _NUM_RE = re.compile(rf"^{_NUM}$", re.IGNORECASE)
@@ -126,28 +131,102 @@ def _decode(data: bytes) -> str:
 def looks_binary(data: bytes) -> bool:
     """Whether ``data`` (the start of a file) holds bytes that plain text never has.
 
-    A few NUL bytes in what is otherwise text (two, or 1 in 1000) make a damaged text
-    file, not a binary one: it goes to the text reader, which refuses it naming the byte
-    (:func:`damaged_text`), instead of to a binary reader that stops at the NUL (a
-    40-point profile read as 19).
+    NUL bytes in what is otherwise text make a damaged text file, not a binary one: a
+    few (two, or 1 in 1000), or any number in text with lines of numbers and no other
+    control byte (:func:`text_with_nul`: a block of zeroed bytes in a profile, say). Such
+    a file goes to the text reader, which refuses it naming the byte
+    (:func:`damaged_text`), instead of to a binary reader (SurfaceTopography) that stops
+    at the NUL (a 132-point profile read as 27).
+
+    Parameters
+    ----------
+    data : bytes
+        The start of the file (4 kB when detecting the format, 64 kB when reading).
+
+    Returns
+    -------
+    bool
     """
-    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+    if data.startswith(_UTF16_BOMS):
         return False
     nul = data.count(b"\x00")
     if nul > max(2, 0.001 * len(data)):
-        return True
-    head = data[:4096].replace(b"\x00", b"")
-    control = sum(1 for b in head if b < 32 and b not in (9, 10, 12, 13))
-    return control > 0.01 * max(1, min(len(head), 4096))
+        return not text_with_nul(data)
+    head = data.replace(b"\x00", b"")[:4096]
+    return _control_bytes(head) > 0.01 * max(1, len(head))
+
+
+def text_with_nul(data: bytes) -> bool:
+    """Whether ``data`` is text with lines of numbers but for its NUL bytes (damaged text).
+
+    A binary format's bytes hold other control bytes too (the instrument files of the
+    test data all do, within their first 4 kB or 64 kB), so do the headers of formats
+    padded with NULs; UTF-16 text with a byte-order mark is not meant.
+
+    Parameters
+    ----------
+    data : bytes
+        The start of the file.
+
+    Returns
+    -------
+    bool
+        True if ``data`` holds a NUL byte, no control byte but NUL, tab, line feed, form
+        feed and carriage return, and a line of numbers.
+    """
+    if b"\x00" not in data or data.startswith(_UTF16_BOMS):
+        return False
+    text = data.replace(b"\x00", b"")
+    return _control_bytes(text) == 0 and _has_numbers(text)
+
+
+_UTF16_BOMS = (b"\xff\xfe", b"\xfe\xff")
+#: Control bytes plain text does not hold (all but tab, line feed, form feed, return).
+_CONTROL = bytes(b for b in range(32) if b not in (9, 10, 12, 13))
+
+
+def _control_bytes(data: bytes) -> int:
+    """Count the control bytes of ``data`` that plain text does not hold."""
+    return len(data) - len(data.translate(None, _CONTROL))
+
+
+def _has_numbers(data: bytes) -> bool:
+    """Whether ``data`` (text) has a line of numbers, its last (perhaps cut) line aside."""
+    lines = [line for line in _decode(data).splitlines()
+             if line.strip() and not _is_comment(line)]
+    return any(_DATA_LINE.match(line) for line in lines[:-1] or lines)
 
 
 def damaged_text(name: str, data: bytes) -> None:
-    """Refuse text with a NUL byte (a damaged file), naming its line and offset."""
+    """Refuse text with a NUL byte (a damaged file), naming its line and offset.
+
+    Parameters
+    ----------
+    name : str
+        The file's name, for the message.
+    data : bytes
+        The file's bytes (or its start).
+
+    Raises
+    ------
+    ValueError
+        If ``data`` holds a NUL byte; UTF-16 text without a byte-order mark (a NUL in
+        every other byte) is told to pass ``encoding=``.
+    """
     at = data.find(b"\x00")
-    if at >= 0:
-        line = data.count(b"\n", 0, at) + 1
-        raise ValueError(f"{name}: a NUL byte at offset {at} (line {line}): a damaged text "
-                         "file; refused rather than read without the values it broke")
+    if at < 0:
+        return
+    line = data.count(b"\n", 0, at) + 1
+    sample = data[:4096]
+    even, odd = sample[0::2].count(b"\x00"), sample[1::2].count(b"\x00")
+    if max(even, odd) > 0.4 * len(sample) and min(even, odd) == 0:
+        order = "le" if odd else "be"
+        raise ValueError(f"{name}: a NUL byte at offset {at} (line {line}), and one in every "
+                         f"other byte: UTF-16 text without a byte-order mark? pass "
+                         f"encoding='utf-16-{order}'")
+    raise ValueError(f"{name}: contains a NUL byte at offset {at} (line {line}): a damaged text "
+                     "file (or not a text file); refused rather than read without the values "
+                     "it broke")
 
 
 def _is_comment(line: str) -> bool:
@@ -528,11 +607,40 @@ def _damaged_edges(name: str, lines: list[str], rows: list[int], ncols: int) -> 
                 f"without that row (a truncated or damaged file)")
 
 
+def _gwyddion_export_edges(name: str, lines: list[str], rows: list[int]) -> None:
+    """Refuse a line that is not numbers before or after the rows of a Gwyddion export.
+
+    Gwyddion's text export writes a header of comment lines (``# Channel:``, ``# Width:``,
+    ``# Height:``, ``# Value units:``, or their translations) and then only rows of
+    numbers. Any other line outside the rows is a damaged row (garbage in place of the
+    numbers, a row cut to a few characters): read as a header line or trailer, it would
+    drop the row and spread the stated ``Height`` over the rows left.
+    """
+    keys = set()
+    for i in range(rows[0]):
+        if _is_comment(lines[i]):
+            kv = _split_key_value(lines[i])
+            if kv:
+                keys.add(_norm_key(kv[0]))
+    if not (keys & _CHANNEL and keys & _X_SIZE and keys & _Y_SIZE):
+        return
+    for i in [*range(rows[0]), *range(rows[-1] + 1, len(lines))]:
+        if lines[i].strip() and not _is_comment(lines[i]):
+            where = "before the first" if i < rows[0] else "after the last"
+            raise ValueError(
+                f"{name}: line {i + 1} ({lines[i].strip()[:60]!r}), {where} row of numbers "
+                "of a Gwyddion text export (a '# Channel', '# Width', '# Height' header, "
+                "then only rows of numbers), is not a row of numbers: a damaged row; "
+                "refused rather than read without it (the stated Height would be spread "
+                "over the rows left)")
+
+
 def _parse(path: Path, encoding: str | None):
     """Return the numbers, their printed tokens, the column names and the header."""
     name = path.name
     lines, complete = _lines(path, encoding)
     rows = _data_block(name, lines)
+    _gwyddion_export_edges(name, lines, rows)
     delimiter, decimal_comma = _delimiter([lines[i] for i in rows[:50]])
     tokens = [_tokens(lines[i], delimiter, decimal_comma) for i in rows]
     if not complete and rows[-1] == len(lines) - 1:
@@ -585,16 +693,33 @@ def _delimiter(sample: list[str]) -> tuple[str | None, bool]:
 
 
 def _numbers(name: str, rows: list[int], tokens: list[list[str]]) -> np.ndarray:
-    """Return the data lines' numbers as a matrix; refuse lines of another width."""
-    ncols = len(tokens[0])
+    """Return the data lines' numbers as a matrix; refuse lines of another width.
+
+    The width is that of most lines (of the first, if no width is the most common), so
+    that the message names the damaged line, the first one included.
+    """
+    widths = Counter(len(tok) for tok in tokens)
+    ncols = max(widths, key=lambda w: widths[w] + (w == len(tokens[0])) / 2)
     for i, tok in zip(rows, tokens):
         if len(tok) != ncols:
-            raise ValueError(f"{name}: line {i + 1} has {len(tok)} values where the lines "
-                             f"before have {ncols}")
+            raise ValueError(f"{name}: line {i + 1} has {len(tok)} value"
+                             f"{'' if len(tok) == 1 else 's'} where "
+                             f"{widths[ncols]} of the {len(rows)} lines of numbers have "
+                             f"{ncols}: every line must have the same number of values (a "
+                             "damaged or truncated line)")
     try:
         return np.array(tokens, dtype=float)
-    except ValueError as err:
-        raise ValueError(f"{name}: cannot read the numbers ({err})") from None
+    except ValueError:
+        pass
+    values = np.empty((len(tokens), ncols))  # one by one, to name the line
+    for r, (i, tok) in enumerate(zip(rows, tokens)):
+        for c, t in enumerate(tok):
+            try:
+                values[r, c] = float(t)
+            except ValueError:
+                raise ValueError(f"{name}: line {i + 1}: cannot read {t!r} as a number "
+                                 "(a damaged line)") from None
+    return values
 
 
 def _column_titles(lines: list[str], first: int, ncols: int, delimiter: str | None,
