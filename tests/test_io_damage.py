@@ -310,3 +310,29 @@ def test_cli_reads_a_binary_file_from_stdin(monkeypatch, capsys):
     assert main(["info", "-"]) == 1
     assert "stdin: the file is empty" in capsys.readouterr().err
 
+
+
+@pytest.mark.parametrize("line", [
+    "height conversioneight conversion factor (-> m)=6.30079e-008",  # a repeated chunk
+    "height conversion f\ufffd\ufffd> m)=6.30079e-008",            # flipped bytes
+    "height conversion factor (-> m)=6.30079e-00ctor (-> m)=6.3e-8",  # a value run on
+    "height conversion factor \u00e1\u00cc.30079e-008",               # no '=' left
+    "Z scale factor = n/a",
+])
+def test_a_damaged_height_conversion_factor_is_refused(tmp_path, line):
+    """A header line that names a conversion factor of the values but does not read as
+    one is refused naming it: read without it, the heights of the fuzzed export were
+    raw numbers, 1.6e7 times too large (11 of the 45 garbage reads of the text fuzz);
+    the intact line still multiplies them."""
+    head = "Channel: Height\nWidth: 10.000 um\nHeight: 5.000 um\nValue units: m\n"
+    rows = "1\t2\t3\t4\n5\t6\t7\t8\n"
+    path = tmp_path / "factor.txt"
+    path.write_text(head + line + "\n" + rows, encoding="utf-8")
+    with pytest.raises(ValueError, match=r"factor\.txt: the header line .* names a "
+                                         r"conversion factor"):
+        text.read(path)
+    path.write_text(head + "height conversion factor (-> m)=6.30079e-008\n" + rows)
+    heights = text.read(path)
+    np.testing.assert_allclose(heights.values.max() / heights.values.min(), 8.0,
+                               rtol=1e-12)
+    assert heights.attrs["height_conversion"].endswith("6.30079e-008")

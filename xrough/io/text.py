@@ -109,6 +109,9 @@ _NEEDS_UNIT = {"width", "height", "breite", "höhe", "hoehe", "size", "length", 
 _CONVERSION = re.compile(r"^(?:height|z|value|data)\s*(?:conversion|scale|scaling)\s*"
                          r"factor\s*(?:[(\[]\s*-*>\s*(?P<unit>[^)\]]*?)\s*[)\]])?\s*$",
                          re.IGNORECASE)
+#: A key that names a conversion or scale factor of the values: when it does not read as
+#: one (:data:`_CONVERSION` with a number), the heights would come out unscaled.
+_NAMES_A_FACTOR = re.compile(r"conversion|(?:scale|scaling)\s*factor", re.IGNORECASE)
 #: Keys naming the channel (Gwyddion's ASCII export writes ``Channel``, ``Kanal`` in German).
 _CHANNEL = {"channel", "kanal", "channelname", "kanalname"}
 _X_COUNT = {"xpixels", "nx", "pointsperline", "samplesperline", "xres", "npointsx"}
@@ -365,6 +368,7 @@ class _Header:
         self.unit: dict[str, str | None] = {"x": None, "y": None, "z": None, "any": None}
         self.count: dict[str, int | None] = {"x": None, "y": None}
         self.height_factor: tuple[float, str | None, str] | None = None
+        self.unread_factor: str | None = None  # a line naming a factor that does not parse
         self.channel: str | None = None
         self.lines: set[int] = set()  # indices of lines read as titles, units or counts
 
@@ -382,6 +386,8 @@ class _Header:
             target = factor.group("unit")
             self.height_factor = (float(value), _length_unit(target) if target else None,
                                   f"{key.strip()}={value.strip()}")
+        elif _NAMES_A_FACTOR.search(key) and self.unread_factor is None:
+            self.unread_factor = f"{key.strip()}={value.strip()}"[:80]
         q = _quantity_in(value) if value else None
         if q is not None and q[1] is None and k in _NEEDS_UNIT:
             q = None
@@ -748,6 +754,8 @@ def _read_header(lines: list[str], first: int, header: _Header) -> None:
             kv = _split_key_value(lines[i])
             if kv:
                 header.add(*kv)
+            elif _NAMES_A_FACTOR.search(lines[i]) and header.unread_factor is None:
+                header.unread_factor = lines[i].strip()[:80]  # no key = value: damaged
     for i in range(first, len(lines)):  # comments between and after the data lines
         if _is_comment(lines[i]):
             kv = _split_key_value(lines[i])
@@ -946,6 +954,12 @@ def _table(name: str, parsed, layout: str) -> _Table:
     column_units: list[str | None] = ([_unit_in(n) for n in names] if names
                                       else [None] * values.shape[1])
     factor_unit = None
+    if names and header.unread_factor is None and _NAMES_A_FACTOR.search(" ".join(names)):
+        header.unread_factor = " ".join(names)[:80]  # a factor line taken for titles
+    if header.height_factor is None and header.unread_factor is not None:
+        raise ValueError(f"{name}: the header line {header.unread_factor!r} names a "
+                         "conversion factor of the values that does not read as one "
+                         "(damaged?): the heights would be unscaled; refused")
     if header.height_factor is not None:
         factor, factor_unit, stated = header.height_factor
         if not (np.isfinite(factor) and factor != 0):
