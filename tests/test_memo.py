@@ -170,3 +170,40 @@ def test_switched_off_every_call_computes_and_nothing_is_kept(G, fits):
         memo.set_enabled(previous)
     xrough.fit_acf(G)
     assert len(fits) == 4 and previous is True
+
+
+REAL_FILES = ["al3d-1.al3d", "dektak-1.csv", "di-1.di", "matrix-3.txt", "mi-1.mi", "nc-1.nc",
+              "nid-1.nid", "opd-1.opd", "plu-1.plu", "sdf-1.sdf", "spot_1-1000nm.ibw",
+              "sur-2.sur", "x3p-2.x3p"]
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("name", REAL_FILES)
+def test_the_readme_chain_fits_each_real_file_once(name, fits):
+    """The README's chain on every real file (open, detrend, G, fit, persson, energy,
+    patch radius, mean gap): one fit of each curve of G, whatever its rating (a G with a
+    quality flag, anisotropic or with a roll-off, was fitted again by persson)."""
+    from conftest import data_path
+
+    path = data_path("instruments", name)
+    if name in ("al3d-1.al3d", "mi-1.mi", "nid-1.nid", "opd-1.opd", "plu-1.plu"):
+        pytest.importorskip("SurfaceTopography")
+    xrough.memo.forget()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        G = xrough.open_topography(path).rough.detrend().rough.acf()
+        curves = int(np.prod([G.sizes[d] for d in G.dims if d != "dr"]))
+        steps = [lambda: G.rough.fit(),
+                 lambda: G.rough.persson(E_star=E_STAR, p0=[P0, "1 MPa"]),
+                 lambda: G.rough.energy(E_star=E_STAR),
+                 lambda: G.rough.patch_radius(E_star=E_STAR, gamma="50 mJ/m^2"),
+                 lambda: G.rough.mean_gap(E_star=E_STAR, p0=P0)]
+        refused = []
+        for step in steps:
+            try:
+                step()
+            except ValueError as err:  # a G no theory takes (nc-1: quantized, G = 0)
+                refused.append(str(err))
+    # a refused G is refused by every step (its check comes before any fit)
+    assert len(refused) in (0, len(steps))
+    assert len(fits) == (0 if refused else curves)

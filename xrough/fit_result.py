@@ -319,13 +319,8 @@ def gradient_from_fit(params: xr.Dataset, dr: QuantityLike | None = None, *,
                       rolloff: str | None = None) -> xr.DataArray:
     r"""Scale-dependent rms gradient ``gbar(dr)`` from a fit of G.
 
-    For ``model="spectrum"``, eq. 26 of the fitted spectrum in closed form,
-
-    .. math::
-
-        \bar g^2(\Delta r) = \frac{1}{2\pi} \int_0^{2\pi/\Delta r} dq\, q^3\, C(q);
-
-    for ``model="eq36"``, the paper's eq. 37/38,
+    ``model="spectrum"``: eq. 26 of the fitted spectrum in closed form, ``gbar^2(dr) = (1/2pi)
+    int_0^(2pi/dr) dq q^3 C(q)``; ``model="eq36"``: the paper's eq. 37/38,
 
     .. math::
 
@@ -335,6 +330,9 @@ def gradient_from_fit(params: xr.Dataset, dr: QuantityLike | None = None, *,
         C'_{sa} = \frac{c_{sa}(H)}{C_{sa}},\;
         r_{ro} = c_{ro}(H)\, \sigma_h^2 \lambda_r^2
 
+    an interpolation that can be off by tens of percent near the crossovers.  Notes (the
+    shape factors, unresolved cutoffs): docs/theory.md, "gradient_from_fit in detail".
+
     Parameters
     ----------
     params : xarray.Dataset
@@ -343,9 +341,8 @@ def gradient_from_fit(params: xr.Dataset, dr: QuantityLike | None = None, *,
         Positive lags; plain numbers in the unit of ``params.lambda_r``.  Default: 50
         logarithmic points over the fitted range.
     rolloff : {'sharp', 'smooth'}, optional
-        Roll-off shape; default ``params.attrs["rolloff"]``.  For eq. 36 it selects
-        ``c_ro(H)``; a spectrum fit only accepts its own shape (per fit: the variable
-        ``rolloff_shape``, used when ``attrs["rolloff"]`` is ``"auto"``).
+        Default ``params.attrs["rolloff"]`` (per fit ``rolloff_shape`` if ``"auto"``); eq. 36:
+        selects ``c_ro(H)``; a spectrum fit only accepts its own shape.
 
     Returns
     -------
@@ -353,41 +350,21 @@ def gradient_from_fit(params: xr.Dataset, dr: QuantityLike | None = None, *,
         ``gbar`` (units "1") on dim ``dr`` and the extra dims of ``params``;
         ``attrs["equation"]`` is ``"eq. 26"`` or ``"eq. 37/38"``.  A spectrum fit with
         its ``parameter_covariance`` adds the coordinate ``gbar_std``, the statistical
-        standard deviation of gbar: eq. 26 of the fitted spectrum linearised in the fit's
-        parameters (a cutoff the data do not resolve: the change within one standard
-        deviation of it).
+        standard deviation of gbar (eq. 26 linearised in the fit's parameters).
 
     Raises
     ------
     ValueError
         ``params`` without the fitted variables or units; invalid ``dr`` or ``rolloff``.
 
-    Notes
-    -----
-    *Spectrum model.*  Exact for the fitted spectrum; with ``lambda_s_resolved = 0`` the
-    spectrum has no short cutoff and ``gbar`` grows without bound as ``dr -> 0``
-    (as ``dr^-(1-H)``), and ``lambda_r_resolved = 0`` drops the plateau.
-
-    *Eq. 36.*  xrough's convention for the shape factors (docs/theory.md):
-    ``gbar^2(dr) = c_sa(H) G(dr)/dr^2`` in the self-affine regime and ``gbar^2(dr) =
-    c_ro(H) sigma_h^2 lambda_r^2 / dr^4`` for ``dr >> lambda_r``, with gbar from eq. 26,
-    so that
-
-    * ``c_sa(H) = 4 pi^(2-2H) H Gamma(1+H) / Gamma(2-H)``
-      (:func:`xrough._kernels.shape_factors.self_affine_factor`, both roll-off shapes);
-    * ``c_ro(H) = 2 pi^2 H / (1+H)`` (sharp, eq. 35) or ``2 pi^2 H`` (smooth), in the limit
-      ``lambda_s/lambda_r -> 0`` (:func:`xrough._kernels.shape_factors.rolloff_factor`).
-
-    Each term is exact deep inside its regime (``dr << lambda_s``: ``gbar -> gbar(0)``;
-    ``lambda_s << dr << lambda_r``; ``dr >> lambda_r``) and the sum of reciprocals is
-    an interpolation between them: near the crossovers it can be off by tens of percent.
-    ``C_b = 0`` gives ``gbar(0) = inf``; ``sigma_h = inf`` drops the roll-off term.
+    See Also
+    --------
+    xrough.rms_gradient : gbar from G, choosing the method.
 
     Examples
     --------
     >>> import xrough
     >>> from xrough.fitting import fit_acf
-    >>> from xrough.gradient import gradient_from_fit
     >>> C = xrough.model_spectrum(hurst=0.5, lambda_r="1 um", lambda_s="10 nm",
     ...                           rms_height="2 nm", unit="nm")
     >>> G = xrough.acf_from_spectrum(C, dr_min=1, dr_max=1e5)

@@ -411,272 +411,51 @@ def fit_acf(
 ) -> xr.Dataset:
     r"""Fit the height-difference ACF with the model spectrum (eq. 9 of eq. 35) or eq. 36.
 
-    ``model="spectrum"`` (default) fits the parameters of the self-affine model spectrum,
-    ``q = 2 pi / lambda``,
-
-    .. math::
-
-        C(q) = C_r \;\; (q_0 \le q < q_r), \qquad
-        C(q) = C_r\, (q/q_r)^{-2(1+H)} \;\; (q_r \le q < q_s)
-
-    (``rolloff="sharp"``, eq. 35) or ``C = C_r [1 + (q/q_r)^2]^-(1+H)`` on ``[q_0, q_s)``
-    (``"smooth"``), through its exact G of eq. 9,
-
-    .. math::
-
-        G(\Delta r) = \frac{1}{2\pi} \int_0^\infty dq\, q\, C(q) [1 - J_0(q \Delta r)].
-
-    ``model="eq36"`` fits the paper's three-regime closed form
-
-    .. math::
-
-        \frac{1}{G(\Delta r)} = \frac{C_b}{\Delta r^2} + \frac{C_{sa}}{\Delta r^{2H}}
-                                + \frac{1}{\sigma_h^2}
-
-    with ``C_b >= 0``, ``1/sigma_h^2 >= 0`` (``sigma_h = inf``: no plateau in the data),
-    ``C_sa > 0``.  Both keep ``0.01 <= H <= 0.99``.
+    ``model="spectrum"`` fits eq. 35 (or its smooth roll-off) through its exact G of eq. 9,
+    ``model="eq36"`` ``1/G = C_b/dr^2 + C_sa/dr^(2H) + 1/sigma_h^2``; both fit ``ln G``.  Notes
+    (formulas, all outputs, errors, cutoffs, shapes, which model, caching): docs/theory.md,
+    "fit_acf in detail"; the checks: docs/quality.md, "fit_acf".
 
     Parameters
     ----------
     G : xarray.DataArray with dims (..., "dr")
-        Height-difference ACF in length^2 on a lag coordinate ``dr`` in length (``units``
-        required on both), e.g. from :func:`xrough.height_difference_acf` or
-        :func:`xrough.acf_from_spectrum`.  Extra dims (e.g. ``scan``) are fitted one by
-        one; NaN bins are skipped.
+        Height-difference ACF in length^2 on a lag coordinate ``dr`` in length (``units`` on
+        both), e.g. from :func:`xrough.height_difference_acf`; extra dims fitted one by one.
     model : {'spectrum', 'eq36'}
-        The model spectrum (default: no model bias for self-affine surfaces with a
-        roll-off; see Notes, *Which model*) or eq. 36 (closed form, much cheaper,
-        biased by up to 0.1 in ``H`` on such surfaces).
+        The model spectrum (default, unbiased) or eq. 36 (cheaper; ``H`` biased by up to 0.1).
     dr_min, dr_max : float, str or pint.Quantity, optional
         Range of lags to fit (plain numbers in the unit of ``dr``); default: all.
     weights : {'standard_error', None}
-        Weight each bin by the coordinate ``standard_error`` of ``G`` (in length^2) when it
-        exists; unweighted otherwise, or with None.  ``attrs["weighting"]`` says which.
+        Weight by the coordinate ``standard_error`` of ``G`` (length^2) if any, or not.
     fix : dict, optional
-        Parameters held fixed (lengths as plain numbers in the unit of ``dr``).
-        ``'spectrum'``: ``"hurst"``, ``"lambda_r"`` (``np.inf``: no roll-off),
-        ``"lambda_s"`` (``0``: no short-wavelength cutoff).  ``'eq36'``: ``"hurst"``,
-        ``"C_b"`` (dimensionless, e.g. 0 when the ballistic regime is unresolved) and
-        ``"sigma_h"`` (plain numbers in the height unit of ``G``; ``np.inf`` for no
-        plateau).
+        Fixed parameters (lengths in the unit of ``dr``): ``"hurst"``, ``"lambda_r"`` (inf:
+        no roll-off), ``"lambda_s"`` (0: no cutoff); eq36: ``"hurst"``, ``"C_b"``, ``"sigma_h"``.
     rolloff : {'auto', 'sharp', 'smooth'}, optional
-        Shape of the model spectrum.  ``'auto'`` (the default of ``'spectrum'``) fits
-        both and keeps the one the data support (see Notes, *Roll-off shape*; variable
-        ``rolloff_shape``).  For eq. 36 (default ``'sharp'``; ``'auto'`` is not
-        available, eq. 36 has no shape), the shape assumed to convert the crossover lag
-        into ``lambda_r``.  Both models keep it for :func:`gradient_from_fit`.
+        Roll-off shape; ``'auto'`` (spectrum default) fits both, keeps the better (eq36: sharp).
     lambda_0 : float, str or pint.Quantity, optional
-        ``'spectrum'`` only: long-wavelength cutoff ``2 pi / q_0`` of the model (e.g. the
-        size of a periodic map, whose G knows no longer wavelengths); default none.
+        Spectrum only: long-wavelength cutoff ``2 pi / q_0`` (e.g. a periodic map's size).
     cutoff : {'auto', 'sharp', 'gaussian'}, optional
-        ``'spectrum'`` only: shape of the short-wavelength cutoff.  ``'sharp'`` is eq. 35
-        (``C = 0`` beyond ``q_s``); ``'gaussian'`` the spectrum times ``exp(-(q/q_s)^2)``,
-        as an instrument's transfer (tip, optics, stylus) rolls it off; ``'auto'`` (the
-        default) fits both where the data resolve ``lambda_s`` and keeps the one they
-        support (see Notes, *Cutoff shape*; variable ``cutoff_shape``).
+        Spectrum only: eq. 35's cutoff or ``exp(-(q/q_s)^2)``; ``'auto'`` fits both.
 
     Returns
     -------
     xarray.Dataset
-        On the extra dims of ``G``; each parameter with ``<name>_std`` (one standard
-        deviation, same units), plus ``reduced_chi2`` and ``n_bins``, and the scalar
-        coordinate ``dr_ref`` (the lag at which ``G_sa`` is given).
-
-        * ``'spectrum'``: ``sigma_h`` (height unit), ``G_sa`` (units of ``G``), ``hurst``
-          ("1"), ``lambda_r``, ``lambda_s`` (lateral unit), ``C_r`` (units of ``G`` times
-          lateral^2), the flags ``lambda_r_resolved`` and ``lambda_s_resolved`` (1 or 0,
-          see Notes), ``rolloff_shape`` (0 sharp, 1 smooth: the shape fitted; CF
-          ``flag_values``), ``reduced_chi2_other_rolloff`` (the other shape on the same
-          bins; NaN when only one was fitted), ``cutoff_shape`` (0 sharp, 1 Gaussian) and
-          ``reduced_chi2_other_cutoff`` (likewise), ``parameter_covariance`` (dims ``cov_i``,
-          ``cov_j``: see the module docstring) and the scalar coordinate ``lambda_0``
-          (``inf``: none).
-        * ``'eq36'``: ``sigma_h``, ``G_sa``, ``hurst``, ``C_b`` ("1"), ``lambda_r``.
-
-        Attrs: ``model``, ``equation``, ``weighting``, ``residuals``,
-        ``dr_min``/``dr_max``/``dr_units`` (range of bins used), ``fixed``, ``rolloff``
-        (the shape; ``'auto'`` for several or lazy fits: see ``rolloff_shape``),
-        ``rolloff_choice`` (spectrum: how the shape was chosen), ``cutoff`` and
-        ``cutoff_choice`` (the same for the short-wavelength cutoff),
-        ``uncertainty``, ``source``, ``lambda_r_definition`` (eq36) or ``cutoffs``
-        (spectrum) and, for a single fit, ``reduced_chi2`` and (spectrum)
-        ``ballistic_regime`` and ``plateau`` ("resolved" or why not).
-
-        Quality (docs/quality.md): ``rms_misfit`` (rms of ``ln G_model - ln G``, weighted
-        as the fit), ``reduced_chi2_eq36`` (spectrum: eq. 36 on the same bins),
-        ``fit_problems`` (one bit per failed check, CF ``flag_masks``), the coordinate
-        ``quality_flag`` (0 good, 1 questionable, 2 failed) and, for a single computed
-        fit, the attrs ``quality`` and ``quality_notes``.  The parameters of a failed
-        fit are NaN (fixed values kept); a :class:`xrough.QualityWarning` says why.
+        ``sigma_h``, ``G_sa``, ``hurst``, ``lambda_r`` (spectrum: ``lambda_s``, ``C_r``; eq36:
+        ``C_b``), each with ``<name>_std``; ``reduced_chi2``, ``fit_problems``, ``quality_flag``.
 
     Raises
     ------
     ValueError
-        Missing or non-length units, no ``dr`` coordinate, non-positive ``G`` or standard
-        error in the range, fewer valid bins than free parameters + 1, invalid ``model``,
-        ``fix``, ``weights``, ``rolloff`` or ``lambda_0``.
+        Missing or non-length units, no ``dr``, ``G`` or errors <= 0, too few bins, bad options.
 
     See Also
     --------
     model_acf : the fitted curve G(dr).
-    gradient_from_fit : the scale-dependent rms gradient (eq. 26 of the fitted spectrum,
-        or eq. 37/38).
-
-    Notes
-    -----
-    *Computed once.*  A fit of an equal G (same values, coords and attrs, whichever object
-    holds them) with equal options is not computed again in the same session: the result
-    is handed out from memory (a copy, with the same warnings), so ``G.rough.fit()``
-    followed by ``G.rough.persson(...)``, which needs that fit, fits once
-    (:func:`xrough.memo.by_content`; ``fit_acf.cache_clear()`` forgets).
-
-    *Residuals.*  Both models minimise ``sum_i [(ln G_model(dr_i) - ln G_i) / s_i]^2``
-    with ``s_i = standard_error_i / G_i`` (the standard error of ``ln G``), or ``s_i = 1``
-    unweighted: G spans decades and its errors are relative, so log residuals give every
-    decade its weight and keep a large plateau from swamping the small-``dr`` bins.
-
-    *Uncertainties.*  One standard deviation from the covariance ``(J^T J)^-1`` of the
-    weighted residuals, multiplied by ``max(1, reduced chi^2)`` (by the reduced chi^2
-    alone when unweighted), and propagated to derived quantities to first order.  The
-    bins of a G measured on one surface are correlated (they share the same large-scale
-    heights), so for such data the uncertainties are a lower bound; they are honest for
-    independent errors.  On synthetic Gaussian surfaces (``L = 8 lambda_r``) with the
-    standard errors of :func:`xrough.height_difference_acf`, ``hurst_std`` was 1.4 to 1.6
-    times the scatter of ``H`` between realisations at 512^2 (``lambda_r`` = 64 pixels)
-    but 0.5 to 0.8 times at 1024^2 (128 pixels): finer maps shrink the standard errors of
-    the bins, not the scatter of the few modes near ``q_r``.
-
-    *Spectrum model.*  ``G_sa`` is the self-affine asymptote at ``dr_ref``,
-    ``G -> G_sa (dr/dr_ref)^(2H)`` for ``lambda_s << dr << lambda_r``, i.e.
-    ``G_sa = C_r q_r^(2+2H) I(H) dr_ref^(2H) / 2pi`` with
-    ``I(H) = 2^(-1-2H) Gamma(1-H) / (H Gamma(1+H))``; ``sigma_h^2`` and ``C_r`` follow
-    from the moments of the fitted spectrum.  G is eq. 9 of the model spectrum in closed
-    form (:mod:`xrough._kernels.model_acf`: Bessel-function integrals of one variable,
-    to about 1e-13 for the sharp shape and 1e-10 for the smooth one; the smooth shape
-    with ``lambda_s > lambda_r / 4`` or a ``lambda_0``, and the Gaussian cutoff, fall back
-    to the quadrature of :func:`xrough._kernels.hankel.acf_from_spectrum_kernel`).  The optimiser
-    (``scipy.optimize.least_squares``, trust-region reflective) works on ``ln G_sa``,
-    ``H``, ``ln eta`` and ``ln eps`` with
-    ``eta = (dr_max/lambda_r)^(2-2H)`` and ``eps = (lambda_s/dr_min)^(2H)``
-    (``dr_min``, ``dr_max``: the fitted range), started from the fit of eq. 36.  To
-    leading order ``eps`` (``eta``) is the relative change of G at the short (long) end
-    of the range that its cutoff causes: once the cutoff lies beyond the lags, G depends
-    on it only through ``eps`` (a constant shift of G, ``-G_sa (lambda_s/2 pi
-    dr_ref)^(2H) / (2H I)``) or ``eta`` (a term in ``dr^2``), linearly, and ``eps = 0``
-    (``eta = 0``) is the spectrum without that cutoff.  ``ln G_sa`` enters ``ln G``
-    linearly: it is solved for at each step (variable projection) and the search runs over
-    the other three.
-
-    *Unresolved cutoffs.*  A cutoff is resolved when its ``eps`` (``eta``) exceeds twice
-    its standard deviation, or (the roll-off) when the refit without it misses G by more
-    than 3 times in a bin where the fit with it does not: the plot shows the plateau.
-    Otherwise the data cannot tell it from no cutoff: it is set
-    to none (``lambda_s = 0``, ``lambda_r = inf``) and the rest refitted.  Then
-    ``lambda_s_resolved = 0`` and ``lambda_s`` is the upper bound
-    ``dr_min (2 std(eps))^(1/(2H))`` (about 98 % one-sided) with NaN std: no ballistic
-    regime in the data; and ``lambda_r_resolved = 0`` with ``lambda_r = sigma_h = C_r =
-    inf`` (NaN std): no plateau.  With ``lambda_0`` the roll-off cannot move beyond
-    ``lambda_0``; if it ends there, ``lambda_r = lambda_0`` (NaN std,
-    ``lambda_r_resolved = 0``) and ``sigma_h`` is that of the truncated power law.  The
-    standard deviations of the other parameters include the freedom of the unresolved
-    cutoff (its column of ``J``), e.g. a ``lambda_s`` just below the data.
-
-    *Checks* (docs/quality.md).  A fit is questionable when its rms misfit of ``ln G``
-    exceeds 10 % (or, weighted, its reduced chi^2 20 with a misfit above 2 %), when ``H``
-    ends within 0.05 of a bound, when (spectrum) eq. 36 fits with a 3 times smaller
-    reduced chi^2 (the note recommends ``model='eq36'``; the model asked for is kept),
-    or when a resolved ``lambda_r`` lies more than 10 times beyond the largest lag.  It
-    has failed (parameters NaN) when its rms misfit exceeds 20 %, whatever its chi^2;
-    when its cutoffs leave no self-affine range inside the lags; when a free ``H`` sits
-    at its bound (within 0.05 of it and less than 2 standard deviations from it: the
-    data do not determine H); or when it has fewer than 2 bins per free parameter.  A
-    cutoff more than a decade outside the lags counts as unresolved, unless G shows it:
-    a roll-off whose removal leaves the model more than 3 times off G in a bin, where
-    with it the model is not, is kept (the plateau of a map whose bins at the largest
-    lags have wide errors).  An unresolved ``lambda_s`` whose upper bound lies beyond
-    the lags is NaN.  A poor first fit of the spectrum (reduced chi^2 above 10 or above
-    that of eq. 36) restarts from the 3 best points of a grid of ``H``, ``ln eta``,
-    ``ln eps`` and keeps the best: with cutoffs one decade apart the start from eq. 36
-    can end in a local minimum (``H`` near 0.1, ``lambda_s`` beyond ``lambda_r``).
-
-    *Roll-off shape.*  With ``rolloff='auto'`` both shapes are fitted to the same bins and
-    compared by Akaike's information criterion of the weighted log residuals (AIC =
-    chi^2 + 2 p; unweighted ``n ln(RSS/n) + 2 p``; both shapes have the same number of
-    parameters, so this compares their chi^2).  The smooth shape is kept when its AIC is
-    lower by more than 2 (a likelihood ratio of e, the usual threshold of substantial
-    support); otherwise the data do not tell the shapes apart and eq. 35 (sharp) is kept.
-    A fitted shape that failed counts as infinitely worse.  The choice matters: on a
-    smooth-roll-off surface (1024^2, ``H = 0.8``, ``lambda_r`` = 128, ``lambda_s`` = 4
-    pixels) the sharp shape gives ``H = 0.64 +- 0.01`` at a reduced chi^2 of 1.8 (rated
-    good by every other check), the smooth one ``H = 0.77 +- 0.01`` at 0.11.  Because the
-    bins of G are correlated the chi^2 difference overstates the evidence; the margin of 2
-    is therefore a lower bound of what decides.  Fitting both costs more than the sharp fit
-    alone (the smooth G of eq. 9 is slower to evaluate); pass ``rolloff`` to fit
-    one shape.
-
-    *Cutoff shape.*  A measured spectrum rarely ends as eq. 35 does: the instrument's
-    transfer rolls it off over a decade, like ``exp(-(q/q_s)^2)``.  Fitted with the sharp
-    cutoff, such a G gives an ``H`` too high by 0.1 to 0.2, rated good
-    (``benchmarks/instrument_cutoffs.py``: 512^2, ``lambda_s`` = 4 pixels, ``H`` 0.65
-    fitted as 0.77, ``H`` 0.3 as 0.48).  With ``cutoff='auto'``, where the sharp fit
-    resolves ``lambda_s``, the same roll-off is fitted with the Gaussian cutoff (started at
-    the same shift of G beyond ``lambda_s``), and the Gaussian is kept where its AIC is
-    lower by more than 2 (eq. 35 otherwise, as for the roll-off).  Where the better fit's
-    reduced chi^2 is below 1 (G's standard errors carry the scatter of the whole curve,
-    which moves its bins together), both are compared on the scale of their misfit, as
-    unweighted fits are (``n ln(RSS/n) + 2 p``).  The two fits' values of ``H`` and
-    ``sigma_h`` are averaged with Akaike weights ``exp(-AIC/2)`` into their standard
-    deviations (the spread about the value kept); where that spread of ``H`` exceeds its
-    statistical error and 0.05 the data cannot tell ``H`` from the shape of the cutoff,
-    and the fit is questionable (``cutoff_shape_undetermined``).  ``lambda_s`` of the
-    Gaussian is the ``2 pi / q_s`` of its ``exp(-(q/q_s)^2)``: shorter, by
-    ``Gamma(1-H)^(1/(2H))``, than a sharp cutoff with the same shift of G.  On maps
-    through a Gaussian transfer (512^2 and 1024^2, ``H`` 0.3 and 0.65, open and periodic,
-    40 seeds each) the default fit gives ``H`` with a mean pull of -0.04 to +0.33 and a
-    pull scatter of 0.85 to 1.00, ``sigma_h_std`` 1.03 to 1.48 times the scatter of
-    ``sigma_h``; on eq. 35 maps it keeps the sharp cutoff in 80 of 80.  The Gaussian's G is
-    a quadrature: where it is fitted the fit costs more than the sharp one
-    (``python benchmarks/bench_fit.py``).
-
-    *Which model.*  Eq. 36 approaches the self-affine law as ``dr^(2H-2)`` from the
-    ballistic side and as ``dr^(2H)`` from the plateau side, whereas G of eq. 35 does so
-    as ``(q_s dr)^(-2H)`` and ``(q_r dr)^(2-2H)``: the crossovers match in form only at
-    ``H = 1/2``, and eq. 36 levels off more slowly than G.  Its parameters are those of
-    the best interpolation, not of the surface: on the exact G of eq. 35
-    (``lambda_r/lambda_s = 1e6``, fitted from ``lambda_s/100`` to ``100 lambda_r``) ``H``
-    comes out 0.321, 0.501, 0.764 for ``H = 0.3, 0.5, 0.8``, ``sigma_h`` 9, 6, 3 % high and
-    ``lambda_r`` at 0.75, 1.02, 1.25 of its value; with only 1.8 decades of self-affine
-    scaling (``lambda_r/lambda_s = 64``) ``H`` is off by up to 0.1 and ``lambda_r`` by up
-    to 40 %, and the standard deviations do not include this bias.  The spectrum model
-    returns the parameters of the exact G to 1e-9, and on synthetic Gaussian surfaces
-    (512^2, ``L = 8 lambda_r``, ``lambda_s`` = 4 pixels, 20 seeds) ``H`` without bias
-    (mean error <= 0.003; scatter 0.009 to 0.026 between realisations, growing with
-    ``H``) and ``sigma_h`` within 1 % of each realisation's rms height.  It is therefore
-    the default; eq. 36 stays for its closed form (the paper's eq. 37/38 build on it),
-    for speed, and for G that is not of the self-affine form.
-
-    *Eq. 36 details.*  Parameters of the optimiser (method ``dogbox``, whose active set
-    puts a parameter exactly on its bound) are ``ln C_sa``, ``H``, ``C_b`` and
-    ``1/sigma_h^2`` (the last two linear, so that they can reach their bound 0), started
-    from the best of non-negative linear least-squares fits of ``1/G`` on a grid of
-    ``H``.  ``G_sa = dr_ref^(2H) / C_sa`` (``C_sa`` has the units length^(2H-2), which CF
-    cannot spell); ``dr_ref`` is the power of ten nearest the geometric mean of the fitted
-    lags, so that ``G_sa`` is far less correlated with ``H`` than ``C_sa``.  The roll-off
-    wavelength: ``dr_x = (C_sa sigma_h^2)^(1/(2H))`` is where the self-affine term equals
-    the plateau term; for the model spectra (no lower cutoff, ``lambda_s << lambda_r``)
-    the self-affine asymptote of G meets ``sigma_h^2`` at ``q_r dr_x = kappa(H)`` (see
-    :func:`xrough._kernels.shape_factors.rolloff_crossover`; ``kappa = 1.674, 1.5,
-    1.066`` at ``H = 0.3, 0.5, 0.8`` for the sharp shape), so
-    ``lambda_r = 2 pi dr_x / kappa(H)``, exact when the fitted ``C_sa`` and ``sigma_h``
-    are the asymptotic ones.
+    gradient_from_fit : the rms gradient of the fit (eq. 26, or eq. 37/38).
 
     Examples
     --------
-    The exact G of eq. 35 (``H = 1/2``, ``sigma_h = 2 nm``, two decades of self-affine
-    scaling):
-
     >>> import xrough
-    >>> from xrough.fitting import fit_acf
     >>> C = xrough.model_spectrum(hurst=0.5, lambda_r="1 um", lambda_s="10 nm",
     ...                           rms_height="2 nm", unit="nm")
     >>> G = xrough.acf_from_spectrum(C, dr_min=1, dr_max=1e5)
@@ -686,9 +465,6 @@ def fit_acf(
     H = 0.5000, sigma_h = 2.0000 nm, lambda_r = 1000.0 nm, lambda_s = 10.000 nm
     >>> p.attrs["weighting"], p.attrs["plateau"]
     ('none (G has no standard_error coordinate)', 'resolved')
-
-    The closed form of eq. 36 on the same data:
-
     >>> q = fit_acf(G, model="eq36")
     >>> print(f"H = {float(q.hurst):.3f}, sigma_h = {float(q.sigma_h):.2f} nm")
     H = 0.560, sigma_h = 2.05 nm

@@ -437,22 +437,11 @@ def rms_gradient_exact(
 ) -> xr.DataArray:
     r"""Compute the "exact" scale-dependent rms gradient of a ``G`` (eq. 26 via eq. 10/11).
 
-    .. math::
-
-        \bar g^2(\Delta r) = \frac{1}{2\pi} \int_0^{2\pi/\Delta r} dq\, q^3\, C(q),
-        \qquad C \text{ from } G \text{ by eq. 10/11 (:func:`spectrum`)}
-
-    ``C`` is evaluated on ``points_per_decade`` from ``0.01 * 2 pi / dr_max`` to
-    ``2 pi / dr_min`` (taken flat below, a negligible share) and integrated exactly as a
-    piecewise power law (a straight line between samples where ``C <= 0``, possible where
-    ``G`` does not determine ``C``: the ringing around a jump of ``C`` must not be
-    clipped).  ``gbar`` is returned only where it is supported: where neither the
-    extrapolation variants of :func:`spectrum` (the end slopes of ``G`` turning sooner or
-    later), nor leaving out ``C`` below the grid, nor noise change ``gbar`` by more than
-    ``support_rtol`` (the largest change within +-0.2 decades counts).  ``gbar`` can be
-    supported where ``C`` is not: ``q^3 C`` beyond the short-wavelength cutoff decides
-    little of ``gbar^2``, and a ``G`` that has reached its plateau fixes the small
-    wavenumbers.
+    ``gbar^2(dr) = (1/2pi) int_0^(2pi/dr) dq q^3 C(q)`` with ``C`` from ``G`` by eq. 10/11
+    (:func:`spectrum`), integrated exactly as a piecewise power law, and returned only where
+    the extrapolation of ``G``, the grid and noise change it by at most ``support_rtol``.
+    Notes (method, support, the ballistic limit): docs/spectra.md, "rms_gradient_exact and
+    gradient_from_spectrum in detail".
 
     Parameters
     ----------
@@ -485,11 +474,6 @@ def rms_gradient_exact(
     See Also
     --------
     spectrum, gradient_from_spectrum
-
-    Notes
-    -----
-    In the ballistic regime ``gbar^2 -> 4 G / dr^2``; the simplest approximation of the
-    paper, ``gbar^2(dr) ~ 4 G(dr) / dr^2``, holds only there.
 
     Examples
     --------
@@ -583,14 +567,14 @@ def gradient_from_spectrum(
 ) -> xr.DataArray:
     r"""Scale-dependent rms gradient from an isotropic spectrum (paper eq. 26).
 
-    .. math::
-
-        \bar g^2(\Delta r) = \frac{1}{2\pi} \int_0^{2\pi/\Delta r} dq\, q^3\, C(q)
-
+    :math:`\bar g^2(\Delta r) = \frac{1}{2\pi} \int_0^{2\pi/\Delta r} dq\, q^3\, C(q)`,
     the mean-square gradient of the surface with every wavelength shorter than ``dr``
     removed; ``gbar(0)`` is the rms gradient.  A spectrum with the attributes of
     :func:`model_spectrum` is integrated in closed form; samples are a piecewise power law
-    (zero outside the sampled range, as in :func:`acf_from_spectrum`), integrated exactly.
+    (zero outside the sampled range, as in :func:`acf_from_spectrum`), integrated exactly;
+    a binned periodogram (with ``bin_measure``) is summed over its bins.  Notes (closed
+    forms, binned spectra and their accuracy): docs/spectra.md, "rms_gradient_exact and
+    gradient_from_spectrum in detail".
 
     Parameters
     ----------
@@ -621,30 +605,6 @@ def gradient_from_spectrum(
     See Also
     --------
     rms_gradient_exact : eq. 26 from a measured ``G``.
-
-    Notes
-    -----
-    For eq. 35 (sharp), with ``q_c = min(2 pi / dr, q_s)``:
-    ``2 pi gbar^2 = C_r (min(q_c, q_r)^4 - q_0^4) / 4
-    + C_r q_r^(2+2H) (q_c^(2-2H) - q_r^(2-2H)) / (2 - 2H)`` (second term for
-    ``q_c > q_r``); in the self-affine range ``gbar^2 ~ dr^-(2-2H)``.  For the smooth
-    variant, ``2 pi gbar^2 = (C_r q_r^4 / 2) [Phi(u_c) - Phi(u_0)]``, ``u = (q/q_r)^2``,
-    ``Phi(u) = ((1+u)^(1-H) - 1)/(1-H) + ((1+u)^-H - 1)/H`` (evaluated without
-    cancellation).
-
-    A periodogram binned over ``|q|`` (:func:`xrough.psd`, with ``bin_measure``) is
-    summed over its bins, ``sum q_b^2 C_b m_b``
-    (:func:`~xrough._kernels.hankel.binned_moment_kernel`; the bin that holds
-    ``2 pi / dr`` counted by its share in ``ln q``), which at ``dr`` below the pixel
-    diagonal is the mean-square gradient of all the map's modes (Parseval) to the spread
-    of ``q^2`` within a bin.  Against the exact
-    sum over a map's own modes (512^2, ``lambda_r`` = 128 px, H 0.3 to 0.8, sharp and
-    Gaussian cutoffs at 4 and 8 px): gbar within +0.5 % at every lag except where
-    ``2 pi / dr`` falls in the bin of a sharp cutoff (-1.2 to -1.6 %) and at 64 px (-0.6 %);
-    the power law through the bins (a spectrum without ``bin_measure``) was 1.1 to 1.8 %
-    low at the pixel scale (``python benchmarks/binned_spectrum_gradient.py``).
-    For a measured map's gbar at its pixel scale, :func:`rms_gradient` of its G is within
-    0.5 % or its stated error of the map's own on synthetic maps (docs/quality.md).
 
     Examples
     --------

@@ -177,10 +177,8 @@ def roughness_parameters(topography: xr.DataArray, *,
     xarray.Dataset
         Maps: ``Sq Sa Ssk Sku Sp Sv Sz Sdq Sdr rms_curvature median_height
         mad_height``; profiles: ``Rq Ra Rsk Rku Rp Rv Rz Rt Rdq rms_curvature
-        median_height mad_height``; 0-d for one map. ``mad_height`` is the median
-        absolute deviation from the median times 1.4826, the robust twin of ``Sq``
-        (equal to it on Gaussian heights, far below it where spikes or a skew dominate;
-        SurfaceTopography's ``mad_height``). Heights in the height unit,
+        median_height mad_height``; 0-d for one map. ``mad_height`` is 1.4826 times the
+        median absolute deviation from the median, a robust ``Sq``. Heights in the height unit,
         ``Ssk``, ``Sku``, ``Sdq`` and ``Sdr`` pure numbers (``units="1"``; ``Sdr`` a
         ratio, not percent), ``rms_curvature`` in 1 / lateral unit. Each variable's
         ``long_name`` names its standard and ``definition`` its formula; the attrs give
@@ -202,28 +200,8 @@ def roughness_parameters(topography: xr.DataArray, *,
 
     Notes
     -----
-    With ``z = h - <h>`` over the ``N`` valid points,
-
-    .. math:: S_q = \sqrt{\langle z^2\rangle}, \quad S_{sk} = \langle z^3\rangle / S_q^3,
-              \quad S_{dq}^2 = \langle s_x^2\rangle + \langle s_y^2\rangle, \quad
-              S_{dr} = \langle \sqrt{1 + s_x^2 + s_y^2} - 1\rangle
-
-    with the slopes ``s`` of the forward difference between neighbours (each mean over
-    every valid pair along its axis; ``Sdr`` at the points where both exist). The rms
-    curvature of a map is that of the mean curvature ``(c_x + c_y) / 2``, of a profile
-    that of ``h''`` (central second differences). SurfaceTopography's
-    ``rms_gradient`` averages both slopes over the points where both exist, which on an
-    open ``n x m`` map leaves out one row and one column of pairs; its ``Rq`` of a map
-    takes each line about its own mean (its ``Sq`` is ``Sq`` here); its
-    ``rms_curvature_from_area`` and its ``Rdq``/``Rddq`` of profiles are the definitions
-    here (docs/parameters.md gives the measured differences).
-
-    ``Rz`` of ISO 21920-2 / ISO 4287 is the mean over the sampling lengths of the height
-    between the highest peak and the deepest valley of each; the sampling length (the
-    profile filter's cutoff) is not known to xrough, so the default is one section, the
-    whole profile, where ``Rz = Rp + Rv = Rt``. Pass ``sampling_lengths=5`` for the
-    standard's default evaluation length of five sampling lengths (sections differ in
-    length by at most one point; all heights are taken from the one mean line).
+    Formulas, stencils, ``Rz`` and the sampling length, and the agreement with
+    SurfaceTopography: docs/parameters.md, "The parameters" and "Conventions".
 
     Examples
     --------
@@ -719,20 +697,9 @@ def scale_dependent_slope(topography: xr.DataArray, *, dr: QuantityLike | None =
 
     Notes
     -----
-    .. math:: s(\Delta r)^2 = \sum_{\rm axes} \left\langle
-              \frac{[h(\mathbf r + \Delta r\,\mathbf e) - h(\mathbf r)]^2}{\Delta r^2}
-              \right\rangle = \frac{2\,G(\Delta r)}{\Delta r^2} \ \text{(profile)},\quad
-              \frac{2\,[G_x(\Delta r) + G_y(\Delta r)]}{\Delta r^2} \ \text{(map)}
-
-    each mean over every pair of valid points ``dr`` apart along the axis, the pairs of
-    ``G(dr)`` along that axis (eq. 1, ``acf(direction='x')``): the identity is exact,
-    not an approximation. A map's slope is the rms magnitude of the gradient; for an
-    isotropic surface ``s^2 = 4 G / dr^2``, the ballistic ``gbar`` of
-    ``rms_gradient(method='simple')``; a profile's is the slope along it, ``1/sqrt(2)``
-    of the gradient of the isotropic surface it is cut from. On a map with non-square
-    pixels each axis takes its whole number of pixels nearest to ``dr``
-    (``step_x``, ``step_y``). SurfaceTopography's ``scale_dependent_slope_from_profile``
-    is the same quantity of a profile.
+    ``s(dr)^2 = 2 G(dr) / dr^2`` (profile) or ``2 [G_x(dr) + G_y(dr)] / dr^2`` (map), exactly,
+    over the pairs of ``G`` (eq. 1) along each axis; for an isotropic map ``s^2 = 4 G / dr^2``.
+    Details: docs/parameters.md, "Scale-dependent slope and curvature".
 
     Examples
     --------

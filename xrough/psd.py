@@ -63,144 +63,54 @@ def power_spectrum(
 ) -> xr.DataArray:
     r"""Power spectral density ``C(q)`` of the heights of a topography (eq. 4).
 
-    The periodogram of ``C(q) = A <|h~(q)|^2>``, ``h~(q) = (1/A) int d^2r h(r) e^{-i q.r}``:
-    per Fourier mode ``q`` (angular wavenumber ``2 pi k / L``) of a grid of ``N`` points
-    with pixel area ``dA`` (a pixel's length for lines),
-
-    .. math::
-
-        C(\mathbf q) = \frac{dA \left|\sum_{\mathbf r} w\, m\, (h - \mu)\,
-        e^{-i \mathbf q \cdot \mathbf r}\right|^2}{\sum_{\mathbf r} w^2 m}
-
-    with ``m`` 1 at valid points and 0 at missing ones, ``w`` the window and ``mu`` the
-    window-weighted mean of the valid heights. Bins average ``C`` over the modes with
-    ``|q|`` in them (``+q`` and ``-q`` both counted). Same definition and factors as
-    SurfaceTopography's ``power_spectrum_from_area`` and ``power_spectrum_from_profile``
-    (docs/psd.md).
+    The periodogram of ``C(q) = A <|h~(q)|^2>``, per mode ``q = 2 pi k / L`` ``C = dA |sum w m
+    (h - mu) e^{-i q.r}|^2 / sum w^2 m`` (mask ``m``, window ``w``), averaged over bins of ``|q|``
+    as SurfaceTopography does.  Notes (formula, Parseval, missing points, bin averages, windows,
+    all outputs, examples): docs/psd.md, "power_spectrum in detail".
 
     Parameters
     ----------
     topography : xarray.DataArray with dims (..., "y", "x") or (..., "x")
-        Heights with length units on data and coordinates (:func:`xrough.topography`);
-        NaN marks missing points; ``attrs["periodic"]`` says whether the map is one
-        period. Extra dims (``scan``) give one spectrum each; with dask, each map is one
-        task (``y`` and ``x`` must be one chunk each).
+        Heights with length units on data and coordinates (:func:`xrough.topography`); NaN
+        marks missing points.  Extra dims give one spectrum each (dask: one task per map).
     direction : {'radial', 'x', 'y'}
-        ``'radial'``: the 2D modes of a map, averaged over rings of ``|q|`` (the isotropic
-        ``C(q)``, length^4). ``'x'``, ``'y'``: the 1D spectrum of each line of the map
-        along that axis, pooled over the lines (length^3). A profile has only its own 1D
-        spectrum (``'radial'`` and ``'x'`` both give it; ``'y'`` is refused).
+        ``'radial'``: rings of ``|q|`` of the 2D modes (length^4); ``'x'``, ``'y'``: the 1D
+        spectra of the lines along that axis, pooled (length^3).  A profile: its 1D spectrum.
     window : {'auto', 'hann', 'hamming', 'blackman', 'blackmanharris', None}
-        Window against the leakage of the edges of an open map: ``'auto'`` (default) is
-        None for a periodic topography and ``'hann'`` otherwise. The window of a map is
-        the product of the 1D windows along y and x (separable); lines are windowed along
-        their axis. Its power is normalised away (the division by ``sum w^2 m``), so the
-        variance is kept.
+        Window against edge leakage (separable; power normalised away): ``'auto'`` is None
+        for a periodic topography and ``'hann'`` otherwise.
     bins : {'log', 'linear'} or array_like
-        Log-spaced bins centred on ``10**(k / points_per_decade)`` (in the inverse lateral
-        unit, so maps in nm and um give the same bins, converted); linear bins of width
-        ``bin_width`` centred on its multiples; or explicit edges (angular wavenumbers,
-        plain numbers in the inverse lateral unit). The default bins hold every mode
-        but ``q = 0``, up to the corner of the grid; bins without a mode are dropped.
+        Log bins centred on ``10**(k / points_per_decade)``, linear bins of ``bin_width``, or
+        edges (angular wavenumbers in the inverse lateral unit); empty bins are dropped.
     points_per_decade : float
-        Bins per decade for ``bins='log'`` (the rule of every log grid in xrough: a
-        finite number above 0 and at most 1000, checked whatever ``bins``). The default,
-        20, centres the bins on the default grid of :func:`xrough.spectrum` and keeps the
-        bias of bin averaging below 1 % (Notes).
+        Bins per decade for ``bins='log'`` (0 < ... <= 1000); 20 keeps the bias below 1 %.
     bin_width : float, str or pint.Quantity, optional
-        Width of linear bins, an angular wavenumber (plain numbers in the inverse lateral
-        unit); default the spacing of the modes, ``2 pi / L`` of the longest side.
+        Width of linear bins (inverse lateral unit); default ``2 pi / L`` of the longest side.
     workers : int, optional
         FFT threads (default: all cores).
 
     Returns
     -------
     xarray.DataArray
-        ``C`` on dim ``"q"`` (the mean ``|q|`` of the modes in each bin, in the inverse
-        lateral unit, e.g. ``"nm-1"``), in the lateral unit to the power 4 for
-        ``'radial'`` (``"nm4"``), 3 for lines and profiles: the heights are converted to
-        the lateral unit, as :func:`xrough.spectrum` does. Coordinates:
-
-        - ``n_modes`` (int): modes in the bin (``+q`` and ``-q`` apart);
-        - ``bin_measure`` (inverse lateral unit squared for maps, to the power 1 for
-          lines): ``n_modes / A`` with ``A`` the area of the map (the length of a line),
-          the discrete form of ``q dq / 2 pi`` (radial) or ``dq / pi`` (1D), such that
-          ``(C * C.bin_measure).sum("q")`` is the variance of the heights (see Notes);
-        - ``standard_error`` (``'radial'`` and profiles; units of ``C``): the
-          statistical error of ``C`` as an estimate of the surface's spectrum, for
-          Gaussian heights: ``C sqrt(2 f / n_modes)``, ``f >= 1`` counting how strongly
-          the window correlates the modes of the bin (1 without a window, up to 3.8
-          for a Hann window of a map in wide bins), times the loss of independent modes
-          to missing points. Not given for the lines of a map, whose spectra are
-          correlated;
-        - ``valid_fraction`` (on the extra dims, 0-d for one map): the fraction of valid
-          points; ``quality_flag``: questionable where it is below
-          :data:`MIN_VALID_FRACTION` (then also ``attrs["quality"]`` and a
-          :class:`~xrough.QualityWarning` for one map).
-
-        Attrs: ``equation``, ``estimator``, ``spectrum_kind`` (``"isotropic 2D"``,
-        ``"1D along x"``, ``"1D along y"``, ``"1D"``), ``direction``, ``window``
-        (``"none"`` or its name), ``periodic``, ``bins``, ``points_per_decade`` (log)
-        or ``bin_width`` (linear), ``pixel_size``, ``scan_size`` (lateral unit),
-        ``q_nyquist`` (the largest ``|q|`` along each axis, the smaller of the two for a
-        map: above it a bin holds only the corners of the grid of modes), and the
-        topography's provenance (:func:`xrough.acf.result_attrs`).
+        ``C`` on dim ``"q"`` (mean ``|q|`` of a bin, inverse lateral unit), in the lateral
+        unit^4 (``'radial'``) or ^3 (lines, profiles); coords ``n_modes``, ``bin_measure``
+        (``(C * C.bin_measure).sum("q")`` is the variance), ``standard_error``,
+        ``valid_fraction`` and ``quality_flag`` (below :data:`MIN_VALID_FRACTION`).
 
     Raises
     ------
     TypeError
         ``topography`` is not a DataArray.
     ValueError
-        Invalid topography (dims, non-uniform or unit-less coordinates, fewer than 2
-        valid points: at compute time for dask), ``y`` or ``x`` split into several dask
-        chunks, an unknown ``direction`` or ``window``, a bad ``points_per_decade``,
-        ``bin_width`` without ``bins='linear'``, bin edges that are not increasing
-        wavenumbers or hold no mode.
+        An invalid topography, chunked ``y``/``x``, or an invalid option or bin edges.
 
     See Also
     --------
     xrough.spectrum : ``C(q)`` from G by eq. 10/11 (plot both on one axes: docs/psd.md).
     xrough.model_spectrum : the model spectrum of eq. 35.
 
-    Notes
-    -----
-    **Parseval.** The default bins hold every mode but ``q = 0`` (up to the corner of the
-    grid of modes, beyond ``q_nyquist``), so that, exactly (to round-off),
-
-    .. math::
-
-        \sum_q C(q)\, \mathrm{bin\_measure}(q) = \frac{1}{A} \sum_{\mathbf q \ne 0}
-        C(\mathbf q) = \frac{\sum w^2 m (h - \mu)^2}{\sum w^2 m}
-
-    the variance of the heights for a map without window and missing points (in the
-    lateral unit squared); with a window, the ``w^2``-weighted variance, which equals the
-    variance on average. For lines it is the pooled variance of the lines about their
-    own means. Explicit bins hold only the modes inside them.
-
-    **Missing points** are set to the (weighted) mean, and the normalisation divides by
-    the valid points (``sum w^2 m``): the mask is part of the window. So ``C`` is the
-    spectrum seen through the spectral window of ``w m``, whose weights add up to one.
-    One compact hole (a missing region) narrows the data but leaves ``C`` nearly
-    unchanged; scattered missing points spread a fraction ``f`` (the missing fraction) of
-    every mode over all ``q``: ``C`` drops by about ``f`` where it is large and gets a
-    floor of about ``f sigma_h^2 dA`` where it is small (docs/psd.md).
-
-    **Bin averages.** ``C`` of a bin is the average over its modes, ``q`` their mean
-    ``|q|`` (as in SurfaceTopography): exact where a bin holds one ``|q|`` (the lowest
-    bins), and for a spectrum curved in log-log a little above ``C(q)``: by about
-    ``alpha (alpha + 1) s^2 / 2`` for ``C ~ q^-alpha``, ``s^2`` the variance of ``ln |q|``
-    over the modes of a bin (``s^2 = 0.0044`` for a full ring at 10 bins per decade).
-    For ``alpha = 3.6`` (``H = 0.8``) that is 3.7 % at 10 and 0.9 % at 20 bins per decade.
-
-    **Windows.** An open map is not periodic: without a window its edges act as steps
-    whose leakage (``~ q^-2`` in 1D) hides a spectrum that falls faster. Remove a plane
-    first (:func:`xrough.detrend`); the default Hann window then keeps the leakage below
-    a ``q^-6`` tail.
-
     Examples
     --------
-    A periodic map: Parseval holds exactly.
-
     >>> import numpy as np, xrough
     >>> h = np.random.default_rng(0).normal(size=(128, 128))
     >>> topo = xrough.topography(h, spacing="2 nm", unit="nm", periodic=True)
@@ -210,20 +120,6 @@ def power_spectrum(
     >>> variance = float((C * C.bin_measure).sum("q"))
     >>> print(f"{variance:.12f} nm2 = variance {float(h.var()):.12f} nm2")
     0.992257930562 nm2 = variance 0.992257930562 nm2
-
-    One sine along x: the spectrum of the lines along x has one peak, at its wavevector,
-    which holds its variance 1/2.
-
-    >>> x = np.arange(256) * 2.0
-    >>> wave = xrough.topography(np.sin(2 * np.pi * x / 64) * np.ones((32, 1)),
-    ...                          spacing="2 nm", unit="nm", periodic=True)
-    >>> C = wave.rough.psd(direction="x", bins="linear")
-    >>> C.attrs["units"], C.attrs["spectrum_kind"]
-    ('nm3', '1D along x')
-    >>> peak = C.idxmax("q")
-    >>> print(f"q = {float(peak):.6f} nm-1 (2 pi / 64 nm = {2 * np.pi / 64:.6f} nm-1), "
-    ...       f"power {float((C * C.bin_measure).sel(q=peak)):.6f} nm2")
-    q = 0.098175 nm-1 (2 pi / 64 nm = 0.098175 nm-1), power 0.500000 nm2
     """
     grid = grid_of(topography)
     kind = _kind(direction, grid)

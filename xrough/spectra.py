@@ -111,34 +111,26 @@ def model_spectrum(
 ) -> xr.DataArray:
     """Isotropic spectrum of a self-affine surface with roll-off (paper eq. 35).
 
-    ``rolloff="sharp"`` (eq. 35)::
-
-        C(q) = C_r                           for q_0 <= q < q_r
-        C(q) = C_r (q/q_r)^(-2(1+H))         for q_r <= q <= q_s
-        C(q) = 0                             otherwise
-
-    ``rolloff="smooth"``: ``C(q) = C_r [1 + (q/q_r)^2]^-(1+H)`` for ``q_0 <= q <= q_s``.
-    Here ``q_r = 2 pi / lambda_r``, ``q_s = 2 pi / lambda_s`` and ``q_0 = 2 pi / lambda_0``.
-    ``cutoff="gaussian"``: no sharp end at ``q_s``, the spectrum times ``exp(-(q/q_s)^2)``
-    instead (an instrument's Gaussian transfer: a tip, optics or a stylus).
+    ``rolloff="sharp"`` (eq. 35): ``C = C_r`` for ``q_0 <= q < q_r``, ``C_r (q/q_r)^(-2(1+H))``
+    for ``q_r <= q <= q_s``, 0 otherwise; ``"smooth"``: ``C_r [1 + (q/q_r)^2]^-(1+H)`` on ``[q_0,
+    q_s]``; ``q_x = 2 pi / lambda_x``.  ``cutoff="gaussian"``: no sharp end at ``q_s``, the
+    spectrum times ``exp(-(q/q_s)^2)`` (an instrument's Gaussian transfer: tip, optics, stylus).
 
     Parameters
     ----------
     q : array_like or pint.Quantity, optional
-        Wavenumbers (angular, in ``1/unit`` when plain numbers), ``>= 0``.  Default: a
-        logarithmic grid with ``points_per_decade`` from ``min(q_0, q_r/10)`` (``q_r/100``
-        without ``lambda_0``) up to ``q_s`` that contains ``q_0``, ``q_r`` and ``q_s`` exactly.
+        Angular wavenumbers ``>= 0`` (plain numbers in ``1/unit``).  Default: a log grid from
+        ``min(q_0, q_r/10)`` (``q_r/100`` without ``lambda_0``) to ``q_s``, through each ``q_x``.
     hurst : float
-        Hurst exponent ``H``, ``0 < H < 1``.
+        Hurst exponent, ``0 < H < 1``.
     lambda_r, lambda_s : float, str or pint.Quantity
-        Roll-off and short-wavelength cutoff wavelengths (length; plain numbers in ``unit``),
-        ``lambda_s < lambda_r``.
+        Roll-off and cutoff wavelengths (plain numbers in ``unit``), ``lambda_s < lambda_r``.
     lambda_0 : float, str or pint.Quantity, optional
         Longest wavelength (system size), ``lambda_0 >= lambda_r``; None for no lower cutoff.
     C_r, rms_height, rms_gradient : float, str or pint.Quantity
-        Exactly one sets the amplitude: the plateau ``C_r`` (length^4, plain numbers in ``unit``^4),
-        the rms height ``sigma_h`` (length) or the rms gradient ``gbar`` (dimensionless), with
-        ``sigma_h^2 = (1/2pi) int dq q C`` and ``gbar^2 = (1/2pi) int dq q^3 C``.
+        Exactly one sets the amplitude: the plateau ``C_r`` (length^4, plain numbers in
+        ``unit``^4), the rms height ``sigma_h`` (length, ``sigma_h^2 = (1/2pi) int dq q C``) or
+        the rms gradient ``gbar`` (dimensionless, ``gbar^2 = (1/2pi) int dq q^3 C``).
     rolloff : {'sharp', 'smooth'}
         Shape of the roll-off.
     unit : str
@@ -151,18 +143,16 @@ def model_spectrum(
     Returns
     -------
     xarray.DataArray
-        ``C`` on dim ``"q"`` (``units`` ``"<unit>-1"``, long_name "angular wavenumber"), data in
-        ``"<unit>4"``.  The attributes describe the model completely (so that
-        :func:`acf_from_spectrum` can evaluate it exactly), in the DataArray's own units:
-        ``model``, ``rolloff``, ``hurst``, ``q_r``, ``q_s``, ``q_0`` (0.0 when there is no lower
-        cutoff), ``C_r``, ``rms_height``, ``rms_gradient``, ``equation``, ``spectrum_kind``.
+        ``C`` on dim ``"q"`` (``"<unit>-1"``, "angular wavenumber") in ``"<unit>4"``; attrs (own
+        units) that :func:`acf_from_spectrum` evaluates exactly: ``model``, ``rolloff``,
+        ``hurst``, ``q_r``, ``q_s``, ``q_0`` (0.0: none), ``C_r``, ``rms_height``,
+        ``rms_gradient``, ``equation``, ``spectrum_kind``.
 
     Raises
     ------
     ValueError
-        For ``H`` outside (0, 1), a non-positive or non-length wavelength, ``lambda_s >=
-        lambda_r``, ``lambda_0 < lambda_r``, not exactly one amplitude, an unknown ``rolloff``
-        or invalid ``q``.
+        ``H`` outside (0, 1), a wavelength not a positive length, ``lambda_s >= lambda_r``,
+        ``lambda_0 < lambda_r``, not exactly one amplitude, an unknown ``rolloff``, a bad ``q``.
 
     See Also
     --------
@@ -170,7 +160,6 @@ def model_spectrum(
 
     Examples
     --------
-    >>> from xrough.spectra import model_spectrum
     >>> C = model_spectrum(hurst=0.8, lambda_r="1 um", lambda_s="10 nm",
     ...                    rms_height="2 nm", unit="nm")
     >>> C.attrs["units"], C["q"].attrs["units"]
@@ -302,19 +291,13 @@ def acf_from_spectrum(
 ) -> xr.DataArray:
     r"""Height-difference ACF from an isotropic spectrum (paper eq. 9).
 
-    .. math::
-
-        G(\Delta r) = \frac{1}{2\pi} \int_0^\infty dq\, q\, C(q)
-                       \left[1 - J_0(q \Delta r)\right]
-
+    :math:`G(\Delta r) = \frac{1}{2\pi} \int_0^\infty dq\, q\, C(q) [1 - J_0(q \Delta r)]`,
     the stable form of eq. 8 (no cancellation at small ``dr``).  If ``spectrum`` carries the
     attributes written by :func:`model_spectrum`, the exact model is evaluated (its samples
-    are only checked against it).  Otherwise the samples are a piecewise power law
-    (log-log interpolation; zero outside the sampled range and on intervals that touch a
-    zero sample), which is integrated exactly.
-
-    The integral is evaluated to about 1e-9 relative accuracy at every ``dr`` (Gauss-Legendre
-    below ``q dr = 64``, closed-form asymptotic integration of the Bessel part above).
+    are only checked against it).  Otherwise the samples are a piecewise power law (log-log;
+    zero outside the sampled range and on intervals that touch a zero sample), integrated
+    exactly: to about 1e-9 relative accuracy at every ``dr`` (Gauss-Legendre below
+    ``q dr = 64``, closed-form asymptotic integration of the Bessel part above).
 
     Parameters
     ----------
@@ -569,166 +552,52 @@ def spectrum(
 ) -> xr.DataArray:
     r"""Isotropic height spectrum from the height-difference ACF (paper eq. 10/11).
 
-    .. math::
-
-        C(q) = 2\pi \int_0^\infty d\Delta r\, \Delta r\, J_0(q \Delta r)
-               \left[\sigma_h^2 - G(\Delta r)\right]
-             = \frac{2\pi}{q^2} \int_0^\infty d\Delta r\, J_0(q \Delta r)\,
-               \frac{d}{d\Delta r}\left[\Delta r \frac{dG}{d\Delta r}\right]
-
-    The second form (two integrations by parts, every boundary term kept exactly) contains
-    no ``sigma_h^2 - G``: there is no round-off where ``G ~ sigma_h^2``, and ``sigma_h^2``
-    drops out.  As in eq. 11 it is split, at ``dr = 1/q``: below, ``J0`` is replaced by
-    ``-(1 - J0)`` plus the boundary term ``dr dG/d(dr)`` at ``1/q``, so that nothing
-    cancels at small ``q`` either.
-
-    ``G`` is represented through its valid (non-NaN) bins as a piecewise power law in
-    log-log, times a quintic correction per interval that matches the slopes and
-    curvatures of a cubic spline of ``ln G`` against ``ln dr``, so that ``G`` is twice
-    continuously differentiable (a kink would add a ``q^-2.5`` tail that swamps the
-    ``q^-2(1+H)`` of a self-affine ``C``).
-    Beyond the data, the log-log slope of ``G`` turns smoothly (C2, within one decade) to 2
-    below the smallest lag (ballistic, ``G ~ dr^2``) and to 0 beyond the largest (flat).
-    The level ``sigma_h^2`` it reaches (``attrs["sigma_h2"]``, and the integral
-    ``int C d^2q / (2 pi)^2``) is the variance of the heights where ``G`` carries it (the
-    coord ``height_variance`` of a measured G: its mean over all pairs of points),
-    reached by a C2 bump in the slope's turn; else wherever the turn leads.  Each
-    interval is integrated as in eq. 9 (:func:`acf_from_spectrum`): Gauss-Legendre below
-    ``q dr = 64``, asymptotic antiderivatives of ``t^beta J0(t)`` above.
+    ``C(q) = 2 pi int dr dr J0(q dr) [sigma_h^2 - G(dr)]``, evaluated in the form integrated
+    twice by parts (no ``sigma_h^2 - G``), split at ``dr = 1/q`` as in eq. 11, of ``G`` as a C2
+    piecewise power law in log-log, ballistic below and flat above its lags.  Notes (method,
+    supported range, statistical error, accuracy): docs/spectra.md, "spectrum in detail".
 
     Parameters
     ----------
     G : xarray.DataArray with one dim (``"dr"``)
-        Height-difference ACF in length^2 on a lag coordinate in length (``units``
-        required on both), e.g. from :func:`xrough.height_difference_acf` or
-        :func:`acf_from_spectrum`.  NaN bins are dropped; at least 4 must remain, with
-        strictly increasing lags.
+        Height-difference ACF in length^2 on a lag coordinate in length (``units`` on both),
+        e.g. from :func:`xrough.height_difference_acf`; at least 4 valid (non-NaN) bins.
     q : array_like, pint.Quantity or xarray.DataArray, optional
         Angular wavenumbers ``>= 0`` (plain numbers in the inverse length unit of ``dr``).
-        Default: the points ``10**(k / points_per_decade)`` (in the inverse unit of ``dr``)
-        that cover half the smallest to twice the largest supported ``q``; aligned to
-        decades, so the same ``G`` in another unit gives the same grid, converted.
+        Default: ``10**(k / points_per_decade)`` over the supported range, widened by 2.
     smooth : float, optional
-        Smooth ``G`` first by local quadratic regression of ``ln G`` on ``log10 dr`` over a
-        window of this many decades (power laws pass unchanged).  For noisy ``G`` (random
-        pairs): 0.5 to 1.
+        Smooth ``ln G`` over a window of this many decades first (noisy ``G``: 0.5 to 1).
     noise : float or array_like, optional
-        Relative random scatter of the bins, independent from bin to bin, added to the
-        statistical error of ``G``.  Default: ``sampling_error / G`` if ``G`` has that
-        coordinate (the random-pair estimator), else 0.
+        Relative independent scatter of the bins (default ``sampling_error / G`` or 0).
     support_rtol : float
-        Relative change of ``C`` allowed for ``q`` to count as determined by ``G`` (the
-        extrapolation and sampling of ``G``; see Notes).
+        Relative change of ``C`` under a change of the extrapolation allowed in support.
     max_error : float
-        Largest relative standard error of ``C`` (coordinate ``standard_error``: the
-        statistical error of ``G``, from ``standard_error`` and ``noise``, propagated; see
-        Notes) for ``q`` to count as supported; ``numpy.inf`` to leave it out.
+        Largest relative standard error of ``C`` in support; ``numpy.inf`` to leave it out.
     interpolation : {'hermite', 'power law'}
-        ``'power law'`` drops the quintic correction (kinks at the samples; for
-        comparison).
+        ``'power law'`` drops the quintic correction (kinks at the samples; for comparison).
     points_per_decade : float
         Density of the default ``q`` grid.
 
     Returns
     -------
     xarray.DataArray
-        ``C`` on dim ``"q"`` (``units`` ``"<len>-1"``, long_name "angular wavenumber"), data
-        in ``"<len>4"`` with ``<len>`` the unit of ``dr``; int8 coord ``supported`` (1 inside
-        the supported range); coord ``standard_error`` (``"<len>4"``: the statistical
-        error of ``C`` as an estimate of the surface's spectrum, 0 for a ``G`` without
-        errors); attrs ``equation="eq. 10/11"``, ``q_min_supported``,
-        ``q_max_supported`` (in ``<len>-1``), ``support_rtol``, ``max_error``,
-        ``error_model`` (how the errors of ``G`` were modelled), ``sigma_h2`` (in
-        ``<len>2``) and ``sigma_h2_from`` (the heights' variance, or the extension),
-        ``smooth_decades`` (0 for none), ``noise`` (median relative scatter assumed),
-        ``interpolation``, ``dr_min``, ``dr_max`` (data range, in ``<len>``).
-        Where ``G`` determines ``C`` but nowhere within ``max_error``: nothing is marked
-        supported, ``q_min_supported`` and ``q_max_supported`` are NaN, the default grid
-        covers what ``G`` determines, and the result is questionable (attrs ``quality``,
-        ``quality_notes`` and a :class:`~xrough.QualityWarning`). Where ``G`` determines
-        ``C`` nowhere even to ``support_rtol`` (a ``G`` still self-affine at its first lag
-        and still rising at its last): the same, on a default grid over the data's range
-        ``[2 pi / dr_max, 2 pi / dr_min]``.
+        ``C`` on dim ``"q"`` (``"<len>-1"``) in ``"<len>4"``, ``<len>`` the unit of ``dr``;
+        coords ``supported`` (1 inside the supported range) and ``standard_error``; attrs
+        ``equation``, ``q_min_supported``, ``q_max_supported``, ``sigma_h2`` and the options.
+        Where no ``q`` is supported: questionable, with a :class:`~xrough.QualityWarning`.
 
     Raises
     ------
     ValueError
-        ``G`` not 1-D, missing units, ``G`` not in length^2, a coordinate that is not a
-        length, fewer than 4 valid bins, non-increasing lags, negative or zero ``G``,
-        ``G(0) != 0``, a ``G`` that decreases overall (not a height-difference ACF), bad
-        options or ``q``.
+        ``G`` not 1-D or length^2, no units, < 4 valid bins, bad lags, ``G <= 0``, bad options.
 
     See Also
     --------
     acf_from_spectrum : the inverse, eq. 9.
     rms_gradient_exact : eq. 26 from this spectrum.
 
-    Notes
-    -----
-    **Computed once.** The spectrum of an equal G with equal options is handed out again
-    (a copy) rather than computed twice in a session (:func:`xrough.memo.by_content`).
-
-    **Supported range.** ``C(q)`` counts as determined by the data where it is positive
-    and changes by at most ``support_rtol |C|`` when the extrapolation changes: the
-    measured log-log slope at the smallest lag turns ballistic sooner (within 0.2 instead of
-    1 decade) or later (after one more decade), the same for the turn to flat at the
-    largest lag.  Changes are evaluated on a grid
-    of 10 per decade over ``[2 pi / dr_max, 2 pi / dr_min]``, and the largest within
-    +-0.2 decades counts (the difference of two extrapolations oscillates in ``q``); the
-    longest interval that passes is reported, its ends interpolated.  A ballistic ``G``
-    at the smallest lags and a plateau at the largest give nearly all of
-    ``[2 pi / dr_max, 2 pi / dr_min]`` (less where ``C`` drops to 0); a ``G`` that is
-    still self-affine at ``dr_min`` or still rising at ``dr_max`` gives less, or nothing.
-    Below the roll-off (up to the maximum of ``q^2 C``), ``C`` from the even and from the
-    odd samples of ``G`` (both keeping the end samples) must also agree to
-    ``2 support_rtol |C|``: a kink of ``C`` at the roll-off rings in ``G`` faster than a
-    logarithmic grid samples, each half aliases the ringing differently, and the two
-    differ by about the error of ``C`` from all samples.  The bin-to-bin scatter of a
-    ``G`` measured on a lattice changes ``C`` from both halves alike, and does not count;
-    a ``G`` whose own robust bin-to-bin scatter (not declared as ``noise``) exceeds
-    ``support_rtol`` is not compared (its halves differ by that scatter).
-    Above the roll-off the interpolation error (next paragraph) is not measured.
-
-    **Statistical error.** A ``G`` estimated from one finite map or profile scatters
-    around the surface's ``G`` (``standard_error``); the errors of nearby bins are
-    strongly correlated, since they come from the same few largest wavelengths of the
-    map.  Their covariance is modelled as for ``standard_error`` (Gaussian heights,
-    :func:`~xrough._kernels.uncertainty.g_correlation`, for the lag geometry and size
-    of the measurement; ``sampling_error`` and ``noise`` independent) and propagated
-    linearly to ``C`` (coordinate ``standard_error``).  Inside the supported range it is
-    at most ``max_error |C|``.  The model is that of a Gaussian surface with random
-    amplitudes, :func:`~xrough._kernels.uncertainty.g_covariance`, scaled to the median
-    of ``G``'s own ``standard_error`` (a map with missing points has less area); a ``G``
-    without ``standard_error`` (a model, or a file) has ``noise`` only, and one without
-    ``lag_geometry`` (stitched) is taken as a square map twice its largest lag.  Measured
-    on Gaussian profiles and maps (``benchmarks/spectrum_errors.py``, docs/spectra.md):
-    the modelled error is 0.7 to 2 times the scatter of ``C`` between realisations
-    (below 1 only near a cutoff of ``C`` at the pixel scale).  A single profile
-    determines little: on one of 2^17 points (H = 0.8, ``lambda_r`` = 1024 and
-    ``lambda_s`` = 4 pixels) the default 10 % keeps 24 to 163 ``q_r``, where ``C`` is
-    within 24 % of its model; without the bound the range began at 1.4 ``q_r``, with
-    errors up to 55 %.
-
-    **Accuracy** (docs/spectra.md): with noise-free ``G`` sampled at 20 points per decade,
-    ``C`` is accurate to ~1e-5 where it is smooth.  A jump of ``C`` (the cutoff ``q_s`` of
-    eq. 35) rings in ``G`` as ``dr^-3/2``, which no logarithmic grid follows: ``C`` is off
-    by ~1 % from ``q_s / 4`` and by 1-4 % within a factor 2 of ``q_s`` (inside the
-    supported range; more beyond).  A kink of ``C`` (``q_r`` in the sharp eq. 35) rings
-    as ``dr^-5/2``: C far below ``q_r`` is off by 35 / 16 / 2.8 % (H = 0.5) and
-    41 / 19 / 3.4 % (H = 0.8) at 10 / 20 / 40 points per decade, 1.3-2 % at 100; the
-    comparison of the halves leaves that range out (the support starts near ``q_r``), and
-    the largest error inside it below ``q_s / 4`` is 1.7 / 0.6 / 0.3 % and
-    3.4 / 1.4 / 0.5 % (before: the numbers above; smooth roll-off: 0.65 / 0.34 / 0.24 %
-    and 0.30 / 0.12 / 0.09 %, range unchanged).  Noise is amplified where ``C`` is small
-    compared with ``sigma_h^2 dr^2`` (below the roll-off): with independent 5 % scatter
-    the standard error of ``C`` is at least 47 %, and with ``smooth=1`` it is below 20 %
-    over 0.8 to 5.3 ``q_r``.
-
     Examples
     --------
-    Round trip through eq. 9 for the smooth model spectrum:
-
-    >>> from xrough.spectra import acf_from_spectrum, model_spectrum, spectrum
     >>> import numpy as np
     >>> model = dict(hurst=0.8, lambda_r="1 um", lambda_s="10 nm", rms_height="1 nm",
     ...              unit="nm", rolloff="smooth")
@@ -736,8 +605,7 @@ def spectrum(
     >>> C = spectrum(G, [1e-4, 1e-3, 1e-2])
     >>> C.attrs["units"], C.q.attrs["units"], C.attrs["equation"]
     ('nm4', 'nm-1', 'eq. 10/11')
-    >>> exact = model_spectrum(C.q.values, **model)
-    >>> print(np.round((C / exact).values, 3))
+    >>> print(np.round((C / model_spectrum(C.q.values, **model)).values, 3))
     [1. 1. 1.]
     >>> C.supported.values.tolist()
     [1, 1, 1]

@@ -87,9 +87,8 @@ def self_affine_surface(
         Grid points ``(ny, nx)`` (one value: square; the number of points of a profile).
     rms_height, rms_gradient, C_r : optional
         Exactly one sets the amplitude: rms height (length), rms gradient (dimensionless)
-        or the plateau value ``C_r`` (length^4) of the model spectrum. Heights and
-        gradients refer to the model's continuous spectrum; a realisation scatters
-        around them.
+        or plateau ``C_r`` (length^4) of the model's continuous spectrum (docs/theory.md,
+        "Synthetic surfaces": a realisation scatters around them).
     lambda_0 : float, str or Quantity, optional
         Long-wavelength cutoff ``2 pi / q_0`` of the model (default: the system size).
     rolloff : {'sharp', 'smooth'}
@@ -99,29 +98,25 @@ def self_affine_surface(
     profile : bool
         Return a 1D line scan (dims ``x``) of the isotropic surface instead of a map.
     cutoff : {'sharp', 'gaussian'}
-        Eq. 35's sharp end at ``q_s``, or the spectrum times ``exp(-(q/q_s)^2)``: the
-        surface as an instrument with a Gaussian transfer sees it (``lambda_s`` may then
-        be as short as one pixel).
+        Eq. 35's sharp end at ``q_s``, or the spectrum times ``exp(-(q/q_s)^2)`` (a Gaussian
+        transfer of an instrument; ``lambda_s`` may then be as short as one pixel).
     random_amplitudes : bool
         Gaussian random amplitudes (a Gaussian random field, default) or fixed moduli
-        ``sqrt(C/A)`` with random phases (less scatter, not Gaussian at the largest
-        scales).
+        ``sqrt(C/A)`` with random phases (less scatter, not Gaussian at the largest scales).
     seed : int or numpy.random.Generator, optional
         Random seed.
 
     Returns
     -------
     xarray.DataArray
-        Periodic topography (``attrs["periodic"] = 1``) whose attrs record the model in
-        the output unit (``hurst``, ``q_r``, ``q_s``, ``q_0``, ``rolloff``, ``C_r``, and the
-        model's ``rms_height`` and ``rms_gradient``; see :func:`xrough.models.model_attrs`)
-        and the ``seed``.
+        Periodic topography (``attrs["periodic"] = 1``) whose attrs record the model in the
+        output unit (``hurst``, ``q_r``, ``q_s``, ``q_0``, ``rolloff``, ``C_r``, ``rms_height``,
+        ``rms_gradient``: :func:`xrough.models.model_attrs`) and the ``seed``.
 
     Raises
     ------
     ValueError
-        Invalid model parameters, or ``lambda_s`` below two pixels (one for a Gaussian
-        cutoff: unresolved).
+        Invalid model parameters, or ``lambda_s`` below two pixels (Gaussian cutoff: one).
 
     See Also
     --------

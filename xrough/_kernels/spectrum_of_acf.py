@@ -389,12 +389,7 @@ def spectrum_from_acf_kernel(
 
     Notes
     -----
-    ``sigma_h^2 = int C d^2q / (2 pi)^2`` is the level of the extended ``G`` at large
-    ``dr`` (``plateau``, else :func:`acf_plateau_kernel`).  Against closed forms with 20
-    samples per decade over 6
-    decades: error ~7e-6 of ``C(0)`` for a Gaussian height ACF; relative error 2e-4 for an
-    exponential one up to ``q = 0.05 / dr_min`` (5e-4 at ``0.4 / dr_min``, where the
-    ballistic extension below ``dr_min`` starts to matter).
+    The level ``sigma_h^2`` and the accuracy: docs/spectra.md, "spectrum_from_acf_kernel".
 
     Raises
     ------

@@ -209,28 +209,11 @@ def g_covariance(dr: np.ndarray, q: np.ndarray, C: np.ndarray, *, size: float,
                  with_mean: bool = False, diagonal: bool = False):
     """Covariance of the finite-area errors of G between bins, from the surface's spectrum.
 
-    A Gaussian surface is a sum of independent Fourier modes whose powers ``P_k`` scatter
-    as much as they are large (``Var P_k = <P_k>^2``), and the all-pairs G of a periodic
-    map is linear in them, ``G(d) = sum_k P_k w_k(d)``, so that
-
-        Cov(G_i, G_j) = sum_k <P_k>^2 w_k(d_i) w_k(d_j)
-
-    over the modes of the map, with ``w = 1 - cos(k d)`` along a profile or an axis and
-    ``w = 1 - J0(k d)`` for a radial bin (all orientations). ``<P_k>`` comes from the
-    isotropic spectrum ``C``: ``2 C1D(k) / L`` per mode of a profile (the 1D spectrum of
-    :func:`~xrough._kernels.hankel.profile_spectrum_kernel`), ``2 C(|k|) / A`` per mode
-    of a map (half of the ``k`` plane: ``k`` and ``-k`` are one mode). This is the
-    variance of :func:`g_variance` in Fourier space, where it is a smooth sum: in real
-    space it is a second difference of G over the whole map, which a quadrature resolves
-    only on a fine grid around four moving points. The first ``exact_modes`` wavenumbers
-    are summed one by one, the rest in logarithmic bands (each ``w`` averaged over the
-    band: the average of the product is then approximated by the product of the
-    averages, which leaves out the diagonal's share of rapidly oscillating long lags at
-    short wavelengths, where ``C`` is small). Radial bins are rings (``1 - J0``): the few
-    lattice vectors of a bin at the smallest lags see each mode at its own angle, which
-    this leaves out; within a factor 2 of a sharp cutoff of C the scatter of C is then
-    larger than modelled (docs/spectra.md). A map that is not periodic has fewer pairs at
-    long lags, which this leaves out (callers scale to the measured variance).
+    A Gaussian surface is a sum of independent Fourier modes whose powers ``P_k`` scatter as
+    much as they are large, and the all-pairs G of a periodic map is linear in them, so
+    ``Cov(G_i, G_j) = sum_k <P_k>^2 w_k(d_i) w_k(d_j)`` (``w = 1 - cos(k d)`` along a line,
+    ``1 - J0(k d)`` for a radial bin; ``<P_k>`` from ``C``).  Notes (modes, bands, what it
+    leaves out): docs/spectra.md, "The covariance model of G (g_covariance)".
 
     Parameters
     ----------

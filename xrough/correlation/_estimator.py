@@ -50,161 +50,63 @@ def height_difference_acf(
 ) -> xr.DataArray:
     r"""Height-difference autocorrelation function ``G(dr)`` of a topography (eq. 1).
 
-    .. math:: G(\Delta r) = \tfrac12 \langle [h(\mathbf r) - h(\mathbf r + \Delta\mathbf r)]^2
-              \rangle
-
-    averaged over all pairs of valid points whose lag length falls in a bin.
+    ``G(dr) = <[h(r) - h(r + dr)]^2> / 2`` over the pairs of valid points with lags in a bin.  Notes
+    (estimators, target_error, all outputs): docs/performance.md, "height_difference_acf in detail".
 
     Parameters
     ----------
     topography : xarray.DataArray with dims (..., "y", "x") or (..., "x")
-        Heights with length units on data and coordinates (see :func:`xrough.topography`);
-        NaN marks missing points; ``attrs["periodic"]`` selects circular lags. Extra dims
-        (e.g. ``scan``) are kept, or pooled with ``pool``.
+        Heights with length units (:func:`xrough.topography`), NaN where missing; extra dims kept.
     direction : {'radial', 'x', 'y'}
-        Average over all orientations of the lag (the full lag plane, all four quadrants),
-        or only lags along one axis.
+        Average over all orientations of the lag, or only lags along one axis.
     estimator : {'auto', 'fft', 'random', 'tiled'}
-        All pairs by FFT (exact); the random-pair estimator of section 3.1; or tile by tile
-        for maps larger than memory (exact up to a halo, block levels beyond; see
-        :func:`height_difference_acf_tiled`). ``'auto'`` (default) takes
-        ``'fft'`` unless one open map is split into dask chunks in y/x or its padded FFT
-        would exceed ``memory_limit`` (then ``'tiled'``). G's attr ``estimator`` says
-        which; where the memory budget decided, ``estimator_reason`` says why.
+        All pairs (exact), random pairs (section 3.1), tiled; ``'auto'``: fft unless too large.
     bins : {'log', 'linear'} or array_like
-        Log-spaced bins centred on ``10**(k/points_per_decade)`` (in the lateral unit),
-        linear bins of ``bin_width`` (default: one pixel), or explicit edges in the lateral
-        unit. A point is never paired with itself, whatever the edges.
+        Log bins centred on ``10**(k/points_per_decade)``, linear bins, or edges (lateral unit).
     points_per_decade : float
-        Bins per decade for ``bins='log'``: a finite number above 0 and at most 1000,
-        checked whatever ``bins`` (the rule of every log grid in xrough).
+        Bins per decade for ``bins='log'`` (0 < ... <= 1000).
     bin_width : float, str or Quantity, optional
         Width of linear bins (numbers in the lateral unit; default one pixel).
     dr_min, dr_max : float, str or Quantity, optional
-        Lag range to compute (numbers in the lateral unit). Defaults: one pixel, and half the period
-        (periodic) or the scan length (open). Only the lags needed are computed: an open
-        map is padded by ``dr_max``, not by its full size.
+        Lag range (lateral unit); default one pixel to half the period or the scan length.
     pool : str or tuple of str, optional
         Extra dims whose pair sums are combined into one G (exact pooling of scans).
-    n_pairs : int
-        Random-pair budget: valid pairs, split evenly over the bins (pairs touching a NaN
-        are replaced by new draws, up to 1000 draws per pair).
-    seed : int, optional
-        Seed of the random-pair estimator (each map along extra dims gets its own stream,
-        so numpy and dask give the same numbers).
+    n_pairs, seed : int, optional
+        Random pairs: the budget of valid pairs (split over the bins), and the seed.
     workers : int, optional
         FFT threads (default: all cores).
     progress : bool, optional
         Progress bar over maps (FFT) or bins (random); default: only in a terminal.
     target_error : float or str, optional
-        Relative standard error of G wanted in every bin (dimensionless: ``0.02`` or
-        ``"2 %"``), the same in any unit of the map. The estimator and its budget are then
-        chosen for it at the least modelled cost, from the shapes of the map and bins
-        alone (so a dask map stays lazy): random pairs with ``n_pairs`` such that their
-        sampling error ``sqrt(2 / pairs per bin)`` is at most half the target, when the
-        cost model says that is cheaper than the exact estimator (``'fft'``, or
-        ``'tiled'`` where ``'auto'`` would take it); the exact one otherwise, and when
-        the target lies below what a map of this size can give at all (then the result
-        is marked questionable, with a :class:`~xrough.QualityWarning`). Cannot be
-        combined with ``estimator`` (other than ``'auto'``) or ``n_pairs``; ``seed`` is
-        used if random pairs are chosen. See Notes and ``docs/performance.md``.
+        Relative standard error wanted per bin (``0.02``, ``"2 %"``): picks estimator and budget.
     reliable : bool
-        Where the file's metadata state a tip or stylus radius and no reliable lag range
-        was set (:func:`xrough.preprocess.reliable`), the tip rule sets it
-        (:func:`xrough.preprocess.tip_window`): G carries ``reliable_dr_min``,
-        ``reliable_dr_max`` and ``reliable_rule``, and the contact results derived from it
-        are NaN at finer lags than the tip resolves. ``False``: G over all lags, no window.
+        Apply the tip rule of the metadata (:func:`xrough.preprocess.tip_window`), or not.
     memory_limit : int, float or str, optional
-        Bytes the all-pairs FFT of an open map may take (``4e9`` or ``"4 GB"``) before
-        ``'auto'`` takes the tiled estimator; that FFT needs about 3x the map (6x with
-        missing points; the budget assumes 7x, an upper bound). Default: the
-        dask config key ``xrough.memory_limit`` if set, else half the memory the system
-        has available (``MemAvailable``: free memory and reclaimable caches, not the free
-        pages alone), so that the choice does not depend on what the page cache holds.
+        Bytes the FFT of an open map may take before ``'auto'`` tiles (default: half the RAM).
 
     Returns
     -------
     xarray.DataArray
-        ``G`` on dim ``dr`` (the mean lag of each bin over the pairs of a complete map;
-        bins without any lattice lag are dropped), units of height squared, with coords
-        ``pair_count`` (pairs averaged), ``standard_error`` (statistical error of G as an
-        estimate of the surface's G: finite-area model plus, for random pairs, the
-        sampling error) and
-        ``sampling_error`` (Monte-Carlo error against the all-pairs value; 0 for ``fft``),
-        and ``height_variance`` (on the dims besides ``dr``: the variance of the valid
-        heights about their mean, G's mean over all pairs of points, eq. 1 over every lag;
-        of each line, pair-weighted over the lines, for ``direction='x'``/``'y'``; the
-        level :func:`xrough.spectrum` extends G to, and so the integral of its ``C``).
-        A bin whose pairs all touch missing points is NaN with ``pair_count`` 0.
-        Attrs name the measurement: ``direction``, ``lag_geometry`` (``'profile'``,
-        ``'axis'`` or ``'radial'``: how the bins average, which sets how their errors
-        correlate, :func:`xrough.spectrum`), ``pixel_size``, ``scan_size`` (in the unit
-        of ``dr``), ``periodic``, ``bins``. With ``target_error``: coordinate
-        ``achieved_error`` (largest ``standard_error / G`` over the bins, per curve;
-        lazy for dask), ``quality_flag`` (questionable where it exceeds the target) and
-        attrs ``target_error``, ``estimator_choice`` (what was
-        chosen and why), ``n_pairs`` (random), ``sampling_error_budget``,
-        ``error_floor`` and ``error_floor_dr`` (the smallest relative error a map of
-        this size can give, and where), ``modelled_seconds_<estimator>``.
+        ``G`` on dim ``dr`` (mean lag of each bin), in height units squared, with coords
+        ``pair_count``, ``standard_error``, ``sampling_error`` and ``height_variance``.
 
     Raises
     ------
     ValueError
-        Invalid topography (dims, units, spacing, fewer than 2 valid points), unknown
-        options, an empty lag range, chunked core dims; heights so large or small that G
-        leaves the float64 range (G is computed from heights scaled by a power of two,
-        so anything short of that is exact; raised at compute time for dask input);
-        a ``target_error`` that is not a number in (0, 1) or is given with ``estimator``
-        or ``n_pairs``.
+        Invalid topography, options or lag range, chunked core dims, G beyond float64.
 
     See Also
     --------
     xrough.acf_from_spectrum : G of a model spectrum (eq. 9).
 
-    Notes
-    -----
-    With a validity mask ``m`` and heights zeroed where missing, the pair sums are
-    ``S(d) = corr(h^2, m) + corr(m, h^2) - 2 corr(h, h)`` and ``N(d) = corr(m, m)``, each
-    correlation a product of real FFTs; ``G = S / (2N)`` per bin. Without missing points a
-    periodic map needs one forward and one inverse FFT.
-
-    ``target_error`` ``t`` (section 3.1: run time against error). Errors, relative to G
-    per bin: the finite-area error ``a`` of eq. 1 on this map (in ``standard_error``)
-    and, for random pairs, the sampling error ``s = sqrt(2 / n)`` of ``n`` pairs per bin
-    (``g / G`` of Gaussian increments is chi-squared with one degree of freedom; the
-    reported ``sampling_error`` follows it), adding to ``sqrt(a^2 + s^2)``. ``a`` needs
-    the data, so the choice uses its least value, ``a_min``: the model of
-    ``standard_error`` for a G flat over the bins asked for, on a map of this size
-    (uncorrelated heights, if the bins start at a pixel; a G that rises over the bins
-    gets more). If ``t <= a_min`` the exact estimator is used and the result marked;
-    otherwise random pairs get ``s = min(t / 2, sqrt(t^2 - a_min^2))`` per bin, which
-    keeps ``sqrt(a^2 + s^2) <= t`` wherever ``a <= 0.87 t``. Cost model (seconds,
-    measured by ``benchmarks/bench_acf_random.py --cost-model``, :data:`COST`): FFT
-    ``1.5e-9 M log2 M`` (``M`` points transformed: the map, padded by the largest lag
-    when open), tiled ``3.3e-7`` per map point, random ``8e-4`` per radial bin (``2e-4``
-    along one axis) ``+ 1.6e-7`` per pair ``+ 3e-10`` per map point, each times the
-    number of maps. Whether the target was met is data: ``achieved_error``.
-
     Examples
     --------
     >>> import numpy as np, xrough
-    >>> x = np.arange(256) * 1.0
-    >>> topo = xrough.topography(np.sin(2 * np.pi * x / 32), spacing=1.0, unit="um",
-    ...                          periodic=True)
+    >>> topo = xrough.topography(np.sin(2 * np.pi * np.arange(256.0) / 32), spacing=1.0,
+    ...                          unit="um", periodic=True)
     >>> G = topo.rough.acf(bins="linear")
-    >>> float(G.sel(dr=16.0))  # half a period apart: h differs by 2 sin, G = 1
-    1.0
-    >>> G.attrs["units"], G.dr.attrs["units"]
-    ('um2', 'um')
-
-    Run time against error: a 1024² open map, where 5 % per bin costs less with random
-    pairs than with the padded FFT:
-
-    >>> h = np.random.default_rng(0).normal(size=(1024, 1024))
-    >>> rough = xrough.topography(h, spacing=1.0, unit="nm")
-    >>> Gt = rough.rough.acf(target_error=0.05, dr_max=100, seed=0)
-    >>> Gt.attrs["estimator"], Gt.attrs["n_pairs"], bool(Gt.achieved_error < 0.05)
-    ('random pairs', 60800, True)
+    >>> float(G.sel(dr=16.0)), G.attrs["units"]  # half a period apart: h differs by 2 sin
+    (1.0, 'um2')
     """
     if reliable:  # the window of a tip radius the file states (once, then as asked)
         topography, note = tip_window(topography)

@@ -78,9 +78,8 @@ def height_difference_acf_tiled(
         As for :func:`xrough.height_difference_acf`; the bins and the ``dr`` coordinate
         are the same, so results compare bin by bin.
     progress : bool, optional
-        Show dask's progress bar while computing numpy input (default: in a terminal).
-        Lazy (dask) results show it when computed under
-        ``dask.diagnostics.ProgressBar()``.
+        Show dask's progress bar while computing numpy input (default: in a terminal);
+        lazy results show it when computed under ``dask.diagnostics.ProgressBar()``.
 
     Returns
     -------
@@ -101,20 +100,8 @@ def height_difference_acf_tiled(
 
     Notes
     -----
-    For bins within the halo the pair sums are those of ``estimator='fft'`` (the sums of
-    the tiles' folded lag planes, equal to round-off). A coarse level sums, exactly, all
-    pairs of points whose blocks are ``R`` blocks apart, and files them at lag
-    ``R factor**l``; a pair's true lag differs by less than one block per axis. Within a
-    bin of lags ``>= min_lag_cells`` blocks this shifts G by about
-    ``G''(r) b^2 / 6`` (``b`` the block length), a relative error of order
-    ``(b / r)^2``: measured below 1e-3 for self-affine and Gaussian-correlated maps with
-    the defaults (``tests/test_scale.py``).
-
-    Heights are scaled per tile (block statistics per chunk) by a power of two, exactly
-    undone when the sums meet, so the tiles need no pass over the whole map first. The
-    tiles' lag sums are added by trees as the map is swept; peak memory is a few tile
-    FFTs per thread plus a band of about two rows of chunks (see ``docs/scale.md`` for
-    measured time and memory against the map size).
+    Accuracy of the coarse levels, scaling, memory: docs/performance.md,
+    "height_difference_acf_tiled in detail".
 
     Examples
     --------
