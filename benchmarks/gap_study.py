@@ -19,7 +19,7 @@ for the solver's stiffness. Two sets:
 
 For every load the theory comes from the map's G (:func:`xrough.mean_gap`: the real-space
 form) and from the map's own Fourier modes (the same sums over the binned periodogram,
-:func:`xrough.gradient_from_spectrum` of :func:`xrough.psd`: Persson's Fourier form); the
+:func:`xrough.gradient_from_spectrum` of :func:`xrough.power_spectrum`: Persson's Fourier form); the
 solver gives the mean of the gap, ``(1/2) <(p - p0) u>`` and ``-dp0/d gap``.
 
 Usage::

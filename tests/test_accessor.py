@@ -9,15 +9,12 @@ import xarray as xr
 
 import xrough
 from xrough import (
-    cleaning,
     contact,
     correlation,
     fitting,
     gradient,
-    parameters,
     plot,
     preprocess,
-    psd,
     separation,
     solver,
     spectra,
@@ -29,10 +26,8 @@ from xrough.accessor import (
     RoughDatasetAccessor,
     RoughDataTreeAccessor,
 )
+from xrough.toolbox import cleaning, parameters, psd
 from xrough.topography import convert_units
-
-requires_datatree = pytest.mark.skipif(not hasattr(xr, "DataTree"),
-                                       reason="xarray without DataTree")
 
 METHODS = {
     RoughDataArrayAccessor: {
@@ -67,13 +62,13 @@ METHODS = {
         "scale_dependent_curvature": parameters.scale_dependent_curvature,
         "scale_dependent_statistic": parameters.scale_dependent_statistic,
         "tip_check": parameters.tip_check,
-        "variable_bandwidth": xrough.bandwidth.variable_bandwidth,
-        "fourier_filter": xrough.filters.fourier_filter,
-        "shortcut": xrough.filters.shortcut,
-        "longcut": xrough.filters.longcut,
+        "variable_bandwidth": xrough.toolbox.bandwidth.variable_bandwidth,
+        "fourier_filter": xrough.toolbox.filters.fourier_filter,
+        "shortcut": xrough.toolbox.filters.shortcut,
+        "longcut": xrough.toolbox.filters.longcut,
         "plot": plot.plot,
         "sel": xrough.units.sel,
-        "mean": xrough.ensemble.mean_acf,
+        "mean": xrough.toolbox.ensemble.mean_acf,
     },
     RoughDatasetAccessor: {
         "acf": stitching.stitch,
@@ -97,8 +92,6 @@ def _empty(cls):
         return xr.DataArray([0.0])
     if cls is RoughDatasetAccessor:
         return xr.Dataset()
-    if not hasattr(xr, "DataTree"):
-        pytest.skip("xarray without DataTree")
     return xr.DataTree()
 
 
@@ -138,8 +131,7 @@ def test_class_attribute_reads_like_a_method(cls, name, func):
 
 @pytest.mark.parametrize(("owner", "cls"), [("DataArray", RoughDataArrayAccessor),
                                             ("Dataset", RoughDatasetAccessor),
-                                            pytest.param("DataTree", RoughDataTreeAccessor,
-                                                         marks=requires_datatree)])
+                                            ("DataTree", RoughDataTreeAccessor)])
 def test_registered_on_xarray(owner, cls):
     # xarray returns the accessor class on class access
     assert getattr(xr, owner).rough is cls
@@ -182,8 +174,6 @@ def profiles():
 
 @pytest.fixture(scope="module")
 def tree(profiles):
-    if not hasattr(xr, "DataTree"):
-        pytest.skip("xarray without DataTree")
     return xr.DataTree.from_dict({k: v.to_dataset(name="h") for k, v in profiles.items()})
 
 

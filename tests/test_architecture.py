@@ -19,7 +19,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "xrough"
 #: xrough.io.netcdf.check_declared_sizes falls back to bounds by the file's size without.)
 OPTIONAL = {"SurfaceTopography", "SurfaceTopography.IO", "zarr", "pint_xarray", "h5py"}
 #: Imported where first needed, for the import time of xrough (xrough.plot.pyplot; a
-#: window of xrough.psd: scipy.signal takes 0.27 s to import, for one function), or only
+#: window of xrough.toolbox.psd: scipy.signal takes 0.27 s to import, for one function), or only
 #: where it works (tqdm.auto, which warns in a notebook without ipywidgets; tqdm.dask
 #: imports it).
 DEFERRED = {"matplotlib", "matplotlib.pyplot", "scipy.signal", "tqdm.auto", "tqdm.dask"}
@@ -144,6 +144,37 @@ def test_kernels_import_only_kernels():
                  if name.startswith("xrough._kernels") for t in targets
                  if not t.startswith("xrough._kernels")]
     assert offenders == []
+
+
+#: The longest docstring: the contract (parameters with units, returns, the equation, an
+#: example); the essays are in the docs pages.
+MAX_DOCSTRING_LINES = 60
+
+
+def test_no_docstring_is_an_essay():
+    """Every docstring of the package (modules, classes, functions) is at most
+    :data:`MAX_DOCSTRING_LINES` lines."""
+    offenders = []
+    for name, (_, tree) in MODULES.items():
+        for node in [tree, *ast.walk(tree)]:
+            if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef,
+                                 ast.AsyncFunctionDef)):
+                doc = ast.get_docstring(node, clean=False)
+                if doc and doc.count("\n") + 1 > MAX_DOCSTRING_LINES:
+                    offenders.append(f"{name}.{getattr(node, 'name', '')}: "
+                                     f"{doc.count(chr(10)) + 1} lines")
+    assert offenders == []
+
+
+def test_the_centre_never_imports_the_toolbox():
+    """The paper's method (G, its errors and fits, spectra, contact theories, quality,
+    units, io and the archive) imports nothing of :mod:`xrough.toolbox` (PSD from heights,
+    ISO parameters, filters, sets of scans): the toolbox builds on the centre."""
+    offenders = [f"{name} imports {t}" for name, targets in EDGES.items()
+                 if not name.startswith("xrough.toolbox") and layer(name) != "front end"
+                 for t in targets if t.startswith("xrough.toolbox")]
+    assert offenders == []
+    assert {"xrough.toolbox.psd", "xrough.toolbox.parameters"} <= set(MODULES)
 
 
 @pytest.mark.parametrize("name, expected", [

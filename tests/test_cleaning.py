@@ -8,8 +8,8 @@ import pytest
 
 import xrough
 from conftest import data_path
-from xrough.cleaning import DIFFER, cleaning_sensitivity
 from xrough.cli import main
+from xrough.toolbox.cleaning import DIFFER, cleaning_sensitivity
 
 E_STAR, P0 = "25 MPa", "0.1 MPa"
 QUANTITIES = ("gbar", "v_el", "a_r", "hurst")

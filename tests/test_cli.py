@@ -635,8 +635,8 @@ def test_a_file_is_read_once_whatever_it_lacks(unlabelled, monkeypatch, capsys):
     keywords), so the command never reads a file again to find out; a corrupted file
     keeps the reader's own message."""
     reads = []
-    real = xrough.ensemble.open_topography  # the command opens through open_measurement
-    monkeypatch.setattr(xrough.ensemble, "open_topography",
+    real = xrough.toolbox.ensemble.open_topography  # the command opens via open_measurement
+    monkeypatch.setattr(xrough.toolbox.ensemble, "open_topography",
                         lambda path, **kw: reads.append(kw) or real(path, **kw))
     lines = (unlabelled / "matrix.txt").read_text().splitlines()
     (unlabelled / "cut.txt").write_text("\n".join(lines[:8] + ["1.0 abc"] + lines[8:]))

@@ -28,8 +28,8 @@ from dask_counting import computes_nothing
 
 import xrough
 from conftest import data_path
-from xrough import parameters as par
 from xrough._kernels import derivatives as fd
+from xrough.toolbox import parameters as par
 from xrough.topography import grid_of
 
 EXACT = 1e-12

@@ -174,7 +174,6 @@ def test_precomputed_G_and_dataset_input(three, curves):
     assert list(one.measurement.values) == ["coarse"]
 
 
-@pytest.mark.skipif(not hasattr(xr, "DataTree"), reason="xarray without DataTree")
 def test_datatree_input(three, curves):
     tree = xr.DataTree.from_dict({k: xr.Dataset({"h": v}) for k, v in three.items()})
     other = stitch_curves(tree)

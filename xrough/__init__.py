@@ -19,8 +19,6 @@ from . import (
     units,
 )
 from ._version import __version__
-from .bandwidth import variable_bandwidth
-from .cleaning import cleaning_sensitivity
 from .contact import (
     elastic_energy,
     patch_radius,
@@ -29,8 +27,6 @@ from .contact import (
     stress_acf_from_spectrum,
 )
 from .correlation import height_difference_acf
-from .ensemble import analyse_set, mean_acf, mean_psd, mean_scale_dependent, open_set
-from .filters import fourier_filter, longcut, shortcut
 from .fitting import fit_acf, model_acf
 from .gradient import (
     gradient_from_fit,
@@ -41,18 +37,6 @@ from .gradient import (
 from .io import open_topography
 from .io.archive import open_analysis, save_analysis
 from .models import self_affine_model
-from .parameters import (
-    bearing_area_curve,
-    curvature_distribution,
-    height_distribution,
-    material_ratio,
-    roughness_parameters,
-    scale_dependent_curvature,
-    scale_dependent_slope,
-    scale_dependent_statistic,
-    slope_distribution,
-    tip_check,
-)
 from .preprocess import (
     detrend,
     fill_missing,
@@ -61,7 +45,6 @@ from .preprocess import (
     reliability_window,
     reliable,
 )
-from .psd import power_spectrum, power_spectrum_2d, spectral_moment
 from .quality import QualityWarning
 from .separation import mean_gap
 from .solver import ConvergenceWarning, solve_contact
@@ -79,6 +62,23 @@ from .stitching import (
     stitch_mismatch,
 )
 from .synthetic import self_affine_surface
+from .toolbox.bandwidth import variable_bandwidth
+from .toolbox.cleaning import cleaning_sensitivity
+from .toolbox.ensemble import analyse_set, mean_acf, mean_psd, mean_scale_dependent, open_set
+from .toolbox.filters import fourier_filter, longcut, shortcut
+from .toolbox.parameters import (
+    bearing_area_curve,
+    curvature_distribution,
+    height_distribution,
+    material_ratio,
+    roughness_parameters,
+    scale_dependent_curvature,
+    scale_dependent_slope,
+    scale_dependent_statistic,
+    slope_distribution,
+    tip_check,
+)
+from .toolbox.psd import power_spectrum, power_spectrum_2d, spectral_moment
 from .topography import convert_units, topography
 from .validation import compare_with_simulation
 

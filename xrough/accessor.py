@@ -20,18 +20,12 @@ from typing import Any
 import xarray as xr
 
 from . import (
-    bandwidth,
-    cleaning,
     contact,
     correlation,
-    ensemble,
-    filters,
     fitting,
     gradient,
-    parameters,
     plot,
     preprocess,
-    psd,
     separation,
     solver,
     spectra,
@@ -39,6 +33,7 @@ from . import (
     units,
     validation,
 )
+from .toolbox import bandwidth, cleaning, ensemble, filters, parameters, psd
 from .topography import convert_units
 
 __all__ = ["RoughDataArrayAccessor", "RoughDatasetAccessor", "RoughDataTreeAccessor"]

@@ -419,6 +419,40 @@ def lag_coord(values: np.ndarray, unit: str, *, name: str = "dr",
                    {"units": unit, "long_name": long_name})}
 
 
+def with_coord_attrs(result, *sources):
+    """Return ``result`` with the attrs xarray dropped from its coordinates put back.
+
+    Where ``keep_attrs`` is off (``apply_ufunc(keep_attrs=False)``, arithmetic inside
+    :func:`xrough.contact.own_attrs`) xarray drops the attrs of coordinates too, so a
+    result's ``dr`` or ``height_variance`` came out without units. A coordinate of
+    ``result`` with no attrs takes those of the coordinate of the same name in the first
+    of ``sources`` (xarray objects, or mappings of a name to its attrs) that has some.
+
+    Examples
+    --------
+    >>> import xarray as xr
+    >>> G = xr.DataArray([1.0], dims="dr", coords={"dr": ("dr", [1.0], {"units": "nm"})})
+    >>> bare = G.copy()
+    >>> bare["dr"].attrs = {}
+    >>> with_coord_attrs(bare, G).dr.attrs
+    {'units': 'nm'}
+    """
+    restored = {}
+    for name, coord in result.coords.items():
+        if coord.attrs:
+            continue
+        for source in sources:
+            attrs = (source.get(name) if isinstance(source, dict) else
+                     source.coords[name].attrs if name in getattr(source, "coords", {})
+                     else None)
+            if attrs:
+                var = coord.variable.copy(deep=False)
+                var.attrs = dict(attrs)
+                restored[name] = var
+                break
+    return result.assign_coords(restored) if restored else result
+
+
 def result_attrs(source: xr.DataArray | xr.Dataset | dict | None, /, **attrs) -> dict:
     """Attrs of a result: the provenance of ``source``, the result's own attrs, the version.
 

@@ -43,6 +43,7 @@ from .acf import (
     read_acf,
     result_attrs,
     strip_marks,
+    with_coord_attrs,
 )
 from .fit_result import read_fit, rolloff_shapes
 from .fitting import fit_acf
@@ -341,12 +342,24 @@ def _attrs_off() -> Iterator[None]:
                 xr.set_options(keep_attrs=_ATTRS_OFF["saved"])
 
 
+#: The attrs of the coordinate ``p0`` of every contact result.
+P0_ATTRS = {"units": "Pa", "long_name": "mean pressure"}
+
+
 def own_attrs(func):
-    """Run ``func`` with xarray's attrs propagation off: each result sets its own attrs."""
+    """Run ``func`` with xarray's attrs propagation off: each result sets its own attrs.
+
+    Its coordinates keep theirs: those xarray drops with the rest come back from the
+    arguments' coordinates of the same name (:func:`xrough.acf.with_coord_attrs`; ``p0``
+    from :data:`P0_ATTRS`).
+    """
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
         with _attrs_off():
-            return func(*args, **kwargs)
+            out = func(*args, **kwargs)
+        sources = [a for a in (*args, *kwargs.values())
+                   if isinstance(a, (xr.DataArray, xr.Dataset))]
+        return with_coord_attrs(out, *sources, {"p0": P0_ATTRS})
     return wrapper
 
 
@@ -699,30 +712,11 @@ def stress_acf(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike | None
     ``p* = p0 / (E* gbar(dr))`` and ``W = a_r`` (``theory="persson"``, eq. 49),
     ``W = a_ri^2 / a_r`` (``"modified"``, eq. 49-50) or ``W = a_r^2 / a_ri``
     (``"modified_ar2"``, the other reading of the garbled eq. 49; see :func:`persson`).
-
-    Differentiating a measured G twice would amplify its noise: the Laplacian is taken of a
-    smoothing spline of ``ln G`` against ``ln dr``, weighted by the standard errors, whose
-    smoothing length is fixed in ``ln dr`` (0.05 decades, so the result does not depend on
-    how finely G is binned) and larger where generalised cross-validation finds noise
-    (``attrs["derivative"]``). On synthetic maps it agrees with the exact stress field to
-    within 2 % of ``G_sigma(0)`` from 2 pixels to L/8 at 10-40 bins per decade; at 5 bins
-    per decade, where a bin spans a roll-off, within 5 %.
-
-    What the data do not determine is NaN. The Laplacian is also estimated from the even
-    and from the odd bins alone. At and below the largest lag where the three estimates
-    differ by more than 15 % of a lower bound of ``G_sigma(0)`` (the largest value all
-    three agree on, or ``4 G(dr_1) / dr_1^2``), and outside ``reliable_dr_min/max`` in G's
-    attrs, the result is NaN and questionable, and a ``QualityWarning`` names the lag
-    range. On measured maps this removes the first 1-6 pixels. There the bins hold a few
-    lattice distances along different directions, and G zig-zags between them, by pixel
-    noise and a scan that differs along its fast and slow axes (docs/contact.md). The
-    remaining values are unchanged. A smooth negative lobe beyond the roll-off is physical,
-    because the full-contact stress ACF integrates to 0 over the plane.
-
-    A G that is flat from its first lag (log-log slope below 0.1 over the first decade of
-    lags, :data:`xrough._kernels.acf_curve.FLAT_SLOPE`) does not resolve the roughness
-    (white noise: heights uncorrelated from one pixel to the next); its curve is NaN and
-    failed, with one ``QualityWarning`` (docs/quality.md).
+    The Laplacian is that of a smoothing spline of ``ln G`` against ``ln dr`` (0.05
+    decades, ``attrs["derivative"]``); lags where it is not determined (the even and odd
+    bins disagree, outside ``reliable_dr_min/max``) are NaN with a ``QualityWarning``, and
+    a G flat from its first lag fails. Notes and accuracy: docs/contact.md, "Full
+    contact" ("The second derivative", "What the data determine").
 
     Parameters
     ----------
@@ -735,16 +729,14 @@ def stress_acf(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike | None
     theory : {'persson', 'modified', 'modified_ar2'}
         Weighting of eq. 49.
     gradient : xarray.DataArray, optional
-        Precomputed ``gbar(dr)`` (e.g. from :func:`xrough.rms_gradient`), reused instead of
-        computing it again.
+        Precomputed ``gbar(dr)`` (e.g. from :func:`xrough.rms_gradient`), reused.
     kappa : float
         Slope of ``a_r`` at small pressure (eq. 29; Persson: ``sqrt(8/pi)``).
     gradient_method : {'auto', 'exact', 'simple', 'fit'}
-        How ``gbar`` is obtained when ``gradient`` is not given
-        (see :func:`xrough.rms_gradient`).
+        How ``gbar`` is obtained without ``gradient`` (see :func:`xrough.rms_gradient`).
     smooth_full : bool
-        In partial contact, replace ``G_sigma_full`` beyond its roll-off by a steep power
-        law, as the paper does (see :func:`xrough.persson`); no effect in full contact.
+        In partial contact, continue ``G_sigma_full`` beyond its roll-off by a steep power
+        law (the paper's; :func:`xrough.persson`); no effect in full contact.
 
     Returns
     -------
@@ -921,56 +913,18 @@ def persson(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike, theory: 
             fit: xr.Dataset | None = None, smooth_full: bool = True) -> xr.Dataset:
     r"""Real-space Persson theory of partial contact as a function of resolution ``dr``.
 
-    Wherever Persson theory evaluates a function of wavenumber at resolution ``2 pi / q``,
-    it is evaluated at ``dr = 2 pi / q`` from G:
+    Each function of wavenumber ``q`` of the theory is evaluated from G at ``dr = 2 pi / q``:
 
-    - ``p_star = p0 / (E* gbar(dr))``, the reduced pressure;
-    - ``a_r = erf(sqrt(pi) kappa p* / 2)`` (eq. 29; ``erf(sqrt(2) p*)`` for Persson's
-      ``kappa = sqrt(8/pi)``), the relative contact area at resolution ``dr``;
-    - ``a_ri = (1 - a_r^2) erf(sqrt(pi) p*) + a_r^3`` (eq. 50);
-    - ``sigma_c = p0 / a_r`` (eq. 39/40), the mean contact stress;
-    - ``sigma_quick``: the quick estimates ``E* sqrt(c_sa(H) G(dr)) / dr`` below
-      ``lambda_r`` (eq. 41) and ``E* sqrt(c_ro(H)) lambda_r sigma_h / dr^2`` beyond it
-      (eq. 42), or ``p0`` where that is larger, with ``H``, ``sigma_h``, ``lambda_r`` from
-      :func:`xrough.fit_acf` (or ``fit``): the one ``H`` of the fit, not G's local
-      exponent, which misjudges ``gbar`` by up to 50 % near ``lambda_r`` (docs:
-      validation, "Two routes to eq. 41 and 51");
-    - ``G_sigma = p0^2 + G_sigma_full W`` (eq. 30/48), with ``W`` of eq. 49: ``a_r``
-      (``"persson"``, the original theory), ``a_ri^2 / a_r`` (``"modified"``) or
-      ``a_r^2 / a_ri`` (``"modified_ar2"``). The print of eq. 49 is garbled; ``"modified"``
-      is the reading that the order of its subscripts, eq. 51's prefactor ``pi / 2`` (the
-      small-p* ratio ``(a_ri / a_r)^2 = 4 / kappa^2`` of ``G_sigma - p0^2`` to the
-      original's) and the contact solver support (docs: validation), ``"modified_ar2"``
-      the other one. ``G_sigma_full = (E*/2)^2 Laplacian(G)`` (eq. 24). As in the paper
-      (section 3.7), ``G_sigma_full`` is continued beyond its roll-off by a steep power
-      law ``dr^-4`` from where it first falls faster than that or changes sign,
-      searching from where G reaches a quarter of its largest value (``smooth_full``): in
-      partial contact the coupling of modes smears out the ringing of the full-contact
-      ACF, whose sign changes the simulation does not show;
-    - ``Gamma_sigma = G_sigma / a(dr -> 0)`` (eq. 47, ``a = a_r``; ``a_ri`` for both
-      modified weightings);
-    - ``Gamma_sigma_sa``: the small-pressure limit of this theory's ``Gamma_sigma`` in the
-      self-affine range, ``w E*^2 H^2 gbar(0) sqrt(G / c_sa(H)) / dr`` with ``w = 1``
-      (original weighting, independent of ``kappa``), ``2 / kappa`` (``"modified"``;
-      ``sqrt(pi / 2)`` for Persson's ``kappa``) or ``kappa^2 / 4`` (``"modified_ar2"``;
-      ``2 / pi``), ``H = H(dr) = dln G / (2 dln dr)`` G's own local exponent (of the
-      smoothed G whose Laplacian gives ``G_sigma``; no fit: it follows G into its
-      crossovers, where one fitted ``H`` misses ``Gamma_sigma`` by a factor 2 to 6, docs:
-      validation) and ``c_sa`` xrough's, defined by ``gbar^2(dr) = c_sa(H) G / dr^2`` (as
-      in eq. 41);
-    - ``Gamma_sigma_51``: eq. 51 as printed,
-      ``pi gbar(lambda_s) H^2 E*^2 sqrt(G c_sa) / (2 dr)`` with the print's ``c_sa`` read
-      as ``1 / c_sa`` of xrough (the one convention in which it is a limit of eq. 47-50):
-      ``w = pi / 2`` in the form above, whatever ``theory`` and ``kappa``. It is the
-      small-p* limit of ``(G_sigma - p0^2) / a_r(0)`` with the ``"modified"`` weighting
-      and Persson's ``kappa``, i.e. ``pi / 2`` times ``Gamma_sigma_sa`` of the original
-      theory and ``sqrt(pi / 2)`` times that of ``"modified"`` (which divides by
-      ``a_ri(0)``);
-    - ``G_du = G W`` (eq. 34), the displacement ACF.
+    - ``p_star = p0 / (E* gbar(dr))``; ``a_r = erf(sqrt(pi) kappa p* / 2)`` (eq. 29), the
+      contact area at resolution ``dr``; ``a_ri = (1 - a_r^2) erf(sqrt(pi) p*) + a_r^3``
+      (eq. 50); ``sigma_c = p0 / a_r`` (eq. 39/40); ``sigma_quick`` (eq. 41/42);
+    - ``G_sigma = p0^2 + G_sigma_full W`` (eq. 30/48) with ``G_sigma_full = (E*/2)^2
+      Laplacian(G)`` (eq. 24) and ``W`` of eq. 49: ``a_r`` (``"persson"``), ``a_ri^2 /
+      a_r`` (``"modified"``) or ``a_r^2 / a_ri`` (``"modified_ar2"``);
+    - ``Gamma_sigma = G_sigma / a(dr -> 0)`` (eq. 47), its small-pressure limit
+      ``Gamma_sigma_sa`` and eq. 51 as printed, ``Gamma_sigma_51``; ``G_du = G W`` (eq. 34).
 
-    A curve whose G is flat from its first lag (log-log slope below 0.1 over the first
-    decade of lags: the lags do not resolve the roughness, as for white noise) has every
-    output NaN and is failed, with one ``QualityWarning`` (docs/quality.md).
+    Notes (eq. 49 and 51, errors): docs/contact.md, "Partial contact: real-space Persson theory".
 
     Parameters
     ----------
@@ -981,45 +935,27 @@ def persson(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike, theory: 
     p0 : float, str, Quantity or array
         Mean pressure(s), > 0; several give a ``p0`` dim (vectorised).
     theory : {'persson', 'modified', 'modified_ar2'}
-        Weighting of eq. 49 for ``G_sigma``, ``Gamma_sigma``, ``Gamma_sigma_sa`` and
-        ``G_du``.
+        Weighting of eq. 49 for ``G_sigma``, ``Gamma_sigma``, ``Gamma_sigma_sa``, ``G_du``.
     kappa : float
         Small-pressure slope of the contact area (simulations suggest about 2).
     gradient : xarray.DataArray, optional
         Precomputed ``gbar(dr)`` on the same ``dr``; computed once otherwise.
     gradient_method : {'auto', 'exact', 'simple', 'fit'}
-        See :func:`xrough.rms_gradient`. The exact gradient exists only on the lags where G
-        supports the spectrum; the result then covers those lags only. ``'auto'`` falls
-        back to the fit where G does not support it.
+        See :func:`xrough.rms_gradient`; the result covers the lags ``gbar`` covers.
     variables : tuple of str, optional
-        Only these outputs (others are not computed); default all of
-        ``p_star, a_r, a_ri, sigma_c, sigma_quick, G_sigma, Gamma_sigma, G_du``.
+        Only these outputs (default all; others are not computed).
     fit : xarray.Dataset, optional
-        A :func:`xrough.fit_acf` result of G, for the roll-off law of ``sigma_quick``
-        (eq. 42) and, with ``gradient_method`` ``'auto'`` or ``'fit'``, the lags where G
-        does not determine ``gbar``. Default: the default fit of G, which is computed once
-        per G (a ``G.rough.fit()`` before is reused, :func:`xrough.fit_acf`) and only if
-        an output asked for needs it.
+        A :func:`xrough.fit_acf` of G (for eq. 42 and ``gbar``); default: G's own fit.
     smooth_full : bool
-        Continue ``G_sigma_full`` beyond its roll-off by ``dr^-4`` (the paper's choice for
-        partial contact); False keeps eq. 24 with its ringing.
+        Continue ``G_sigma_full`` beyond its roll-off by ``dr^-4`` (the paper's); False: eq. 24.
 
     Returns
     -------
     xarray.Dataset
-        On ``dr`` (and ``p0``); units 1, Pa, Pa^2 and length^2. With ``p_star``,
-        ``a_r``, ``a_ri`` and ``sigma_c`` come their errors (docs/quality.md, "Error
-        bars"): ``<name>_std``, the statistical standard deviation, from the gradient's
-        ``gbar_std`` through eq. 29/50 (NaN where G states no map geometry; attr
-        ``error_of``), and for the areas and ``sigma_c`` ``<name>_model_error``, the
-        theory's expected difference from the exact solution (theory - exact; negative
-        for the areas), ``<name>_exact`` the expected exact value and
-        ``<name>_exact_lower`` / ``_upper`` its one-sigma interval, from the solver study
-        in ``xrough/data/persson_area_error.csv`` at each lag's ``p*`` and G's shape
-        there (NaN for a ``kappa`` other than Persson's, and on maps unlike the
-        study's). ``G_sigma`` (Pa^2) comes with ``G_sigma_std`` (the Laplacian's error
-        and W's through gbar) and the same four model-error variables from
-        ``xrough/data/persson_stress_error.csv.gz`` (original theory only).
+        The variables above on ``dr`` (and ``p0``), in 1, Pa, Pa^2 and length^2, with
+        their errors (``<name>_std``) and, for ``a_r``, ``a_ri``, ``sigma_c`` and
+        ``G_sigma``, the expected exact values of the solver study (``<name>_exact``,
+        ``_exact_lower``/``_upper``, ``<name>_model_error``): docs/contact.md.
 
     Raises
     ------
@@ -1505,7 +1441,7 @@ def _persson_dataset(run: _PerssonRun, out: dict, p0s, method: str) -> xr.Datase
     """Build the result Dataset on ``(p0, ..., dr)`` with its coords and attrs."""
     out = {name: v.transpose("p0", ..., "dr") for name, v in out.items()}
     coords = {**own_coords(run.G), **lag_coord(run.spec.dr, run.spec.unit_str),
-              "p0": ("p0", np.atleast_1d(p0s), {"units": "Pa", "long_name": "mean pressure"})}
+              "p0": ("p0", np.atleast_1d(p0s), P0_ATTRS)}
     return xr.Dataset(out, coords=coords, attrs=result_attrs(
         run.G, E_star=run.E, E_star_units="Pa", kappa=run.kappa, theory=run.theory,
         gradient_method=method,

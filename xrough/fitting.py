@@ -98,6 +98,7 @@ from .acf import (
     mark_gaps,
     read_acf,
     result_attrs,
+    with_coord_attrs,
 )
 from .fit_result import (  # noqa: F401  (read a fit; public here)
     COVARIANCE,
@@ -809,6 +810,7 @@ def _fit_dataset(setup: FitSetup, out: xr.DataArray) -> xr.Dataset:
     single = out.ndim == 1 and out.chunks is None
     lat_s = u.format_units(setup.lateral)
     ds = xr.Dataset(_fit_variables(setup, part, out), attrs=_fit_attrs(setup, part, single))
+    ds = with_coord_attrs(ds, setup.G)  # G's coords (height_variance) that apply_ufunc bared
     ds = ds.assign_coords(dr_ref=((), setup.dr_ref, {"units": lat_s,
                                                      "long_name": "reference lag of G_sa"}))
     if setup.model == "spectrum":

@@ -165,34 +165,29 @@ def detrend(topography: xr.DataArray, *, mode: str = "plane",
             fit: str = "least_squares") -> xr.DataArray:
     r"""Remove a least-squares polynomial trend: mean, plane (tilt) or curvature.
 
+    The fit minimises :math:`\sum_{\text{valid}} [h(\mathbf r) - P(\mathbf r)]^2` over the
+    valid points only, in the physical coordinates of the grid, so the result depends
+    neither on the units nor on the values hidden by NaN. Notes (lines with few points,
+    the effect of ``per_line``, the robust fit): docs/cleaning.md, "Detrending".
+
     Parameters
     ----------
     topography : xarray.DataArray with dims (..., "y", "x") or (..., "x")
         Heights with length units on data and coordinates; NaN marks missing points.
-        Extra dims (``scan``...) are independent maps; dask-backed stacks are fine if
-        each map is one chunk.
+        Extra dims (``scan``...) are independent maps; dask stacks need one chunk a map.
     mode : {'mean', 'plane', 'curvature'}
         Subtract the mean height, the least-squares plane ``a + b x + c y`` (a line for a
         profile or per line), or the quadratic surface ``a + b x + c y + d x^2 + e x y +
         f y^2`` (a parabola for a profile or per line).
     per_line : bool
-        Fit each scan line (row along ``x``) of a map separately: removes the offsets
-        (``'mean'``), offsets and tilts (``'plane'``) or parabolas (``'curvature'``) that
-        differ from line to line, as AFM images have. It also removes real roughness:
-        the profile of the line means along ``y`` (on a surface whose roll-off is a fifth
-        of the scan, G along ``y`` drops by 3-8 % at all lags; G along ``x`` is
-        untouched by ``'mean'``). Use it only when line artefacts are present.
+        Fit each scan line (row along ``x``) of a map separately, for AFM line artefacts;
+        it also removes real roughness (the profile of the line means along ``y``).
     subdivisions : int or tuple of int, optional
-        Checkerboard detrending: cut the map into ``(n_y, n_x)`` tiles (an int: as many
-        along each axis; sizes as ``numpy.array_split`` gives them) and fit each tile on
-        its own; with ``per_line`` each scan line is cut into ``n_x`` segments. The
-        variable-bandwidth analysis (:func:`xrough.variable_bandwidth`) is built on it.
+        Checkerboard detrending: fit each of ``(n_y, n_x)`` tiles on its own (with
+        ``per_line``, ``n_x`` segments a line); see :func:`xrough.variable_bandwidth`.
     fit : {'least_squares', 'mad'}
-        What the polynomial minimises: the mean square of the residual, or its median
-        absolute deviation (robust: spikes and a few deep features do not pull it;
-        SurfaceTopography's ``mad-tilt`` and ``mad-curvature``). ``'mad'`` fits each map
-        whole (not with ``per_line`` or ``subdivisions``) by Nelder-Mead from the
-        least-squares fit: seconds on a megapixel map.
+        Minimise the mean square of the residual, or its median absolute deviation
+        (robust to spikes; each map whole, by Nelder-Mead: seconds on a megapixel map).
 
     Returns
     -------
@@ -214,16 +209,6 @@ def detrend(topography: xr.DataArray, *, mode: str = "plane",
     --------
     fit_trend : the fitted coefficients.
     mask_outliers : outliers pull least-squares fits; mask them, then detrend again.
-
-    Notes
-    -----
-    The fit minimises :math:`\sum_{\text{valid}} [h(\mathbf r) - P(\mathbf r)]^2` over the
-    valid points only, in the physical coordinates of the grid (centred and scaled to
-    ``[-1, 1]`` internally for conditioning), so the result does not depend on the units
-    or on the values hidden by NaN. Removing a least-squares fit is a projection: adding
-    any polynomial of the mode's degree to the input leaves the output unchanged (to
-    round-off). Lines with fewer valid points than coefficients (``per_line``) get the
-    minimum-norm fit (a line with one valid point becomes 0); all-NaN lines stay NaN.
 
     Examples
     --------
@@ -472,46 +457,39 @@ def mask_outliers(topography: xr.DataArray, *, threshold: float = 5.0, method: s
                   window: QuantityLike | None = None) -> xr.DataArray:
     r"""Mark spikes and dimples as missing (NaN) by robust z-scores.
 
-    A point is an outlier when its height (or, with a ``window``, its residual from a local
-    reference) lies more than ``threshold`` standard deviations from the median of its
-    map, the standard deviation being estimated robustly from the median absolute
-    deviation (MAD). The mask-aware ``G(dr)`` then averages over the remaining pairs, which
-    leaves its large-lag statistics intact (paper, section 3.2).
+    A point is an outlier when its height (or, with a ``window``, its residual ``r`` from a
+    local plane) has
+
+    .. math:: z = \frac{|r - \operatorname{med} r|}{1.4826\,\operatorname{med}
+              |r - \operatorname{med} r|} > \text{threshold},
+
+    the scale being the median absolute deviation (MAD) of its map. The mask-aware
+    ``G(dr)`` then averages over the remaining pairs, which leaves its large-lag
+    statistics intact (paper, section 3.2). Notes (a MAD of 0, the two-stage local
+    reference, false-positive rates): docs/cleaning.md, "Outlier masking".
 
     Parameters
     ----------
     topography : xarray.DataArray with dims (..., "y", "x") or (..., "x")
-        Heights with length units; NaN marks missing points (left as they are). Infinite
-        heights are invalid points: they are masked (set to NaN, counted in
-        ``outliers_masked``) and left out of the statistics. Each map of a stack gets
-        its own statistics.
+        Heights with length units; NaN marks missing points (left as they are); infinite
+        heights are masked too. Each map of a stack gets its own statistics.
     threshold : float
-        Positive number of standard deviations. The default 5 flags a point of Gaussian
-        data with probability 5.7e-7 (0.6 false positives per million points); 3.5
-        (4.7e-4) is the classical choice for small maps.
+        Positive number of standard deviations; the default 5 flags 0.6 points per
+        million of Gaussian data, 3.5 is the classical choice for small maps.
     method : {'mad', 'std'}
-        Scale ``1.4826 * MAD`` (robust: a few percent of outliers do not inflate it), or
-        the plain standard deviation (classical sigma clipping; outliers inflate it and
-        can hide each other).
+        Scale ``1.4826 * MAD`` (robust), or the plain standard deviation (classical sigma
+        clipping; outliers inflate it and can hide each other).
     window : float, str or Quantity, optional
         Width (numbers in the lateral unit) of the neighbourhood each point is judged
-        against, instead of the whole height distribution: needed for spikes riding on
-        large-scale roughness, tilts or curvature, or smaller than the height range. It
-        spans the odd number of pixels nearest to it along each axis (at least 3; use 7
-        or more on profiles, where a window has fewer points). It should be several
-        times wider than a cluster of outliers and need not be small: the reference is
-        a local plane, exact on tilts whatever the width. ``None`` (default) judges the
-        heights themselves: detrend first. Line-to-line offsets look like outliers to a
-        window that spans several lines: level the lines first (``detrend(...,
-        per_line=True)``).
+        against (odd pixels, at least 3), for spikes on large-scale roughness, tilts or
+        curvature. ``None`` (default) judges the heights: detrend first.
 
     Returns
     -------
     xarray.DataArray
-        The topography with outliers set to NaN, same coords and units. ``attrs`` gain
-        ``outlier_method`` (a description), ``outlier_threshold`` and, when the data are
-        in memory (not dask), ``outliers_masked`` (points masked over the whole stack)
-        and ``outlier_fraction`` (their fraction of the valid points).
+        The topography with outliers set to NaN, same coords and units; attrs
+        ``outlier_method`` (a description), ``outlier_threshold`` and, in memory (not
+        dask), ``outliers_masked`` (over the stack) and ``outlier_fraction`` (of valid points).
 
     Raises
     ------
@@ -522,31 +500,6 @@ def mask_outliers(topography: xr.DataArray, *, threshold: float = 5.0, method: s
     See Also
     --------
     detrend : mask outliers before the final detrending (they pull least-squares fits).
-
-    Notes
-    -----
-    With ``r`` the heights or their residual from the local reference,
-
-    .. math:: z = \frac{|r - \operatorname{med} r|}{1.4826\,\operatorname{med}
-              |r - \operatorname{med} r|}
-
-    and points with ``z > threshold`` are masked. The factor 1.4826 makes the scale the
-    standard deviation of Gaussian data; where the MAD is 0 (more than half of the points
-    at one height, as on coarsely quantised data) the central 95 % range divided by 3.92
-    is used, and where that is 0 too, the standard deviation.
-
-    The local reference is built in two stages (see
-    ``xrough._kernels.detrend.robust_zscore``). First a median, NaN-aware and exact on
-    planes: the median over the window of the means ``(h(p + d) + h(p - d)) / 2`` of the
-    point pairs placed symmetrically about ``p`` (a spike spoils only its own pair).
-    Points above the threshold on it are candidates. A median residual is not Gaussian on
-    a Gaussian surface, though (a plain 3 x 3 running median flags up to 14 % of the
-    points of a smooth surface), so the final residual is from the least-squares plane
-    through the valid neighbours without the candidates: linear in the heights, hence
-    Gaussian on Gaussian data with a known false-positive rate, exact on tilts and
-    unbiased at edges and around missing points; candidates that this stage clears are
-    put back until the set is stable. On
-    periodic maps the window wraps; on open maps it is cut at the edges.
 
     Examples
     --------
@@ -689,11 +642,13 @@ def reliable(
 ) -> xr.DataArray:
     r"""Record the lag range the measurement resolves: ``reliable_dr_min/max`` in attrs.
 
-    Every given criterion is a limit and the window is their intersection:
-
+    Every given criterion is a limit and the window is their intersection,
     ``dr_min = max(short_cutoff or min_pixels * pixel, lateral_resolution, tip cutoff)``
-
-    ``dr_max = long_cutoff or long_fraction * scan size``
+    and ``dr_max = long_cutoff or long_fraction * scan size``. The tip cutoff (Sanner et
+    al., Appl. Surf. Sci. Adv. 7, 100190, 2022) is where the minimum of the curvature
+    :math:`[h(x + d) - 2 h(x) + h(x - d)] / d^2` along the fast scan axis rises above
+    :math:`-\text{safety\_factor}/R` for good, as the stencil length ``2 d``. Notes:
+    docs/cleaning.md, "The reliability window".
 
     Parameters
     ----------
@@ -701,24 +656,19 @@ def reliable(
         Heights with length units (ideally detrended and with outliers masked: spikes
         look infinitely curved to the tip rule). A stack gets one window for all maps.
     short_cutoff, long_cutoff : float, str or Quantity, optional
-        Explicit limits (numbers in the lateral unit); replace the pixel and scan-size
-        defaults.
+        Explicit limits (numbers in the lateral unit) replacing the defaults.
     tip_radius : float, str or Quantity, optional
-        Radius ``R`` of a scanning-probe tip (numbers in the lateral unit): the short
-        cutoff is the scale below which the topography is curved more sharply than the
-        tip can follow (see Notes). The data are read to find it (dask input is
-        computed).
+        Radius ``R`` of a scanning-probe tip (numbers in the lateral unit), for the tip
+        cutoff. The data are read to find it (dask input is computed).
     lateral_resolution : float, str or Quantity, optional
-        Resolution of the instrument (optical, beam or stylus size), a lower limit of
-        ``dr`` (numbers in the lateral unit).
+        Instrument resolution (optical, beam or stylus size; numbers in the lateral unit).
     safety_factor : float
         The tip rule flags curvatures below ``-safety_factor / R`` (default 1/2).
     min_pixels : float
         Default short cutoff in pixels (of the coarser spacing); 1 keeps every lag of G.
     long_fraction : float
         Default long cutoff as a fraction ``0 < f <= 1`` of the scan size (the shorter
-        side of a map): 1/2 by default, where an open map still has a quarter of its pairs
-        in 2D and a periodic map reaches its largest distinct lag.
+        side of a map), 1/2 by default.
 
     Returns
     -------
@@ -731,38 +681,11 @@ def reliable(
     ------
     ValueError
         Non-positive lengths or factors, ``long_fraction`` outside ``(0, 1]``, an empty
-        window (``dr_min >= dr_max``, e.g. a tip too blunt for the scan), or infinite
-        heights (mask them with :func:`mask_outliers`; dask input is checked only when
-        ``tip_radius`` reads it).
+        window (e.g. a tip too blunt for the scan), or infinite heights.
 
     See Also
     --------
     reliability_window : read the window back, in the current lateral unit.
-
-    Notes
-    -----
-    Tip rule (Sanner et al. [1]_, as in contact.engineering): a tip of radius :math:`R`
-    cannot enter valleys curved more sharply than :math:`-1/R`. The scale-dependent
-    curvature at scale ``d``,
-
-    .. math:: \kappa_d(x) = \frac{h(x + d) - 2 h(x) + h(x - d)}{d^2},
-
-    is evaluated along the fast scan axis ``x`` (as contact.engineering does: across the
-    scan lines, along ``y``, it holds their offsets and drift, which no tip makes) at
-    lattice distances ``d`` up to a quarter of the scan; the cutoff is where its minimum
-    over all points (and maps) rises above
-    :math:`-\text{safety\_factor}/R` for good (the last crossing, interpolated as a power
-    law), reported as the stencil length ``2 d``. On a Gaussian surface the minimum is a
-    few times the rms curvature :math:`\sqrt{8 G(d) - 2 G(2d)} / d^2` (G along the
-    stencil). If the tip follows every scale, only the other limits apply. Masked
-    outliers matter here: a spike is an extreme curvature at every scale.
-
-    References
-    ----------
-    .. [1] A. Sanner, W. G. Nöhring, L. A. Thimons, T. D. B. Jacobs, L. Pastewka,
-       "Scale-dependent roughness parameters for topography analysis", Appl. Surf. Sci.
-       Adv. 7, 100190 (2022), doi:10.1016/j.apsadv.2021.100190. The safety factor 1/2 is
-       their estimate from simulated tip scans.
 
     Examples
     --------

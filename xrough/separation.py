@@ -65,11 +65,9 @@ def mean_gap(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike,
     r"""Mean gap, contact stiffness and elastic energy of partial contact against load.
 
     Persson's theory of the interfacial separation with the sums over wavenumbers turned
-    into integrals over resolution ``dr`` (wavenumber ``2 pi / dr``): with the rms
-    gradient ``gbar(dr)`` of eq. 26, the measure
-    ``dmu = dr (-d gbar^2 / d dr) d(dr)`` (the weight ``q^2 C dq`` of a band of
-    wavenumbers) and the contact area ``P = erf(sqrt(2) p*)`` of eq. 29 at each
-    resolution, ``p* = p0 / (E* gbar(dr))``:
+    into integrals over resolution ``dr``: with ``gbar(dr)`` of eq. 26, the measure
+    ``dmu = dr (-d gbar^2 / d dr) d(dr)`` and the contact area ``P = erf(sqrt(2) p*)`` of
+    eq. 29 at each resolution, ``p* = p0 / (E* gbar(dr))``:
 
     .. math::
 
@@ -78,21 +76,9 @@ def mean_gap(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike,
             = \frac{\sqrt 2}{4\pi^{3/2}} \int d\mu\, \frac{J(p^*)}{\bar g} \\
         K(p_0) &= -\frac{dp_0}{d\bar u} = p_0 \Big/ \frac{dU}{dp_0}
 
-    with ``J(s) = int_s^inf dt/t [gamma + 3 (1 - gamma) erf^2(sqrt(2) t)] exp(-2 t^2)``.
-    In full contact ``U`` is eq. 16's ``E*/4 int G/dr^2``; the same sums over a spectrum
-    give the same numbers (Fourier form, to 1e-4 in the tests). Beside it, the paper's own
-    form of the energy, eq. 34 (``G_du = G W`` with ``W = a_r``) in eq. 16:
-    ``U_34 = E*/4 int G a_r / dr^2``.
-
-    The gap distribution is Almqvist et al.'s (2011) in the same real-space terms: from
-    coarse to fine resolution ``D`` the contact area ``P(D)`` shrinks, and the area that
-    detaches at ``D`` has the gap of the roughness finer than ``D`` pressed at
-    ``p0 / P(D)``, taken as normal (reflected at zero) with the mean gap of that finer
-    roughness (``gbar_D^2 = gbar^2 - gbar^2(D)``) and the variance of its heights,
-    ``h_D^2 = int_0^D r^2 / (4 pi^2) (-d gbar^2 / dr) dr``; the area in contact at
-    the finest lag has gap 0. It assumes Gaussian heights at every scale (no skew: a
-    worn or plateau-honed surface differs) and the map's resolution as the finest
-    scale, as the solver on the map does.
+    with ``J(s) = int_s^inf dt/t [gamma + 3 (1 - gamma) erf^2(sqrt(2) t)] exp(-2 t^2)``
+    (eq. 16 in full contact); beside it eq. 34 in eq. 16, ``U_34 = E*/4 int G a_r / dr^2``.
+    Gap distribution: Almqvist et al. (2011). Notes: docs/contact.md, "Beyond the paper".
 
     Parameters
     ----------
@@ -115,17 +101,10 @@ def mean_gap(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike,
     -------
     xarray.Dataset
         On ``p0`` (and G's extra dims): ``mean_gap`` (G's length unit), ``stiffness``
-        (Pa per length unit), ``elastic_energy`` and ``elastic_energy_34`` (J m-2),
-        ``mean_gap_std``, ``stiffness_std`` and ``elastic_energy_std`` (statistical: half
-        the change when ``gbar`` moves by ``exp(+-gbar_std / gbar)`` at all lags at once,
-        which bounds the correlated errors of G), ``gap_quantiles`` on ``area_share`` (the
-        gap distribution: the gap below which each twentieth of the nominal area lies, 0
-        within the contact area and ``inf`` at share 1, as the solver's ``gap_quantiles``;
-        see below), and ``gap_beyond_lags`` (the share of
-        the mean gap from scales beyond the largest lag, where ``gbar`` is continued as
-        ``dr^-2``; above
-        :data:`BEYOND_LAGS` the load is questionable: measure larger scales). Attrs
-        ``equation``, ``gamma``, ``E_star`` and the quality marks.
+        (Pa per length unit), ``elastic_energy`` and ``elastic_energy_34`` (J m-2), their
+        errors ``*_std``, ``gap_quantiles`` on ``area_share`` (as the solver's) and
+        ``gap_beyond_lags`` (share of the gap from beyond the largest lag; questionable
+        above :data:`BEYOND_LAGS`). Attrs ``equation``, ``gamma``, ``E_star``, quality.
 
     Raises
     ------

@@ -113,166 +113,61 @@ def solve_contact(
 ) -> xr.Dataset:
     r"""Solve the normal contact of an elastic half-space with a rigid rough surface.
 
-    Boundary-element (Green's function) method with FFT convolutions and the constrained
-    conjugate-gradient iteration of Polonsky & Keer (1999) at a prescribed mean pressure
-    ``p0``; or at a prescribed ``displacement`` (approach), found by Brent's method on the
-    mean pressure with warm-started load-controlled solves.
+    Boundary elements with FFT convolutions; constrained conjugate gradients (Polonsky &
+    Keer 1999) at a mean pressure ``p0``, or Brent's method on ``p0`` at a ``displacement``.
+    Notes: docs/solver.md, "Equations and iteration" (and its "Options", "References").
 
     Parameters
     ----------
     topography : xarray.DataArray with dims ("y", "x")
-        Combined roughness ``h`` (heights up towards the elastic body), complete (no NaN),
-        on a uniform grid. ``attrs["periodic"]`` selects the Green's function.
+        Heights ``h`` (up towards the body), no NaN, uniform grid; ``attrs["periodic"]``.
     E_star : float, str or Quantity
         Contact modulus ``E*`` (Pa for numbers).
     p0 : float, str, Quantity or sequence of them, optional
-        Mean pressure over the whole map (Pa for numbers). Several values give a ``p0``
-        dim; each solve starts from the previous solution, so order them by load.
+        Mean pressure (Pa for numbers); several: a ``p0`` dim, each solve warm-started.
     displacement : float, str, Quantity or sequence of them, optional
-        Instead of ``p0``: the approach ``delta`` of the elastic body from first contact
-        (numbers in the height unit), giving a ``delta`` dim when several. The
-        body's undeformed (non-periodic) or mean (periodic) surface lies at
-        ``max(h) - delta``. On a periodic map ``delta`` must stay below full contact,
-        ``max(h) - mean(h)``.
-    tol : float
-        Relative tolerance on the pressure change and the gap error (see Notes).
-    max_iter : int
-        Maximal number of CG iterations per solve.
+        Instead of ``p0``: approach from first contact (height unit; a ``delta`` dim).
+    tol, max_iter : float, int
+        Relative tolerance (pressure change, rms gap error); CG iterations per solve.
     progress : bool, optional
-        Show a tqdm bar over the iterations (default: only in an interactive terminal).
+        Show a tqdm bar (default: only in an interactive terminal).
     workers : int, optional
         Threads for ``scipy.fft`` (default: all CPUs).
     precision : {"mixed", "float64"}
-        ``"mixed"`` (default) runs the first iterations in float32, until the residual
-        is below ``max(tol, 1e-6)`` or stops decreasing, then restarts the conjugation
-        on the float64 displacement and polishes to ``tol`` with float64 displacements
-        and gaps (only the transform of the search direction stays float32; the final
-        residual is checked on a displacement transformed afresh in float64): the
-        result meets ``tol`` as measured in float64. Maps smaller than 256 x 256 points
-        always use float64.
-        ``"float64"`` uses float64 throughout.
+        ``"mixed"``: float32 down to ``max(tol, 1e-6)``, then float64 to ``tol``.
     coarse_to_fine : int
-        Number of 2x restrictions for the initial guess of the first load (default 1; 0:
-        a cold start from a uniform pressure). With ``k > 0`` the first load is first
-        solved on the map averaged over 2 x 2 pixels (itself started from a coarser grid,
-        ``k`` levels in all, down to 64 points a side), to a loose tolerance
-        (``max(tol, 1e-3)``), and the coarse pressure, repeated onto 2 x 2 pixels, starts
-        the fine solve. The solution is the same as from a cold start to within ``tol``;
-        the iterations on the coarse grids are counted in ``iterations``.
+        Levels of 2 x 2 averaging whose solve starts the first load (0: a cold start).
     precondition : bool
-        Vollebregt's FFT preconditioner (default on): the search direction is built
-        from ``K^-1 g``, the gap on the contact set mapped through the inverse of the
-        Green's function (``|q|/2`` on periodic maps, the inverse of the zero-padded
-        kernel on open ones), instead of from ``g``. It costs a pair of transforms per
-        iteration and halves the iterations or better; the solve takes 0.57-0.80 of
-        the time without it on 1024 x 1024 maps at 0.7-20 % contact, 0.87-0.92 on
-        2048 x 2048 at 0.2-2 %, and 0.64-0.99 on 512 x 512 (measured in
-        docs/solver.md). The solution is the same to ``tol``.
+        Vollebregt's FFT preconditioner ``K^-1 g`` in the search direction.
     timing : bool
-        Add the wall-clock ``solve_time`` and ``time_per_iteration`` (off by default:
-        they differ from run to run, so results would no longer compare identical).
+        Add the wall-clock ``solve_time`` and ``time_per_iteration`` (s).
 
     Returns
     -------
     xarray.Dataset
-        ``pressure`` (Pa), ``displacement`` (elastic surface displacement, height unit),
-        ``gap`` (height unit) and ``contact`` (int8 mask, 1 where ``pressure > 0``) on
-        ``(y, x)``; per load: ``contact_area`` (relative), ``mean_pressure`` (Pa),
-        ``approach`` (``max(h) + offset``, height unit), ``mean_gap`` (the mean of the
-        gap, the interfacial separation, height unit), ``elastic_energy`` (J m-2,
-        ``(1/2) <(p - p0)(u - <u>)>``: the work of the load, ``p0 = -d energy / d
-        mean_gap``), ``stiffness`` (``-dp0 / d mean_gap`` from neighbouring loads, Pa per
-        height unit; NaN for one load), ``gap_quantiles`` on ``area_share`` (0 to 1 in
-        steps of 0.05: the gap below which that share of the map lies, the gap
-        distribution; 0 up to the contact area), ``iterations`` (coarse grids
-        included), ``converged``, ``float32_iterations``, ``coarse_iterations``,
-        ``transforms`` (forward plus inverse FFTs of the map), ``deferred_entries``
-        (iterations in which overlapping points waited to enter) and, with ``timing``,
-        ``solve_time`` (s) and ``time_per_iteration`` (s);
-        ``residual`` on ``iteration`` (the convergence history, NaN-padded per load).
-        Attrs: ``E_star`` (Pa), ``tol``, ``max_iter``, ``method``, ``green_function``,
-        ``iterations`` (total), ``precision``, ``coarse_to_fine``, ``precondition``,
-        with ``timing``
-        ``solve_time`` (s, total), and, for one load, ``relative_contact_area``.
+        ``pressure`` (Pa), ``displacement``, ``gap`` (height unit), ``contact`` on ``(y,
+        x)``; per load ``contact_area``, ``mean_pressure`` (Pa), ``approach``, ``mean_gap``
+        (height unit), ``elastic_energy`` (J m-2), ``stiffness`` (Pa per height unit),
+        ``gap_quantiles``, counters, ``residual``: docs/solver.md, "The result".
 
     Raises
     ------
     ValueError
-        Non-positive or non-finite ``E_star`` or ``p0``, both or neither of ``p0`` and
-        ``displacement``, NaN or infinite heights, a non-uniform grid, or a periodic
-        ``displacement`` at or beyond full contact, an unknown ``precision`` or
-        ``precondition``, a negative ``coarse_to_fine``, or a load ``p0 / E*`` (or a
-        ``displacement``) outside 1e-250 to 1e250 times the largest height (in the
-        lateral unit), beyond float64 on these heights.
+        Invalid ``E_star``, ``p0``, ``displacement`` (both or neither), heights or options;
+        a load beyond float64 on these heights (docs/solver.md, "Options").
 
     Warns
     -----
     ConvergenceWarning
-        When a solve stops at ``max_iter`` above ``tol`` (``converged`` is 0 there).
-
-    Notes
-    -----
-    Small slopes, linear elasticity: ``u~(q) = 2 p~(q) / (E* |q|)``. The gap is
-    ``g = u - h - offset``; the solution has ``p >= 0``, ``g >= 0`` and ``p g = 0``.
-    Periodic maps use this Fourier-space Green's function with the ``q = 0`` term dropped
-    (its effect is the rigid-body offset, fixed by the mean-pressure constraint); in full
-    contact the pressure is exactly ``p0 + (E*/2)|q| h~(q)``. Non-periodic maps use
-    piecewise-constant pressure pixels in free space: Love's pixel solution (the
-    Boussinesq kernel ``1/(pi E* r)`` integrated over one pixel) sampled at all pixel
-    offsets on the grid doubled along both axes, Fourier-transformed once, and applied as
-    a zero-padded convolution (the surroundings of the map are flat and out of contact).
-
-    Each iteration (Polonsky & Keer 1999): compute ``g`` and subtract its mean over the
-    contact set ``I_c = {p > 0}``; conjugate direction ``t = g + delta (G/G_old) t`` on
-    ``I_c`` with ``G = sum_{I_c} g^2``; step ``tau = (g.t) / (r.t)`` with ``r = K t``
-    (mean-shifted); ``p <- max(p - tau t, 0)``; points with ``p = 0`` and ``g < 0``
-    re-enter (``p = -tau g``, ``delta = 0``); rescale to the mean ``p0``. Points out of
-    contact with a negative gap enter only when their gap error exceeds half that on the
-    contact set (proportioning, as in Dostal's MPRGP); until then the conjugation goes on,
-    which halves the iterations on rough surfaces. With the preconditioner, ``g`` in the
-    direction (and in ``G = g.z``) becomes ``z = K^-1 g`` restricted to ``I_c`` and
-    mean-shifted (Vollebregt 2014), and re-entering points get ``-tau (g.z / g.g) g``.
-    The residual is
-    ``max(sum|p - p_old| / sum p, rms(g on I_c and g < 0 elsewhere) / rms(h))`` and the
-    iteration stops below ``tol``. A load beyond full contact simply converges to full
-    contact (``contact_area = 1``).
-
-    The problem is linear in ``(h, p0/E*, delta)``: it is solved on the heights divided
-    by the power of two nearest their largest ``|h|`` (exact in floating point, so heights
-    of any size give the same solution, scaled, without overflowing squares or float32
-    transforms), and the fields are scaled back.
-
-    Full contact of a periodic map needs no iteration: where ``p0 + (E*/2)|q| h~`` is
-    positive everywhere it is the solution, computed with one pair of transforms and
-    checked (``iterations`` is 1 there).
-
-    Cost: the iterates live on the contact set only; per iteration one forward and one
-    inverse transform give ``K t`` (and one pair ``K^-1 g`` with the preconditioner, in
-    float32 in both phases of ``"mixed"``), and the displacement ``K p`` is updated linearly
-    (``u <- s (u - tau K t)``, plus the kernel of the few pixels that left or entered the
-    contact set), so a second pair of transforms is needed only in iterations where many
-    pixels change. ``transforms`` counts them.
-
-    References
-    ----------
-    I. A. Polonsky and L. M. Keer, Wear 231, 206-219 (1999).
-    Z. Dostal and J. Schoeberl, Comput. Optim. Appl. 30, 23-43 (2005) (MPRGP,
-    proportioning).
-    E. A. H. Vollebregt, J. Comput. Phys. 257, 333-351 (2014) (the FFT-based
-    preconditioner).
-    K. L. Johnson, Contact Mechanics (1985), eq. 3.25 (Love's pixel solution).
+        A solve stops at ``max_iter`` above ``tol`` (``converged`` is 0 there).
 
     Examples
     --------
-    Westergaard's sinusoid at half the full-contact pressure ``p* = pi E* h0 / lambda``
-    has the contact half-width ``a = lambda/4``:
-
-    >>> from xrough.solver import solve_contact
-    >>> x = np.arange(256) / 256  # um, one wavelength
-    >>> h = np.tile(0.01 * np.cos(2 * np.pi * x), (2, 1))  # h0 = 10 nm
-    >>> topo = xrough.topography(h, spacing=1 / 256, unit="um", periodic=True)
-    >>> p_star = np.pi * 1e6 * 0.01 / 1  # pi E* h0 / lambda in Pa
-    >>> res = solve_contact(topo, E_star="1 MPa", p0=0.5 * p_star)
+    >>> x = np.arange(256) / 256  # um, one wavelength of Westergaard's sinusoid, h0 = 10 nm
+    >>> topo = xrough.topography(np.tile(0.01 * np.cos(2 * np.pi * x), (2, 1)),
+    ...                          spacing=1 / 256, unit="um", periodic=True)
+    >>> p0 = 0.5 * np.pi * 1e6 * 0.01  # half the full-contact pi E* h0 / lambda, in Pa
+    >>> res = xrough.solve_contact(topo, E_star="1 MPa", p0=p0)
     >>> round(res.attrs["relative_contact_area"], 2), bool(res.converged)  # 2a / lambda
     (0.5, True)
     """
@@ -557,7 +452,7 @@ def _dataset(results: list[dict], topography: xr.DataArray, grid, loads: _Loads,
         "y": topography["y"], "x": topography["x"],
         loads.dim: (L, np.atleast_1d(loads.values), loads.attrs),
         "iteration": ("iteration", np.arange(1, hist.shape[1] + 1),
-                      {"long_name": "iteration"}),
+                      {"units": "1", "long_name": "iteration"}),
         "area_share": ("area_share", GAP_SHARES, {
             "units": "1", "long_name": "share of the map's area"}),
     }

@@ -381,21 +381,24 @@ def stitch_curves(
 ) -> xr.Dataset:
     r"""Per-measurement G on a common log grid of lags, each inside its reliable window.
 
+    G of a topography is computed on the common bin edges (in its lateral unit, clipped
+    to its window); a precomputed G is re-binned with pair-count weights; each value is
+    moved to the bin centre along the curve's local log-log slope. Notes (windows,
+    stated tips, re-binning): docs/stitching.md, "Windows" and "Common grid and
+    re-binning".
+
     Parameters
     ----------
     measurements : mapping of str to xarray.DataArray, xarray.Dataset or xarray.DataTree
         Topographies (maps and profiles mixed, each on its own grid and in its own units;
         extra dims such as ``scan`` are pooled into one G) or already computed G (dim
-        ``dr``, from :func:`xrough.height_difference_acf`). A Dataset aligns its members
-        on shared dims, so measurements on different grids go in a DataTree (one node
-        each) or a dict; every data variable of a DataTree is a measurement, named by
-        its node (``"afm"``; ``"afm/h"`` when the node holds several variables).
+        ``dr``). Measurements on different grids go in a dict or a DataTree (one node
+        each, named by the node: ``"afm"``; ``"afm/h"`` for a node of several variables).
     points_per_decade : float
         Common log bins, centred on ``10**(k / points_per_decade)`` in ``unit``.
     windows : mapping of str to (dr_min, dr_max), optional
         Per-measurement window overriding the recorded, stated-tip or default one (numbers
         in the measurement's lateral unit, or strings/Quantities; ``None`` keeps a limit).
-        A ``dr_min`` here wins over a stated tip, also one that resolves no lag.
     unit, height_unit : str, optional
         Common lateral and height units (default: those of the first measurement).
     min_pixels : float
@@ -406,29 +409,23 @@ def stitch_curves(
     parallel : bool
         Compute the G of several topographies in parallel threads (dask.delayed).
     **acf_kwargs
-        Passed to :func:`xrough.height_difference_acf` (e.g. ``direction``,
-        ``estimator``); not ``bins``, ``dr_min``, ``dr_max`` or ``pool``. ``reliable``
-        (default True) applies the tip or stylus radius a topography's metadata state, as
-        for ``acf()`` (see Notes); ``reliable=False`` stitches every G as measured.
+        Passed to :func:`xrough.height_difference_acf`; not ``bins``, ``dr_min``,
+        ``dr_max`` or ``pool``. ``reliable=False`` ignores stated tip radii.
 
     Returns
     -------
     xarray.Dataset
-        On dims ``(measurement, dr)``: ``G``, ``standard_error`` (height unit squared) and
-        ``pair_count``; NaN (count 0) outside each window. Coords ``dr_min``, ``dr_max``
-        (windows in the common unit) and ``window_rule`` (what set them) per measurement;
-        attrs ``window_rules`` (the rules in one string), ``left_out`` (the measurements
-        left out because their stated tip resolves no lag, ``", "``-joined; ``""`` when
-        none), with ``quality`` questionable and ``quality_notes`` saying why when one is,
-        and ``quality_remarks`` naming the windows a stated tip cut (or a tip stated by a
-        lazy map, not applied).
+        ``G``, ``standard_error`` (height unit squared) and ``pair_count`` on
+        ``(measurement, dr)``, NaN (count 0) outside each window; coords ``dr_min``,
+        ``dr_max`` and ``window_rule`` per measurement; attrs ``window_rules``,
+        ``left_out`` (measurements whose stated tip resolves no lag; then ``quality``
+        questionable, with ``quality_notes``) and ``quality_remarks``.
 
     Raises
     ------
     ValueError
-        An empty window (also a ``windows=`` entry without ``dr_min`` for a measurement
-        whose stated tip resolves no lag), windows for unknown measurements, disallowed
-        ``acf_kwargs``, every measurement left out.
+        An empty window, windows for unknown measurements, disallowed ``acf_kwargs``,
+        every measurement left out.
     TypeError
         Measurements that are not DataArrays.
 
@@ -441,26 +438,6 @@ def stitch_curves(
     --------
     stitch : combine these curves into one G.
     stitch_mismatch : their disagreement where they overlap.
-
-    Notes
-    -----
-    G of a topography is computed directly on the common bin edges (converted to its
-    lateral unit and clipped to its window). A precomputed G is re-binned: its bins that
-    fall into one common bin are averaged with pair-count weights. Either way the value at
-    the pair-weighted mean lag of the bin is then moved to the bin centre along the local
-    log-log slope of the measurement's own curve, so that all curves refer to the same lag.
-
-    *Windows from stated tips.* A topography without ``reliable_dr_min`` whose metadata
-    state a tip or stylus radius (:func:`xrough.preprocess.stated_tip_radius`: a file's
-    ``Stylus`` header, a ``meta.yml`` description) gets the cutoff of the tip rule of
-    :func:`xrough.reliable` as the short end of its window when that lies above
-    ``min_pixels`` pixels: the cutoff :func:`xrough.height_difference_acf` records by
-    default (:func:`xrough.preprocess.tip_window`). Where the cutoff is not below the
-    window's long end, the tip resolves no lag of the measurement and it is left out
-    (unless ``windows=`` gives its ``dr_min``). The tip rule reads the whole map: on a lazy
-    (dask) topography it is not applied (the window must be known before compute), and a
-    remark says how to apply it (:func:`xrough.reliable` with the tip radius first).
-    A precomputed G keeps the window it records.
     """
     items = _as_mapping(measurements)
     for name, da in items.items():  # a G that is no G, named before any unit is read
@@ -615,8 +592,10 @@ def _curves_dataset(packed, centres: np.ndarray, plans: dict, meta: list[dict], 
                     "units": lunit, "long_name": "short end of the reliable window"}),
                 "dr_max": per_measurement("hi", {
                     "units": lunit, "long_name": "long end of the reliable window"}),
-                "pixel_size": per_measurement("pixel_size", {"units": lunit}),
-                "scan_size": per_measurement("scan_size", {"units": lunit}),
+                "pixel_size": per_measurement("pixel_size", {
+                    "units": lunit, "long_name": "pixel size of the measurement"}),
+                "scan_size": per_measurement("scan_size", {
+                    "units": lunit, "long_name": "scan size of the measurement"}),
                 "window_rule": ("measurement", [plans[n]["rule"] for n in names], {
                     "long_name": "what set the reliable window"}),
                 "kind": per_measurement("kind"),
@@ -747,14 +726,9 @@ def level_factors(curves: xr.Dataset, *, with_errors: bool = False):
     bins of each: :math:`G_i` is multiplied by :math:`e^{r v_i / (v_i + v_c)}` and every
     measurement joined to the combination through overlaps by
     :math:`e^{-r v_c / (v_i + v_c)}`. A precise measurement moves little, a noisy one
-    much; measurements without any overlap keep factor 1.
-
-    Why: the G of a finite scan carries an error that is nearly the same factor at all its
-    lags (the rms gradient of the scanned patch, a height calibration), which is how
-    :func:`stitch_mismatch` models it. Combined bin by bin, two curves that differ by such
-    a factor leave a step where one window begins; the step is within the errors of G
-    but not of its derivatives, and the stress ACF (eq. 24, a Laplacian of G) turns it
-    into a spike of several % of ``G_sigma(0)``.
+    much; measurements without any overlap keep factor 1. The step would otherwise turn
+    into a spike of the stress ACF (eq. 24). Notes (why, the errors of the factors):
+    docs/stitching.md, "Levelling".
 
     Parameters
     ----------
@@ -768,20 +742,7 @@ def level_factors(curves: xr.Dataset, *, with_errors: bool = False):
     numpy.ndarray or tuple of numpy.ndarray
         One factor per measurement, in the order of ``curves.measurement``; with
         ``with_errors``, ``(factors, errors)``, ``errors`` the standard error of
-        ``ln(factor)`` (0 for a measurement that kept factor 1).
-
-    Notes
-    -----
-    *Errors.* The level error of one measurement is one factor at all its lags, with
-    variance :math:`v` (the level variances above), so the step :math:`r` has variance
-    :math:`V = v_i + v_c` and the share :math:`v_i / V` of it that goes into
-    :math:`\ln f_i` has standard error :math:`v_i / \sqrt{V}` (the combination's share
-    :math:`v_c / \sqrt{V}`). A measurement levelled in several steps adds the variances of
-    its shares, the steps taken as independent. When the instruments agree (calibrated,
-    only the level scatter of their scans), :math:`\ln f` scatters by that error, and
-    :math:`|\ln f| / \sigma` is the step's significance :math:`|r| / \sqrt{V}`: a factor
-    it does not explain is a calibration (or detrending) disagreement that levelling
-    would otherwise hide; :func:`stitch` warns about it.
+        ``ln(factor)``: :math:`v_i / \sqrt{v_i + v_c}` per step (0 for factor 1).
 
     Examples
     --------
@@ -892,55 +853,44 @@ def stitch(
 ) -> xr.DataArray:
     r"""One G(dr) over many decades from several measurements of a surface.
 
+    In each common bin the measurements ``i`` that cover it are combined by
+    inverse-variance weighting of :math:`\ln G_i`, whose variance is
+    :math:`(s_i / G_i)^2` from the per-bin standard error :math:`s_i`:
+
+    .. math::
+
+        \ln G = \frac{\sum_i w_i \ln G_i}{\sum_i w_i}, \qquad w_i = (G_i / s_i)^2,
+        \qquad s = G \Big/ \sqrt{\textstyle\sum_i w_i},
+
+    each :math:`G_i` first multiplied by its :func:`level_factors` factor (``level=True``).
+    Notes (weighting, levelling, its accuracy, mismatch, gaps): docs/stitching.md.
+
     Parameters
     ----------
     measurements : mapping, xarray.Dataset or xarray.DataTree
-        Topographies or precomputed G by name (see :func:`stitch_curves`), or the Dataset
-        :func:`stitch_curves` returned (then ``points_per_decade``, ``windows`` and
-        ``kwargs`` do not apply).
+        Topographies or precomputed G by name (:func:`stitch_curves`), or its result (then
+        ``points_per_decade``, ``windows`` and ``kwargs`` do not apply).
     points_per_decade : float
         Common log bins per decade.
     windows : mapping of str to (dr_min, dr_max), optional
-        Per-measurement reliable windows overriding the recorded, stated-tip or default
-        ones (:func:`stitch_curves`).
+        Per-measurement windows overriding the recorded ones (:func:`stitch_curves`).
     threshold : float
         ``|z|`` of the mismatch diagnostic above which a pair disagrees.
     warn : bool
-        Warn when instruments disagree (:class:`StitchingMismatchWarning`), when a level
-        factor is not explained by the errors or beyond ``LEVEL_FACTOR_BOUND``
-        (:class:`LevelFactorWarning`), and when lags between the windows are not covered
-        (:class:`StitchingGapWarning`). The attrs record all three either way.
+        Issue the warnings below (the attrs record them either way).
     level : bool
-        Remove the steps between overlapping measurements before combining, each one's
-        G times a factor (:func:`level_factors`; kept in ``attrs["level_factors"]``). The
-        mismatch diagnostic is computed before, on the curves as measured. ``False``
-        combines the curves as they are, which leaves a step where a window begins.
+        Remove the steps between overlapping measurements first (:func:`level_factors`;
+        the mismatch diagnostic is computed before, on the curves as measured).
     **kwargs
-        Passed to :func:`stitch_curves` (``unit``, ``height_unit``, ``min_pixels``,
-        ``long_fraction``, ``parallel``, ``reliable``, options of
-        :func:`xrough.height_difference_acf`).
+        Passed to :func:`stitch_curves` (``unit``, ``min_pixels``, ``reliable``...).
 
     Returns
     -------
     xarray.DataArray
         ``G`` on the common ``dr`` (bins covered by no window dropped) with coords
-        ``standard_error``, ``pair_count`` (sum over measurements), ``n_measurements``;
-        attrs ``stitched`` (1), ``stitched_from`` (names), ``left_out`` (measurements
-        whose stated tip resolves no lag: then ``quality`` questionable, the note in
-        ``quality_notes``), ``sources``, the windows and ``window_rules`` (what set each;
-        ``quality_remarks`` names those a stated tip cut), the weighting rule,
-        ``pixel_size`` and ``scan_size`` (finest pixel, largest scan), the mismatch summary
-        (``mismatch_pairs``, ``mismatch_ratio``, ``mismatch_z``),
-        ``level_factors`` (per measurement, in the order of ``stitched_from``; all 1 with
-        ``level=False``), ``level_factor_errors`` (standard errors of their logarithms,
-        :func:`level_factors`), ``level_factor_bound`` and ``reliable_dr_min/max`` (the
-        union of the windows). Lags no window covers: attrs ``uncovered_dr_min``,
-        ``uncovered_dr_max`` (arrays, one entry per gap that loses a bin of the grid;
-        empty when the windows overlap or touch) and ``uncovered_dr_units``; the bins there
-        are dropped (every consumer takes G between neighbouring bins as a power law, and
-        reads the gaps through :func:`xrough.acf.check_acf` to mark what rests on that
-        bridge). Coordinate ``coverage``: per bin, bit ``2**i`` set when the i-th
-        measurement of ``stitched_from`` contributes (CF ``flag_masks``).
+        ``standard_error``, ``pair_count``, ``n_measurements``, ``coverage``; attrs: the
+        sources, windows, level factors, mismatch summary and uncovered lags
+        (docs/stitching.md, "The stitched G").
 
     Raises
     ------
@@ -953,36 +903,13 @@ def stitch(
         Two measurements disagree significantly over their overlap.
     LevelFactorWarning
         A level factor more than ``threshold`` errors from 1 or outside
-        ``[1/LEVEL_FACTOR_BOUND, LEVEL_FACTOR_BOUND]``; the G is then marked questionable
-        (``attrs["quality"]``, ``attrs["quality_notes"]``, :mod:`xrough.quality`).
+        ``[1/LEVEL_FACTOR_BOUND, LEVEL_FACTOR_BOUND]``; the G is then questionable.
     StitchingGapWarning
         Lags between the windows that no measurement covers (once, naming every gap).
 
     See Also
     --------
     stitch_curves, stitch_mismatch, xrough.fit_acf, xrough.persson
-
-    Notes
-    -----
-    In each common bin the measurements ``i`` that cover it are combined by
-    inverse-variance weighting of :math:`\ln G_i`, whose variance is
-    :math:`(s_i / G_i)^2` from the per-bin standard error :math:`s_i`:
-
-    .. math::
-
-        \ln G = \frac{\sum_i w_i \ln G_i}{\sum_i w_i}, \qquad w_i = (G_i / s_i)^2,
-        \qquad s = G \Big/ \sqrt{\textstyle\sum_i w_i}.
-
-    Weighting the logarithm by relative errors, rather than G by :math:`1/s_i^2`, avoids
-    the bias of weights that grow where a noisy estimate of G happens to be low. The
-    combined error assumes independent measurements (different areas of the sample).
-
-    With ``level=True`` (default) each :math:`G_i` is first multiplied by its factor from
-    :func:`level_factors`, fitted next to the seams. A 512^2 crop
-    at 1 nm stitched with the whole 2048^2 map at 4 nm (H = 0.5 and 0.8, lambda_s = 4 nm)
-    lies 7-8 % below it; the step where the coarse window begins made the stress ACF
-    from the stitched G 3.3-6.1 % of ``G_sigma(0)`` off the exact stress field; levelled,
-    1.2-1.3 %.
     """
     if isinstance(measurements, xr.Dataset) and "measurement" in measurements.dims:
         curves = measurements

@@ -147,116 +147,49 @@ def compare_with_simulation(
 ) -> xr.Dataset:
     r"""Compare simulated and predicted contact: stress ACF and contact area on (p0, dr).
 
-    1. ``G`` of the map (:func:`xrough.height_difference_acf`, log bins) and its rms
-       gradient ``gbar(dr)`` (:func:`xrough.rms_gradient`). ``gbar(0)`` is the rms
-       gradient of the map, ``sqrt(sum |q|^2 |h~(q)|^2)`` on a periodic map (the same
-       continuum ``|q|`` as the solver's Green's function), else the largest ``gbar(dr)``;
-       ``p* = p0 / (E* gbar(0))``.
-    2. Boundary-element solutions at all ``p0`` (ascending, warm-started) and, with
-       ``full_contact``, at one load just beyond full contact (on a periodic map 1.05
-       times the largest tensile stress of the full-contact field
-       ``(E*/2) F^-1[|q| h~]``; on an open map ``4 E* gbar(0)``).
-    3. Simulated stress ACF ``<p(r) p(r + dr)> = <p^2> - G_p(dr)``, with ``G_p`` the
-       height-difference ACF of the pressure field on the same lag bins as ``G``
-       (the full-contact one without the ``p0^2`` offset, as eq. 24).
-    4. Predictions from ``G``: eq. 24 in full contact; :func:`xrough.persson` per theory
-       (``G_sigma`` of eq. 30/48, ``Gamma_sigma`` of eq. 47 and its small-pressure
-       limit ``Gamma_sigma_sa``; eq. 51 as printed, ``Gamma_sigma_51``,
-       which does not depend on the theory) and the areas ``a_r(0)`` (eq. 29),
-       ``a_ri(0)`` (eq. 50) at the smallest lag.
-
-    The theories, as the paper defines them, and named variants:
-
-    ``"persson"``
-        the original theory: ``W = a_r`` with Persson's ``a_r = erf(sqrt(2) p*)``
-        (``kappa = sqrt(8/pi)``);
-    ``"modified"``
-        ``W = a_ri^2 / a_r`` (eq. 49-50) with the same ``a_r``, ``Gamma_sigma`` divided by
-        ``a_ri(0)``: the reading of the garbled eq. 49 that the contact solver supports;
-    ``"modified_ar2"``
-        the other reading, ``W = a_r^2 / a_ri``, otherwise as ``"modified"``;
-    ``"persson_kappa"``
-        the original theory with ``a_r = erf(sqrt(pi) kappa p* / 2)`` and the ``kappa``
-        fitted to the simulation (or given): a correction of the contact area that is not
-        the paper's theory, reported under its own name.
-
-    ``kappa=None`` fits the slope of eq. 29 to the simulation at the smallest load:
-    ``kappa = 2 erfinv(a_sim) / (sqrt(pi) p*)`` (:func:`fit_kappa`), which is
-    ``a_sim / p*`` for a small area. Pick the smallest load so that ``a_sim`` is a few
-    percent but covers many pixels (at least ~100 contact points): the fit then measures
-    the physical slope rather than the discretisation. ``kappa`` enters only
-    ``"persson_kappa"`` and ``a_r_kappa``.
-
-    Errors: ``area_error = a_theory / a_sim - 1`` per load (``a_r`` for "persson",
-    ``a_ri`` for both modified weightings, ``a_r_kappa`` for "persson_kappa"); ``stress_error``
-    (``stress_error_rms``) is the largest (rms) ``|G_sigma - G_sigma_sim|`` over
-    ``error_range`` divided by the simulated ``G_sigma(dr -> 0)``, i.e. ``<p^2>`` of the
-    field (the stress variance in full contact), over the lags where the theory predicts
-    a value; ``stress_error_coverage`` is the share of the lags in ``error_range`` that
-    have one (a :class:`xrough.QualityWarning` says when it is below 1).
+    Solves the map (:func:`xrough.solve_contact`) at every ``p0`` and beyond full contact
+    and sets the stress ACF ``<p^2> - G_p(dr)`` and area of each field beside eq. 24,
+    :func:`xrough.persson` (eq. 30/47/48, 51) and eq. 29/50 from G. Notes (steps, theories,
+    ``kappa`` fit, errors): docs/validation.md, "The steps of the comparison".
 
     Parameters
     ----------
     topography : xarray.DataArray with dims ("y", "x")
-        Complete map (no NaN), preferably periodic (``attrs["periodic"]``): the
-        theories describe an infinite surface, and an open map adds edge stresses.
+        Complete map (no NaN), preferably periodic (``attrs["periodic"]``).
     E_star : float, str or Quantity
         Contact modulus ``E*`` (Pa for numbers), > 0.
     p0 : float, str, Quantity or sequence of them
         Mean pressures of partial contact (Pa for numbers), > 0.
     theory : str or tuple of str
-        Any of ``"persson"``, ``"modified"``, ``"modified_ar2"`` and ``"persson_kappa"``
-        (above).
+        Any of ``"persson"`` (``W = a_r``), ``"modified"`` (``a_ri^2 / a_r``, eq. 49-50),
+        ``"modified_ar2"`` (``a_r^2 / a_ri``), ``"persson_kappa"`` (``kappa`` of eq. 29).
     kappa : float, optional
-        Slope of eq. 29 for ``"persson_kappa"``; ``None`` fits it (above).
-    full_contact : bool
-        Also solve just beyond full contact and compare with eq. 24.
+        Slope of eq. 29 for ``"persson_kappa"``; ``None`` fits it at the smallest load.
+    full_contact, keep_pressure : bool
+        Also solve just beyond full contact (eq. 24); keep the fields ``pressure``.
     smooth_full : bool
-        Continue ``G_sigma_full`` beyond its roll-off by a steep power law in partial
-        contact, as the paper does (:func:`xrough.persson`).
+        Continue ``G_sigma_full`` beyond its roll-off by a steep power law (the paper's).
     error_range : pair of float, str or Quantity, optional
-        Lags over which the stress-ACF errors are taken (numbers in the lateral unit);
-        default two pixels to an eighth of the map's smaller side.
+        Lags of the stress errors (lateral unit); default 2 pixels to 1/8 of the map.
     gradient_method : {'auto', 'exact', 'simple', 'fit'}
         How ``gbar(dr)`` is computed (see :func:`xrough.rms_gradient`).
     acf_kwargs : dict, optional
-        Passed to :func:`xrough.height_difference_acf` for both ``G`` and ``G_p``
-        (default: log bins, 10 per decade).
-    keep_pressure : bool
-        Include the pressure fields ``pressure`` (p0, y, x) in the result.
+        For :func:`xrough.height_difference_acf` of ``G`` and ``G_p`` (default: 10/decade).
     tol, max_iter, workers
         Passed to :func:`xrough.solve_contact`.
 
     Returns
     -------
     xarray.Dataset
-        On ``p0`` (Pa), ``dr`` (lateral unit) and ``theory``:
-
-        - ``contact_area`` (p0): simulated relative area; ``p_star`` (p0);
-        - ``a_r`` (Persson's ``kappa``), ``a_r_kappa`` (fitted or given ``kappa``),
-          ``a_ri`` (p0): predicted areas at ``dr -> 0``;
-        - ``area_error`` (theory, p0);
-        - ``G_sigma_sim`` (p0, dr), ``G_sigma`` (theory, p0, dr) in Pa^2 (NaN on lags
-          where ``gbar`` is not defined, e.g. below the exact gradient's support);
-          ``Gamma_sigma_sim = G_sigma_sim / a_sim``, ``Gamma_sigma`` (eq. 47) and
-          ``Gamma_sigma_sa`` (eq. 51);
-        - ``stress_error``, ``stress_error_rms``, ``stress_error_coverage``
-          (theory, p0);
-        - with ``full_contact``: ``G_sigma_full_sim``, ``G_sigma_full`` (dr, Pa^2),
-          ``full_contact_error``, ``full_contact_error_rms``, ``full_contact_area`` and
-          the load ``p0_full`` (Pa);
-        - ``iterations``, ``converged`` (p0) of the solver.
-
-        Attrs: ``E_star`` (Pa), ``kappa`` (of ``"persson_kappa"``), ``kappa_fitted``
-        (1/0), ``kappa_persson``, ``gbar0``, ``error_dr_min``/``error_dr_max`` (lateral
-        unit), ``theories``, and the quality attrs of :mod:`xrough.quality`.
+        On ``p0`` (Pa), ``dr`` (lateral unit), ``theory``: simulated and predicted areas,
+        ``area_error``, ``G_sigma_sim``, ``G_sigma`` (Pa^2), ``Gamma_sigma*``,
+        ``stress_error*``, full-contact variables, ``iterations`` (docs/validation.md).
 
     Raises
     ------
     ValueError
-        ``E_star <= 0``, ``p0 <= 0``, ``kappa <= 0``, an unknown theory, an invalid map
-        (see :func:`xrough.solve_contact`), or a zero (or full) simulated contact area at
-        the smallest load when ``kappa`` is to be fitted.
+        Non-positive ``E_star``, ``p0`` or ``kappa``, an unknown theory, an invalid map, or
+        a zero (or full) simulated area at the smallest load when ``kappa`` is fitted.
 
     Examples
     --------

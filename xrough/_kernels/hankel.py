@@ -460,7 +460,7 @@ def power_law_moment_kernel(q_cut, q, values, k: float, *,
 def binned_moment_kernel(q_cut, q, values, measure, k: float) -> np.ndarray:
     """``sum_b q_b^k C_b m_b`` over the bins of a periodogram below ``q_cut``.
 
-    A periodogram averaged over the modes of each ``|q|`` bin (:func:`xrough.psd`) is a
+    A periodogram averaged over the modes of each ``|q|`` bin (:func:`xrough.power_spectrum`) is a
     sum, not samples of a smooth function: ``m_b`` (its ``bin_measure``, the bin's share
     of ``d^2q / (2 pi)^2``) makes ``sum_b C_b m_b`` the variance of the heights exactly
     (Parseval), and ``sum_b q_b^2 C_b m_b`` the mean-square gradient of all its modes to

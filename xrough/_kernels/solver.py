@@ -660,26 +660,14 @@ def solve_load(
     r"""Constrained conjugate gradients of Polonsky & Keer (1999) at mean pressure ``p0``.
 
     Minimises the elastic energy ``p.K.p/2 - p.h`` over ``p >= 0`` with ``mean(p) = p0``
-    (``p`` and ``p0`` in units of ``E*``). Per iteration: the gap ``g = K p - h`` is
-    shifted by its mean over the contact set ``I_c = {p > 0}`` (the Lagrange multiplier of
-    the load constraint, i.e. the rigid-body offset); the conjugate direction
-    ``t = g + delta (G / G_old) t`` on ``I_c`` (``G = sum_{I_c} g^2``) is mapped to
-    ``r = K t`` (also mean-shifted over ``I_c``); the step ``tau = (g.t)/(r.t)`` updates
-    ``p <- p - tau t``; negative pressures are set to zero; non-contact points with a
-    negative gap re-enter with ``p = -tau g`` and reset the conjugation (``delta = 0``);
-    the pressure is rescaled to the mean ``p0``. Proportioning (the test of Dostal's
-    MPRGP): the overlapping points enter only in iterations where their gap error
-    ``sum g_off^2`` exceeds ``PROPORTION^2 G``; otherwise the conjugate iteration goes on
-    on ``I_c`` and they enter later. Without it nearly every iteration of a rough
-    surface resets the conjugation and the method degrades to steepest descent.
-
-    Stops when ``max(eps_p, eps_g) < tol``, with the relative pressure change
-    ``eps_p = sum|p - p_old| / sum p`` and the relative gap error
-    ``eps_g = rms(g on I_c, and g < 0 elsewhere) / rms(h)``.
-
-    The iteration's steps: :func:`_cg_step` (gap, proportioning, direction, step,
-    projection, load), :func:`_restarts` (the float32 phase's end, float64 refreshes)
-    and :func:`_converged`.
+    (``p`` and ``p0`` in units of ``E*``), with proportioning (Dostal's MPRGP test,
+    ``PROPORTION``) and, optionally, Vollebregt's preconditioner. Stops when
+    ``max(eps_p, eps_g) < tol``: the relative pressure change
+    ``eps_p = sum|p - p_old| / sum p`` and gap error
+    ``eps_g = rms(g on I_c, and g < 0 elsewhere) / rms(h)``. The steps:
+    :func:`_cg_step` (gap, proportioning, direction, step, projection, load),
+    :func:`_restarts` (the float32 phase's end, float64 refreshes) and :func:`_converged`.
+    Notes: docs/solver.md, "Equations and iteration".
 
     Parameters
     ----------
@@ -698,21 +686,15 @@ def solve_load(
     callback : callable, optional
         Called as ``callback(iteration, residual)``.
     precision : {"mixed", "float64"}
-        ``"mixed"`` runs everything in float32 until the residual falls below
-        ``max(tol, FLOAT32_TOL)`` (or stops decreasing for ``STALL`` iterations), then
-        restarts the conjugation on the float64 displacement ``u = K p`` and continues
-        to ``tol``: the displacement, the gap and every transform of ``p`` are float64,
-        only the transform of the direction ``t`` stays float32 (its rounding enters
-        ``u`` as a few 1e-7 of each step, far below the gap error). A residual below
-        ``tol`` is confirmed on ``u`` transformed afresh in float64 before the solve
-        stops. Maps of fewer than ``MIXED_MIN_SIZE`` points use float64 throughout.
-        ``"float64"`` uses float64 throughout.
+        ``"mixed"`` runs in float32 until the residual falls below ``max(tol,
+        FLOAT32_TOL)`` (or stops decreasing for ``STALL`` iterations), then restarts the
+        conjugation on the float64 displacement and continues to ``tol`` (only the
+        transform of the direction stays float32), confirming the final residual on a
+        fresh float64 ``u``. Maps under ``MIXED_MIN_SIZE`` points, and ``"float64"``,
+        use float64 throughout.
     precondition : bool
-        Build the direction from ``z = K^-1 g`` (the gap on the contact set, zero
-        elsewhere, through :meth:`ElasticOperator.inverse`, restricted to the contact
-        set and mean-shifted) instead of ``g``, with ``G = g.z`` in the conjugation
-        (Vollebregt 2014): one more pair of transforms per iteration, in the direction's
-        precision. Proportioning keeps comparing the plain gap errors.
+        Build the direction from ``z = K^-1 g`` (:meth:`ElasticOperator.inverse`,
+        restricted to the contact set and mean-shifted), ``G = g.z`` in the conjugation.
 
     Returns
     -------

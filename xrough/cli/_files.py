@@ -26,12 +26,12 @@ import xarray as xr
 
 from .. import units as u
 from .._kernels.binning import MAX_POINTS_PER_DECADE, check_points_per_decade
-from ..ensemble import open_measurement
 from ..io import MissingOptionError, detect_format, registered
 from ..io.folders import measurement_files, measurement_names
 from ..io.readers import reader_of
 from ..preprocess import DETREND_MODES, detrend
 from ..progress import progress_bar
+from ..toolbox.ensemble import open_measurement
 from ._common import CLIError, fail, first_line, warn_lines
 
 NONUNIFORM = ("the profile is sampled non-uniformly: give --resample (linear interpolation "

@@ -21,11 +21,11 @@ import xarray as xr
 
 from .. import units as u
 from .._version import __version__
-from ..cleaning import CHOICES, cleaning_sensitivity
 from ..io.archive import save_analysis
 from ..plot import plot_loglog, pyplot
 from ..preprocess import LagWindow, lag_window
 from ..quality import QualityWarning, mark, notes_of, warn, worst
+from ..toolbox.cleaning import CHOICES, cleaning_sensitivity
 from ._common import (
     EXIT_OK,
     CLIError,
@@ -429,7 +429,7 @@ def _compare_cleaning(m: dict, args: argparse.Namespace, E_star: float, p0: floa
     """Run the chain of a map with the other cleanings; mark what they move (in place).
 
     The reference is the cleaning the report used (``--detrend``); the others are a line
-    per scan line and the outliers masked (:data:`xrough.cleaning.CHOICES`). A profile
+    per scan line and the outliers masked (:data:`xrough.toolbox.cleaning.CHOICES`). A profile
     has no scan lines to compare: it is left as it is.
     """
     if m["topography"].ndim != 2:

@@ -12,77 +12,26 @@ what was saved (:func:`xarray.testing.assert_identical`).
 Two storage formats
 -------------------
 - **NetCDF4** (the default): one file, read by every NetCDF tool.
-- **Zarr** (a path ending in ``.zarr``, or ``format="zarr"``; needs the optional
-  dependency ``pip install xrough[zarr]``): a directory store of Zarr format 2 with
-  consolidated metadata, one compressed file per chunk. Dask-backed variables keep their
-  chunks in the store, and :func:`open_analysis` with ``chunks={}`` reopens them lazily
-  with the same chunks, so that each dask worker reads its own chunks from the store.
-  Format 2 because every Zarr implementation reads it and its metadata is stable (Zarr
-  format 3 has no specified string data type nor consolidated metadata yet).
+- **Zarr** (a path ending in ``.zarr``, or ``format="zarr"``; ``pip install
+  xrough[zarr]``): a directory store of Zarr format 2 with consolidated metadata, one
+  compressed file per chunk; dask-backed variables keep their chunks, and
+  :func:`open_analysis` with ``chunks={}`` reopens them lazily with the same chunks.
 
-Both formats hold the same archive: the same groups, names, attributes and rules below
-(the names and attributes NetCDF accepts), so an analysis moves between them unchanged.
+Both formats hold the same archive: the same groups, names, attributes and rules.
 
 Nothing is lost
 ---------------
-- **Atomic writes.** The file (or store) is written under a temporary name in the
-  target's directory and renamed over the target only when complete (:func:`os.replace`),
-  so a failed or interrupted save leaves the previous archive at that path untouched and
-  no partial file behind. A previous Zarr store is renamed aside, the new one renamed into
-  its place and only then is the old one deleted; a path that exists and is not a Zarr
-  store is never overwritten by a Zarr archive. A killed save cannot clean up: the next
-  save to the same path removes the temporary files (``.<name>.<pid>-<12 hex>.tmp`` or
-  ``.old``) that earlier saves to that path left, once their process has ended, and
-  nothing else.
-- **Checksums.** Every chunk of every numeric variable carries the storage library's
-  checksum (HDF5's Fletcher-32 in NetCDF4, CRC-32C in Zarr), checked whenever the chunk
-  is read: at open, or with ``chunks=`` when a dask task computes it. What those do not
-  cover (attributes, names, dims, dtypes, fill values, scalars and strings) has SHA-256
-  digests, taken from the file read back (:mod:`xrough.io._checksum`). A file or store
-  whose values or attributes changed since (a flipped byte) is refused with a
-  :class:`~xrough.io._common.CorruptedFileError` naming the file and the variable. An
-  archive of an earlier version opens with one ``UserWarning`` that it is unverified.
-- **Clean for other tools.** Each group is CF on its own: coordinate variables have no
-  ``_FillValue``, and one of strings (the fit's ``cov_i``) is stored as a label
-  ``<dim>_label`` on a dimension without coordinate variable, turned back when opened.
-  Groups and variables hold only their own, CF, attributes;
-  what xrough needs to reopen an object as it was (DataArray or Dataset, its name, the
-  types of attributes NetCDF cannot hold, a measurement's original name) and the digests
-  are one JSON global attribute ``xrough``, so that :func:`xarray.open_datatree`,
-  cf-xarray and other NetCDF tools see plain CF groups.
-- **Errors name the file.** Whatever the NetCDF, HDF5 or Zarr library raises on a
-  corrupted file reaches the caller as a :class:`ValueError` starting with the path, the
-  original exception chained.
-- **Complete stores.** Every chunk of a Zarr archive is written, even one holding only
-  missing values, so :func:`open_analysis` can tell an incomplete store (a chunk file lost
-  in a copy) from a complete one: it is refused, naming the store and the variable,
-  instead of reading the missing chunk as missing values.
-- **Sizes checked before reading.** A file or store whose metadata declare more than it
-  holds is refused from its metadata alone, naming the variable and its shape: a
-  variable of more than :data:`~xrough.io._common.MAX_POINTS` points (unless opened
-  lazily), more than :data:`~xrough.io._common.MAX_CHUNKS` chunks, or NetCDF data that
-  are not in the file (:func:`xrough.io.netcdf.check_declared_sizes`).
-- **Checked before writing.** Every attribute, variable, coordinate and dimension name
-  is checked first; what NetCDF cannot hold raises a :class:`ValueError` naming the
-  object and the attribute before anything is written.
-- **Attributes keep their type.** NetCDF attributes are numbers, strings and 1-D numeric
-  arrays. Other values are stored in a NetCDF form and their Python type is recorded
-  (in the global attribute ``xrough``), so that they reopen as they were
-  saved: ``bool`` (stored as 0/1), ``None`` (stored as ``""``), numpy scalars and arrays
-  of any shape and size with their dtype (a 1-element array no longer comes back as a
-  scalar; Zarr's JSON attributes have no dtypes of their own), lists and tuples of
-  numbers, ``bytes`` (base64), and dicts, lists of strings, nested lists, big integers
-  and strings with NUL characters (JSON text; inside such JSON values, tuples come back
-  as lists and numpy scalars as Python numbers). Complex numbers, dates, paths and other
-  objects are refused: convert them to strings or numbers first.
-- **Any measurement name.** Group names are made NetCDF-safe with :func:`safe_name`
-  (``(1).sur``, a leading ``-`` or ``.``, ``/``, control characters, trailing spaces,
-  names over 255 bytes, Unicode normalisation); the original name is kept (in the global
-  attribute ``xrough``) and restored by :func:`open_analysis`. Two names that map to
-  the same safe name are both kept (the later one gets a suffix ``_2``, ``_3``...).
-- **The provenance key is reserved.** :func:`open_analysis` returns the root's provenance
-  under ``"_provenance"``; a top-level entry of that name is refused (use
-  :func:`safe_name` to name measurements after files).
+Writes are atomic (a failed or killed save leaves the previous archive untouched); every
+chunk of every numeric variable carries the storage library's checksum and everything
+else a SHA-256 digest, so a changed file is refused with a
+:class:`~xrough.io._common.CorruptedFileError`; each group is plain CF for other tools,
+what xrough needs to reopen it being one JSON global attribute ``xrough``; errors name
+the file; incomplete Zarr stores and sizes their metadata cannot hold are refused; what
+NetCDF cannot hold is refused before anything is written; attributes keep their Python
+type; any measurement name is stored under a safe group name (:func:`safe_name`) and
+restored; the top-level key ``"_provenance"`` is reserved. The rules in full, and why
+Zarr format 2: docs/archives.md; measurements (timings, flipped bytes): docs/io.md,
+"Archiving".
 """
 
 from __future__ import annotations
@@ -755,25 +704,24 @@ def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = 
                   format: str | None = None) -> Path:
     """Write an analysis (nested mapping of results) to a NetCDF4 file or Zarr store, atomically.
 
+    Every attribute reopens identical, every chunk and the metadata are checksummed (verified
+    by :func:`open_analysis`). Notes (the rules, Zarr chunks): docs/archives.md.
+
     Parameters
     ----------
     path : str or Path
-        Output file (``.nc``) or Zarr store (``.zarr``, a directory). Written under a
-        temporary name in the same directory and renamed over ``path`` when complete: a
-        failed save leaves a previous file or store at ``path`` unchanged.
+        Output file (``.nc``) or Zarr store (``.zarr``, a directory), written under a
+        temporary name and renamed over ``path`` when complete (a failed save changes nothing).
     analysis : mapping
         ``{"topography": topo, "G": G, "fit": fit, ...}`` for one measurement, or
         ``{"afm": {...}, "stylus": {...}}`` for several (one group each), nested to any
-        depth. Names may hold any characters (see :func:`safe_name`); the top-level key
-        ``"_provenance"`` is reserved. Dask-backed (lazy) objects are computed while
-        they are written, all of them in one pass (work they share is done once), and
-        keep their chunks in a Zarr store.
+        depth; names may hold any characters (:func:`safe_name`). Dask-backed objects are
+        computed while written, in one pass, and keep their chunks in a Zarr store.
     history : str, optional
         A line for the ``history`` attribute (e.g. the command that produced it).
     format : {"netcdf", "zarr"}, optional
-        The storage format. Default: ``"zarr"`` for a path ending in ``.zarr`` (or an
-        existing Zarr store), ``"netcdf"`` otherwise. Zarr needs the optional dependency
-        ``zarr`` (``pip install xrough[zarr]``).
+        Default: ``"zarr"`` for a path ending in ``.zarr`` or an existing Zarr store
+        (``pip install xrough[zarr]``), ``"netcdf"`` otherwise.
 
     Returns
     -------
@@ -785,37 +733,18 @@ def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = 
     TypeError
         An entry that is not an xarray object or a mapping.
     ValueError
-        Before anything is written: an attribute NetCDF cannot hold (named with its
-        object), a variable, coordinate or dimension name NetCDF refuses, a complex
-        variable, the reserved key ``"_provenance"``, two keys equal as strings, an
-        unknown ``format``. While writing: any failure of the NetCDF or Zarr library
-        (e.g. dask chunks a Zarr store cannot hold; the previous file is kept).
+        Before anything is written: an attribute, name or variable NetCDF cannot hold,
+        ``"_provenance"``, two keys equal as strings, an unknown ``format``. While
+        writing: any failure of the NetCDF or Zarr library (the previous file is kept).
     OSError
-        The directory does not exist, ``path`` is a directory (NetCDF), ``path`` exists
-        and is not a Zarr store (Zarr: ``FileExistsError``), or the disk failed.
+        No such directory, ``path`` a directory (NetCDF) or an existing non-Zarr path
+        (Zarr: ``FileExistsError``), or the disk failed.
     ImportError
         ``format="zarr"`` without the zarr package.
 
     See Also
     --------
     open_analysis, safe_name
-
-    Notes
-    -----
-    Attributes that NetCDF cannot hold natively (``bool``, ``None``, arrays of any shape,
-    lists, tuples, dicts, ``bytes``) are stored with a record of their type and reopen
-    identical; see the module documentation for the rules. Both formats follow them.
-
-    Every chunk of every numeric variable gets the storage library's checksum (HDF5's
-    Fletcher-32, Zarr's CRC-32C); after writing, the file's metadata (and the values of
-    scalars and strings) are read back to store their SHA-256 digests, with what xrough
-    needs to reopen the objects, in the one global attribute ``xrough``. :func:`open_analysis`
-    verifies both. Temporary files that killed saves to ``path`` left are removed.
-
-    Zarr chunks follow the dask chunks of each variable (chunk a stack of scans with
-    ``.chunk({"scan": 1})`` before saving to store one scan per chunk); variables in
-    memory are chunked by Zarr. Dask chunks must be equal along each dimension except
-    the last one, as Zarr's are.
 
     Examples
     --------
@@ -827,10 +756,7 @@ def save_analysis(path: str | Path, analysis: Mapping, *, history: str | None = 
     >>> _ = xrough.save_analysis(path, {"(1).sur": {"topography": topo, "G": G}})
     >>> back = xrough.open_analysis(path)
     >>> xr.testing.assert_identical(back["(1).sur"]["G"], G)
-
-    The same as a Zarr store (a directory), chosen by the name's ``.zarr``:
-
-    >>> store = pathlib.Path(tempfile.mkdtemp()) / "analysis.zarr"
+    >>> store = pathlib.Path(tempfile.mkdtemp()) / "analysis.zarr"  # a Zarr store, by name
     >>> _ = xrough.save_analysis(store, {"(1).sur": {"topography": topo, "G": G}})
     >>> xr.testing.assert_identical(xrough.open_analysis(store)["(1).sur"]["G"], G)
     """
@@ -942,6 +868,8 @@ def _unreadable(path: Path, fmt: str, err: Exception) -> ValueError:
 def open_analysis(path: str | Path, *, format: str | None = None, chunks=None) -> dict:
     """Reopen a file or store written by :func:`save_analysis` as the same nested mapping.
 
+    Checksums are verified as the data are read. Notes (lazy opening, checks): docs/archives.md.
+
     Parameters
     ----------
     path : str or Path
@@ -950,43 +878,34 @@ def open_analysis(path: str | Path, *, format: str | None = None, chunks=None) -
         The storage format. Default: Zarr for a directory, NetCDF for a file.
     chunks : None, dict, int or "auto", optional
         ``None`` (default): every object is read into memory (NumPy) and the file closed.
-        Otherwise every object is opened lazily as dask arrays, nothing but the metadata,
-        the dimension coordinates, scalars and strings being read (and checked), with
-        ``chunks`` as in
-        :func:`xarray.open_datatree`: ``{}`` keeps the chunks of the store (a Zarr
-        store's chunks are the dask chunks the objects had when saved), a dict such as
-        ``{"scan": 1}`` sets them per dimension. The data are read when computed, by the
-        dask workers from the file or store itself, each chunk checked against its
-        checksum as it is read (a corrupted chunk raises
-        :class:`~xrough.io._common.CorruptedFileError` from ``compute``).
+        Else lazily as dask arrays, ``chunks`` as in :func:`xarray.open_datatree` (``{}``:
+        the stored chunks), each chunk read and checked when computed.
 
     Returns
     -------
     dict
-        The saved mapping under its original names, each object identical to what was
-        saved, and the root's provenance attributes (xrough version, creation time,
-        history, ``Conventions``) under the key ``"_provenance"``.
+        The saved mapping under its original names, each object identical, and the root's
+        provenance (version, creation time, history, ``Conventions``) under ``"_provenance"``.
 
     Raises
     ------
     FileNotFoundError
         ``path`` does not exist.
     CorruptedFileError
-        A group or variable whose values, attributes or layout fail their checksums (a
-        ``ValueError``; the message names ``path`` and the variable).
+        Values, attributes or layout that fail their checksums (a ``ValueError`` naming
+        ``path`` and the variable; with ``chunks``, raised by ``compute``).
     ValueError
-        Not an archive, or a corrupted file or store: unreadable metadata, a directory
-        that is not a Zarr store, a Zarr store with missing chunks; any error of the
-        NetCDF, HDF5 or Zarr library on the file (chained); an unknown ``format``.
+        Not an archive, a corrupted file or store (unreadable metadata, missing Zarr chunks,
+        any library error on the file, chained), or an unknown ``format``.
     PermissionError
         ``path`` cannot be read (the message names it).
+    ImportError
+        A Zarr store without the zarr package.
 
     Warns
     -----
     UserWarning
         An archive written by an earlier version of xrough: its values are not verified.
-    ImportError
-        A Zarr store without the zarr package.
 
     See Also
     --------
@@ -994,8 +913,7 @@ def open_analysis(path: str | Path, *, format: str | None = None, chunks=None) -
 
     Examples
     --------
-    A stack of scans saved to Zarr with one scan per chunk reopens lazily with the same
-    chunks, and G is computed from the store:
+    Scans saved to Zarr one per chunk reopen lazily with those chunks; G reads the store:
 
     >>> import tempfile, pathlib, numpy as np, xarray as xr, xrough
     >>> scans = xr.concat([xrough.topography(np.random.default_rng(s).normal(size=(32, 32)),

@@ -8,7 +8,7 @@ the container says about it as attrs named ``container_<key>``: descriptions oft
 what no file header does (the tip radius of an AFM, the stylus of a profilometer), which
 :func:`xrough.preprocess.stated_tip_radius` reads.  ``open_topography`` changes nothing
 of the data by it (its ``unit``, ``size`` and ``height_scale`` are recorded, not applied);
-:func:`xrough.ensemble.open_measurement` (``open_set``, the command line) takes the unit
+:func:`xrough.toolbox.ensemble.open_measurement` (``open_set``, the command line) takes the unit
 and size from it for a file that states none, and only then.
 """
 

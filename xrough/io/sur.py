@@ -232,12 +232,10 @@ def read(path: str | Path, *, index: int = 0, max_points: int | None = None):
         Heights in the file's Z step unit on dims ``("y", "x")`` (lines, points per line)
         or ``("x",)`` for a one-line object, lines reversed (the last stored line at
         ``y = 0``, see the module notes on row orientation), lateral coordinates in the X
-        step unit (the Y spacing converted to it if Y has another unit), non-measured
-        points NaN.
-        Attributes: ``object_type``, ``object_name``, ``operator_name``,
-        ``acquisition``, ``date`` (ISO 8601), ``comment``, ``x_offset`` / ``y_offset``
-        (lateral unit), ``inversion``, ``n_objects`` and ``object_index`` (files with
-        several objects) where the file states them.
+        step unit (the Y spacing converted to it), non-measured points NaN.
+        Attributes, where the file states them: ``object_type``, ``object_name``,
+        ``operator_name``, ``acquisition``, ``date`` (ISO 8601), ``comment``, ``x_offset``
+        / ``y_offset`` (lateral unit), ``inversion``, ``n_objects``, ``object_index``.
 
     Raises
     ------

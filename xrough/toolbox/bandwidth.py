@@ -14,12 +14,12 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from . import units as u
-from ._kernels.bandwidth import BANDWIDTH_OUTPUTS, variable_bandwidth_kernel
-from ._kernels.checks import require_count
-from .acf import result_attrs
-from .preprocess import detrend_degree, grid_coords
-from .topography import grid_of, require_whole_maps
+from .. import units as u
+from .._kernels.bandwidth import BANDWIDTH_OUTPUTS, variable_bandwidth_kernel
+from .._kernels.checks import require_count
+from ..acf import result_attrs
+from ..preprocess import detrend_degree, grid_coords
+from ..topography import grid_of, require_whole_maps
 
 __all__ = ["variable_bandwidth"]
 

@@ -18,12 +18,12 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from . import quality
-from . import units as u
-from .acf import result_attrs
-from .preprocess import detrend, mask_outliers
-from .topography import grid_of
-from .units import QuantityLike
+from .. import quality
+from .. import units as u
+from ..acf import result_attrs
+from ..preprocess import detrend, mask_outliers
+from ..topography import grid_of
+from ..units import QuantityLike
 
 #: The choices compared by default: the levelling of a map (a plane, a line per scan
 #: line) and, with the plane, the outliers masked (``mask_outliers(threshold=5)``).

@@ -19,20 +19,20 @@ import dask
 import numpy as np
 import xarray as xr
 
-from . import quality
-from . import units as u
-from .acf import INFLATION, check_acf, result_attrs
-from .contact import persson
-from .correlation import height_difference_acf
-from .fitting import fit_acf
-from .io import MissingOptionError, open_topography
-from .io.container import META, container_entries
-from .io.folders import measurement_files, measurement_names
+from .. import quality
+from .. import units as u
+from ..acf import INFLATION, check_acf, result_attrs
+from ..contact import persson
+from ..correlation import height_difference_acf
+from ..fitting import fit_acf
+from ..io import MissingOptionError, open_topography
+from ..io.container import META, container_entries
+from ..io.folders import measurement_files, measurement_names
+from ..preprocess import detrend
+from ..progress import dask_progress, progress_bar
+from ..units import QuantityLike, accepts_quantified
 from .parameters import roughness_parameters, scale_dependent_curvature, scale_dependent_slope
-from .preprocess import detrend
-from .progress import dask_progress, progress_bar
 from .psd import power_spectrum
-from .units import QuantityLike, accepts_quantified
 
 __all__ = ["mean_acf", "mean_psd", "mean_scale_dependent", "pooled_mean", "open_set",
            "open_measurement", "analyse_set"]

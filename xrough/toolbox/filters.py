@@ -14,10 +14,10 @@ from collections.abc import Callable
 import numpy as np
 import xarray as xr
 
-from . import units as u
-from ._kernels.filters import fourier_filter_kernel
-from .topography import grid_of, require_whole_maps
-from .units import QuantityLike
+from .. import units as u
+from .._kernels.filters import fourier_filter_kernel
+from ..topography import grid_of, require_whole_maps
+from ..units import QuantityLike
 
 __all__ = ["fourier_filter", "shortcut", "longcut", "FILTER_KINDS"]
 

@@ -28,16 +28,16 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from . import quality
-from . import units as u
-from ._kernels import derivatives as fd
-from ._kernels import parameters as k
-from ._kernels.binning import check_points_per_decade, log_range
-from ._kernels.checks import require_count, require_increasing
-from .acf import lag_coord, result_attrs
-from .preprocess import TIP_SAFETY_FACTOR, stated_tip_radius
-from .topography import SPACING_RTOL, Grid, check_valid_points, grid_of, require_whole_maps
-from .units import QuantityLike
+from .. import quality
+from .. import units as u
+from .._kernels import derivatives as fd
+from .._kernels import parameters as k
+from .._kernels.binning import check_points_per_decade, log_range
+from .._kernels.checks import require_count, require_increasing
+from ..acf import lag_coord, result_attrs
+from ..preprocess import TIP_SAFETY_FACTOR, stated_tip_radius
+from ..topography import SPACING_RTOL, Grid, check_valid_points, grid_of, require_whole_maps
+from ..units import QuantityLike
 
 __all__ = ["roughness_parameters", "height_distribution", "slope_distribution",
            "curvature_distribution", "bearing_area_curve", "material_ratio",

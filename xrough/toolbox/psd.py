@@ -16,11 +16,11 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from . import quality
-from . import units as u
-from ._kernels.binning import check_points_per_decade, linear_bin_edges, log_bins
-from ._kernels.checks import require_increasing
-from ._kernels.psd import (
+from .. import quality
+from .. import units as u
+from .._kernels.binning import check_points_per_decade, linear_bin_edges, log_bins
+from .._kernels.checks import require_increasing
+from .._kernels.psd import (
     WINDOWS,
     error_factors,
     mode_bins,
@@ -28,9 +28,9 @@ from ._kernels.psd import (
     psd2d_kernel,
     psd_kernel,
 )
-from .acf import result_attrs
-from .topography import Grid, check_valid_points, grid_of, require_whole_maps
-from .units import QuantityLike
+from ..acf import result_attrs
+from ..topography import Grid, check_valid_points, grid_of, require_whole_maps
+from ..units import QuantityLike
 
 __all__ = ["power_spectrum", "power_spectrum_2d", "spectral_moment", "MIN_VALID_FRACTION",
            "WINDOWS"]
