@@ -1155,3 +1155,34 @@ def test_the_new_ratings_are_the_same_with_dask():
     xr.testing.assert_identical(got.quality_flag, ref.quality_flag)
     xr.testing.assert_identical(got.fit_problems, ref.fit_problems)
     assert got.attrs == ref.attrs
+
+
+@pytest.mark.data
+def test_eq36_converges_where_its_plateau_sits_on_its_bound(monkeypatch):
+    """plu-1.plu (Sensofar): eq. 36's plateau term wants 0. The bounded search ends
+    converged within 100 evaluations at a reduced chi^2 below 42 (dogbox, the search
+    before, crawled along the bound for its 2000 evaluations and stopped, unconverged, at
+    42.4), with the plateau exactly 0 (no rms height: sigma_h inf)."""
+    from conftest import data_path
+
+    pytest.importorskip("SurfaceTopography")
+    from scipy import optimize
+
+    from xrough._kernels import fitting as kernels
+
+    runs = []
+    real = optimize.least_squares
+
+    def spy(*args, **kwargs):
+        runs.append(real(*args, **kwargs))
+        return runs[-1]
+
+    monkeypatch.setattr(kernels.optimize, "least_squares", spy)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        G = xrough.open_topography(data_path("instruments", "plu-1.plu")).rough.detrend(
+        ).rough.acf()
+        xrough.memo.forget()
+        fit = fit_acf(G, model="eq36")
+    assert len(runs) == 1 and runs[0].status > 0 and runs[0].nfev < 100
+    assert float(fit.reduced_chi2) < 42.0 and np.isinf(float(fit.sigma_h))

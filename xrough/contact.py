@@ -512,8 +512,8 @@ def _blank(ds: xr.Dataset, mask: xr.DataArray, select) -> xr.Dataset:
 # ---------------------------------------------------------------------------------------
 # full contact: elastic energy (eq. 16, 44)
 # ---------------------------------------------------------------------------------------
-@own_attrs
 @u.accepts_quantified
+@own_attrs  # inside: it restores coords' units from the dequantified input
 def elastic_energy(G: xr.DataArray, *, E_star: QuantityLike,
                    a_c: QuantityLike | None = None) -> xr.Dataset:
     r"""Areal elastic energy of full contact (eq. 16) and of patches of radius a_c (eq. 44).
@@ -694,8 +694,8 @@ def _bridged_energy(ds: xr.Dataset, G_si: xr.DataArray, spec: AcfSpec) -> tuple:
 # ---------------------------------------------------------------------------------------
 # stress ACF and Persson theory (eq. 24, 29-30, 34, 39-42, 47-50)
 # ---------------------------------------------------------------------------------------
-@own_attrs
 @u.accepts_quantified
+@own_attrs  # inside: it restores coords' units from the dequantified input
 def stress_acf(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike | None = None,
                theory: str = "persson",
                gradient: xr.DataArray | None = None, kappa: float = KAPPA_PERSSON,
@@ -905,8 +905,8 @@ def first_finite(values: np.ndarray) -> np.ndarray:
     return np.where(finite.any(axis=-1), first, np.nan)
 
 
-@own_attrs
 @u.accepts_quantified
+@own_attrs  # inside: it restores coords' units from the dequantified input
 def persson(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike, theory: str = "persson",
             kappa: float = KAPPA_PERSSON, gradient: xr.DataArray | None = None,
             gradient_method: str = "auto", variables: tuple[str, ...] | None = None,
@@ -1452,8 +1452,8 @@ def _persson_dataset(run: _PerssonRun, out: dict, p0s, method: str) -> xr.Datase
 # ---------------------------------------------------------------------------------------
 # adhesion: patch radius (eq. 43-46)
 # ---------------------------------------------------------------------------------------
-@own_attrs
 @u.accepts_quantified
+@own_attrs  # inside: it restores coords' units from the dequantified input
 def patch_radius(G: xr.DataArray, *, E_star: QuantityLike, gamma: QuantityLike) -> xr.Dataset:
     r"""Radius of spontaneously adhering patches (Dahlquist-type criterion, eq. 43-46).
 

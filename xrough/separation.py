@@ -57,8 +57,8 @@ _DISTRIBUTION = ("P(u) = a_r(dr_1) delta(u) + int da_r(D) [N(u; u_D, h_D) + N(-u
                  "(-d gbar^2/dr) dr); Almqvist et al., JMPS 59, 2355 (2011)")
 
 
-@own_attrs
 @u.accepts_quantified
+@own_attrs  # inside: it restores coords' units from the dequantified input
 def mean_gap(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike,
              gamma: float = GAMMA, gradient: xr.DataArray | None = None,
              gradient_method: str = "auto", fit: xr.Dataset | None = None) -> xr.Dataset:
