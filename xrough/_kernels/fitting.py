@@ -1171,7 +1171,7 @@ def _shape_parameters(problem: _ShapeProblem, theta, active, cov_free) -> tuple:
         rel = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", grad, cov, grad), 0.0))
     out = np.exp(values)
     out[2] = values[2]
-    with np.errstate(invalid="ignore"):
+    with np.errstate(invalid="ignore", over="ignore"):  # an error beyond float64: inf
         std = np.where(np.isfinite(out), out * rel, np.nan)
     std[2] = sd[1]
     if free[2] and not resolved_r:
