@@ -212,8 +212,7 @@ def mean_gap(G: xr.DataArray, *, E_star: QuantityLike, p0: QuantityLike,
                          "roll-off's dr^-2): at such small loads the gap is set by the "
                          "largest asperities; measure larger scales")],
                          what="mean_gap", G=rated, inherited=(gradient,))
-    result["p0"].attrs.update(units="Pa", long_name="mean pressure")  # xarray drops them
-    return result
+    return result  # own_attrs puts back the coords' attrs xarray dropped (p0's too)
 
 
 def _energy_34(G_si: xr.DataArray, gbar: xr.DataArray, dr_m: np.ndarray,

@@ -186,12 +186,21 @@ def mean_acf(G: xr.DataArray, dim: str) -> xr.DataArray:
     return out
 
 
-def _topographies(measurements) -> dict[str, xr.DataArray]:
-    """Return the topographies of a DataTree of :func:`open_set` or a mapping, by name."""
+def _topographies(measurements, unit: str | None, what: str) -> tuple[dict, str]:
+    """Return the topographies (a DataTree of :func:`open_set`, or a mapping) and a unit.
+
+    The unit is the result's lateral one: ``unit``, else the first measurement's.
+    """
     if isinstance(measurements, xr.DataTree):
-        return {str(n): measurements[n].to_dataset()["heights"]
-                for n in measurements.children if "heights" in measurements[n].data_vars}
-    return {str(k): v for k, v in dict(measurements).items()}
+        topos = {str(n): measurements[n].to_dataset()["heights"]
+                 for n in measurements.children if "heights" in measurements[n].data_vars}
+    else:
+        topos = {str(k): v for k, v in dict(measurements).items()}
+    if not topos:
+        raise ValueError(f"{what}: no measurement")
+    first = next(iter(topos.values()))
+    return topos, unit or u.format_units(u.units_of(first.coords["x"],
+                                                    what="coordinate 'x'"))
 
 
 def _on_common_bins(curves: list[tuple], points_per_decade: float, dim: str) -> tuple:
@@ -266,11 +275,7 @@ def mean_psd(measurements, *, unit: str | None = None, points_per_decade: float 
     >>> C.attrs["units"], int(C.n_measurements.max())
     ('nm4', 3)
     """
-    topos = _topographies(measurements)
-    if not topos:
-        raise ValueError("mean_psd: no measurement")
-    first = next(iter(topos.values()))
-    target = unit or u.format_units(u.units_of(first.coords["x"], what="coordinate 'x'"))
+    topos, target = _topographies(measurements, unit, "mean_psd")
     profiles = any("y" not in t.dims for t in topos.values())
     power = 3 if profiles else 4
     curves = []
@@ -360,11 +365,7 @@ def mean_scale_dependent(measurements, quantity: str = "slope", *, unit: str | N
         raise ValueError(f"mean_scale_dependent: quantity {quantity!r} is not one of "
                          f"{sorted(_SCALE_DEPENDENT)}")
     analysis, power, count = _SCALE_DEPENDENT[quantity]
-    topos = _topographies(measurements)
-    if not topos:
-        raise ValueError("mean_scale_dependent: no measurement")
-    first = next(iter(topos.values()))
-    target = unit or u.format_units(u.units_of(first.coords["x"], what="coordinate 'x'"))
+    topos, target = _topographies(measurements, unit, "mean_scale_dependent")
     curves = []
     for topo in topos.values():
         with quality.quiet():  # a tip check's marks are the measurement's own
@@ -564,7 +565,7 @@ def analyse_set(tree: xr.DataTree, *, mode: str = "plane",
     names = [n for n in tree.children if "heights" in tree[n].data_vars]
     failed = [line.split(": ", 1) for line in str(tree.attrs.get("failed", "")).splitlines()
               if ": " in line]
-    tasks = [dask.delayed(_row, pure=True, name=f"analyse_set-{name}")(
+    tasks = [dask.delayed(_row, pure=False)(  # pure: dask would hash every map
         name, tree[name].to_dataset()["heights"], mode, E_star, p0, points_per_decade)
         for name in names]
     with dask_progress(desc="measurements", progress=progress):
