@@ -43,6 +43,11 @@ def _resolve(module: str, node: ast.ImportFrom, is_package: bool) -> list[str]:
     return [base] + [f"{base}.{a.name}" for a in node.names]
 
 
+def _is_type_checking(node: ast.AST) -> bool:
+    """Whether ``node`` is an ``if TYPE_CHECKING:`` block (imports for the type checker)."""
+    return isinstance(node, ast.If) and getattr(node.test, "id", None) == "TYPE_CHECKING"
+
+
 def _graph():
     modules = {}
     for path in PACKAGE.rglob("*.py"):
@@ -52,6 +57,8 @@ def _graph():
     local = {name: [] for name in modules}
     for name, (path, tree) in modules.items():
         is_package = path.name == "__init__.py"
+        typing_only = {id(n) for block in ast.walk(tree) if _is_type_checking(block)
+                       for n in ast.walk(block)}
         for node in ast.walk(tree):
             if isinstance(node, ast.ImportFrom):
                 targets = _resolve(name, node, is_package)
@@ -67,7 +74,7 @@ def _graph():
             for t in targets:
                 if t in modules and t != name:
                     edges[name].add(t)
-            if node.col_offset > 0:  # inside a function or class
+            if node.col_offset > 0 and id(node) not in typing_only:  # in a function
                 local[name].append((node.lineno, targets or [getattr(node, "module", "")]))
     return modules, edges, local
 
@@ -211,6 +218,28 @@ def test_function_local_imports_are_optional_extras_only():
                  for line, targets in items
                  if not all(t in OPTIONAL | DEFERRED for t in targets)]
     assert offenders == []
+
+
+#: What ``import xrough`` leaves for first use (xrough._kernels.deferred): together several
+#: times the import of xarray (benchmarks/bench_import.py measures the ratio).
+HEAVY = ("scipy.fft", "scipy.special", "scipy.optimize", "scipy.interpolate", "scipy.ndimage",
+         "scipy.integrate", "scipy.sparse", "scipy.spatial", "scipy.signal", "scipy.stats",
+         "dask", "dask.array", "pint", "cf_xarray", "matplotlib")
+
+
+def test_import_leaves_the_heavy_dependencies_for_their_first_use():
+    """``import xrough`` imports none of :data:`HEAVY`; a G, its fit and Persson theory
+    import what they use, and the registry is cf-xarray's (one registry with pint-xarray)."""
+    code = (f"import sys, xrough; heavy = {HEAVY!r}; "
+            "loaded = [m for m in heavy if m in sys.modules]; assert not loaded, loaded; "
+            "import numpy as np; topo = xrough.synthetic.self_affine_surface("
+            "n=64, hurst=0.8, lambda_r=20, lambda_s=2, rms_height=1, size=64, unit='nm', "
+            "seed=1); G = topo.rough.acf(); G.rough.persson(E_star='25 MPa', p0='0.1 MPa'); "
+            "assert 'scipy.optimize' in sys.modules and 'pint' in sys.modules; "
+            "import cf_xarray.units, pint; "
+            "assert xrough.units.parse_units('nm')._REGISTRY is cf_xarray.units.units; "
+            "assert pint.get_application_registry().get() is cf_xarray.units.units")
+    subprocess.run([sys.executable, "-W", "ignore", "-c", code], check=True)
 
 
 def test_import_leaves_pyplot_for_the_first_plot():

@@ -40,16 +40,19 @@ from __future__ import annotations
 
 from collections.abc import Hashable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import xarray as xr
-from pint.facets.plain import PlainUnit
 
 from . import quality
 from . import units as u
 from ._kernels.acf_curve import acf_problem, relative_error_problem
 from ._kernels.checks import require_increasing
 from ._version import __version__
+
+if TYPE_CHECKING:
+    from pint.facets.plain import PlainUnit
 
 __all__ = ["AcfSpec", "check_acf", "read_acf", "PROVENANCE", "result_attrs", "lag_coord",
            "mark_gaps", "gap_note", "strip_marks"]

@@ -19,10 +19,10 @@ functions.  The numpy kernels are :func:`xrough._kernels.fitting.fitted_spectrum
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import xarray as xr
-from pint.facets.plain import PlainUnit
 
 from . import units as u
 from ._kernels.fitting import (
@@ -39,6 +39,9 @@ from ._kernels.shape_factors import ROLLOFFS, rolloff_factor, self_affine_factor
 from ._kernels.spectral_models import shape_code
 from .acf import lag_coord
 from .units import QuantityLike
+
+if TYPE_CHECKING:
+    from pint.facets.plain import PlainUnit
 
 __all__ = ["read_fit", "model_acf", "gradient_from_fit", "rolloff_shapes", "spectrum_shapes",
            "COVARIANCE",

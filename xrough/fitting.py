@@ -54,11 +54,10 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, TypeVar, cast
+from typing import TYPE_CHECKING, Any, TypeVar, cast
 
 import numpy as np
 import xarray as xr
-from pint.facets.plain import PlainUnit
 
 from . import quality
 from . import units as u
@@ -108,6 +107,9 @@ from .fit_result import (  # noqa: F401  (read a fit; public here)
 )
 from .memo import by_content
 from .units import QuantityLike
+
+if TYPE_CHECKING:
+    from pint.facets.plain import PlainUnit
 
 __all__ = ["fit_acf", "model_acf", "describe_problems"]
 

@@ -33,9 +33,9 @@ from collections.abc import Callable, Iterator
 from typing import Any, Generic, ParamSpec, Protocol, TypeVar, cast
 
 import xarray as xr
-from dask.base import tokenize
 
 from . import quality
+from ._kernels.deferred import dask_base
 
 __all__ = ["by_content", "forget", "disabled", "set_enabled"]
 
@@ -132,7 +132,7 @@ def by_content(maxsize: int = 32) -> Callable[[Callable[_P, _R]], _Memoized[_P, 
         def key_of(args, kwargs) -> str:  # f(G) and f(G, model="spectrum") are one call
             bound = signature.bind(*args, **kwargs)
             bound.apply_defaults()
-            return tokenize(func.__module__, func.__qualname__,
+            return dask_base.tokenize(func.__module__, func.__qualname__,
                             {k: _unflagged(v) for k, v in bound.arguments.items()})
 
         @functools.wraps(func)

@@ -43,9 +43,10 @@ import warnings
 from collections.abc import Iterable, Iterator
 from types import FrameType
 
-import dask.array as dsa
 import numpy as np
 import xarray as xr
+
+from ._kernels.deferred import dask_array as dsa
 
 __all__ = ["LEVELS", "QualityWarning", "FLAG", "REASON", "REASONS", "SEPARATOR",
            "level_code", "worst", "mark", "mark_curves", "flag_coord", "flag_of", "notes_of",

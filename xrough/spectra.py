@@ -15,12 +15,11 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Hashable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike
-from pint.facets.plain import PlainUnit
 
 from . import quality
 from . import units as _units
@@ -41,6 +40,9 @@ from .acf import height_variance, mark_gaps, read_acf, result_attrs
 from .memo import by_content
 from .models import model_attrs, model_from_attrs, self_affine_model
 from .units import QuantityLike
+
+if TYPE_CHECKING:
+    from pint.facets.plain import PlainUnit
 
 __all__ = [
     "model_spectrum",

@@ -39,22 +39,24 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import dask
-import dask.array as dsa
 import numpy as np
 import xarray as xr
-from pint.facets.plain import PlainUnit
 
 from . import quality
 from . import units as u
 from ._kernels.binning import check_points_per_decade, log_bin_edges, log_bins
 from ._kernels.checks import require_positive
+from ._kernels.deferred import dask
+from ._kernels.deferred import dask_array as dsa
 from .acf import check_acf, result_attrs
 from .correlation import height_difference_acf
 from .preprocess import TIP_SAFETY_FACTOR, reliability_window, stated_tip_radius, tip_cutoff
 from .topography import grid_of
+
+if TYPE_CHECKING:
+    from pint.facets.plain import PlainUnit
 
 __all__ = [
     "STITCH_DIAGNOSTICS",

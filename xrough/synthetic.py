@@ -16,10 +16,10 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
-from scipy import fft as sfft
 
 from . import units as u
 from ._kernels.checks import require_count
+from ._kernels.deferred import fft as sfft
 from ._kernels.hankel import profile_spectrum_kernel
 from .models import model_attrs, self_affine_model
 from .topography import topography

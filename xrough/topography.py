@@ -10,19 +10,21 @@ whether the map is one period of a periodically repeated surface.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pint
 import xarray as xr
 from numpy.typing import ArrayLike
-from pint.facets.plain import PlainUnit
 
 from . import units as u
 from ._kernels.checks import require_flag
+from ._kernels.deferred import pint
 from ._kernels.pairs import require_no_inf
 from .models import MODEL_ATTR_POWERS
 from .units import QuantityLike
+
+if TYPE_CHECKING:
+    from pint.facets.plain import PlainUnit
 
 __all__ = ["topography", "convert_units", "Grid", "grid_of", "SPACING_RTOL", "stored_step"]
 

@@ -15,12 +15,16 @@ parameters as :data:`QuantityLike`.
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import importlib.abc
 import importlib.util
 import re
+import sys
 import warnings
 from collections.abc import Callable, Hashable, Mapping, Sequence
 from typing import (
+    TYPE_CHECKING,
     Any,
     Literal,
     Protocol,
@@ -31,11 +35,13 @@ from typing import (
     overload,
 )
 
-import cf_xarray.units as _cf_units
 import numpy as np
-import pint
 import xarray as xr
-from pint.facets.plain import PlainUnit
+
+from ._kernels.deferred import Deferred, load, pint
+
+if TYPE_CHECKING:
+    from pint.facets.plain import PlainUnit
 
 __all__ = [
     "QuantityLike",
@@ -72,8 +78,39 @@ _GLUED_NON_ASCII = re.compile(r"(?<=[Åµμ])(?=-?\d)")
 #: The one unit registry: cf-xarray's, which reads CF/UDUNITS strings (``"m2"``,
 #: ``"J m-2"``) and is pint's application registry once cf-xarray's units are imported,
 #: so that pint-xarray's ``.pint.quantify()``, cf-xarray and xrough share it. Quantities
-#: of another registry are converted through their string representation.
-ureg: pint.UnitRegistry = _cf_units.units
+#: of another registry are converted through their string representation. It is
+#: built at its first use (``xrough.units.ureg`` is the registry itself; inside, ``_ureg``
+#: stands for it until then, :class:`xrough._kernels.deferred.Deferred`).
+_ureg: pint.UnitRegistry = cast("pint.UnitRegistry", Deferred("cf_xarray.units", "units"))
+if TYPE_CHECKING:
+    ureg: pint.UnitRegistry
+
+
+def __getattr__(name: str) -> Any:
+    if name == "ureg":  # the registry itself, built now: an identity is that of cf-xarray's
+        return load(_ureg)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+class _RegistryBeforePintXarray(importlib.abc.MetaPathFinder):
+    """Build the registry when pint-xarray is imported, before it reads pint's default.
+
+    pint-xarray takes pint's application registry at its import as the registry of
+    ``.pint.quantify()``; cf-xarray's units make theirs that registry when imported. So
+    that ``import xrough; import pint_xarray`` quantifies ``"nm2"`` as before xrough
+    deferred the registry, its first import follows pint-xarray's.
+    """
+
+    def find_spec(self, fullname, path, target=None):
+        if fullname == "pint_xarray":
+            with contextlib.suppress(ValueError):
+                sys.meta_path.remove(self)
+            load(_ureg)
+        return None
+
+
+if "pint_xarray" not in sys.modules:
+    sys.meta_path.insert(0, _RegistryBeforePintXarray())
 
 #: What a physical parameter accepts, the forms :func:`quantity` reads: a plain number or a
 #: numeric array (in SI, or in the data's unit for lengths tied to data), a string of a
@@ -81,8 +118,8 @@ ureg: pint.UnitRegistry = _cf_units.units
 #: ``units`` attribute, or a list or tuple of single values in these forms
 #: (``["0.1 MPa", 2e5]``). The annotation of every physical parameter of the public API.
 QuantityLike: TypeAlias = (
-    int | float | np.integer | np.floating | np.ndarray | str | pint.Quantity | xr.DataArray
-    | Sequence[int | float | np.integer | np.floating | str | pint.Quantity | xr.DataArray]
+    "int | float | np.integer | np.floating | np.ndarray | str | pint.Quantity | xr.DataArray"
+    " | Sequence[int | float | np.integer | np.floating | str | pint.Quantity | xr.DataArray]"
 )
 
 
@@ -96,13 +133,13 @@ def _did_you_mean(text: str) -> str:
     hints: list[tuple[int, str]] = []
     for word in re.findall(r"[A-Za-zµμ_]+", text):
         try:
-            if word in ureg:
+            if word in load(_ureg):
                 continue
         except ValueError:  # a number in words ("nan", "inf"): pint parses, then refuses
             return f" ({word!r} is a number, not a unit)"
         for prefix in ("", "n", "u", "µ", "m", "c", "k", "M", "G", "T", "p", "f"):
             for base in ("Pa", "N", "J", "W", "m", "g", "s", "K", "Hz", "V", "A", "rad"):
-                if (prefix + base).lower() == word.lower() and prefix + base in ureg:
+                if (prefix + base).lower() == word.lower() and prefix + base in load(_ureg):
                     hints.append((-sum(a == b for a, b in zip(word, prefix + base)),
                                   prefix + base))
     names = list(dict.fromkeys(h for _, h in sorted(hints)))
@@ -116,7 +153,7 @@ def _unit(text: str) -> pint.Unit:
 
     pint's parser is slow next to a small map's G; a Unit is immutable.
     """
-    return ureg.Unit(text)
+    return _ureg.Unit(text)
 
 
 def parse_units(units: str | PlainUnit, *, what: str = "units") -> pint.Unit:
@@ -147,7 +184,7 @@ def parse_units(units: str | PlainUnit, *, what: str = "units") -> pint.Unit:
         return _unit(_cf_to_pint(units))
     except Exception as err:  # noqa: BLE001 - pint's parser also raises TokenError, ...
         try:  # allow scale prefixes written like "1e-6 m" via a full parse
-            q: pint.Quantity = ureg.Quantity(_cf_to_pint(units))
+            q: pint.Quantity = _ureg.Quantity(_cf_to_pint(units))
             if q.magnitude == 1:
                 # pint types a Quantity's units as its plain facet's; they are this
                 # registry's Unit
@@ -180,13 +217,13 @@ def format_units(unit: PlainUnit | str) -> str:
     """
     if isinstance(unit, str):
         unit = parse_units(unit)
-    elif unit._REGISTRY is not ureg:  # noqa: SLF001 - another registry's unit
+    elif unit._REGISTRY is not load(_ureg):  # noqa: SLF001 - another registry's unit
         unit = parse_units(str(unit))
     parts = []
     for name, exp in _factors(unit):
         # symbols in ASCII, as UDUNITS spells them: micro "u", and "angstrom" (cf-xarray's
         # registry reads "angstrom2" but not "Å2")
-        sym = ureg.get_symbol(name).replace("µ", "u").replace("Å", "angstrom")
+        sym = _ureg.get_symbol(name).replace("µ", "u").replace("Å", "angstrom")
         e = int(exp) if float(exp).is_integer() else exp
         parts.append(sym if exp == 1 else f"{sym}{e}")
     # positive exponents first, as CF does ("J m-2", not "m-2 J"); else in product order
@@ -295,8 +332,8 @@ def quantity(value: QuantityLike, *, default_units: str | PlainUnit = "",
     array([100000., 200000.])
     """
     if isinstance(value, pint.Quantity):
-        if value._REGISTRY is not ureg:  # noqa: SLF001
-            return ureg.Quantity(value.magnitude, str(value.units))
+        if value._REGISTRY is not load(_ureg):  # noqa: SLF001
+            return _ureg.Quantity(value.magnitude, str(value.units))
         return value
     if is_quantified(value) and hasattr(value, "dims"):  # before .values: no unit stripping
         return quantity(value.data, what=what)
@@ -308,7 +345,7 @@ def quantity(value: QuantityLike, *, default_units: str | PlainUnit = "",
                             f"{magnitude.dtype}")
         unit = (parse_units(units, what=f"{what} (its 'units' attribute)")
                 if units is not None else default_units)
-        return ureg.Quantity(magnitude.astype(float), unit)
+        return _ureg.Quantity(magnitude.astype(float), unit)
     if isinstance(value, str):
         match = _NUMBER_UNIT.match(value)
         try:
@@ -318,9 +355,9 @@ def quantity(value: QuantityLike, *, default_units: str | PlainUnit = "",
                     unit = parse_units(unit_text, what=what)  # names the unit if it fails
                 else:
                     unit = ""
-                q = ureg.Quantity(float(match.group(1)), unit)
+                q = _ureg.Quantity(float(match.group(1)), unit)
             else:
-                q = ureg.Quantity(value)
+                q = _ureg.Quantity(value)
         except ValueError as err:
             if str(err).startswith(f"{what}: "):  # parse_units said what is wrong
                 raise ValueError(f"{err} in {value!r}") from None
@@ -330,24 +367,24 @@ def quantity(value: QuantityLike, *, default_units: str | PlainUnit = "",
             raise ValueError(f"{what}: cannot parse {value!r} as a quantity ({err})"
                              f"{_did_you_mean(value)}") from None
         if not isinstance(q, pint.Quantity):
-            q = ureg.Quantity(q)
+            q = _ureg.Quantity(q)
         return q
     if isinstance(value, (int, float, np.integer, np.floating)) or (
         isinstance(value, np.ndarray) and value.dtype.kind in "iuf"
     ):
-        return ureg.Quantity(value, default_units)
+        return _ureg.Quantity(value, default_units)
     if isinstance(value, (list, tuple)) or (isinstance(value, np.ndarray) and
                                             value.dtype.kind in "OU"):
         parts = [quantity(v, default_units=default_units, what=what) for v in value]
         if not parts:
-            return ureg.Quantity(np.zeros(0), default_units)
+            return _ureg.Quantity(np.zeros(0), default_units)
         unit = parts[0].units
         try:
             mags = [float(p.to(unit).magnitude) if p.units != unit else p.magnitude
                     for p in parts]
         except pint.errors.DimensionalityError:
             raise ValueError(f"{what}: the values {value!r} have incompatible units") from None
-        return ureg.Quantity(np.asarray(mags, dtype=float), unit)
+        return _ureg.Quantity(np.asarray(mags, dtype=float), unit)
     raise TypeError(f"{what}: expected a number, a string like '25 MPa', a pint Quantity or "
                     f"a DataArray with a 'units' attribute, got {type(value).__name__}")
 
@@ -364,10 +401,10 @@ def magnitude_in(value: QuantityLike, unit: str | PlainUnit, *, what: str) -> np
     """
     target = parse_units(unit, what=what) if isinstance(unit, str) else unit
     q = quantity(value, default_units=target, what=what)
-    if q.dimensionality != ureg.Quantity(1, target).dimensionality:
+    if q.dimensionality != _ureg.Quantity(1, target).dimensionality:
         want = {"[length]": "a length", "[mass] / [length] / [time] ** 2": "a pressure",
                 "[mass] / [time] ** 2": "an energy per area"}.get(
-                    str(ureg.Quantity(1, target).dimensionality), f"in {format_units(target)}")
+                    str(_ureg.Quantity(1, target).dimensionality), f"in {format_units(target)}")
         raise ValueError(f"{what}: {_show(value)} is not {want} (it has dimensions "
                          f"{q.dimensionality})")
     mag = np.asarray(q.magnitude, dtype=float)
@@ -499,6 +536,7 @@ def array_in(value: QuantityLike, unit: str | PlainUnit, *, what: str, noun: str
 
     Examples
     --------
+    >>> from xrough.units import ureg
     >>> array_in(ureg.Quantity([1.0, 2.0], "um"), "nm", what="dr")
     array([1000., 2000.])
     """
@@ -519,7 +557,7 @@ def as_length_unit(units: str | PlainUnit, *, what: str) -> PlainUnit:
         Naming ``what`` when the unit is not a length.
     """
     unit = parse_units(units, what=what) if not isinstance(units, pint.Unit) else units
-    if unit.dimensionality != ureg.meter.dimensionality:
+    if unit.dimensionality != _ureg.meter.dimensionality:
         raise ValueError(f"{what} must be a length, but its units are {format_units(unit)!r} "
                          f"(dimensions {unit.dimensionality})")
     return unit
@@ -587,12 +625,12 @@ def conversion_factor(from_units: str | PlainUnit, to_units: str | PlainUnit) ->
     t = parse_units(to_units) if isinstance(to_units, str) else to_units
     # pint multiplies prefixes in floating point (um -> nm gives 999.9999999999999);
     # unit factors are exact decimals, so round away the last-digit noise.
-    return float(f"{ureg.Quantity(1, f).to(t).magnitude:.14g}")
+    return float(f"{_ureg.Quantity(1, f).to(t).magnitude:.14g}")
 
 
 def multiply_units(*units: str | PlainUnit) -> str:
     """CF string of a product of units. ``multiply_units("nm", "nm") == "nm2"``."""
-    out = ureg.dimensionless
+    out = _ureg.dimensionless
     for u in units:
         out = out * (parse_units(u) if isinstance(u, str) else u)
     return format_units(out)
@@ -610,6 +648,7 @@ def is_quantified(obj: object) -> TypeGuard[_Quantified]:
     Examples
     --------
     >>> import xarray as xr
+    >>> from xrough.units import ureg
     >>> is_quantified(xr.DataArray(ureg.Quantity([1.0, 2.0], "nm"), dims="x"))
     True
     >>> is_quantified(xr.DataArray([1.0, 2.0], dims="x", attrs={"units": "nm"}))
@@ -647,6 +686,7 @@ def dequantify(obj: Any) -> Any:
     Examples
     --------
     >>> import xarray as xr
+    >>> from xrough.units import ureg
     >>> da = xr.DataArray(ureg.Quantity([1.0, 2.0], "um**2"), dims="dr",
     ...                   coords={"dr": ("dr", [1.0, 2.0], {"units": "um"})})
     >>> plain = dequantify(da)
@@ -696,6 +736,7 @@ def accepts_quantified(func: _F) -> _F:
     >>> @accepts_quantified
     ... def unit_of(da):
     ...     return da.attrs["units"]
+    >>> from xrough.units import ureg
     >>> unit_of(xr.DataArray(ureg.Quantity([1.0], "nm"), dims="x"))
     'nm'
     """
@@ -762,7 +803,7 @@ def quantify(result: Any, registry: Any = None) -> Any:
         return result
     import pint_xarray  # noqa: F401  (registers the .pint accessor)
 
-    registry = ureg if registry is None else registry
+    registry = load(_ureg) if registry is None else registry
     if isinstance(result, xr.DataTree):
         return result.map_over_datasets(lambda ds: ds.pint.quantify(unit_registry=registry))
     return result.pint.quantify(unit_registry=registry)
@@ -783,6 +824,7 @@ def compact(q: pint.Quantity) -> pint.Quantity:
 
     Examples
     --------
+    >>> from xrough.units import ureg
     >>> f"{compact(ureg.Quantity(1200.0, 'nm')):~}"
     '1.2 µm'
     >>> f"{compact(ureg.Quantity(0.05, 'J/m**2')):~}"
@@ -797,11 +839,11 @@ def compact(q: pint.Quantity) -> pint.Quantity:
     if not items or value == 0 or not np.isfinite(value):
         return q
     name, power = next(((n, e) for n, e in items if e > 0), items[0])
-    prefixed = ureg.Unit(name) ** power
-    base = ureg.Unit(ureg.parse_unit_name(name)[0][1]) ** power
+    prefixed = _ureg.Unit(name) ** power
+    base = _ureg.Unit(_ureg.parse_unit_name(name)[0][1]) ** power
     in_base = abs(value * conversion_factor(prefixed, base))
     exp = int(np.clip(np.floor(np.log10(in_base) / power / 3) * 3, -18, 15))
-    new = ureg.Unit(_SI_PREFIXES[exp] + ureg.parse_unit_name(name)[0][1]) ** power
+    new = _ureg.Unit(_SI_PREFIXES[exp] + _ureg.parse_unit_name(name)[0][1]) ** power
     return q.to(q.units / prefixed * new)
 
 

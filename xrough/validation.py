@@ -15,11 +15,11 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
-from scipy import special
 
 from . import quality
 from . import units as u
 from ._kernels.contact import KAPPA_PERSSON, contact_area, improved_area
+from ._kernels.deferred import special
 from ._kernels.solver import ElasticOperator, full_contact_stress
 from .contact import THEORIES, persson, stress_acf
 from .correlation import height_difference_acf

@@ -34,7 +34,8 @@ pixel scale, and G zig-zags between neighbouring bins by far more than its stand
 from __future__ import annotations
 
 import numpy as np
-from scipy.interpolate import BSpline, PchipInterpolator, make_smoothing_spline
+
+from .deferred import interpolate
 
 __all__ = ["AcfCurve", "DETERMINED", "FIRST_LAG_SMOOTH", "FLAT_SLOPE", "G_RANGE",
            "RELATIVE_ERROR_RANGE", "acf_problem", "relative_error_problem", "require_acf"]
@@ -237,9 +238,9 @@ class AcfCurve:
         self.error = None if error is None else error[ok]
         self.x, self.y = np.log(self.dr), np.log(self.g)
         self.slope = np.diff(self.y) / np.diff(self.x)  # mean log-log slope per piece
-        self._pchip = PchipInterpolator(self.x, self.y)
+        self._pchip = interpolate.PchipInterpolator(self.x, self.y)
         self.a, self.b = self._even_start()
-        self._spline: BSpline | None = None
+        self._spline: interpolate.BSpline | None = None
         self.smoothing = smoothing
         # the smoothing spline anchored below the first sample where G is smooth there
         self.anchor = not self.rough_start()
@@ -317,12 +318,12 @@ class AcfCurve:
             span = self.x[-1] - self.x[0]
             density = (self.x.size - 1) / span  # samples per unit ln(dr)
             lam = density * (SMOOTHING_DECADES * np.log(10)) ** 4
-            fixed = make_smoothing_spline(*self._anchored(w), lam=lam)
+            fixed = interpolate.make_smoothing_spline(*self._anchored(w), lam=lam)
             self._spline = fixed
             if self.error is not None and self.smoothing == "auto":
                 # a noisy G: cross-validation's smoothing, of G's samples alone (the even
                 # start below rests on the first two, as noisy)
-                gcv = make_smoothing_spline(self.x, self.y, w=w)
+                gcv = interpolate.make_smoothing_spline(self.x, self.y, w=w)
                 if _roughness(gcv, self.x) < _roughness(fixed, self.x):
                     self._spline = gcv
         return self._spline

@@ -20,7 +20,8 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
-from scipy import special
+
+from .deferred import special
 
 __all__ = ["gauss_legendre", "one_minus_j0", "one_minus_j0_over_t2", "log_grid", "blocks",
            "panel_quadrature", "oscillatory_terms"]

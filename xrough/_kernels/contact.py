@@ -9,9 +9,9 @@ on numpy, dask or xarray arrays alike.
 from __future__ import annotations
 
 import numpy as np
-from scipy import optimize, special
 
 from .acf_curve import AcfCurve, require_acf
+from .deferred import optimize, special
 from .shape_factors import rolloff_factor, self_affine_factor
 from .uncertainty import propagated_std, relative_covariance
 

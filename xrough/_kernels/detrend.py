@@ -25,8 +25,8 @@ import itertools
 import warnings
 
 import numpy as np
-from scipy import ndimage, optimize
 
+from .deferred import ndimage, optimize
 from .derivatives import second_difference
 
 __all__ = [

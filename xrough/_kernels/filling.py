@@ -10,8 +10,9 @@ exact for planes.
 from __future__ import annotations
 
 import numpy as np
-from scipy import sparse
-from scipy.sparse import linalg as splinalg
+
+from .deferred import sparse
+from .deferred import sparse_linalg as splinalg
 
 __all__ = ["harmonic_fill"]
 

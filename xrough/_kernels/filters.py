@@ -5,7 +5,8 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from scipy import fft as sfft
+
+from .deferred import fft as sfft
 
 __all__ = ["fourier_filter_kernel", "wavevectors"]
 

@@ -20,10 +20,9 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from scipy import optimize
-from scipy.special import gamma
 
 from .acf_curve import relative_error_problem
+from .deferred import optimize, special
 from .hankel import acf_from_spectrum_kernel
 from .model_acf import sharp_acf, smooth_acf, smooth_closed_form_applies
 from .shape_factors import ROLLOFFS, rolloff_crossover, self_affine_constant
@@ -506,7 +505,7 @@ def _acf_shape(x, H, lam_r, lam_s, lam_0, rolloff, memo=None, cutoff="sharp"):
             memo[key] = G
     if lam_s < ls:
         G = G + ((ls / (2 * np.pi)) ** (2 * H) - (lam_s / (2 * np.pi)) ** (2 * H)) / (
-            2 * H * kernel_I) * (gamma(1 - H) if cutoff == "gaussian" else 1.0)
+            2 * H * kernel_I) * (special.gamma(1 - H) if cutoff == "gaussian" else 1.0)
     if lam_r > lr and np.isinf(lam_0):
         G = G + _rolloff_coefficient(H, rolloff) * x**2 / (4 * kernel_I) * (
             (2 * np.pi / lam_r) ** (2 - 2 * H) - q_r ** (2 - 2 * H))
@@ -676,7 +675,7 @@ def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lam
     kw.pop("eq36", None)
     kw["cutoff"] = CUTOFFS[1]
     seed = theta.copy()
-    seed[3] -= np.log(gamma(1 - theta[1]))  # the same shift of G beyond lambda_s
+    seed[3] -= np.log(special.gamma(1 - theta[1]))  # the same shift of G beyond lambda_s
     try:
         gauss = _fit_spectrum_shape(G, se, rolloff=rolloff, seed=seed, rel_cov=rel_cov, **kw)
     except (ValueError, FloatingPointError, np.linalg.LinAlgError):

@@ -13,10 +13,10 @@ All lengths in one unit; G in its square.
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import isotonic_regression
 
 from .acf_curve import require_acf
 from .binning import log_range
+from .deferred import optimize
 from .fitting import (
     PROBLEMS,
     SPECTRUM_OUTPUTS,
@@ -166,7 +166,7 @@ def nonincreasing_in_lag(dr, values) -> np.ndarray:
     use = np.flatnonzero(np.isfinite(values) & (values > 0))
     if use.size > 1:
         order = use[np.argsort(np.asarray(dr, dtype=float)[use], kind="stable")]
-        values[order] = isotonic_regression(values[order], increasing=False).x
+        values[order] = optimize.isotonic_regression(values[order], increasing=False).x
     return values
 
 

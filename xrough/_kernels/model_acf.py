@@ -38,9 +38,9 @@ from functools import lru_cache
 from math import lgamma
 
 import numpy as np
-from scipy import special
 
 from .bessel import gauss_legendre, one_minus_j0
+from .deferred import special
 
 __all__ = ["sharp_acf", "smooth_acf", "smooth_closed_form_applies", "power_tail"]
 

@@ -28,7 +28,8 @@ from importlib import resources
 from typing import NamedTuple
 
 import numpy as np
-from scipy.spatial import cKDTree
+
+from .deferred import spatial
 
 __all__ = ["FEATURES", "features_of", "features_on_lags", "P_STAR_RANGE",
            "FULL_CONTACT_P_STAR", "MIN_PIXELS", "DECAY_MIN", "area_table", "stress_table",
@@ -191,7 +192,7 @@ def _build(variables: list[np.ndarray], y: np.ndarray, is_open: np.ndarray,
     r = held_out_residuals(X, y, surface)
     scale = np.array([np.std(v) for v in variables])
     points = np.stack(variables, axis=-1) / scale
-    trees = {flag: (cKDTree(points[is_open == flag]), r[is_open == flag])
+    trees = {flag: (spatial.cKDTree(points[is_open == flag]), r[is_open == flag])
              for flag in np.unique(is_open)}
     model = _Model(mean, scale, trees, 1.0, bounds)
     # the calibration from at most 5000 rows (a fixed draw): a median, stable to 1 %

@@ -36,9 +36,9 @@ import os
 import threading
 
 import numpy as np
-from scipy import fft as sfft
 
 from .binning import binned_sum, folded_bin_index, lag_multiplicity, lag_radius2
+from .deferred import fft as sfft
 from .uncertainty import finite_area_variance
 
 __all__ = ["folded_pair_sums", "binned_map_sums", "map_kernel_applies", "extremes",

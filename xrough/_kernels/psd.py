@@ -30,9 +30,9 @@ import functools
 from typing import overload
 
 import numpy as np
-import scipy.fft as sfft
 
 from .binning import bin_index
+from .deferred import fft as sfft
 from .pairs import few_points_message, resolve_workers
 from .tiles import scaled_heights
 

@@ -26,9 +26,9 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-from scipy import integrate, interpolate, special
 
 from .contact import contact_area
+from .deferred import integrate, interpolate, special
 
 __all__ = ["separation_kernel", "gap_distribution_kernel", "j_function",
            "SEPARATION_OUTPUTS", "GAP_SHARES"]
@@ -65,7 +65,7 @@ def j_function(s, gamma: float) -> np.ndarray:
 
     Examples
     --------
-    >>> from scipy import integrate, interpolate, special
+    >>> from .deferred import integrate, interpolate, special
     >>> import numpy as np
     >>> f = lambda t: (0.4 + 1.8 * special.erf(np.sqrt(2) * t) ** 2) * np.exp(-2 * t * t) / t
     >>> ref = integrate.quad(f, 0.3, np.inf)[0]

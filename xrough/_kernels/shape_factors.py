@@ -59,7 +59,8 @@ regime is the window ``lambda_r << dr << lambda_0`` (eq. 26 vanishes for
 from __future__ import annotations
 
 import numpy as np
-from scipy import special
+
+from .deferred import special
 
 __all__ = [
     "self_affine_constant",

@@ -20,8 +20,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy import fft as sfft
-from scipy import optimize
+
+from .deferred import fft as sfft
+from .deferred import optimize
 
 __all__ = [
     "ElasticOperator",

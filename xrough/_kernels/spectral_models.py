@@ -25,8 +25,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import special
 
+from .deferred import special
 from .shape_factors import ROLLOFFS
 
 __all__ = ["SpectrumModel", "model_gradient2", "shape_code", "shape_names"]

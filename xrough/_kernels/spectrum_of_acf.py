@@ -20,10 +20,10 @@ plateau beyond the data; ``f`` is then a sum of power laws per piece and is inte
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
-from scipy import interpolate, special
 
 from .bessel import (
     blocks,
@@ -34,6 +34,7 @@ from .bessel import (
     panel_quadrature,
 )
 from .checks import require_increasing
+from .deferred import interpolate, special
 from .detrend import MAD_TO_SIGMA
 
 __all__ = [
@@ -131,7 +132,7 @@ def _extension(s_end: float, s_far: float, step: float, delay: float, width: flo
 
 
 #: y^j = (x - 1)^j = sum_i _BINOMIAL[j, i] x^i
-_BINOMIAL = np.array([[special.comb(j, i) * (-1.0) ** (j - i) if i <= j else 0.0
+_BINOMIAL = np.array([[math.comb(j, i) * (-1.0) ** (j - i) if i <= j else 0.0
                        for i in range(6)] for j in range(6)])
 
 

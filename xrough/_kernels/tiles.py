@@ -36,9 +36,9 @@ whole map first.
 from __future__ import annotations
 
 import numpy as np
-from scipy import fft as sfft
 
 from .binning import binned_sum
+from .deferred import fft as sfft
 from .pairs import area_variance, fold, require_no_inf, times_power_of_two
 
 __all__ = ["power_of_two_exponent", "scaled_heights", "point_stats", "coarsen_stats",

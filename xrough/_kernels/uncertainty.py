@@ -35,8 +35,8 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-from scipy import special
 
+from .deferred import special
 from .hankel import PowerLawInterpolant, profile_spectrum_kernel
 from .spectrum_of_acf import smooth_acf_kernel, spectrum_from_acf_kernel
 

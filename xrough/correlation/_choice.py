@@ -7,14 +7,13 @@ import os
 from dataclasses import dataclass
 from typing import Any
 
-import dask
 import numpy as np
 import xarray as xr
-from dask.utils import format_bytes, parse_bytes
 
 from .. import quality
 from .. import units as u
 from .._kernels.binning import max_lags
+from .._kernels.deferred import dask, dask_utils
 from .._kernels.pairs import padded_shape
 from .._kernels.uncertainty import finite_area_variance
 from ..topography import Grid
@@ -91,14 +90,14 @@ def memory_budget(memory_limit=None) -> tuple[float, str]:
         return AVAILABLE_SHARE * _available_memory(), (
             f"{AVAILABLE_SHARE:g} of the memory available")
     try:
-        value = float(parse_bytes(memory_limit) if isinstance(memory_limit, str)
+        value = float(dask_utils.parse_bytes(memory_limit) if isinstance(memory_limit, str)
                       else memory_limit)
     except (TypeError, ValueError):
         value = float("nan")
     if isinstance(memory_limit, bool) or not (np.isfinite(value) and value > 0):
         raise ValueError(f"memory_limit must be a positive number of bytes or a string "
                          f"such as '4 GB', got {memory_limit!r}")
-    return value, f"{source}={memory_limit!r}: {format_bytes(int(value))}"
+    return value, f"{source}={memory_limit!r}: {dask_utils.format_bytes(int(value))}"
 
 
 def fft_memory(shape: tuple[int, ...], ks: tuple[int, ...], periodic: bool) -> float:
@@ -148,7 +147,7 @@ def choose_estimator(da: xr.DataArray, grid: Grid, direction: str, pool,
     fits = need <= budget
     return ("fft" if fits else "tiled"), (
         f"{'fft' if fits else 'tiled'}: the all-pairs FFT of this map needs about "
-        f"{format_bytes(int(need))}, {'within' if fits else 'beyond'} the memory budget "
+        f"{dask_utils.format_bytes(int(need))}, {'within' if fits else 'beyond'} the memory budget "
         f"({source})")
 
 

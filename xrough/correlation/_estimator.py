@@ -6,12 +6,13 @@ import functools
 from dataclasses import replace
 from typing import Any
 
-import dask.array as dsa
 import numpy as np
 import xarray as xr
 
 from .. import quality
 from .. import units as u
+from .._kernels.deferred import dask_array as dsa
+from .._kernels.deferred import is_dask_array
 from .._kernels.pairs import g_from_packed, pool
 from ..preprocess import tip_window
 from ..topography import Grid, grid_of, require_whole_maps, stored_step
@@ -362,7 +363,7 @@ def _random_sums(da: xr.DataArray, grid: Grid, p: Plan, *, n_pairs: int, seed,
 
 def _pool_over(data, axis):
     """:func:`~xrough._kernels.pairs.pool` of numpy data, or one tree reduction of dask data."""
-    if isinstance(data, dsa.Array):
+    if is_dask_array(data):
         return dsa.reduction(data, chunk=pool, combine=pool, aggregate=pool, axis=axis,
                              dtype=float, concatenate=True, name="pool-pair-sums")
     return pool(data, axis)

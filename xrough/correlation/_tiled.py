@@ -29,12 +29,12 @@ import functools
 import sys
 from typing import Any
 
-import dask.array as dsa
 import numpy as np
 import xarray as xr
-from dask.diagnostics import ProgressBar
 
 from .._kernels import binning, tiles
+from .._kernels.deferred import dask_array as dsa
+from .._kernels.deferred import dask_diagnostics, is_dask_array
 from ..topography import Grid, grid_of
 from ._plan import OpenMapBins, check_bin_width, open_map_bins
 from ._result import g_result, g_unit, height_variance
@@ -172,7 +172,7 @@ def _computed(topography: xr.DataArray, grid: Grid, lag_bins: OpenMapBins, *, ce
               ks_levels, assign, tile, factor, progress):
     """``(G, pair count, standard error)`` of the kept bins: lazy for dask input."""
     data = topography.data
-    lazy = isinstance(data, dsa.Array)
+    lazy = is_dask_array(data)
     arr = data if lazy else dsa.from_array(np.asarray(data), chunks=(tile, tile))
     edges = lag_bins.edges
     idxs = [binning.folded_bin_index(ks, tuple(d * cell for d in grid.spacing), edges)
@@ -186,7 +186,7 @@ def _computed(topography: xr.DataArray, grid: Grid, lag_bins: OpenMapBins, *, ce
     if lazy:
         return res
     if progress if progress is not None else sys.stderr.isatty():
-        with ProgressBar(minimum=1.0):
+        with dask_diagnostics.ProgressBar(minimum=1.0):
             return res.compute()
     return res.compute()
 

@@ -31,8 +31,8 @@ from typing import Any
 import netCDF4
 import numpy as np
 import xarray as xr
-from dask.array.core import getter
 
+from .._kernels.deferred import dask_array_core
 from ._common import HDF5_LOCK, CorruptedFileError
 
 __all__ = ["KEY", "LEGACY", "chunk_encoding", "digests", "stamp", "stored", "verify",
@@ -381,7 +381,7 @@ def checked_getter(name: str, array, index, asarray=True, lock=None, *,
     """
     with HDF5_LOCK if serialize else contextlib.nullcontext(), reading(
             name, f"a chunk of {_described(array)}"):
-        return getter(array, index, asarray=asarray, lock=lock)
+        return dask_array_core.getter(array, index, asarray=asarray, lock=lock)
 
 
 def lazy_kwargs(name: str, fmt: str = "netcdf") -> dict:

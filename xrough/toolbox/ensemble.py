@@ -15,12 +15,12 @@ from __future__ import annotations
 from collections.abc import Iterable
 from pathlib import Path
 
-import dask
 import numpy as np
 import xarray as xr
 
 from .. import quality
 from .. import units as u
+from .._kernels.deferred import dask
 from ..acf import INFLATION, check_acf, result_attrs
 from ..contact import persson
 from ..correlation import height_difference_acf
