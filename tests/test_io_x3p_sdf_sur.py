@@ -139,6 +139,9 @@ def test_x3p_round_trip_map_with_nans(tmp_path):
     path = tmp_path / "map.x3p"
     x3p.write(topo, path)
     back = x3p.read(path)
+    # the reader counts the points the validity mask marks (2 here)
+    assert back.attrs.pop("invalid_points") == 2
+    assert back.attrs.pop("invalid_marker") == "the validity mask"
     xr.testing.assert_identical(back, topo)
     with zipfile.ZipFile(path) as zf:
         xml = zf.read("main.xml").decode()
@@ -161,6 +164,8 @@ def test_x3p_round_trip_profile(tmp_path):
     path = tmp_path / "profile.x3p"
     x3p.write(topo, path)
     back = x3p.read(path)
+    assert back.attrs.pop("invalid_points") == 1
+    del back.attrs["invalid_marker"]
     xr.testing.assert_identical(back, topo)
     assert back.dims == ("x",)
     with zipfile.ZipFile(path) as zf:
@@ -741,3 +746,74 @@ def test_float32_files_state_their_rounding(tmp_path):
     assert topo.attrs["stored_height_step"] == pytest.approx(
         float(np.spacing(np.abs(h).max())) * 1e-9, rel=1e-9)
     assert topo.attrs["stored_dtype"] == "float32 (SDF type FLOAT)"
+
+
+def _rezip(path, out, rename=lambda name: name, data=None):
+    """Copy an X3P archive member by member, renamed, with ``data`` replacing members."""
+    data = data or {}
+    with zipfile.ZipFile(path) as src, zipfile.ZipFile(out, "w") as dst:
+        for name in src.namelist():
+            dst.writestr(rename(name), data.get(name, src.read(name)))
+    return out
+
+
+def _with_points(path, out, values):
+    """The archive with its point data replaced by ``values`` (float64, type D) and the
+    checksum of the point data in main.xml and of main.xml in the checksum file fixed."""
+    raw = np.asarray(values, dtype="<f8").tobytes()
+    with zipfile.ZipFile(path) as zf:
+        xml = zf.read("main.xml").decode()
+    old = tag(xml, "MD5ChecksumPointData")
+    xml = xml.replace(old, hashlib.md5(raw).hexdigest().upper()).encode()
+    listed = f"{hashlib.md5(xml).hexdigest()} *main.xml\n".encode()
+    return _rezip(path, out, data={"bindata/data.bin": raw, "main.xml": xml,
+                                   "md5checksum.hex": listed})
+
+
+def test_x3p_infinite_points_are_missing_counted_and_said_once(tmp_path):
+    """Alicona's focus-variation scans store unmeasured points as +inf (ISO 5436-2 allows
+    invalid points): they read as NaN, with the count in attrs and one warning."""
+    h = np.arange(20.0).reshape(4, 5) * 1e-9
+    topo = xrough.topography(h, spacing=1e-6, unit="m")
+    path = tmp_path / "plain.x3p"
+    x3p.write(topo, path, dtype="D")
+    stored = h[::-1].copy()  # the file's first row is the top of the picture
+    stored[0, 1] = stored[2, 3] = stored[3, 4] = np.inf
+    inf_path = _with_points(path, tmp_path / "inf.x3p", stored.ravel())
+    with pytest.warns(UserWarning, match=r"3 of 20 points stored as \+inf") as caught:
+        back = xrough.open_topography(inf_path)
+    assert len([w for w in caught if "stored as" in str(w.message)]) == 1
+    assert back.attrs["invalid_points"] == 3
+    assert "+inf" in back.attrs["invalid_marker"]
+    expected = h.copy()
+    expected[3, 1] = expected[1, 3] = expected[0, 4] = np.nan
+    np.testing.assert_array_equal(back.values, expected)
+    G = back.rough.acf()  # the missing points are left out of G, not refused
+    assert np.isfinite(G.values).all()
+
+
+def test_x3p_written_by_x3ptools_in_a_folder_reads_with_its_checksums(tmp_path):
+    """x3ptools (R) writes NAME/main.xml, NAME/bindata/data.bin, NAME/md5checksum.hex."""
+    topo = xrough.topography(random_map(), spacing=(0.3e-6, 0.1e-6), unit="m")
+    path = tmp_path / "plain.x3p"
+    x3p.write(topo, path)
+    nested = _rezip(path, tmp_path / "nested.x3p", rename=lambda n: "scan01/" + n)
+    assert xrough.io.detect_format(nested) == "x3p"
+    back = xrough.open_topography(nested)
+    assert back.attrs.pop("x3p_folder") == "scan01"
+    np.testing.assert_array_equal(back.values, topo.values)
+    assert back.attrs["invalid_points"] == 2
+    # the checksums in the folder are verified as for a plain X3P
+    with zipfile.ZipFile(nested) as zf:
+        raw = bytearray(zf.read("scan01/bindata/data.bin"))
+    raw[0] ^= 0xFF
+    broken = _rezip(nested, tmp_path / "broken.x3p", data={"scan01/bindata/data.bin": raw})
+    with pytest.raises(ValueError, match="checksum"):
+        xrough.open_topography(broken)
+    # two folders with a main.xml each: not one X3P
+    with zipfile.ZipFile(nested) as zf, zipfile.ZipFile(tmp_path / "two.x3p", "w") as two:
+        for name in zf.namelist():
+            two.writestr(name, zf.read(name))
+            two.writestr(name.replace("scan01/", "scan02/"), zf.read(name))
+    with pytest.raises(ValueError, match="main.xml at its root or in one folder"):
+        x3p.read(tmp_path / "two.x3p")

@@ -14,12 +14,14 @@ from xml.etree import ElementTree
 import numpy as np
 import xarray as xr
 
+from .. import quality
 from .. import units as u
 from ..topography import topography
 
 __all__ = ["CONVENTIONS", "CorruptedFileError",
            "fail", "MissingOptionError", "reader_errors", "check_file", "check_points",
-           "check_height_scale", "MAX_POINTS", "MAX_CHUNKS", "MAX_HEIGHT_TO_SIZE",
+           "check_height_scale", "invalid_as_missing", "MAX_POINTS", "MAX_CHUNKS",
+           "MAX_HEIGHT_TO_SIZE",
            "micro_as_u", "describe_channel", "channel_listing", "select_channel",
            "default_channel_reader", "nonuniform_profile", "HDF5_LOCK"]
 
@@ -177,6 +179,63 @@ def check_points(path: Path, n: int, max_points: int | None, what: str) -> None:
         raise ValueError(f"{path.name}: {what} declares {n} points, more than the limit of "
                          f"{limit} (a corrupted header? pass max_points= to read a larger "
                          "file)")
+
+
+def invalid_as_missing(path: Path, values: np.ndarray, attrs: dict, *,
+                       marker: str) -> np.ndarray:
+    """Heights with every invalid point as NaN, the count in ``attrs["invalid_points"]``.
+
+    Infinite values are what some instruments store for the points they could not
+    measure (Alicona's X3P files: ``+inf``; ISO 5436-2 allows invalid points); they become
+    NaN and a ``UserWarning`` says how many, once per file. The points the format itself
+    marks (a validity mask, a sentinel value: ``marker``), already NaN in ``values``, are
+    counted with them.
+
+    Parameters
+    ----------
+    path : Path
+        The file, named in the warning.
+    values : numpy.ndarray
+        The heights, NaN where the format marks a point invalid.
+    attrs : dict
+        The attributes of the topography to be; ``invalid_points`` (the number of NaN
+        heights after the conversion) and ``invalid_marker`` are set when there are any.
+    marker : str
+        How the format marks invalid points, in words (``"the validity mask"``).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``values`` (a copy where infinite values were replaced).
+
+    Examples
+    --------
+    >>> attrs = {}
+    >>> import warnings
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     h = invalid_as_missing(Path("a.x3p"), np.array([1.0, np.inf, np.nan]), attrs,
+    ...                            marker="the validity mask")
+    >>> h.tolist(), attrs["invalid_points"], str(caught[0].message)[:40]
+    ([1.0, nan, nan], 2, 'a.x3p: 1 of 3 points stored as +inf (inv')
+    """
+    if values.dtype.kind != "f":
+        return values
+    infinite = np.isinf(values)
+    n_inf = int(np.count_nonzero(infinite))
+    if n_inf:
+        signs = sorted({"+inf" if v > 0 else "-inf" for v in values[infinite][:1000]})
+        values = np.where(infinite, np.nan, values)
+        quality.warn(f"{path.name}: {n_inf} of {values.size} points stored as "
+                     f"{' and '.join(signs)} (invalid points, not measured): read as "
+                     "missing (NaN); attrs['invalid_points'] counts every missing point",
+                     UserWarning)
+        marker = f"{marker} and {' and '.join(signs)}" if marker else " and ".join(signs)
+    n = int(np.count_nonzero(np.isnan(values)))
+    if n:
+        attrs["invalid_points"] = n
+        attrs["invalid_marker"] = marker
+    return values
 
 
 def check_height_scale(path: Path, heights: np.ndarray, extent: float, unit: str) -> None:

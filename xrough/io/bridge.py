@@ -48,6 +48,7 @@ from ._common import (
     MissingOptionError,
     check_height_scale,
     fail,
+    invalid_as_missing,
     micro_as_u,
     nonuniform_profile,
     select_channel,
@@ -467,11 +468,15 @@ def _channel_data(reader, channel, path: Path, size, unit) -> dict:
                                      advice=" (e.g. unit='um')")
         kwargs["unit"] = "m"  # placeholder label; relabelled below
     topo = reader.topography(**kwargs)
-    heights: np.ndarray = np.ma.filled(np.ma.asarray(topo.heights(), dtype=float), np.nan)
+    raw = np.ma.asarray(topo.heights(), dtype=float)
+    heights: np.ndarray = np.ma.filled(raw, np.nan)
     if "physical_sizes" not in kwargs:  # sizes as the file states them: compare
         check_height_scale(path, heights, max(float(s) for s in topo.physical_sizes),
                            _unit_text(topo.unit) or "(file unit)")
-    return {"channel": chan, "attrs": info_attrs(topo.info),
+    attrs = info_attrs(topo.info)
+    marker = "the file's mask" if np.ma.is_masked(raw) else "NaN"
+    heights = invalid_as_missing(path, heights, attrs, marker=marker)
+    return {"channel": chan, "attrs": attrs,
             "heights": heights,
             "positions": topo.positions() if topo.dim == 1 and not topo.is_uniform else None,
             "unit": topo.unit, "nb": nb, "periodic": bool(topo.is_periodic),

@@ -47,7 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from ..topography import stored_step, topography
-from ._common import check_file, check_points, reader_errors
+from ._common import check_file, check_points, invalid_as_missing, reader_errors
 
 __all__ = ["sniff", "read"]
 
@@ -230,6 +230,7 @@ def _read(path: Path, max_points: int | None):
     _check_scales(field, ny, path)
     heights, step = _heights(data, field, nx, ny, path)
     attrs = _attrs(header, trailer, path)
+    heights = invalid_as_missing(path, heights, attrs, marker="the missing-point marker")
     if step is not None:  # float32 heights: their rounding, said by acf()
         attrs.update(stored_height_step=step, stored_dtype="float32 (SDF type FLOAT)")
     try:

@@ -55,7 +55,7 @@ import numpy as np
 
 from .. import units as u
 from ..topography import grid_of, stored_step, topography
-from ._common import check_file, check_points, reader_errors
+from ._common import check_file, check_points, invalid_as_missing, reader_errors
 
 __all__ = ["sniff", "read", "write", "NAMESPACE"]
 
@@ -117,9 +117,10 @@ def sniff(head: bytes, path: Path | None = None) -> bool:
         return b"main.xml" in head
     try:
         with zipfile.ZipFile(path) as zf:
-            if _MAIN not in zf.namelist():
+            main = _main_member(zf.namelist())
+            if main is None:
                 return False
-            with zf.open(_MAIN) as fh:
+            with zf.open(main) as fh:
                 start = fh.read(2048)
     except (OSError, zipfile.BadZipFile, zlib.error, RuntimeError, ValueError, EOFError,
             NotImplementedError, struct.error, KeyError):
@@ -297,6 +298,18 @@ def read(path: str | Path, *, verify_checksums: bool = True, max_points: int | N
         return _read(path, verify_checksums, max_points)
 
 
+def _main_member(names: list[str]) -> str | None:
+    """``main.xml`` at the archive's root, else in its one top folder, else None.
+
+    The x3ptools R package (forensic surface metrology) writes ``NAME/main.xml``, with the
+    members main.xml names (``bindata/data.bin``) and the checksum file in that folder.
+    """
+    if _MAIN in names:
+        return _MAIN
+    nested = [n for n in names if n.endswith("/" + _MAIN) and n.count("/") == 1]
+    return nested[0] if len(nested) == 1 else None
+
+
 def _read(path: Path, verify_checksums: bool, max_points: int | None):
     try:
         zf = zipfile.ZipFile(path)
@@ -304,19 +317,30 @@ def _read(path: Path, verify_checksums: bool, max_points: int | None):
         raise ValueError(f"{path.name}: not a valid X3P file, the zip archive cannot be "
                          f"opened ({err})") from None
     with zf:
-        root = _document(zf, path, verify_checksums)
+        root, folder = _document(zf, path, verify_checksums)
         grid = _grid(root, path, max_points)
-        values = _point_values(zf, _child(root, "Record3"), grid, path, verify_checksums,
-                               max_points)
-    return _topography(values, grid, _metadata(root), path)
+        values, marker = _point_values(zf, folder, _child(root, "Record3"), grid, path,
+                                       verify_checksums, max_points)
+    attrs = _metadata(root)
+    if folder:
+        attrs["x3p_folder"] = folder.rstrip("/")
+    values = invalid_as_missing(path, values, attrs, marker=marker)
+    return _topography(values, grid, attrs, path)
 
 
 def _document(zf: zipfile.ZipFile, path: Path, verify_checksums: bool):
-    """Parse ``main.xml`` (checked against the checksum file) and check its records."""
-    if _MAIN not in zf.namelist():
+    """Parse ``main.xml`` (checked against the checksum file) and check its records.
+
+    Returns the document's root and the folder of ``main.xml`` (``""`` at the archive's
+    root, else ``"NAME/"``), in which the members it names lie.
+    """
+    main = _main_member(zf.namelist())
+    if main is None:
         raise ValueError(f"{path.name}: not an X3P file, the zip archive has no "
-                         f"main.xml (members: {', '.join(zf.namelist()[:5])})")
-    xml = _member(zf, _MAIN, path, "document", _MAX_XML)
+                         f"main.xml at its root or in one folder (members: "
+                         f"{', '.join(zf.namelist()[:5])})")
+    folder = main[:-len(_MAIN)]
+    xml = _member(zf, main, path, "document", _MAX_XML)
     try:
         root = ElementTree.fromstring(xml)
     except ElementTree.ParseError as err:
@@ -328,14 +352,14 @@ def _document(zf: zipfile.ZipFile, path: Path, verify_checksums: bool):
         raise ValueError(f"{path.name}: main.xml lacks Record1 or Record3")
     checksum_name = _text(root, "Record4", "ChecksumFile")
     if verify_checksums and checksum_name:
-        listed = _member(zf, checksum_name, path, "checksum file",
+        listed = _member(zf, folder + checksum_name, path, "checksum file",
                          _MAX_CHECKSUM_FILE).decode("ascii", "replace")
         match = re.match(r"\s*([0-9a-fA-F]{32})", listed)
         if match is None:
             raise ValueError(f"{path.name}: the checksum file {checksum_name!r} holds "
                              "no MD5 checksum")
         _check_md5(xml, match.group(1), path, "main.xml")
-    return root
+    return root, folder
 
 
 def _grid(root, path: Path, max_points: int | None) -> dict:
@@ -381,26 +405,31 @@ def _check_axes(cx: dict, cy: dict, cz: dict, path: Path) -> None:
                          f"{', '.join(_DTYPES)})")
 
 
-def _point_values(zf: zipfile.ZipFile, record3, grid: dict, path: Path,
-                  verify_checksums: bool, max_points: int | None) -> np.ndarray:
-    """Return the raw heights (NaN where invalid): a binary member or inline XML."""
+def _point_values(zf: zipfile.ZipFile, folder: str, record3, grid: dict, path: Path,
+                  verify_checksums: bool, max_points: int | None) -> tuple[np.ndarray, str]:
+    """Return the raw heights (NaN where invalid) and how the file marks invalid points.
+
+    The heights come from a binary member or from inline XML.
+    """
     link, datalist = _child(record3, "DataLink"), _child(record3, "DataList")
     n = grid["nx"] * grid["ny"]
     if link is not None:
-        return _linked_values(zf, link, grid, path, verify_checksums, max_points)
+        values = _linked_values(zf, folder, link, grid, path, verify_checksums, max_points)
+        has_mask = bool(_text(link, "ValidPointsLink"))
+        return values, "the validity mask" if has_mask else "NaN"
     if datalist is not None:
-        return _read_datalist(datalist, n, path)
+        return _read_datalist(datalist, n, path), "empty <Datum> elements"
     raise ValueError(f"{path.name}: main.xml has neither DataLink nor DataList")
 
 
-def _linked_values(zf: zipfile.ZipFile, link, grid: dict, path: Path,
+def _linked_values(zf: zipfile.ZipFile, folder: str, link, grid: dict, path: Path,
                    verify_checksums: bool, max_points: int | None) -> np.ndarray:
     """Heights from the binary point data member, masked by the validity mask if any."""
     nx, ny, cz = grid["nx"], grid["ny"], grid["cz"]
     n = nx * ny
     name = _text(link, "PointDataLink") or _DATA_MEMBER
     dtype = _DTYPES[cz["dtype"]]
-    raw = _member(zf, name, path, "point data", n * dtype.itemsize,
+    raw = _member(zf, folder + name, path, "point data", n * dtype.itemsize,
                   trusted=max_points is not None)
     if verify_checksums:
         _check_md5(raw, _text(link, "MD5ChecksumPointData"), path, name)
@@ -411,7 +440,7 @@ def _linked_values(zf: zipfile.ZipFile, link, grid: dict, path: Path,
     values = np.frombuffer(raw, dtype=dtype).astype(float)
     valid_name = _text(link, "ValidPointsLink")
     if valid_name:
-        bits = _member(zf, valid_name, path, "validity mask", (n + 7) // 8)
+        bits = _member(zf, folder + valid_name, path, "validity mask", (n + 7) // 8)
         if verify_checksums:
             _check_md5(bits, _text(link, "MD5ChecksumValidPoints"), path, valid_name)
         if len(bits) < (n + 7) // 8:
