@@ -194,7 +194,7 @@ def test_bridge_matches_surfacetopography(name, tmp_path):
     surfacetopography()
     path = data_path("instruments", name)
     heights, st = st_read(path)
-    topo = bridge.read_with_surfacetopography(path)
+    topo = bridge.read_with_surfacetopography(path, channel=0)  # SurfaceTopography's
     nx, ny = st.nb_grid_pts
     sx, sy = st.physical_sizes
     assert topo.dims == ("y", "x") and topo.shape == (ny, nx)
@@ -221,7 +221,7 @@ def test_bridge_sizes_as_headers_state():
     assert float(opd.x[1]) == pytest.approx(opd.attrs["raw_Pixel_size"])
     assert float(opd.y[1]) == pytest.approx(opd.attrs["raw_Pixel_size"]
                                             * opd.attrs["raw_Aspect"])
-    nid = bridge.read(data_path("instruments", "nid-1.nid"))
+    nid = bridge.read(data_path("instruments", "nid-1.nid"), channel=0)
     assert nid.shape == (int(nid.attrs["raw_Lines"]), int(nid.attrs["raw_Points"]))
 
 

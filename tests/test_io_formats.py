@@ -319,8 +319,9 @@ def test_nanoscope_height_and_zsensor_warns_and_lists(tmp_path):
     path = tmp_path / "two.spm"
     path.write_bytes(make_nanoscope([("Height", counts, {}), ("ZSensor", counts * 2, {}),
                                      ("Phase", counts, {"@2:Z scale": "V (0.1 deg/LSB) 9 deg"})]))
-    with pytest.warns(UserWarning, match=r"two\.spm: several height channels \('Height', "
-                                         r"'ZSensor'\); reading 0: 'Height'.*channel="):
+    with pytest.warns(UserWarning, match=r"two\.spm: several quantities in a length unit "
+                                         r"\('Height', 'ZSensor'\); reading channel 0: "
+                                         r"'Height'.*channel="):
         topo = open_topography(path)
     assert topo.attrs["channel"] == "Height"
     with warnings.catch_warnings():
@@ -632,9 +633,9 @@ def test_ibw_height_and_zsensor_is_ambiguous(tmp_path):
              for k, (n, u) in enumerate([("HeightTrace", "m"), ("HeightRetrace", "m"),
                                          ("ZSensorTrace", "m"), ("PhaseTrace", "deg")])]
     path = tmp_path / "asylum.ibw"
-    with pytest.warns(UserWarning, match=r"asylum\.ibw: several height channels "
-                                         r"\('HeightTrace', 'HeightRetrace', "
-                                         r"'ZSensorTrace'\); reading 0.*channel="):
+    with pytest.warns(UserWarning, match=r"asylum\.ibw: several quantities in a length "
+                                         r"unit \('HeightTrace', 'ZSensorTrace'\); "
+                                         r"reading channel 0.*channel="):
         assert ibw._default(path, chans, "", warn=True)["name"] == "HeightTrace"
     with warnings.catch_warnings():
         warnings.simplefilter("error")

@@ -104,7 +104,9 @@ CASES = {
     "plu-1": Case(("instruments", "plu-1.plu"), bridge=True),
     "opd-1": Case(("instruments", "opd-1.opd"), bridge=True),
     "mi-1": Case(("instruments", "mi-1.mi"), bridge=True),
-    "nid-1": Case(("instruments", "nid-1.nid"), bridge=True),
+    # the feedback Z-Axis and the calibrated Z-AxisSensor: the choice stated
+    "nid-1": Case(("instruments", "nid-1.nid"), {"channel": "Scan forward (Z-Axis)"},
+                  bridge=True),
     "al3d-1": Case(("instruments", "al3d-1.al3d"), bridge=True),
     # a pure plane (rows 9, 7, ..., -9 nm): with the plane removed nothing is left
     "nc-1": Case(("instruments", "nc-1.nc"),

@@ -47,8 +47,13 @@ MAPS = [
 ]
 
 
+#: The channel of files whose length channels hold two height quantities (stated).
+CHANNEL = {"nid-1.nid": "Scan forward (Z-Axis)"}
+
+
 def _acf(*parts):
-    topo = xrough.open_topography(data_path(*parts))
+    options = {"channel": CHANNEL[parts[-1]]} if parts[-1] in CHANNEL else {}
+    topo = xrough.open_topography(data_path(*parts), **options)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", xrough.QualityWarning)
         G = topo.rough.detrend().rough.acf()

@@ -24,12 +24,18 @@ from pathlib import Path
 from .. import units as u
 from .._kernels.checks import require_flag
 from ..topography import topography
-from ._common import MissingOptionError
+from ._common import (
+    ChannelChoiceWarning,
+    InvalidPointsWarning,
+    MissingOptionError,
+    check_lateral_size,
+)
 from .container import container_attrs
 from .readers import BRIDGE, FORMATS, Format, Reader, available, reader_of, registered
 
 __all__ = ["FORMATS", "BRIDGE", "Reader", "detect_format", "open_topography", "file_sha256",
-           "list_channels", "registered", "MissingOptionError"]
+           "list_channels", "registered", "MissingOptionError", "ChannelChoiceWarning",
+           "InvalidPointsWarning"]
 
 
 def file_sha256(path: str | Path) -> str:
@@ -244,6 +250,9 @@ def open_topography(
         read = reader_of(name).read
         stated = {"size": size, "unit": unit, "height_unit": height_unit}
         da = read(path, **_reader_options(path, name, read, options, stated))
+    if size is None and unit is None:  # what the file states, unless the user states it
+        check_lateral_size(path, da, str(da.attrs.get("reader", name)) if name == BRIDGE
+                           else name)
     da, applied = _overrides(da, size=size, unit=unit, height_unit=height_unit,
                              height_scale=height_scale, periodic=periodic)
     for key, value in container_attrs(path).items():  # a contact.engineering container
@@ -293,7 +302,7 @@ def _reader_errors_in_words(path: Path, description: str):
         raise ValueError(f"{path.name}: cannot read as {description}: the file is "
                          f"corrupted or not in this format ({type(err).__name__}: "
                          f"{str(err)[:300]})") from err
-    except FileNotFoundError:
+    except (FileNotFoundError, Warning):  # a warning turned into an error: not the file's
         raise
     except MemoryError as err:
         raise ValueError(f"{path.name}: cannot read as {description}: the header declares "

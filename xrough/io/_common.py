@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import contextlib
+import re
 import struct
 import threading
 import zipfile
 import zlib
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 from xml.etree import ElementTree
 
 import numpy as np
@@ -20,9 +22,12 @@ from ..topography import topography
 
 __all__ = ["CONVENTIONS", "CorruptedFileError",
            "fail", "MissingOptionError", "reader_errors", "check_file", "check_points",
-           "check_height_scale", "invalid_as_missing", "MAX_POINTS", "MAX_CHUNKS",
+           "check_height_scale", "check_lateral_size", "invalid_as_missing", "MAX_POINTS",
+           "MAX_CHUNKS",
            "MAX_HEIGHT_TO_SIZE",
            "micro_as_u", "describe_channel", "channel_listing", "select_channel",
+           "ChannelChoiceWarning", "InvalidPointsWarning", "READER_WARNINGS",
+           "channel_rank", "choose_height_channel",
            "default_channel_reader", "nonuniform_profile", "HDF5_LOCK"]
 
 
@@ -229,13 +234,86 @@ def invalid_as_missing(path: Path, values: np.ndarray, attrs: dict, *,
         quality.warn(f"{path.name}: {n_inf} of {values.size} points stored as "
                      f"{' and '.join(signs)} (invalid points, not measured): read as "
                      "missing (NaN); attrs['invalid_points'] counts every missing point",
-                     UserWarning)
+                     InvalidPointsWarning)
         marker = f"{marker} and {' and '.join(signs)}" if marker else " and ".join(signs)
     n = int(np.count_nonzero(np.isnan(values)))
     if n:
         attrs["invalid_points"] = n
         attrs["invalid_marker"] = marker
     return values
+
+
+#: Readers of scanning-probe files (native names, SurfaceTopography's reader classes): their
+#: scans are at most :data:`MAX_PROBE_SCAN` across.
+PROBE_READERS = frozenset({
+    "nanoscope", "ibw", "DIReader", "IBWReader", "MIReader", "MDTReader", "PSReader",
+    "EZDReader", "BCRReader", "JPKReader", "WSXMReader"})
+#: Readers of data that no instrument bounds: xrough's own and numpy archives, elevation
+#: tiles (SRTM, kilometres across); plugins are bounded as instruments.
+UNBOUNDED_READERS = frozenset({"netcdf", "npy", "HGTReader", "NCReader", "NPYReader",
+                               "NPZReader", "H5Reader", "MatReader"})
+#: The widest scan of a scanning-probe microscope (large-range AFMs reach 100-200 um;
+#: a nanomeasuring machine, 25 mm, is read as a profilometer).
+MAX_PROBE_SCAN = 1e-3
+#: The widest scan or longest profile of any other instrument (stylus profilometers
+#: travel up to about 0.2 m).
+MAX_SCAN = 1.0
+#: The smallest lateral pixel of any instrument (an AFM scan of 10 nm over 512 points has
+#: 20 pm; a TEM profile about 0.1 nm).
+MIN_PIXEL = 1e-12
+
+
+def check_lateral_size(path: Path, da: xr.DataArray, reader: str) -> None:
+    """Refuse a scan size or pixel no instrument of its class measures, in its own numbers.
+
+    A lateral unit or scale misread from the header (a pixel of 312.5 read in metres
+    instead of nanometres: a 160 m AFM scan) gives heights that look right and a
+    topography whose every length is wrong by the same factor.
+
+    Parameters
+    ----------
+    path : Path
+        The file, named in the message.
+    da : xarray.DataArray
+        The topography as read, before ``size=`` or ``unit=`` override it.
+    reader : str
+        The format's name (``"x3p"``) or, through the bridge, SurfaceTopography's reader
+        class (``"NMSReader"``): :data:`PROBE_READERS` are bounded by
+        :data:`MAX_PROBE_SCAN`, :data:`UNBOUNDED_READERS` not at all, others by
+        :data:`MAX_SCAN`; every pixel is at least :data:`MIN_PIXEL`.
+
+    Raises
+    ------
+    ValueError
+        Naming the size or pixel the file states, the bound, and ``size=``/``unit=``.
+    """
+    if reader in UNBOUNDED_READERS:
+        return
+    probe = reader in PROBE_READERS
+    widest, kind = (MAX_PROBE_SCAN, "a scanning-probe microscope") if probe else (
+        MAX_SCAN, "an instrument")
+    for dim in ("y", "x"):
+        if dim not in da.dims or da.sizes[dim] < 2:
+            continue
+        coord = da[dim]
+        unit = str(coord.attrs.get("units", ""))
+        try:
+            to_m = u.conversion_factor(unit, "m")
+        except ValueError:
+            continue
+        values = np.asarray(coord.values, dtype=float)
+        pixel = float(np.min(np.abs(np.diff(values))))
+        extent = float(abs(values[-1] - values[0])) + pixel
+        stated = (f"{da.sizes[dim]} points, {pixel:.6g} {unit} apart: {extent:.6g} {unit} "
+                  f"along {dim}")
+        advice = ("the header's lateral unit or scale is wrong (a pixel stated in m where "
+                  "it is in nm or um?); pass size= (and unit=) to state the right one")
+        if extent * to_m > widest:
+            raise fail(path, f"the file states {stated}, wider than {kind} scans "
+                             f"({widest:g} m): {advice}")
+        if 0 < pixel * to_m < MIN_PIXEL:
+            raise fail(path, f"the file states {stated}, a pixel below what any instrument "
+                             f"resolves ({MIN_PIXEL:g} m): {advice}")
 
 
 def check_height_scale(path: Path, heights: np.ndarray, extent: float, unit: str) -> None:
@@ -376,6 +454,110 @@ def channel_listing(channels: list[dict]) -> str:
 #: ``default(path, channels, listing, warn=...)`` returns one of ``channels`` or raises
 #: (naming the file and the ``listing``); ``warn`` says whether an ambiguous choice warns.
 DefaultChannel = Callable[..., dict]
+
+
+class InvalidPointsWarning(UserWarning):
+    """Points stored as infinite (not measured) were read as missing (NaN)."""
+
+
+class ChannelChoiceWarning(UserWarning):
+    """A file holds several quantities in a length unit and the reader took one of them.
+
+    The message names the channel read and the others; ``channel=`` chooses
+    (:func:`xrough.io.list_channels` lists them).
+    """
+
+
+#: Words of a channel's name that say it holds heights (``Height``, ``Topography``,
+#: ``ZSensor``, ``Z-Axis``).
+HEIGHT_WORDS = frozenset({"height", "heights", "topography", "topo", "z", "zsensor"})
+#: Words that say it holds another signal, even in a length unit (a cantilever's
+#: deflection or amplitude in metres): never a default height when a height is there.
+SIGNAL_WORDS = frozenset({
+    "deflection", "amplitude", "phase", "error", "friction", "lateral", "current",
+    "force", "adhesion", "stiffness", "modulus", "dissipation", "deformation", "potential",
+    "frequency", "voltage", "input", "aux", "lfm", "kpfm", "magnitude", "peak", "tip"})
+#: Words of the scan direction: trace and retrace of one quantity are one quantity.
+DIRECTION_WORDS = frozenset({"trace", "retrace", "forward", "backward", "fwd", "bwd",
+                             "scan", "left", "right", "up", "down"})
+
+
+def channel_words(name: str) -> list[str]:
+    """Split a channel's name into lower-case words.
+
+    ``"Scan forward (Z-AxisSensor)"``: scan, forward, z, axis, sensor; ``"HeightRetrace"``:
+    height, retrace.
+    """
+    return [w.lower() for w in re.findall(r"[A-Z]+(?=[A-Z][a-z])|[A-Z]?[a-z]+|[A-Z]+", name)]
+
+
+def channel_rank(name: str) -> int:
+    """Rank a channel by what its name says it holds: 0 heights, 1 nothing, 2 a signal.
+
+    Examples
+    --------
+    >>> [channel_rank(n) for n in ("Height", "Scan forward (Deflection)", "layer0",
+    ...                            "Z-AxisSensor", "AmplitudeTrace", "Topography")]
+    [0, 2, 1, 0, 2, 0]
+    """
+    words = set(channel_words(name))
+    if words & SIGNAL_WORDS:
+        return 2
+    return 0 if words & HEIGHT_WORDS else 1
+
+
+def choose_height_channel(path: Path, heights: list[dict], *, warn: bool,
+                          key: Callable[[dict], Any] | None = None) -> dict:
+    """Pick the default height among the channels in a length unit, by what they hold.
+
+    The channels whose names say heights come first, then those that say nothing, then
+    other signals (:func:`channel_rank`); among equals ``key`` (the reader's own order,
+    default the file's). Quantities are names without their scan direction
+    (``HeightTrace`` and ``HeightRetrace`` are one). The choice is a guess, said by a
+    :class:`ChannelChoiceWarning` that names the channel read, where two quantities rank
+    alike (``Height`` and ``ZSensor``) or where the one read is not named a height beside
+    others; a height named beside other signals in metres (``Amplitude``) is not.
+
+    Parameters
+    ----------
+    path : Path
+        The file, named in the warning.
+    heights : list of dict
+        The channels in a length unit, each with a ``name`` and an ``index``; not empty.
+    warn : bool
+        Whether to warn when the choice is ambiguous.
+    key : callable, optional
+        Order among channels of the same rank.
+
+    Returns
+    -------
+    dict
+        The channel read.
+    """
+    order = {id(c): i for i, c in enumerate(heights)}
+    chosen = min(heights, key=lambda c: (channel_rank(c["name"]),
+                                         key(c) if key else 0, order[id(c)]))
+    best = channel_rank(chosen["name"])
+    quantities: dict[tuple, list[dict]] = {}
+    for c in heights:
+        words = tuple(w for w in channel_words(c["name"]) if w not in DIRECTION_WORDS)
+        quantities.setdefault(words, []).append(c)
+    # a choice by name is certain where one quantity is named a height and the others
+    # other signals (Height beside Amplitude in metres); it is a guess where two
+    # quantities rank alike (Height and ZSensor) or where no name says height
+    rivals = [q[0] for q in quantities.values()
+              if any(channel_rank(c["name"]) == best for c in q)]
+    if warn and len(quantities) > 1 and (len(rivals) > 1 or best > 0):
+        names = ", ".join(repr(q[0]["name"]) for q in quantities.values())
+        quality.warn(f"{path.name}: several quantities in a length unit ({names}); reading "
+                     f"channel {chosen['index']}: {chosen['name']!r}. Pass channel= to "
+                     "choose (xrough.io.list_channels lists them)", ChannelChoiceWarning)
+    return chosen
+
+
+#: What a reader itself says while reading, apart from what a third-party parser says
+#: (which the bridge keeps in attrs).
+READER_WARNINGS = (InvalidPointsWarning, ChannelChoiceWarning)
 
 
 def select_channel(path: Path, channels: list[dict], channel, *, default: DefaultChannel,

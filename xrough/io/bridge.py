@@ -42,11 +42,14 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from .. import quality
 from .. import units as u
 from ..topography import topography
 from ._common import (
+    READER_WARNINGS,
     MissingOptionError,
     check_height_scale,
+    choose_height_channel,
     fail,
     invalid_as_missing,
     micro_as_u,
@@ -255,6 +258,13 @@ def info_attrs(info: dict) -> dict:
     return out
 
 
+def _is_length(unit: str) -> bool:
+    try:
+        return u.is_length(micro_as_u(unit))
+    except ValueError:
+        return False
+
+
 def _st_unit(unit) -> str | None:
     unit = _unit_text(unit)
     if not unit:
@@ -295,7 +305,7 @@ def default_channel(path) -> int:
     int
     """
     with _opened(path) as reader:
-        return int(reader.default_channel.index)
+        return int(_default(reader, Path(path), _listed(reader), warn=False)["index"])
 
 
 @contextlib.contextmanager
@@ -334,13 +344,29 @@ def _select(reader, channel, path: Path):
         for c in chans:
             if getattr(c, "channel_id", None) == channel:
                 return c
-    listed = [{"index": c.index, "name": str(c.name), "unit": _unit_text(c.data_unit),
-               "channel": c} for c in chans]
-
     def default(path, channels, listing, *, warn):
-        return {"channel": reader.default_channel}
+        return _default(reader, path, channels, warn=warn)
 
-    return select_channel(path, listed, channel, default=default)["channel"]
+    return select_channel(path, _listed(reader), channel, default=default)["channel"]
+
+
+def _listed(reader) -> list[dict]:
+    return [{"index": c.index, "name": str(c.name), "unit": _unit_text(c.data_unit),
+             "channel": c} for c in reader.channels]
+
+
+def _default(reader, path: Path, channels: list[dict], *, warn: bool) -> dict:
+    """Pick the channel read without ``channel=``: by meaning, as the native readers.
+
+    A Nanosurf file's first channel in metres may be the deflection; SurfaceTopography's
+    default (its first height channel) breaks ties.
+    """
+    heights = [c for c in channels if getattr(c["channel"], "is_height_channel", True)
+               and c["unit"] and _is_length(c["unit"])]
+    first = reader.default_channel.index
+    if not heights:
+        return next(c for c in channels if c["index"] == first)
+    return choose_height_channel(path, heights, warn=warn, key=lambda c: c["index"] != first)
 
 
 def read_with_surfacetopography(path, *, channel: int | str | None = None, size=None,
@@ -399,8 +425,11 @@ def read_with_surfacetopography(path, *, channel: int | str | None = None, size=
                 data = _channel_data(reader, channel, path, size, unit)
         finally:
             _close(reader)
+    for w in caught:  # what xrough said while reading: said again, to the user
+        if issubclass(w.category, READER_WARNINGS):
+            quality.warn(str(w.message), w.category)
     notes = sorted({str(w.message).strip() for w in caught
-                    if not issubclass(w.category, ImportWarning)})
+                    if not issubclass(w.category, (ImportWarning, *READER_WARNINGS))})
     if notes:
         data["attrs"]["reader_warnings"] = " | ".join(notes)[:_MAX_TEXT]
     data["attrs"].update(reader=type(reader).__name__, channel=str(data["channel"].name),
@@ -468,7 +497,7 @@ def _channel_data(reader, channel, path: Path, size, unit) -> dict:
                                      advice=" (e.g. unit='um')")
         kwargs["unit"] = "m"  # placeholder label; relabelled below
     topo = reader.topography(**kwargs)
-    raw = np.ma.asarray(topo.heights(), dtype=float)
+    raw: np.ma.MaskedArray = np.ma.asarray(topo.heights(), dtype=float)
     heights: np.ndarray = np.ma.filled(raw, np.nan)
     if "physical_sizes" not in kwargs:  # sizes as the file states them: compare
         check_height_scale(path, heights, max(float(s) for s in topo.physical_sizes),

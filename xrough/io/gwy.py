@@ -37,9 +37,18 @@ import numpy as np
 
 from .. import units as u
 from ..topography import grid_of, topography
-from ._common import check_file, describe_channel, fail, micro_as_u, reader_errors, select_channel
+from ._common import (
+    check_file,
+    choose_height_channel,
+    default_channel_reader,
+    describe_channel,
+    fail,
+    micro_as_u,
+    reader_errors,
+    select_channel,
+)
 
-__all__ = ["sniff", "read", "write", "channels"]
+__all__ = ["sniff", "read", "write", "channels", "default_channel"]
 
 MAGIC = b"GWYP"
 _STRUCTURAL = ("units", "channel", "channel_index", "x_offset", "y_offset", "masked_points")
@@ -235,13 +244,19 @@ def channels(path: str | Path) -> list[dict]:
 
 
 def _default(path: Path, fields: list[dict], listing: str, *, warn: bool) -> dict:
-    """Pick the first data field with lengths for values and sizes (``warn`` is unused)."""
-    chosen = next((c for c in fields if c["is_height"]), None)
-    if chosen is None:
+    """Pick the data field read without ``channel=``: lengths for values and sizes.
+
+    Among those, by what its title says (:func:`xrough.io._common.choose_height_channel`).
+    """
+    heights = [c for c in fields if c["is_height"]]
+    if not heights:
         raise fail(path, f"no data field has length units for values and sizes; "
                          f"channels: {listing}")
-    return chosen
+    return choose_height_channel(path, heights, warn=warn)
 
+
+
+default_channel = default_channel_reader(channels, _default, __name__)
 
 def _parse_meta(value):
     if not isinstance(value, str):

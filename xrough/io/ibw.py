@@ -38,15 +38,16 @@ from typing import Any
 import numpy as np
 from igor2 import binarywave
 
-from .. import quality
 from .. import units as u
 from ..topography import topography
 from ._common import (
     MissingOptionError,
     channel_listing,
+    choose_height_channel,
     default_channel_reader,
     describe_channel,
     fail,
+    invalid_as_missing,
     micro_as_u,
     reader_errors,
     select_channel,
@@ -321,18 +322,11 @@ def _default(path: Path, chans: list[dict], listing: str, *, warn: bool) -> dict
     ``UserWarning`` names them.
     """
     heights = [c for c in chans if c["is_height"]]
-    groups = [[c for c in heights if _base_name(c["name"]).startswith(prefix)]
-              for prefix in ("Height", "ZSensor")]
-    for named in groups:
-        if named:
-            if warn and all(groups):
-                names = ", ".join(repr(c["name"]) for c in groups[0] + groups[1])
-                quality.warn(f"{path.name}: several height channels ({names}); reading "
-                             f"{named[0]['index']}: {named[0]['name']!r}. Pass channel= to "
-                             "choose (xrough.io.list_channels lists them)", UserWarning)
-            return named[0]
     if heights:
-        return heights[0]
+        prefixes = ("Height", "ZSensor")
+        return choose_height_channel(path, heights, warn=warn, key=lambda c: next(
+            (i for i, p in enumerate(prefixes) if _base_name(c["name"]).startswith(p)),
+            len(prefixes)))
     lacks = f"no height channel (with a length unit); channels: {listing}"
     if any(not c["unit"] for c in chans):
         raise MissingOptionError(path.name, f"{lacks}; a wave without a data unit needs one",
@@ -475,5 +469,6 @@ def _read(path: Path, channel, unit, height_unit):
         "units_from": "user (the file states none)" if chosen.get("unit_from") else None,
     }
     attrs = {k: v for k, v in attrs.items() if v not in (None, "")}
+    values = invalid_as_missing(path, values, attrs, marker="NaN")
     return topography(values, spacing=tuple(reversed(spacing)), unit=lateral,
                       height_unit=chosen["unit"], name="height", attrs=attrs)

@@ -73,6 +73,7 @@ from .. import units as u
 from ..topography import topography
 from ._common import (
     channel_listing,
+    choose_height_channel,
     default_channel_reader,
     fail,
     micro_as_u,
@@ -473,22 +474,17 @@ def _default(path: Path, infos: list[dict], listing: str, *, warn: bool) -> dict
     calibrated sensor) make the choice ambiguous: a ``UserWarning`` names them.
     """
     heights = [c for c in infos if c["unit"] and u.is_length(c["unit"])]
-    named = sorted((c for c in heights if c["name"].lower() in _HEIGHT_NAMES),
-                   key=lambda c: (_HEIGHT_NAMES.index(c["name"].lower()),
-                                  _is_interleave(c), c["index"]))
     if not heights:
         broken = [c["error"] for c in infos if c.get("error")]
         if broken:  # e.g. a height channel whose scale cannot be worked out
             raise ValueError(f"{broken[0]}; channels: {listing}")
         raise fail(path, f"no height channel (with a length unit); channels: {listing}")
-    chosen = (named or heights)[0]
-    main = {c["name"].lower() for c in named if not _is_interleave(c)}
-    if warn and len(main) > 1:
-        names = ", ".join(repr(c["name"]) for c in named if not _is_interleave(c))
-        quality.warn(f"{path.name}: several height channels ({names}); reading "
-                     f"{chosen['index']}: {chosen['name']!r}. Pass channel= to choose "
-                     "(xrough.io.list_channels lists them)", UserWarning)
-    return chosen
+    def order(c):
+        name = c["name"].lower()
+        named = _HEIGHT_NAMES.index(name) if name in _HEIGHT_NAMES else len(_HEIGHT_NAMES)
+        return named, _is_interleave(c)
+
+    return choose_height_channel(path, heights, warn=warn, key=order)
 
 
 def _is_interleave(info: dict) -> bool:

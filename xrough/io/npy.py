@@ -15,7 +15,7 @@ import numpy.lib.format as npformat
 import xarray as xr
 
 from ..topography import topography
-from ._common import MissingOptionError, check_file, reader_errors
+from ._common import MissingOptionError, check_file, invalid_as_missing, reader_errors
 
 __all__ = ["sniff", "read"]
 
@@ -147,5 +147,7 @@ def _read(path: Path, spacing, size, unit, height_unit, periodic) -> xr.DataArra
         raise MissingOptionError(name, "a .npy file stores no units", ("unit",),
                                  advice=" (and height_unit= if the heights are in another "
                                  "unit), e.g. unit='nm'")
+    attrs = {"npy_dtype": str(arr.dtype)}
+    arr = invalid_as_missing(path, arr, attrs, marker="NaN")
     return topography(arr, spacing=spacing, size=size, unit=unit, height_unit=height_unit,
-                      periodic=periodic, attrs={"npy_dtype": str(arr.dtype)})
+                      periodic=periodic, attrs=attrs)

@@ -43,7 +43,7 @@ import numpy as np
 
 from .. import units as u
 from ..topography import topography
-from ._common import check_file, check_points, micro_as_u, reader_errors
+from ._common import check_file, check_points, invalid_as_missing, micro_as_u, reader_errors
 
 __all__ = ["sniff", "read", "OBJECT_TYPES"]
 
@@ -298,6 +298,7 @@ def _read(path: Path, index: int, max_points: int | None):
     points, _ = _points(raw, h, path, index, decode=True, trusted=max_points is not None)
     heights = _heights(points, h)
     attrs = _attrs(raw, h, kind)
+    heights = invalid_as_missing(path, heights, attrs, marker="Zmin - 2 (non-measured)")
     if n_objects > 1:
         attrs.update(n_objects=n_objects, object_index=index)
     height_unit = _unit(h["dz_unit"], path, "Z")
