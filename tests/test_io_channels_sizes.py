@@ -129,6 +129,7 @@ def test_a_lateral_unit_wrong_by_a_million_is_refused_with_the_headers_numbers(t
     ("EZDReader", 312.5, True),      # a 2500 m AFM scan
     ("nanoscope", 2e-3, True),       # 16 mm: no scanning probe
     ("PLUReader", 2e-3, False),      # 16 mm: a profilometer
+    ("NMSReader", 312.5, True),      # a confocal scan of 2500 m (a pixel read in m, not nm)
     ("x3p", 1e-16, True),            # a pixel of 0.1 fm
     ("HGTReader", 30.0, False),      # an elevation tile
     ("netcdf", 312.5, False),        # data, not an instrument
@@ -161,3 +162,12 @@ def test_npy_infinite_points_are_missing_and_counted(tmp_path):
     assert topo.attrs["invalid_points"] == 3
     assert topo.attrs["invalid_marker"] == "NaN and +inf and -inf"
     assert int(topo.isnull().sum()) == 3
+
+
+@needs_bridge
+def test_bridged_files_get_the_same_lateral_checks(tmp_path):
+    path = tmp_path / "wrong.x3p"
+    x3p.write(_map(312.5), path)
+    with pytest.raises(ValueError, match=r"wrong\.x3p: the file states 8 points, 312\.5 m "
+                                         r"apart: 2500 m along y, wider than an instrument"):
+        xrough.open_topography(path, format="surfacetopography")
