@@ -33,7 +33,7 @@ import numpy as np
 import xarray as xr
 
 from .._kernels.deferred import dask_array_core
-from ._common import HDF5_LOCK, CorruptedFileError
+from ._common import HDF5_LOCK, CorruptedFileError, raw_hdf5
 
 __all__ = ["KEY", "LEGACY", "chunk_encoding", "digests", "stamp", "stored", "verify",
            "reading", "checked_getter", "lazy_kwargs", "missing_counts", "check_missing"]
@@ -176,7 +176,7 @@ def stamp(path: Path, fmt: str, groups: Mapping[str, Mapping]) -> None:
         zarr.open_group(path, mode="r+").attrs[KEY] = text
         zarr.consolidate_metadata(path)
         return
-    with netCDF4.Dataset(path, "a") as nc:
+    with raw_hdf5(), netCDF4.Dataset(path, "a") as nc:
         nc.setncattr(KEY, text)
 
 

@@ -28,7 +28,7 @@ __all__ = ["CONVENTIONS", "CorruptedFileError",
            "micro_as_u", "describe_channel", "channel_listing", "select_channel",
            "ChannelChoiceWarning", "InvalidPointsWarning", "READER_WARNINGS",
            "channel_rank", "choose_height_channel",
-           "default_channel_reader", "nonuniform_profile", "HDF5_LOCK"]
+           "default_channel_reader", "nonuniform_profile", "HDF5_LOCK", "raw_hdf5"]
 
 
 #: One lock for every NetCDF (HDF5) file xrough opens or writes itself: the HDF5 library
@@ -36,6 +36,32 @@ __all__ = ["CONVENTIONS", "CorruptedFileError",
 #: interpreter (SIGSEGV, SIGBUS). Reentrant, process-wide; lazy reads that dask makes later
 #: go through xarray's own lock.
 HDF5_LOCK = threading.RLock()
+
+#: How deep each thread is in :func:`raw_hdf5` (xarray's lock is not reentrant).
+_RAW = threading.local()
+
+
+@contextlib.contextmanager
+def raw_hdf5():
+    """Hold the HDF5 library for calls to netCDF4 or h5py outside xarray.
+
+    :data:`HDF5_LOCK`, then xarray's own HDF5 lock (always in this order, as xrough's
+    writes through xarray take them): xarray closes a file it garbage-collects, in
+    whatever thread, only when it gets its lock, so no such close runs in HDF5 beside
+    these calls (one did, from a dask thread, and crashed the interpreter).
+    """
+    from_xarray = getattr(xr.backends.locks, "HDF5_LOCK", None)
+    depth = getattr(_RAW, "depth", 0)
+    with HDF5_LOCK:
+        if depth == 0 and from_xarray is not None:
+            from_xarray.acquire()
+        _RAW.depth = depth + 1
+        try:
+            yield
+        finally:
+            _RAW.depth = depth
+            if depth == 0 and from_xarray is not None:
+                from_xarray.release()
 
 #: Largest number of points a reader of this package's native formats (X3P, SUR, SDF)
 #: accepts unless the caller passes ``max_points=``: a larger header is taken as corrupted.

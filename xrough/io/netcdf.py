@@ -46,6 +46,7 @@ from ._common import (
     MissingOptionError,
     check_file,
     micro_as_u,
+    raw_hdf5,
     reader_errors,
 )
 
@@ -367,15 +368,16 @@ def check_declared_sizes(path: Path, name: str, *, group: str | None = None,
     size = path.stat().st_size
     with open(path, "rb") as fh:
         hdf5 = fh.read(len(_HDF5)) == _HDF5
-    h5 = _open_h5(path) if hdf5 else None
-    try:
-        with netCDF4.Dataset(path) as nc:
-            top = nc if group in (None, "", "/") else nc[group]
-            _check_sizes(nc.data_model, _walk(top, recursive), h5, size, name, max_points,
-                         advice)
-    finally:
-        if h5 is not None:
-            h5.close()
+    with raw_hdf5():
+        h5 = _open_h5(path) if hdf5 else None
+        try:
+            with netCDF4.Dataset(path) as nc:
+                top = nc if group in (None, "", "/") else nc[group]
+                _check_sizes(nc.data_model, _walk(top, recursive), h5, size, name,
+                             max_points, advice)
+        finally:
+            if h5 is not None:
+                h5.close()
 
 
 _COMPRESSORS = ("zlib", "szip", "zstd", "bzip2", "blosc")
@@ -558,7 +560,7 @@ def _open(path: Path, group: str | None = None) -> xr.Dataset:
 
 
 def _root_attrs(path: Path) -> dict:
-    with netCDF4.Dataset(path) as nc:
+    with raw_hdf5(), netCDF4.Dataset(path) as nc:
         return {k: nc.getncattr(k) for k in nc.ncattrs()}
 
 
@@ -688,7 +690,7 @@ def _write(topo: xr.DataArray, path, format: str) -> None:
             encoding[k]["_FillValue"] = None
     topo.to_netcdf(path, engine="netcdf4", format=format,  # type: ignore[call-overload]
                    encoding=encoding)  # format is checked by netCDF4 (a clear message)
-    with netCDF4.Dataset(path, "a") as nc:  # what the file follows, as the archives say
+    with raw_hdf5(), netCDF4.Dataset(path, "a") as nc:  # what the file follows (archives)
         nc.setncattr("Conventions", CONVENTIONS)
     entry: dict[str, Any] = {"missing": _checksum.missing_counts(variables)}
     with _open(path) as ds:
