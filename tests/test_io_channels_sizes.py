@@ -144,9 +144,15 @@ def test_lateral_bounds_follow_the_instrument_class(reader, spacing, refused):
 
 
 def test_lateral_bounds_read_the_coordinates_unit():
-    """312.5 nm pixels are an AFM's; the same numbers in m are not."""
+    """312.5 nm pixels are an AFM's; the same numbers in um are not; a coordinate that is
+    not a length is left to topography() to refuse."""
     path = Path("a.spm")
     check_lateral_size(path, _map(312.5, unit="nm"), "nanoscope")
+    check_lateral_size(path, _map(0.3125e-3, unit="mm"), "nanoscope")
+    in_pixels = _map(1.0)
+    in_pixels["x"].attrs["units"] = "pixel"
+    in_pixels["y"].attrs["units"] = "pixel"
+    check_lateral_size(path, in_pixels, "nanoscope")
     with pytest.raises(ValueError, match="wider than a scanning-probe microscope scans"):
         check_lateral_size(path, _map(312.5, unit="um"), "nanoscope")
 

@@ -97,8 +97,8 @@ class _RegistryBeforePintXarray(importlib.abc.MetaPathFinder):
 
     pint-xarray takes pint's application registry at its import as the registry of
     ``.pint.quantify()``; cf-xarray's units make theirs that registry when imported. So
-    that ``import xrough; import pint_xarray`` quantifies ``"nm2"`` as before xrough
-    deferred the registry, its first import follows pint-xarray's.
+    that ``import xrough; import pint_xarray`` quantifies ``"nm2"`` without naming a
+    registry, importing pint-xarray builds xrough's first.
     """
 
     def find_spec(self, fullname, path, target=None):

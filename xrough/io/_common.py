@@ -23,8 +23,7 @@ from ..topography import topography
 __all__ = ["CONVENTIONS", "CorruptedFileError",
            "fail", "MissingOptionError", "reader_errors", "check_file", "check_points",
            "check_height_scale", "check_lateral_size", "invalid_as_missing", "MAX_POINTS",
-           "MAX_CHUNKS",
-           "MAX_HEIGHT_TO_SIZE",
+           "MAX_CHUNKS", "MAX_HEIGHT_TO_SIZE",
            "micro_as_u", "describe_channel", "channel_listing", "select_channel",
            "ChannelChoiceWarning", "InvalidPointsWarning", "READER_WARNINGS",
            "channel_rank", "choose_height_channel",
@@ -218,9 +217,9 @@ def invalid_as_missing(path: Path, values: np.ndarray, attrs: dict, *,
 
     Infinite values are what some instruments store for the points they could not
     measure (Alicona's X3P files: ``+inf``; ISO 5436-2 allows invalid points); they become
-    NaN and a ``UserWarning`` says how many, once per file. The points the format itself
-    marks (a validity mask, a sentinel value: ``marker``), already NaN in ``values``, are
-    counted with them.
+    NaN and an :class:`InvalidPointsWarning` says how many, once per file. The points the
+    format itself marks (a validity mask, a sentinel value: ``marker``), already NaN in
+    ``values``, are counted with them.
 
     Parameters
     ----------
@@ -323,10 +322,9 @@ def check_lateral_size(path: Path, da: xr.DataArray, reader: str) -> None:
             continue
         coord = da[dim]
         unit = str(coord.attrs.get("units", ""))
-        try:
-            to_m = u.conversion_factor(unit, "m")
-        except ValueError:
-            continue
+        if not u.is_length(unit):
+            continue  # topography() refuses it, with the file's name
+        to_m = u.conversion_factor(unit, "m")
         values = np.asarray(coord.values, dtype=float)
         pixel = float(np.min(np.abs(np.diff(values))))
         extent = float(abs(values[-1] - values[0])) + pixel

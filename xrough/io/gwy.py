@@ -255,8 +255,8 @@ def _default(path: Path, fields: list[dict], listing: str, *, warn: bool) -> dic
     return choose_height_channel(path, heights, warn=warn)
 
 
-
 default_channel = default_channel_reader(channels, _default, __name__)
+
 
 def _parse_meta(value):
     if not isinstance(value, str):

@@ -316,10 +316,10 @@ def channels(path: str | Path) -> list[dict]:
 def _default(path: Path, chans: list[dict], listing: str, *, warn: bool) -> dict:
     """Pick the channel read without ``channel=``; warn when the choice is ambiguous.
 
-    The first ``Height...`` channel, else the first ``ZSensor...`` one, else the first
-    with a length unit. A file with both ``Height`` and ``ZSensor`` channels (the
-    feedback signal and the calibrated sensor) makes the choice ambiguous: a
-    ``UserWarning`` names them.
+    Among the channels with a length unit, by what their names say
+    (:func:`xrough.io._common.choose_height_channel`); among heights ``Height...`` before
+    ``ZSensor...``. A file with both (the feedback signal and the calibrated sensor) makes
+    the choice ambiguous: a ``ChannelChoiceWarning`` names them.
     """
     heights = [c for c in chans if c["is_height"]]
     if heights:

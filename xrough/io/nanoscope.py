@@ -468,10 +468,11 @@ def channels(path: str | Path) -> list[dict]:
 def _default(path: Path, infos: list[dict], listing: str, *, warn: bool) -> dict:
     """Pick the channel read without ``channel=``; warn when the choice is ambiguous.
 
-    The first channel named ``Height`` (else ``Height Sensor``, ``ZSensor``) on the main
-    scan line, else the first channel with a length unit. Two different height quantities
-    on the main scan line (``Height`` and ``ZSensor``: the feedback signal and the
-    calibrated sensor) make the choice ambiguous: a ``UserWarning`` names them.
+    Among the channels with a length unit, by what their names say
+    (:func:`xrough.io._common.choose_height_channel`); among heights ``Height`` before
+    ``Height Sensor`` and ``ZSensor``, the main scan line before the interleave. Two height
+    quantities (``Height`` and ``ZSensor``: the feedback signal and the calibrated sensor)
+    make the choice ambiguous: a ``ChannelChoiceWarning`` names them.
     """
     heights = [c for c in infos if c["unit"] and u.is_length(c["unit"])]
     if not heights:
@@ -479,6 +480,7 @@ def _default(path: Path, infos: list[dict], listing: str, *, warn: bool) -> dict
         if broken:  # e.g. a height channel whose scale cannot be worked out
             raise ValueError(f"{broken[0]}; channels: {listing}")
         raise fail(path, f"no height channel (with a length unit); channels: {listing}")
+
     def order(c):
         name = c["name"].lower()
         named = _HEIGHT_NAMES.index(name) if name in _HEIGHT_NAMES else len(_HEIGHT_NAMES)
