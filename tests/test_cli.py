@@ -766,6 +766,62 @@ def test_report_of_a_folder_keeps_going_past_a_bad_file(files, monkeypatch, caps
     assert status == 1 and "no measurement file" in err
 
 
+def test_worker_processes_give_what_one_process_gives(files, monkeypatch, capsys,
+                                                     tmp_path):
+    """--jobs 2 measures the files in two fresh processes: the same table, CSV and
+    archive, the rows in the order of the files, the bad file a row saying why; the acf
+    command (no keep-going) fails with the first bad file in the order of the files."""
+    folder = tmp_path / "scans"
+    folder.mkdir()
+    for name in ("afm.nc", "broken.nc", "profile.nc"):
+        (folder / name).write_bytes((files / name).read_bytes())
+    said = {}
+    for jobs in ("1", "2"):
+        status, out, err = run("report", folder, "--E-star", E_STAR, "--p0", P0, "-o",
+                               f"j{jobs}.nc", "--jobs", jobs, cwd=tmp_path,
+                               monkeypatch=monkeypatch, capsys=capsys)
+        assert status == 0, err
+        with open(tmp_path / f"j{jobs}.csv", newline="") as f:
+            said[jobs] = (out.replace(f"j{jobs}.", "j."), list(csv.DictReader(f)))
+    assert said["1"] == said["2"]
+    assert [r["measurement"] for r in said["2"][1]] == ["afm", "profile", "broken"]
+    one, two = (xrough.open_analysis(tmp_path / f"j{j}.nc") for j in "12")
+    assert set(one) == set(two) and set(one) - {"_provenance"} == {"afm", "profile"}
+    for name in ("afm", "profile"):
+        for result in ("G", "fit", "persson"):
+            xr.testing.assert_identical(one[name][result], two[name][result])
+    (folder / "also_broken.nc").write_bytes(b"CDF\x01" + b"\x00" * 20)
+    status, _, err = run("acf", *sorted(folder.iterdir()), "--jobs", "2", "-o", "g.nc",
+                         cwd=tmp_path, monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 1 and "also_broken.nc" in err and "/broken.nc" not in err, err
+
+
+@pytest.mark.parametrize(("asked", "n_files", "stdin", "expected"),
+                         [(0, 3, False, 1), (0, 16, False, "cores"), (4, 2, False, 2),
+                          (3, 10, False, 3), (2, 5, True, 1), (1, 40, False, 1)])
+def test_the_number_of_worker_processes(asked, n_files, stdin, expected, monkeypatch):
+    """--jobs 0 (default): one process per core from AUTO_JOBS_FILES files on, else one;
+    never more processes than files; standard input is read by the command itself."""
+    import argparse
+    import os
+
+    from xrough.cli._files import AUTO_JOBS_FILES, jobs
+
+    monkeypatch.setattr(os, "cpu_count", lambda: 6)
+    assert AUTO_JOBS_FILES == 16
+    work = [(f"f{k}.nc", f"f{k}") for k in range(n_files)]
+    if stdin:
+        work[0] = ("-", "stdin")
+    n = jobs(argparse.Namespace(jobs=asked), work)
+    assert n == (6 if expected == "cores" else expected)
+
+
+def test_a_negative_number_of_jobs_is_refused(files, monkeypatch, capsys, tmp_path):
+    status, _, err = run("acf", files / "afm.nc", "--jobs", "-1", cwd=tmp_path,
+                         monkeypatch=monkeypatch, capsys=capsys)
+    assert status == 1 and "--jobs -1" in err
+
+
 def test_report_of_a_container_takes_the_unit_its_meta_states(monkeypatch, capsys, tmp_path):
     """A contact.engineering container: the text profile states no unit, its meta.yml
     does; report of the folder reads it with that unit (alone it asks for --unit)."""

@@ -9,8 +9,11 @@ names the options of the command line that set them.
 from __future__ import annotations
 
 import argparse
+import concurrent.futures
 import contextlib
 import inspect
+import multiprocessing
+import os
 import re
 import shutil
 import stat
@@ -36,6 +39,11 @@ from ._common import CLIError, fail, first_line, warn_lines
 
 NONUNIFORM = ("the profile is sampled non-uniformly: give --resample (linear interpolation "
               "onto a uniform grid with the same number of points)")
+
+#: With ``--jobs 0`` (the default), files are measured in worker processes (one per core)
+#: from this many files on: each worker starts by importing the library (about 2 s of
+#: CPU), which a few files do not repay (``benchmarks/bench_cli_folder.py``).
+AUTO_JOBS_FILES = 16
 
 #: The keywords of :func:`~xrough.open_topography` that an option of the commands sets.
 _FILE_OPTIONS = ("size", "unit", "height_unit", "height_scale", "periodic", "channel",
@@ -76,6 +84,9 @@ def add_acf_options(p: argparse.ArgumentParser, name: str) -> None:
                    help="lags in all directions (default) or along x or y only")
     p.add_argument("--points-per-decade", type=float, default=10,
                    help="log-spaced bins of G per decade of lag (default 10)")
+    p.add_argument("--jobs", "-j", type=int, default=0,
+                   help="processes that measure files at once (default 0: one per core "
+                   f"when there are at least {AUTO_JOBS_FILES} files, else 1)")
     p.add_argument("--all-lags", action="store_true",
                    help="keep every lag: ignore a tip or stylus radius that the file or its "
                    "container states (by default the lags finer than the tip resolves are "
@@ -307,16 +318,73 @@ def measure_all(args: argparse.Namespace, analyse=None, *,
 
     With ``keep_going`` a file that fails is a record ``{"file", "name", "error"}`` (its
     one-line reason) and the others go on; without it the first failure stops the
-    command.
+    command. With more than one job (:func:`jobs`) the files are measured in worker
+    processes; the records come back in the order of the files, the same as one by one.
+    ``analyse`` must then be picklable (a module-level function or a
+    :func:`functools.partial` of one).
     """
     _check_points_per_decade(args)
-    names = measurement_names(args.files)
+    work = list(zip(args.files, measurement_names(args.files)))
+    n_jobs = jobs(args, work)
+    if n_jobs > 1:
+        return _measure_in_processes(work, args, analyse, keep_going, n_jobs)
     out = []
-    for path, name in progress_bar(desc="G(dr)", iterable=list(zip(args.files, names))):
-        try:
-            out.append(_measure(path, name, args, analyse))
-        except CLIError as err:
-            if not keep_going:
-                raise
-            out.append({"file": str(path), "name": name, "error": str(err)})
+    for path, name in progress_bar(desc="G(dr)", iterable=work):
+        out.append(_measure_or_record(path, name, args, analyse, keep_going))
+    return out
+
+
+def jobs(args: argparse.Namespace, work: list) -> int:
+    """Return the worker processes for ``work`` (files).
+
+    ``--jobs``, or for 0 one per core from :data:`AUTO_JOBS_FILES` files on; never more
+    than the files, and 1 when a file is standard input (read once, by this process).
+    """
+    asked = getattr(args, "jobs", 1)
+    if asked is None or asked < 0:
+        raise CLIError(f"--jobs {asked}: give the number of processes (0: automatic)")
+    if asked == 0:
+        asked = (os.cpu_count() or 1) if len(work) >= AUTO_JOBS_FILES else 1
+    if any(_is_stream(path) for path, _ in work):
+        return 1
+    return max(1, min(asked, len(work)))
+
+
+def _measure_or_record(path: str, name: str, args: argparse.Namespace, analyse,
+                       keep_going: bool) -> dict:
+    try:
+        return _measure(path, name, args, analyse)
+    except CLIError as err:
+        if not keep_going:
+            raise
+        return {"file": str(path), "name": name, "error": str(err)}
+
+
+def _measure_in_processes(work: list, args: argparse.Namespace, analyse, keep_going: bool,
+                          n_jobs: int) -> list[dict]:
+    """:func:`_measure_or_record` of each file in ``n_jobs`` fresh ("spawn") processes.
+
+    Every file is measured; without ``keep_going`` the failure of the first file that
+    fails (in the order of the files) is raised, as one by one. Fresh processes, not
+    forks: a fork copies the threads' locks of this process (BLAS, HDF5) in whatever
+    state they are. Ctrl-C cancels the files not started.
+    """
+    out: list = [None] * len(work)
+    bar = progress_bar(desc="G(dr)", total=len(work))
+    pool = concurrent.futures.ProcessPoolExecutor(
+        max_workers=n_jobs, mp_context=multiprocessing.get_context("spawn"))
+    try:
+        futures = {pool.submit(_measure_or_record, path, name, args, analyse, True): k
+                   for k, (path, name) in enumerate(work)}
+        for future in concurrent.futures.as_completed(futures):
+            out[futures[future]] = future.result()
+            if bar is not None:
+                bar.update()
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+        if bar is not None:
+            bar.close()
+    failed = [m for m in out if "error" in m]
+    if failed and not keep_going:  # the first in the order of the files, as one by one
+        raise CLIError(failed[0]["error"])
     return out

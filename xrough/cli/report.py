@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import functools
 import re
 import warnings
 
@@ -110,24 +111,29 @@ def _quantity(args: argparse.Namespace, option: str) -> float | None:
 
 
 def _analysis(E_star: float, p0: float, gamma: float | None):
-    """Return what the report computes from each G, as a function of G."""
-    def analyse(G: xr.DataArray) -> dict:
-        fit = G.rough.fit()
-        gbar = G.rough.gradient()
-        found = {"fit": fit, "gradient": gbar,
-                 "persson": G.rough.persson(E_star=E_star, p0=p0, gradient=gbar, fit=fit),
-                 "energy": G.rough.energy(E_star=E_star),
-                 "gap": G.rough.mean_gap(E_star=E_star, p0=p0, gradient=gbar)}
-        if gamma is not None:
-            found["patch"] = G.rough.patch_radius(E_star=E_star, gamma=gamma)
-        finite_gbar = gbar.values[np.isfinite(gbar.values)]
-        steepest = float(finite_gbar.max()) if finite_gbar.size else 0.0
-        if steepest > _STEEPEST:
-            warn(f"rms gradient {steepest:.3g}: steeper than any measured surface "
-                 "(a slope of 84 degrees is 10); are the heights in the unit the file "
-                 "states? (--height-unit, --height-scale)", UserWarning)
-        return found
-    return analyse
+    """Return what the report computes from each G, as a function of G.
+
+    Picklable: the files may be measured in worker processes (``--jobs``).
+    """
+    return functools.partial(_analyse, E_star=E_star, p0=p0, gamma=gamma)
+
+
+def _analyse(G: xr.DataArray, *, E_star: float, p0: float, gamma: float | None) -> dict:
+    fit = G.rough.fit()
+    gbar = G.rough.gradient()
+    found = {"fit": fit, "gradient": gbar,
+             "persson": G.rough.persson(E_star=E_star, p0=p0, gradient=gbar, fit=fit),
+             "energy": G.rough.energy(E_star=E_star),
+             "gap": G.rough.mean_gap(E_star=E_star, p0=p0, gradient=gbar)}
+    if gamma is not None:
+        found["patch"] = G.rough.patch_radius(E_star=E_star, gamma=gamma)
+    finite_gbar = gbar.values[np.isfinite(gbar.values)]
+    steepest = float(finite_gbar.max()) if finite_gbar.size else 0.0
+    if steepest > _STEEPEST:
+        warn(f"rms gradient {steepest:.3g}: steeper than any measured surface "
+             "(a slope of 84 degrees is 10); are the heights in the unit the file "
+             "states? (--height-unit, --height-scale)", UserWarning)
+    return found
 
 
 # ------------------------------------------------------------------------ a row
