@@ -649,20 +649,19 @@ def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lam
           "cutoff": CUTOFFS[0] if cutoff == "auto" else cutoff}
     rel_cov = None if not errors else relative_covariance(dr, np.asarray(G, dtype=float),
                                                           **errors)
+    kw["eq36"] = _eq36_fit(G, se, **kw)  # the start of every shape and cutoff: once
     if rolloff != "auto":
-        out, theta, _ = _fit_spectrum_shape(G, se, rolloff=rolloff, rel_cov=rel_cov,
-                                            theta_out=True, **kw)
+        out, theta = _fit_spectrum_shape(G, se, rolloff=rolloff, rel_cov=rel_cov,
+                                         theta_out=True, **kw)
         out = _with_shape(out, ROLLOFFS.index(rolloff), np.nan)
     else:
-        kw["eq36"] = _eq36_fit(G, se, **kw)  # the start of both shapes
-        # the second shape starts where the first ended (its roll-off converted) and from
-        # eq. 36, without a grid: the first shape's restarts have searched the landscape
-        sharp_fit, theta, power_law = _fit_spectrum_shape(
+        # the second shape starts where the first ended (its roll-off converted), without
+        # restarts: the first shape's (from eq. 36 and the grid) searched the landscape
+        sharp_fit, theta = _fit_spectrum_shape(
             G, se, rolloff=ROLLOFFS[0], theta_out=True, rel_cov=rel_cov, **kw)
         seed = _converted(theta, ROLLOFFS[0], ROLLOFFS[1])
         fits = [(sharp_fit, theta), _fit_spectrum_shape(
-            G, se, rolloff=ROLLOFFS[1], seed=seed, rel_cov=rel_cov, theta_out=True,
-            power_law_from_start=power_law, **kw)[:2]]
+            G, se, rolloff=ROLLOFFS[1], seed=seed, rel_cov=rel_cov, theta_out=True, **kw)]
         sharp, smooth = (_aic(out, fixed, weighted) for out, _ in fits)
         k = 1 if smooth < sharp - AIC_MARGIN or (np.isinf(sharp) and np.isfinite(smooth)) else 0
         out, theta = fits[k]
@@ -672,7 +671,6 @@ def fit_spectrum_kernel(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, lam
     if cutoff != "auto" or not out[_AT["lambda_s_resolved"]] or out[_AT["quality"]] == 2 \
             or not np.isnan(fixed[2]):
         return out
-    kw.pop("eq36", None)
     kw["cutoff"] = CUTOFFS[1]
     seed = theta.copy()
     seed[3] -= np.log(special.gamma(1 - theta[1]))  # the same shift of G beyond lambda_s
@@ -1093,22 +1091,20 @@ def _shape_start(problem: _ShapeProblem, G, se, **kw) -> tuple[np.ndarray, float
     return np.clip(theta, problem.lower + 1e-3, problem.upper - 1e-3), chi2_eq36
 
 
-def _best_solution(problem: _ShapeProblem, theta, chi2_eq36: float, seed=None,
-                   power_law_from_start: bool = False) -> tuple:
+def _best_solution(problem: _ShapeProblem, theta, chi2_eq36: float, seed=None) -> tuple:
     """Solve from ``theta`` and, if that fit is poor, from the best points of a grid.
 
-    ``seed``: the end of the fit of the other roll-off shape (``rolloff="auto"``), the
-    first start instead; ``theta`` (eq. 36's start) is then the only restart, and no grid
-    is searched (the other shape's restarts searched it).
+    ``seed``: the end of the fit of the other roll-off shape (``rolloff="auto"``) or of
+    the sharp cutoff (the Gaussian one), the only start: no restart from eq. 36's start
+    and no grid (the first fit's restarts searched the landscape; a restart from eq. 36
+    after a poor seeded search found no better fit on the real files or on the synthetic
+    family of ``benchmarks/fit_false_alarms.py``).
 
     A fit that lost both cutoffs (dropped as unresolved) is a pure power law, which eq. 36
     contains: eq. 36 always fits it at least as well, and where the data resolve no cutoff
     every restart ends at the same power law.  Unless it is poor by itself (as a local
     minimum that lost its cutoffs is, e.g. chi^2 = 807 in the case of :data:`_GRID`), such
     a fit restarts only from the grid points that already fit better than it does.
-    ``power_law_from_start``: the other shape's search from eq. 36's start ended at that
-    power law; a seeded search that ends at it too does not repeat that start (the power
-    law is the same in both shapes).
     """
     def poor_alone(theta, chi2):
         if not problem.weighted:
@@ -1124,14 +1120,7 @@ def _best_solution(problem: _ShapeProblem, theta, chi2_eq36: float, seed=None,
         return chi2 > chi2_eq36 or poor_alone(theta, chi2)
 
     if seed is not None:
-        best = problem.solve(np.clip(seed, problem.lower + 1e-3, problem.upper - 1e-3))
-        known = (power_law_from_start and problem.free[2] and problem.free[3]
-                 and not (best[1][2] or best[1][3]))
-        if poor(best[0], best[3]) and not known:
-            candidate = problem.solve(theta)
-            if candidate[3] < best[3] * (1 - 1e-6):
-                best = candidate
-        return best
+        return problem.solve(np.clip(seed, problem.lower + 1e-3, problem.upper - 1e-3))
     best = problem.solve(theta)
     if np.any(problem.free[1:]) and poor(best[0], best[3]):
         # a poor fit may sit in a local minimum (e.g. lambda_s beyond lambda_r): restart
@@ -1214,8 +1203,7 @@ def _reference_covariance(problem: _ShapeProblem, theta, cov_free, resolved_r: b
     return T @ cov @ T.T
 
 
-def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, rel_cov=None,
-                        power_law_from_start=False, **kw):
+def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, rel_cov=None, **kw):
     """Fit the model spectrum of one roll-off shape to one G (see :func:`fit_spectrum_kernel`).
 
     Optimiser parameters ``theta = [ln(G_sa/G_ref), H, ln eta, ln eps]`` with
@@ -1227,8 +1215,7 @@ def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, rel_cov=None,
     start_kw = {k: v for k, v in kw.items() if k not in ("lambda_0", "cutoff")}
     problem = _ShapeProblem(G, se, **{k: v for k, v in kw.items() if k != "eq36"})
     theta, chi2_eq36 = _shape_start(problem, G, se, **start_kw)
-    theta, active, cov_free, chi2 = _best_solution(problem, theta, chi2_eq36, seed,
-                                                   power_law_from_start)
+    theta, active, cov_free, chi2 = _best_solution(problem, theta, chi2_eq36, seed)
     if rel_cov is not None and np.all(np.isfinite(rel_cov)):
         sel = problem.sel
         cov_free = problem.sandwich(theta, rel_cov[np.ix_(sel, sel)], chi2)
@@ -1253,11 +1240,7 @@ def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, rel_cov=None,
                        max_factor, chi2_eq36, np.nan, np.nan, bits, code, 0, np.nan,
                        *cov.ravel()],
                       dtype=float)
-    if not theta_out:
-        return values
-    # whether the first search (from eq. 36's start) ended at the pure power law
-    first = problem.outcomes[0][1] if problem.outcomes else None
-    return values, theta, first is not None and not (first[2] or first[3])
+    return (values, theta) if theta_out else values
 
 
 # --------------------------------------------------------------------------------------
