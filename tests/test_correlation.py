@@ -785,3 +785,40 @@ def test_row_blocks_cover_the_rows_in_balanced_blocks(rows, width, parts):
         # the rest is spread: the last block is short by less than one row per block
         # (the old partition gave 513 columns as 512 + 1)
         assert sizes[-1] >= sizes[0] - len(blocks)
+
+
+@pytest.mark.parametrize("shape", [(256, 256), (200, 300)])
+def test_the_transform_of_an_open_map_is_padded_to_what_dr_max_needs(shape, monkeypatch):
+    """An open map is zero padded by its largest lag: to about 2N for the default dr_max
+    (the scan length), to N + L/2 for dr_max = L/2 (a fast FFT length at most 10 %
+    above). On the lags both give, G is the same
+    to round-off (the log bins are anchored at powers of ten: only the last, clipped at
+    dr_max, differs); rtol 1e-12 is round-off of the transform's sums over 6e4 points."""
+    import xrough._kernels.pairs as pairs
+
+    rng = np.random.default_rng(3)
+    white = rng.normal(size=shape)
+    topo = xrough.topography(white + np.roll(white, 1, axis=1) + np.roll(white, 1, axis=0),
+                             spacing="2 nm", unit="nm")
+    seen = []
+    real = pairs.padded_shape
+
+    def spy(shape_, ks, periodic):
+        out = real(shape_, ks, periodic)
+        seen.append(out)
+        return out
+
+    monkeypatch.setattr(pairs, "padded_shape", spy)
+    full = topo.rough.acf()
+    full_shape = max(seen, key=np.prod)  # the map's own (its quarters' are smaller)
+    seen.clear()
+    longest = 2.0 * (max(shape) - 1)  # nm
+    half = topo.rough.acf(dr_max=f"{longest / 2} nm")
+    half_shape = max(seen, key=np.prod)
+    k_half = (max(shape) - 1) // 2  # pixels of dr_max = L/2
+    for n, m_full, m_half in zip(shape, full_shape, half_shape):
+        assert m_full >= 2 * n - 1, full_shape  # every lag of the axis
+        assert n + min(k_half, n - 1) <= m_half <= 1.1 * (n + k_half), half_shape
+    common = half.dr.values[:-1]
+    np.testing.assert_array_equal(full.dr.values[:common.size], common)
+    np.testing.assert_allclose(half.values[:-1], full.values[:common.size], rtol=1e-12)

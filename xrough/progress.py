@@ -15,7 +15,37 @@ from typing import Any
 
 from tqdm.std import tqdm as plain_tqdm
 
-__all__ = ["progress_bar", "dask_progress"]
+__all__ = ["progress_bar", "dask_progress", "draw_by_default"]
+
+#: Whether ``progress=None`` draws a bar in an interactive terminal (see
+#: :func:`draw_by_default`).
+_DRAW = {"default": True}
+
+
+def draw_by_default(draw: bool) -> bool:
+    """Set whether ``progress=None`` draws bars (in an interactive terminal); the previous.
+
+    The command line's worker processes turn it off: they share the command's terminal,
+    where their bars would overwrite the command's own (``--jobs``).
+
+    Examples
+    --------
+    >>> previous = draw_by_default(False)
+    >>> progress_bar(desc="tiles", total=3).disable
+    True
+    >>> draw_by_default(previous)
+    False
+    """
+    previous = _DRAW["default"]
+    _DRAW["default"] = bool(draw)
+    return previous
+
+
+def _disable(progress: bool | None) -> bool | None:
+    """Return the ``disable`` of tqdm: None (draw in an interactive terminal only) or a bool."""
+    if progress is None:
+        return None if _DRAW["default"] else True
+    return not progress
 
 
 @functools.lru_cache(maxsize=1)
@@ -55,7 +85,7 @@ def progress_bar(*, desc: str, progress: bool | None = None, total: int | None =
     if progress is False:
         return iterable
     return _tqdm_class()(iterable, total=total, desc=desc, unit=unit, leave=False,
-                         disable=None if progress is None else not progress)
+                         disable=_disable(progress))
 
 
 def dask_progress(*, desc: str, progress: bool | None = None) -> Any:
@@ -75,4 +105,4 @@ def dask_progress(*, desc: str, progress: bool | None = None) -> Any:
         return contextlib.nullcontext()
     from tqdm.dask import TqdmCallback  # imports tqdm.auto: at the first bar only
     return TqdmCallback(desc=desc, tqdm_class=_tqdm_class(), leave=False,
-                        disable=None if progress is None else not progress)
+                        disable=_disable(progress))

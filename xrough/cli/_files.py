@@ -33,7 +33,7 @@ from ..io import MissingOptionError, detect_format, registered
 from ..io.folders import measurement_files, measurement_names
 from ..io.readers import reader_of
 from ..preprocess import DETREND_MODES, detrend
-from ..progress import progress_bar
+from ..progress import draw_by_default, progress_bar
 from ..toolbox.ensemble import open_measurement
 from ._common import CLIError, fail, first_line, warn_lines
 
@@ -372,7 +372,8 @@ def _measure_in_processes(work: list, args: argparse.Namespace, analyse, keep_go
     out: list = [None] * len(work)
     bar = progress_bar(desc="G(dr)", total=len(work))
     pool = concurrent.futures.ProcessPoolExecutor(
-        max_workers=n_jobs, mp_context=multiprocessing.get_context("spawn"))
+        max_workers=n_jobs, mp_context=multiprocessing.get_context("spawn"),
+        initializer=draw_by_default, initargs=(False,))  # the command draws the one bar
     try:
         futures = {pool.submit(_measure_or_record, path, name, args, analyse, True): k
                    for k, (path, name) in enumerate(work)}
