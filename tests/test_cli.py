@@ -12,6 +12,7 @@ import decimal
 import importlib.util
 import io
 import json
+import os
 import re
 import subprocess
 import sys
@@ -796,30 +797,67 @@ def test_worker_processes_give_what_one_process_gives(files, monkeypatch, capsys
     assert status == 1 and "also_broken.nc" in err and "/broken.nc" not in err, err
 
 
-@pytest.mark.parametrize(("asked", "n_files", "stdin", "expected"),
-                         [(0, 3, False, 1), (0, 16, False, "cores"), (4, 2, False, 2),
-                          (3, 10, False, 3), (2, 5, True, 1), (1, 40, False, 1)])
-def test_the_number_of_worker_processes(asked, n_files, stdin, expected, monkeypatch):
-    """--jobs 0 (default): one process per core from AUTO_JOBS_FILES files on, else one;
+@pytest.mark.parametrize(("asked", "n_files", "stdin", "console", "expected"),
+                         [(0, 3, False, True, 1), (0, 16, False, True, "cores"),
+                          (0, 16, False, False, 1), (4, 2, False, False, 2),
+                          (3, 10, False, True, 3), (2, 5, True, True, 1),
+                          (1, 40, False, True, 1)])
+def test_the_number_of_worker_processes(asked, n_files, stdin, console, expected,
+                                        monkeypatch):
+    """--jobs 0 (default): from the command line, one process per core from
+    AUTO_JOBS_FILES files on, else one; a script calling main() gets one unless it asks;
     never more processes than files; standard input is read by the command itself."""
     import argparse
-    import os
 
-    from xrough.cli._files import AUTO_JOBS_FILES, jobs
+    import xrough.cli._files as files_module
 
-    monkeypatch.setattr(os, "cpu_count", lambda: 6)
-    assert AUTO_JOBS_FILES == 16
+    monkeypatch.setattr(files_module, "_cores", lambda: 6)
+    assert files_module.AUTO_JOBS_FILES == 16
     work = [(f"f{k}.nc", f"f{k}") for k in range(n_files)]
     if stdin:
         work[0] = ("-", "stdin")
-    n = jobs(argparse.Namespace(jobs=asked), work)
+    n = files_module.jobs(argparse.Namespace(jobs=asked, console=console), work)
     assert n == (6 if expected == "cores" else expected)
 
 
-def test_a_negative_number_of_jobs_is_refused(files, monkeypatch, capsys, tmp_path):
-    status, _, err = run("acf", files / "afm.nc", "--jobs", "-1", cwd=tmp_path,
-                         monkeypatch=monkeypatch, capsys=capsys)
-    assert status == 1 and "--jobs -1" in err
+@pytest.mark.parametrize("given", ["-1", "two"])
+def test_a_number_of_jobs_that_is_not_one_is_a_usage_error(given, files, monkeypatch,
+                                                           capsys, tmp_path):
+    """Refused by the option parser (status 2), before any output folder is made."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exc:
+        main(["acf", str(files / "afm.nc"), "--jobs", given, "-o", "new/g.nc"])
+    assert exc.value.code == 2 and "--jobs" in capsys.readouterr().err
+    assert not (tmp_path / "new").exists()
+
+
+def _dies_on_the_profile(G):
+    """An analysis whose worker process dies on the file named profile (a crash)."""
+    if G.attrs["measurement"] == "profile":
+        os._exit(3)
+    return {}
+
+
+def test_a_worker_that_dies_fails_its_file_only(files, tmp_path):
+    """A worker process that dies (killed, out of memory, a crash in a library) breaks
+    the pool: the files it had not returned are measured again one by one, and the file
+    whose worker dies again is a failure naming it and --jobs 1; the others are as one
+    by one."""
+    from xrough.cli import parse
+    from xrough.cli._common import CLIError
+    from xrough.cli._files import measure_all
+
+    names = ["afm.nc", "profile.nc", "long_header.nc", "stylus.nc"]
+    args = parse(["acf", *[str(files / n) for n in names], "--jobs", "2",
+                  "-o", str(tmp_path / "g.nc")])
+    found = measure_all(args, _dies_on_the_profile, keep_going=True)
+    assert [m["name"] for m in found] == ["afm", "profile", "long_header", "stylus"]
+    assert "error" in found[1] and "profile.nc" in found[1]["error"]
+    assert "ended abruptly" in found[1]["error"] and "--jobs 1" in found[1]["error"]
+    for m in (found[0], found[2], found[3]):
+        assert "error" not in m and m["results"]["G"].sizes["dr"] > 5
+    with pytest.raises(CLIError, match="profile.nc"):
+        measure_all(args, _dies_on_the_profile, keep_going=False)
 
 
 def test_report_of_a_container_takes_the_unit_its_meta_states(monkeypatch, capsys, tmp_path):

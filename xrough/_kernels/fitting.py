@@ -532,8 +532,9 @@ def _spectrum_moments(c, H, q_r, q_s, q_0, rolloff, cutoff="sharp"):
 def _eq36_fit(G, se, *, dr, use, dr_ref, weighted, fixed, unit, **_):
     """Fit eq. 36 to start the spectrum fit (``lambda_r`` of the sharp shape).
 
-    It does not depend on the roll-off shape (only its ``lambda_r`` does, converted by
-    :func:`_spectrum_start`), so ``rolloff="auto"`` computes it once for both shapes.
+    It depends on neither the roll-off shape (only its ``lambda_r`` does, converted by
+    :func:`_spectrum_start`) nor the cutoff's, so :func:`fit_spectrum_kernel` computes it
+    once per G for every shape and cutoff it fits.
     """
     try:
         return fit_eq36_kernel(G, se, dr=dr, use=use, dr_ref=dr_ref, weighted=weighted,

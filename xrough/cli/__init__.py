@@ -46,6 +46,7 @@ def main(argv: list[str] | None = None) -> int:
         file or argument). Usage errors exit with status 2 (``SystemExit``, argparse's).
     """
     args = parse(sys.argv[1:] if argv is None else list(argv))
+    args.console = argv is None  # --jobs 0 takes the cores only from the command line
     try:
         if getattr(args, "files", None):  # a folder stands for the measurements in it
             args.files = expand_folders(args.files)

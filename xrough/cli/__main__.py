@@ -4,5 +4,5 @@ import sys
 
 from . import main
 
-if __name__ == "__main__":  # not when a worker process imports it (--jobs)
+if __name__ == "__main__":  # importing the module does not run the command
     sys.exit(main())

@@ -16,9 +16,11 @@ import multiprocessing
 import os
 import re
 import shutil
+import signal
 import stat
 import sys
 import tempfile
+import threading
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -84,7 +86,7 @@ def add_acf_options(p: argparse.ArgumentParser, name: str) -> None:
                    help="lags in all directions (default) or along x or y only")
     p.add_argument("--points-per-decade", type=float, default=10,
                    help="log-spaced bins of G per decade of lag (default 10)")
-    p.add_argument("--jobs", "-j", type=int, default=0,
+    p.add_argument("--jobs", "-j", type=jobs_option, default=0,
                    help="processes that measure files at once (default 0: one per core "
                    f"when there are at least {AUTO_JOBS_FILES} files, else 1)")
     p.add_argument("--all-lags", action="store_true",
@@ -337,17 +339,45 @@ def measure_all(args: argparse.Namespace, analyse=None, *,
 def jobs(args: argparse.Namespace, work: list) -> int:
     """Return the worker processes for ``work`` (files).
 
-    ``--jobs``, or for 0 one per core from :data:`AUTO_JOBS_FILES` files on; never more
-    than the files, and 1 when a file is standard input (read once, by this process).
+    ``--jobs``, or for 0 (automatic) one per core this process may use from
+    :data:`AUTO_JOBS_FILES` files on, when the command runs from the command line
+    (``args.console``; a script calling :func:`xrough.cli.main` gets one process unless it
+    asks: a worker process imports its ``__main__``). Never more than the files, and 1
+    when a file is standard input (read once, by this process).
     """
     asked = getattr(args, "jobs", 1)
-    if asked is None or asked < 0:
-        raise CLIError(f"--jobs {asked}: give the number of processes (0: automatic)")
     if asked == 0:
-        asked = (os.cpu_count() or 1) if len(work) >= AUTO_JOBS_FILES else 1
+        auto = getattr(args, "console", False) and len(work) >= AUTO_JOBS_FILES
+        asked = _cores() if auto else 1
     if any(_is_stream(path) for path, _ in work):
         return 1
-    return max(1, min(asked, len(work)))
+    return max(1, min(asked, len(work), _MAX_WORKERS))
+
+
+#: Windows waits on at most 61 worker processes (``ProcessPoolExecutor``'s limit).
+_MAX_WORKERS = 61 if sys.platform == "win32" else 1 << 16
+
+
+def _cores() -> int:
+    """Cores this process may run on (its affinity and cgroup-free count where known)."""
+    counted = getattr(os, "process_cpu_count", None)  # Python 3.13
+    if counted is not None:
+        return counted() or 1
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0)) or 1
+    return os.cpu_count() or 1
+
+
+def jobs_option(text: str) -> int:
+    """Parse ``--jobs``: a number of processes, 0 for automatic (argparse's ``type``)."""
+    try:
+        n = int(text)
+    except ValueError:
+        n = -1
+    if n < 0:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: give the number of processes (0: one per core for 16 files or more)")
+    return n
 
 
 def _measure_or_record(path: str, name: str, args: argparse.Namespace, analyse,
@@ -360,32 +390,125 @@ def _measure_or_record(path: str, name: str, args: argparse.Namespace, analyse,
         return {"file": str(path), "name": name, "error": str(err)}
 
 
+def _worker_start() -> None:
+    """Set up a worker process: no bars, Ctrl-C left to the command.
+
+    The command draws the one bar of the files, and ends the workers on Ctrl-C.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    draw_by_default(False)
+
+
+@contextlib.contextmanager
+def _sigint_ignored():
+    """Ignore Ctrl-C in this (main) thread while worker processes start.
+
+    They inherit it, so that one pressed during their imports prints no traceback from
+    each; the command's own handler is back once they are started.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def _measure_in_processes(work: list, args: argparse.Namespace, analyse, keep_going: bool,
                           n_jobs: int) -> list[dict]:
     """:func:`_measure_or_record` of each file in ``n_jobs`` fresh ("spawn") processes.
 
-    Every file is measured; without ``keep_going`` the failure of the first file that
-    fails (in the order of the files) is raised, as one by one. Fresh processes, not
-    forks: a fork copies the threads' locks of this process (BLAS, HDF5) in whatever
-    state they are. Ctrl-C cancels the files not started.
+    As one by one: the records in the order of the files; without ``keep_going`` the
+    first file that fails (in the order of the files) stops the command, the files after
+    it are cancelled. A worker process that dies (killed, out of memory, a crash) breaks
+    the pool: the files it had not returned are measured again, each alone in a worker
+    of its own, and a file whose worker dies again is that file's failure, named, with
+    ``--jobs 1`` as the way round. Fresh processes, not forks: a fork copies the threads'
+    locks of this process (BLAS, HDF5) in whatever state they are. Ctrl-C ends the
+    workers and the command.
     """
     out: list = [None] * len(work)
+    stop = len(work)  # the first file that failed (keep_going: none stops)
     bar = progress_bar(desc="G(dr)", total=len(work))
-    pool = concurrent.futures.ProcessPoolExecutor(
-        max_workers=n_jobs, mp_context=multiprocessing.get_context("spawn"),
-        initializer=draw_by_default, initargs=(False,))  # the command draws the one bar
+    pool = _pool(n_jobs)
     try:
-        futures = {pool.submit(_measure_or_record, path, name, args, analyse, True): k
-                   for k, (path, name) in enumerate(work)}
-        for future in concurrent.futures.as_completed(futures):
-            out[futures[future]] = future.result()
+        with _sigint_ignored():
+            futures = {pool.submit(_measure_or_record, path, name, args, analyse, True): k
+                       for k, (path, name) in enumerate(work)}
+        pending = set(futures)
+        while pending and any(futures[f] < stop for f in pending):
+            done, pending = concurrent.futures.wait(
+                pending, return_when=concurrent.futures.FIRST_COMPLETED)
+            for future in sorted(done, key=lambda f: futures[f]):
+                k = futures[future]
+                if future.cancelled():  # a file after one that failed
+                    continue
+                out[k] = _record(future)
+                if out[k] is _BROKEN:
+                    continue  # measured again below
+                if bar is not None:
+                    bar.update()
+                if "error" in out[k] and not keep_going and k < stop:
+                    stop = k
+                    for later in pending:
+                        if futures[later] > k:
+                            later.cancel()
+        pool.shutdown(wait=True)
+        usable = False  # a pool a dead worker broke takes no more files
+        # one worker, file after file: a file that kills its worker again is its failure
+        for k in [k for k in range(len(work)) if out[k] is _BROKEN and k < stop]:
+            if not usable:
+                pool, usable = _pool(1), True
+            path, name = work[k]
+            with _sigint_ignored():  # the worker starts at the first submit
+                future = pool.submit(_measure_or_record, path, name, args, analyse, True)
+            out[k] = _record(future)
+            if out[k] is _BROKEN:
+                usable = False
+                out[k] = {"file": str(path), "name": name, "error": (
+                    f"{path}: the worker process measuring it ended abruptly (killed, out of "
+                    "memory, or a crash in a library); run with --jobs 1")}
             if bar is not None:
                 bar.update()
+            if "error" in out[k] and not keep_going:
+                stop = k
+                break
+    except BaseException:
+        _end_workers(pool)
+        raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
         if bar is not None:
             bar.close()
-    failed = [m for m in out if "error" in m]
-    if failed and not keep_going:  # the first in the order of the files, as one by one
-        raise CLIError(failed[0]["error"])
+    if stop < len(work):
+        raise CLIError(out[stop]["error"])
     return out
+
+
+#: The record of a file whose worker process died (:func:`_record`): measured again.
+_BROKEN: dict = {"error": "the worker process ended abruptly"}
+
+
+def _pool(n_jobs: int) -> concurrent.futures.ProcessPoolExecutor:
+    return concurrent.futures.ProcessPoolExecutor(
+        max_workers=n_jobs, mp_context=multiprocessing.get_context("spawn"),
+        initializer=_worker_start)
+
+
+def _record(future: concurrent.futures.Future) -> dict:
+    """Return the record of one file's future; :data:`_BROKEN` where its worker died."""
+    try:
+        return future.result()
+    except concurrent.futures.process.BrokenProcessPool:
+        return _BROKEN
+
+
+def _end_workers(pool: concurrent.futures.ProcessPoolExecutor) -> None:
+    """Cancel what has not started and end the worker processes (Ctrl-C, an error)."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())  # before shutdown
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        if process.is_alive():
+            process.terminate()
