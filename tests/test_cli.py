@@ -856,6 +856,7 @@ def test_a_worker_that_dies_fails_its_file_only(files, tmp_path):
     assert "ended abruptly" in found[1]["error"] and "--jobs 1" in found[1]["error"]
     for m in (found[0], found[2], found[3]):
         assert "error" not in m and m["results"]["G"].sizes["dr"] > 5
+        assert "topography" not in m and m["ndim"] == 2  # the maps are not kept
     with pytest.raises(CLIError, match="profile.nc"):
         measure_all(args, _dies_on_the_profile, keep_going=False)
 

@@ -287,7 +287,9 @@ def _measure(path: str, name: str, args: argparse.Namespace,
         raise
     except Exception as err:  # noqa: BLE001 - one line naming the file
         raise fail(path, err) from err
-    return {"file": str(path), "name": name, "detrend": how, "topography": topo,
+    # the map itself is not kept: a folder of large maps would hold them all until the
+    # end (and send each back from a worker process)
+    return {"file": str(path), "name": name, "detrend": how, "ndim": topo.ndim,
             "results": result, "warnings": warn_lines(path, caught)}
 
 

@@ -438,7 +438,7 @@ def _compare_cleaning(m: dict, args: argparse.Namespace, E_star: float, p0: floa
     per scan line and the outliers masked (:data:`xrough.toolbox.cleaning.CHOICES`). A profile
     has no scan lines to compare: it is left as it is.
     """
-    if m["topography"].ndim != 2:
+    if m["ndim"] != 2:
         return
     raw = open_file(m["file"], args)
     used = m["detrend"]
