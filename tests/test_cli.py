@@ -12,7 +12,6 @@ import decimal
 import importlib.util
 import io
 import json
-import os
 import re
 import subprocess
 import sys
@@ -831,18 +830,13 @@ def test_a_number_of_jobs_that_is_not_one_is_a_usage_error(given, files, monkeyp
     assert not (tmp_path / "new").exists()
 
 
-def _dies_on_the_profile(G):
-    """An analysis whose worker process dies on the file named profile (a crash)."""
-    if G.attrs["measurement"] == "profile":
-        os._exit(3)
-    return {}
-
-
 def test_a_worker_that_dies_fails_its_file_only(files, tmp_path):
     """A worker process that dies (killed, out of memory, a crash in a library) breaks
     the pool: the files it had not returned are measured again one by one, and the file
     whose worker dies again is a failure naming it and --jobs 1; the others are as one
     by one."""
+    from worker_crash import dies_on_the_profile
+
     from xrough.cli import parse
     from xrough.cli._common import CLIError
     from xrough.cli._files import measure_all
@@ -850,7 +844,7 @@ def test_a_worker_that_dies_fails_its_file_only(files, tmp_path):
     names = ["afm.nc", "profile.nc", "long_header.nc", "stylus.nc"]
     args = parse(["acf", *[str(files / n) for n in names], "--jobs", "2",
                   "-o", str(tmp_path / "g.nc")])
-    found = measure_all(args, _dies_on_the_profile, keep_going=True)
+    found = measure_all(args, dies_on_the_profile, keep_going=True)
     assert [m["name"] for m in found] == ["afm", "profile", "long_header", "stylus"]
     assert "error" in found[1] and "profile.nc" in found[1]["error"]
     assert "ended abruptly" in found[1]["error"] and "--jobs 1" in found[1]["error"]
@@ -858,7 +852,7 @@ def test_a_worker_that_dies_fails_its_file_only(files, tmp_path):
         assert "error" not in m and m["results"]["G"].sizes["dr"] > 5
         assert "topography" not in m and m["ndim"] == 2  # the maps are not kept
     with pytest.raises(CLIError, match="profile.nc"):
-        measure_all(args, _dies_on_the_profile, keep_going=False)
+        measure_all(args, dies_on_the_profile, keep_going=False)
 
 
 def test_report_of_a_container_takes_the_unit_its_meta_states(monkeypatch, capsys, tmp_path):
