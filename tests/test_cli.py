@@ -810,7 +810,7 @@ def test_the_number_of_worker_processes(asked, n_files, stdin, console, expected
 
     import xrough.cli._files as files_module
 
-    monkeypatch.setattr(files_module, "_cores", lambda: 6)
+    monkeypatch.setattr(files_module, "cores", lambda: 6)
     assert files_module.AUTO_JOBS_FILES == 16
     work = [(f"f{k}.nc", f"f{k}") for k in range(n_files)]
     if stdin:

@@ -545,16 +545,14 @@ def _eq36_fit(G, se, *, dr, use, dr_ref, weighted, fixed, unit, **_):
         return np.array([np.nan, np.nan, H, 0.0, np.inf] + [np.nan] * 5 + [np.inf])
 
 
-def _spectrum_start(G, se, *, dr, use, dr_ref, weighted, fixed, rolloff, unit, G_ref, x_lo,
-                    x_hi, eq36=None):
+def _spectrum_start(eq36, *, dr_ref, rolloff, G_ref, x_lo, x_hi):
     """Start ``[ln(G_sa/G_ref), H, ln eta, ln eps]`` from the fit of eq. 36, and its chi^2.
 
     The reduced chi^2 of eq. 36 (inf when it cannot be fitted) is the yardstick of
     :func:`fit_problems`: the model spectrum should fit a self-affine G at least as well.
-    ``eq36``: the values of :func:`_eq36_fit` (computed here when None).
+    ``eq36``: the values of :func:`_eq36_fit` (once per G, :func:`fit_spectrum_kernel`).
     """
-    out = eq36 if eq36 is not None else _eq36_fit(G, se, dr=dr, use=use, dr_ref=dr_ref,
-                                                   weighted=weighted, fixed=fixed, unit=unit)
+    out = eq36
     _, G_sa, H, C_b, lam = out[:5]
     G_sa = G_ref if np.isnan(G_sa) else G_sa
     if rolloff != "sharp":  # the fit is the same; its lambda_r is the sharp shape's
@@ -1083,9 +1081,10 @@ class _ShapeProblem:
                              np.log(ls), np.log(C_r)])
 
 
-def _shape_start(problem: _ShapeProblem, G, se, **kw) -> tuple[np.ndarray, float]:
+def _shape_start(problem: _ShapeProblem, eq36) -> tuple[np.ndarray, float]:
     """Start from the fit of eq. 36, within the bounds; and the reduced chi^2 of eq. 36."""
-    theta, chi2_eq36 = _spectrum_start(G, se, **kw, G_ref=problem.G_ref, x_lo=problem.x_lo,
+    theta, chi2_eq36 = _spectrum_start(eq36, dr_ref=problem.dr_ref, rolloff=problem.rolloff,
+                                       G_ref=problem.G_ref, x_lo=problem.x_lo,
                                        x_hi=problem.x_hi)
     if not problem.free[1]:
         theta[1] = problem.fixed[0]
@@ -1213,9 +1212,8 @@ def _fit_spectrum_shape(G, se, *, seed=None, theta_out=False, rel_cov=None, **kw
     range that its cutoff causes, linear in it once the cutoff lies outside the lags, and 0
     when there is no cutoff.  ``kw["fixed"] = [H, lambda_r, lambda_s]`` (NaN: free).
     """
-    start_kw = {k: v for k, v in kw.items() if k not in ("lambda_0", "cutoff")}
     problem = _ShapeProblem(G, se, **{k: v for k, v in kw.items() if k != "eq36"})
-    theta, chi2_eq36 = _shape_start(problem, G, se, **start_kw)
+    theta, chi2_eq36 = _shape_start(problem, kw["eq36"])
     theta, active, cov_free, chi2 = _best_solution(problem, theta, chi2_eq36, seed)
     if rel_cov is not None and np.all(np.isfinite(rel_cov)):
         sel = problem.sel

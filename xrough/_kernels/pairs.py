@@ -44,7 +44,7 @@ from .uncertainty import finite_area_variance
 __all__ = ["folded_pair_sums", "binned_map_sums", "map_kernel_applies", "extremes",
            "folded_geometric_counts", "padded_shape", "binned_geometry", "require_no_inf",
            "few_points_message", "packed", "pool", "g_from_packed", "area_variance",
-           "times_power_of_two", "resolve_workers"]
+           "times_power_of_two", "resolve_workers", "cores"]
 
 
 def padded_shape(shape: tuple[int, ...], ks: tuple[int, ...], periodic: bool) -> tuple[int, ...]:
@@ -668,10 +668,25 @@ def _power_slabs(spec: np.ndarray, workers: int) -> np.ndarray:
     return spec.view(np.float64)[:m0 // 2 + 1, ::2]
 
 
+def cores() -> int:
+    """Return the cores this process may run on (its CPU affinity where the system has one).
+
+    Examples
+    --------
+    >>> 1 <= cores() <= (os.cpu_count() or 1)
+    True
+    """
+    counted = getattr(os, "process_cpu_count", None)  # Python 3.13
+    if counted is not None:
+        return counted() or 1
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0)) or 1
+    return os.cpu_count() or 1
+
+
 def _thread_count(workers: int) -> int:
-    """Threads for ``workers`` as :mod:`scipy.fft` reads it (negative: from the CPUs)."""
-    cpus = os.cpu_count() or 1
-    return max(1, cpus + 1 + workers if workers < 0 else workers)
+    """Threads for ``workers`` as :mod:`scipy.fft` reads it (negative: from the cores)."""
+    return max(1, cores() + 1 + workers if workers < 0 else workers)
 
 
 def resolve_workers(workers: int | None) -> int:
@@ -686,14 +701,14 @@ def resolve_workers(workers: int | None) -> int:
 
     Examples
     --------
-    >>> resolve_workers(3), resolve_workers(None) == (os.cpu_count() or 1)
+    >>> resolve_workers(3), resolve_workers(None) == cores()
     (3, True)
     """
     if workers is not None:
         return int(workers)
     if threading.current_thread() is not threading.main_thread():
         return 1
-    return os.cpu_count() or 1
+    return cores()
 
 
 def _power_quarter(rows: np.ndarray, m0: int, workers: int) -> np.ndarray:

@@ -13,7 +13,6 @@ import concurrent.futures
 import contextlib
 import inspect
 import multiprocessing
-import os
 import re
 import shutil
 import signal
@@ -31,6 +30,7 @@ import xarray as xr
 
 from .. import units as u
 from .._kernels.binning import MAX_POINTS_PER_DECADE, check_points_per_decade
+from .._kernels.pairs import cores
 from ..io import MissingOptionError, detect_format, registered
 from ..io.folders import measurement_files, measurement_names
 from ..io.readers import reader_of
@@ -350,7 +350,7 @@ def jobs(args: argparse.Namespace, work: list) -> int:
     asked = getattr(args, "jobs", 1)
     if asked == 0:
         auto = getattr(args, "console", False) and len(work) >= AUTO_JOBS_FILES
-        asked = _cores() if auto else 1
+        asked = cores() if auto else 1
     if any(_is_stream(path) for path, _ in work):
         return 1
     return max(1, min(asked, len(work), _MAX_WORKERS))
@@ -358,16 +358,6 @@ def jobs(args: argparse.Namespace, work: list) -> int:
 
 #: Windows waits on at most 61 worker processes (``ProcessPoolExecutor``'s limit).
 _MAX_WORKERS = 61 if sys.platform == "win32" else 1 << 16
-
-
-def _cores() -> int:
-    """Cores this process may run on (its affinity and cgroup-free count where known)."""
-    counted = getattr(os, "process_cpu_count", None)  # Python 3.13
-    if counted is not None:
-        return counted() or 1
-    if hasattr(os, "sched_getaffinity"):
-        return len(os.sched_getaffinity(0)) or 1
-    return os.cpu_count() or 1
 
 
 def jobs_option(text: str) -> int:
@@ -378,7 +368,8 @@ def jobs_option(text: str) -> int:
         n = -1
     if n < 0:
         raise argparse.ArgumentTypeError(
-            f"{text!r}: give the number of processes (0: one per core for 16 files or more)")
+            f"{text!r}: give the number of processes (0: one per core for "
+            f"{AUTO_JOBS_FILES} files or more)")
     return n
 
 
