@@ -217,6 +217,25 @@ def test_multi_file_figure_draws_every_file_in_the_axis_unit(files, report):
         np.testing.assert_allclose(line.get_ydata(), g, rtol=1e-9, err_msg=name)
 
 
+def test_report_figure_keeps_every_label_inside_and_apart(files, report):
+    """The fixed margins leave room: each panel with its labels and tick labels as drawn
+    inside the figure, and the right panel's clear of the left panel's frame (a tight
+    layout is not run)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    _, _, fig = report
+    canvas = FigureCanvasAgg(fig)  # as the report saved it, whatever pyplot's backend now
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    box = fig.bbox
+    left, right = fig.axes[:2]
+    for ax in (left, right):
+        ext = ax.get_tightbbox(renderer)  # what is drawn: labels, tick labels, legend
+        assert (ext.x0 >= box.x0 - 0.5 and ext.y0 >= box.y0 - 0.5
+                and ext.x1 <= box.x1 + 0.5 and ext.y1 <= box.y1 + 0.5), (ext, box)
+    assert right.get_tightbbox(renderer).x0 > left.get_window_extent(renderer).x1
+
+
 def test_report_archive_and_figure(files, report):
     status, out, _ = report
     assert status == 0 and "wrote out/report.nc, out/report.csv and out/report.png" in out

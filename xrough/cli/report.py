@@ -341,7 +341,9 @@ def _figure(measured: list[dict], p0_text: str):
     curves = [m["results"]["G"] for m in measured]
     dr_unit, g_unit = _common_units(curves)
     plt = pyplot("Agg")  # figures go to files
-    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(12, 4.5))
+    # fixed margins (room for the tick labels, the axis labels and a title): a tight
+    # layout would measure every label's text, and saving would lay it out again
+    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(12, 4.5), gridspec_kw=_MARGINS)
     many = len(measured) > _LEGEND_LINES  # a legend of every file would cover the data
     style = dict(linewidth=0.8, alpha=0.6) if many else {}
     for m, G in zip(measured, curves):
@@ -362,8 +364,11 @@ def _figure(measured: list[dict], p0_text: str):
             ax.set_title(f"{len(measured)} measurements", fontsize="medium")
             if ax.get_legend() is not None:
                 ax.get_legend().remove()
-    fig.tight_layout()
     return fig
+
+
+#: The report figure's margins and gap, in shares of its 12 x 4.5 inches.
+_MARGINS = dict(left=0.085, right=0.985, bottom=0.12, top=0.93, wspace=0.22)
 
 
 #: Up to this many files the report's figure labels each; beyond, it says how many.
