@@ -238,7 +238,7 @@ class AcfCurve:
         self.error = None if error is None else error[ok]
         self.x, self.y = np.log(self.dr), np.log(self.g)
         self.slope = np.diff(self.y) / np.diff(self.x)  # mean log-log slope per piece
-        self._pchip = interpolate.PchipInterpolator(self.x, self.y)
+        self._pchip_: interpolate.PchipInterpolator | None = None
         self.a, self.b = self._even_start()
         self._spline: interpolate.BSpline | None = None
         self.smoothing = smoothing
@@ -253,6 +253,16 @@ class AcfCurve:
         if not (b <= 0 and a > 0 and r0 * 2 * -b <= a):
             return g0 / r0, 0.0
         return a, b
+
+    @property
+    def _pchip(self) -> interpolate.PchipInterpolator:
+        """The monotone interpolant of ``ln G`` in ``ln dr``, built at its first use.
+
+        The smoothed derivatives (one curve per perturbed G in an error propagation) need none.
+        """
+        if self._pchip_ is None:
+            self._pchip_ = interpolate.PchipInterpolator(self.x, self.y)
+        return self._pchip_
 
     # -- values -----------------------------------------------------------------------
     def __call__(self, r: np.ndarray) -> np.ndarray:
@@ -378,7 +388,8 @@ class AcfCurve:
             return self(r)
         lr = np.log(r)
         inside = (lr >= self.x[0]) & (lr <= self.x[-1])
-        return np.where(inside, np.exp(spline(np.clip(lr, self.x[0], self.x[-1]))), self(r))
+        smooth = np.exp(spline(np.clip(lr, self.x[0], self.x[-1])))
+        return smooth if np.all(inside) else np.where(inside, smooth, self(r))
 
     def laplacian(self, r: np.ndarray) -> np.ndarray:
         """2D radial Laplacian ``(1/r) d/dr (r dG/dr)`` of the smoothed curve."""
