@@ -17,7 +17,7 @@ import xarray as xr
 from dask_counting import computes_nothing
 
 import xrough
-from xrough._kernels.fitting import PROBLEMS
+from xrough._kernels.fitting import PROBLEMS, _acf_shape, _acf_shape_slopes, _ShapeProblem
 from xrough._kernels.hankel import acf_from_spectrum_kernel, spectral_moment_kernel
 from xrough._kernels.shape_factors import (
     rolloff_crossover,
@@ -655,6 +655,63 @@ def test_spectrum_fit_synthetic_gaussian_surfaces(rolloff, H):
         rms = float(np.sqrt((topo**2).mean()))
         np.testing.assert_allclose(float(p.sigma_h), rms, rtol=0.03, atol=0)
         assert int(p.lambda_r_resolved) == 1 and int(p.lambda_s_resolved) == 1
+
+
+@pytest.mark.parametrize("cutoff", ["sharp", "gaussian"])
+@pytest.mark.parametrize("rolloff", ROLLOFFS)
+@pytest.mark.parametrize("H", [0.05, 0.5, 0.95])
+def test_shape_slopes_follow_the_moves_of_far_cutoffs(H, rolloff, cutoff):
+    """The fit's closed-form columns equal differences of the G it evaluates.
+
+    :func:`_acf_shape` moves a ``lambda_s`` far below the lags (1e-3 of the first) and a
+    ``lambda_r`` far beyond them (1e5 of the last) and holds ``lambda_r`` at ``lambda_0``;
+    its slopes follow (the leading terms, 0 when held).  Central differences with a
+    relative step of 1e-6: the lags end at 10, where a step of the cutoffs at 1e-3 turns
+    ``1 - J0`` by 0.06 rad at most; asserted 1e-5 of G per relative change.  Where there
+    is no closed form (``None``), the fit takes the difference itself.
+    """
+    x = np.geomspace(0.1, 10.0, 25)
+    cases = [(40.0, 0.5, np.inf), (1e9, 0.5, np.inf), (40.0, 1e-6, np.inf),
+             (1e9, 1e-6, np.inf), (40.0, 0.5, 20.0), (40.0, 0.5, 80.0)]
+    for lam_r, lam_s, lam_0 in cases:
+        slopes = _acf_shape_slopes(x, H, lam_r, lam_s, lam_0, rolloff, cutoff)
+        G = _acf_shape(x, H, lam_r, lam_s, lam_0, rolloff, cutoff=cutoff)
+        far_s, held_r = lam_s < 1e-4, lam_r > 1e6 or lam_r > lam_0
+        exact = (cutoff == "sharp" and rolloff == "sharp" or held_r,
+                 cutoff == "sharp" or far_s)
+        for k, (slope, v) in enumerate(zip(slopes, (lam_r, lam_s))):
+            assert (slope is not None) == exact[k], (k, lam_r, lam_s, lam_0)
+            if slope is None:
+                continue
+            args = [lam_r, lam_s]
+            args[k] = v * (1 + 1e-6)
+            hi = _acf_shape(x, H, *args, lam_0, rolloff, cutoff=cutoff)
+            args[k] = v * (1 - 1e-6)
+            lo = _acf_shape(x, H, *args, lam_0, rolloff, cutoff=cutoff)
+            ref = (hi - lo) / (2e-6 * v)
+            assert np.all(np.abs(slope - ref) * v <= 1e-5 * G), (k, lam_r, lam_s, lam_0)
+
+
+@pytest.mark.parametrize("rolloff", ROLLOFFS)
+def test_spectrum_fit_is_the_same_with_closed_form_columns(rolloff, monkeypatch):
+    """The searches' closed-form cutoff columns reach the fit finite differences reach.
+
+    The same synthetic G (512^2, both cutoffs inside the lags) fitted with the Jacobian's
+    cutoff columns in closed form and by forward differences (``slopes`` switched off):
+    the searches stop at their tolerances (1e-8 in chi^2), far inside the parameters'
+    errors (measured 2e-5 std at most); asserted 1e-2 of each standard deviation.
+    """
+    _, G = synthetic_acf(0.7, rolloff, 1)
+    xrough.memo.forget()  # fits are kept by content: each one computed here
+    exact = fit_acf(G, rolloff=rolloff, lambda_0=512)
+    monkeypatch.setattr(_ShapeProblem, "slopes", lambda self, t, active: {})
+    xrough.memo.forget()
+    differences = fit_acf(G, rolloff=rolloff, lambda_0=512)
+    assert not exact.identical(differences)  # the searches took other steps
+    for name in ("hurst", "sigma_h", "lambda_r", "lambda_s"):
+        std = float(exact[f"{name}_std"])
+        assert 0 < std < np.inf
+        assert abs(float(exact[name]) - float(differences[name])) < 1e-2 * std, name
 
 
 def test_spectrum_fit_synthetic_surface_without_lower_cutoff_and_1024():

@@ -118,3 +118,44 @@ def test_smooth_needs_separated_cutoffs():
     assert not model_acf.smooth_closed_form_applies(1.0, 100.0, 0.5)
     with pytest.raises(ValueError, match=r"q_s >= 4\.0 q_r"):
         model_acf.smooth_acf(np.ones(3), 0.5, 1.0, 2.0)
+
+
+def _five_point(f, v, h):
+    """``df/dv`` by the five-point stencil with the step ``h v`` (error ``(h v)^4 f^(5)/30``)."""
+    s = h * v
+    return (f(v - 2 * s) - 8 * f(v - s) + 8 * f(v + s) - f(v + 2 * s)) / (12 * s)
+
+
+@pytest.mark.parametrize("H", [0.02, 0.3, 0.5, 0.8, 0.99])
+@pytest.mark.parametrize("rolloff, q_0", [("sharp", 0.0), ("sharp", 0.1), ("smooth", 0.0)])
+def test_cutoff_slopes_against_differences(H, rolloff, q_0):
+    """``dG/dq_s`` (the integrand at q_s) and ``dG/dq_r`` (sharp: the plateau's height).
+
+    Against five-point differences of the closed forms, the self-affine part
+    ``c = C_r q_r^(2+2H)`` held fixed.  The lags end where ``q dr = 50`` (beyond, ``1 - J0``
+    turns by more than the step of the difference); the step, 1e-3 of ``q``, turns it by
+    0.05 rad at most: truncation ``(0.05)^4 / 30`` = 2e-7 and round-off 1e-12/1e-3 of G
+    (the closed forms' accuracy above): asserted 1e-6 of ``G`` per relative change of q.
+    """
+    q_r, q_s = 1.0, 40.0
+    c = 2.5
+
+    def G(x, qr, qs):
+        C_r = c / qr ** (2 + 2 * H)
+        return (model_acf.sharp_acf(x, H, qr, qs, q_0, C_r) if rolloff == "sharp"
+                else model_acf.smooth_acf(x, H, qr, qs, C_r))
+
+    for q, x in (("r", np.logspace(-3, np.log10(50 / q_r), 40)),
+                 ("s", np.logspace(-3, np.log10(50 / q_s), 40))):
+        d_r, d_s = model_acf.cutoff_slopes(x, H, q_r, q_s, q_0, c / q_r ** (2 + 2 * H),
+                                           rolloff)
+        if q == "r":
+            if rolloff == "smooth":
+                assert d_r is None  # no closed form: a fit takes differences
+                continue
+            ref = _five_point(lambda v, x=x: G(x, v, q_s), q_r, 1e-3)
+            got, v = d_r, q_r
+        else:
+            ref = _five_point(lambda v, x=x: G(x, q_r, v), q_s, 1e-3)
+            got, v = d_s, q_s
+        assert np.all(np.abs(got - ref) * v <= 1e-6 * G(x, q_r, q_s)), q

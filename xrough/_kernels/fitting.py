@@ -24,7 +24,7 @@ import numpy as np
 from .acf_curve import relative_error_problem
 from .deferred import optimize, special
 from .hankel import acf_from_spectrum_kernel
-from .model_acf import sharp_acf, smooth_acf, smooth_closed_form_applies
+from .model_acf import cutoff_slopes, sharp_acf, smooth_acf, smooth_closed_form_applies
 from .shape_factors import ROLLOFFS, rolloff_crossover, self_affine_constant
 from .spectral_models import CUTOFFS, SpectrumModel, model_gradient2, shape_names
 from .uncertainty import relative_covariance
@@ -197,9 +197,10 @@ _MEMO_SIZE = 1024
 #: :func:`_same_end`) ends there.
 _REACHED = 1e-4
 #: Tolerances of one search (relative change of chi^2 and of the parameters) and its cap on
-#: the evaluations of the residuals (each step takes one more per parameter for the
-#: Jacobian): with the amplitude solved for, a search converges in 5 to 20 steps; the cap
-#: ends those that crawl along a direction the data do not determine.
+#: the evaluations of the residuals (each step takes one more for the Jacobian's column of
+#: H, and of a cutoff without closed-form slopes, :meth:`_ShapeProblem.slopes`): with the
+#: amplitude solved for, a search converges in 5 to 20 steps; the cap ends those that
+#: crawl along a direction the data do not determine.
 _FTOL, _XTOL, _GTOL, _MAX_NFEV = 1e-8, 1e-10, 1e-10, 30
 
 
@@ -475,9 +476,7 @@ def _acf_shape(x, H, lam_r, lam_s, lam_0, rolloff, memo=None, cutoff="sharp"):
     a covariance is computed at).  The values are the same, bit for bit.
     """
     kernel_I = float(self_affine_constant(H))
-    lo, hi = float(np.min(x)), float(np.max(x))
-    lr = min(lam_r, _FAR_R * hi) if np.isinf(lam_0) else min(lam_r, lam_0)
-    ls = min(max(lam_s, lo / _FAR_S), lr / (1.0 + 1e-6))
+    lr, ls = _evaluated_cutoffs(x, lam_r, lam_s, lam_0)
     key = (float(H), float(lr), float(ls))
     q_r = 2 * np.pi / lr
     G = None if memo is None else memo.get(key)
@@ -510,6 +509,45 @@ def _acf_shape(x, H, lam_r, lam_s, lam_0, rolloff, memo=None, cutoff="sharp"):
         G = G + _rolloff_coefficient(H, rolloff) * x**2 / (4 * kernel_I) * (
             (2 * np.pi / lam_r) ** (2 - 2 * H) - q_r ** (2 - 2 * H))
     return G
+
+
+def _evaluated_cutoffs(x, lam_r, lam_s, lam_0) -> tuple[float, float]:
+    """Return the cutoffs :func:`_acf_shape` evaluates eq. 9 at (far ones moved nearer)."""
+    lr = min(lam_r, _FAR_R * float(np.max(x))) if np.isinf(lam_0) else min(lam_r, lam_0)
+    return lr, min(max(lam_s, float(np.min(x)) / _FAR_S), lr / (1.0 + 1e-6))
+
+
+def _acf_shape_slopes(x, H, lam_r, lam_s, lam_0, rolloff, cutoff="sharp"):
+    """``(dG/dlambda_r, dG/dlambda_s)`` of :func:`_acf_shape` (same arguments), or ``None``.
+
+    In closed form (:func:`~xrough._kernels.model_acf.cutoff_slopes`, and the leading
+    terms :func:`_acf_shape` moves a far cutoff with) where there is one: ``lambda_s``
+    with a sharp cutoff or a far one, ``lambda_r`` with the sharp roll-off and a sharp
+    cutoff, or a far one, or one held at ``lambda_0`` (0).  ``None`` where there is none
+    (a fit takes a finite difference there): the smooth roll-off's ``lambda_r``, a
+    Gaussian cutoff, and ``lambda_s`` held just below ``lambda_r``.
+    """
+    kernel_I = float(self_affine_constant(H))
+    lr, ls = _evaluated_cutoffs(x, lam_r, lam_s, lam_0)
+    if ls < max(lam_s, float(np.min(x)) / _FAR_S):  # held just below lambda_r
+        return None, None
+    q_r, q_s = 2 * np.pi / lr, 2 * np.pi / ls
+    q_0 = 0.0 if np.isinf(lam_0) else 2 * np.pi / lam_0
+    slope_r = slope_s = None
+    if cutoff == "sharp":
+        C_r = 2 * np.pi / (kernel_I * q_r ** (2 + 2 * H))
+        d_r, d_s = cutoff_slopes(x, H, q_r, q_s, q_0, C_r, rolloff)
+        slope_s = -q_s / ls * d_s  # dq/dlambda = -q/lambda
+        slope_r = None if d_r is None else -q_r / lr * d_r
+    if lam_s < ls:  # moved: the leading term of its move (eq. 9 at ls does not move)
+        slope_s = np.zeros_like(x) if lam_s <= 0 else np.full(
+            x.shape, -(lam_s / (2 * np.pi)) ** (2 * H - 1) / (2 * np.pi * kernel_I)
+            * (special.gamma(1 - H) if cutoff == "gaussian" else 1.0))
+    if lam_r > lr:  # held at lambda_0, or moved
+        slope_r = (np.zeros_like(x) if np.isfinite(lam_0) or np.isinf(lam_r) else
+                   _rolloff_coefficient(H, rolloff) * x**2 / (4 * kernel_I) * (2 - 2 * H)
+                   * (2 * np.pi / lam_r) ** (1 - 2 * H) * (-2 * np.pi / lam_r**2))
+    return slope_r, slope_s
 
 
 def _spectrum_moments(c, H, q_r, q_s, q_0, rolloff, cutoff="sharp"):
@@ -869,6 +907,31 @@ class _ShapeProblem:
                                   self.memo, self.cutoff))
                 - self.ly) / self.w
 
+    def slopes(self, t, active) -> dict:
+        """``d deviations / d theta_k`` of the active cutoffs ``k`` (2, 3) in closed form.
+
+        Only where :func:`_acf_shape_slopes` has one (a search takes a finite difference
+        for the others and for ``H``): one evaluation of eq. 9 per step of a search instead
+        of one per parameter.
+        """
+        if not (active[2] or active[3]):
+            return {}
+        H = float(t[1])
+        lr, ls = self.cutoffs(t)
+        out = {}
+        with np.errstate(all="ignore"):  # a column that overflows is taken by differences
+            slope_r, slope_s = _acf_shape_slopes(self.x, H, lr, ls, self.lam_0,
+                                                 self.rolloff, self.cutoff)
+            G = _acf_shape(self.x, H, lr, ls, self.lam_0, self.rolloff, self.memo,
+                           self.cutoff)
+            if active[2] and slope_r is not None:
+                # lambda_r = x_hi exp(-ln eta / (2 - 2H)), unless held at a bound (cutoffs)
+                raw = self.x_hi * np.exp(-t[2] / (2 - 2 * H))
+                out[2] = slope_r * (-raw / (2 - 2 * H) if raw == lr else 0.0) / (G * self.w)
+            if active[3] and slope_s is not None:  # lambda_s = x_lo exp(ln eps / (2H))
+                out[3] = slope_s * ls / (2 * H) / (G * self.w)
+        return {k: v for k, v in out.items() if np.all(np.isfinite(v))}
+
     def amplitude(self, d) -> float:
         """Return the amplitude ``t[0]`` minimising ``sum (t[0] / w + d)^2`` (``d``: deviations)."""
         return -float(self.u @ d) / self.uu
@@ -918,8 +981,12 @@ class _ShapeProblem:
 
         def jac(t):
             d0 = cache["d"] if "t" in cache and np.array_equal(cache["t"], t) else dev(t)
+            exact = self.slopes(full(t), rest)
             cols = []
             for i, k in enumerate(np.flatnonzero(rest)):
+                if k in exact:
+                    cols.append(exact[k])
+                    continue
                 h = self.steps[k] if t[i] + self.steps[k] <= self.upper[k] else -self.steps[k]
                 tt = t.copy()
                 tt[i] += h

@@ -42,7 +42,8 @@ import numpy as np
 from .bessel import gauss_legendre, one_minus_j0
 from .deferred import special
 
-__all__ = ["sharp_acf", "smooth_acf", "smooth_closed_form_applies", "power_tail"]
+__all__ = ["sharp_acf", "smooth_acf", "smooth_closed_form_applies", "power_tail",
+           "cutoff_slopes"]
 
 #: Below: the power series of 1 - J0 (largest term 113 times the sum: two digits lost).
 _A_SERIES = 8.0
@@ -207,6 +208,32 @@ def sharp_acf(dr, hurst: float, q_r: float, q_s: float, q_0: float = 0.0, C_r: f
     F = np.where(low, v, _tail_total(H) - v)
     diff = np.where(low[n:] | low[:n], F[n:] - F[:n], v[:n] - v[n:]).reshape(x.shape)
     return C_r / (2 * np.pi) * (flat / (x * x) + q_r ** (2 + 2 * H) * x ** (2 * H) * diff)
+
+
+def cutoff_slopes(dr, hurst: float, q_r: float, q_s: float, q_0: float = 0.0,
+                  C_r: float = 1.0, rolloff: str = "sharp"):
+    """``(dG/dq_r, dG/dq_s)`` of eq. 9 at the lags ``dr``, the self-affine part held fixed.
+
+    The spectrum ``C_r (q/q_r)^(-2-2H)`` above ``q_r`` stays put (``c = C_r q_r^(2+2H)``
+    fixed, as in a fit of the shape to ``G``) while a cutoff moves, and the upper cutoff
+    is sharp at ``q_s > q_r``.  Moving the end of an integral gives its integrand there:
+    ``dG/dq_s = q_s C(q_s) [1 - J0(q_s dr)] / (2 pi)`` for either roll-off.  For the sharp
+    roll-off (eq. 35) the two ends at ``q_r`` cancel (the spectrum is continuous there) and
+    only the plateau's height ``C_r = c q_r^(-2-2H)`` moves:
+    ``dG/dq_r = -(2 + 2H) / q_r G_flat`` with ``G_flat = C_r [g(q_r dr) - g(q_0 dr)] /
+    (2 pi dr^2)`` (module docstring).  The smooth roll-off's ``dG/dq_r`` has no such form
+    (it is ``None``).
+    """
+    x = np.asarray(dr, dtype=float)
+    H = float(hurst)
+    ratio = q_s / q_r
+    C_s = C_r * (ratio ** (-2 - 2 * H) if rolloff == "sharp"
+                 else (1 + ratio * ratio) ** (-1 - H))
+    d_s = q_s * C_s * one_minus_j0(q_s * x) / (2 * np.pi)
+    if rolloff != "sharp":
+        return None, d_s
+    flat = _flat(q_r * x) - (_flat(q_0 * x) if q_0 > 0 else 0.0)
+    return -(2 + 2 * H) / q_r * C_r * flat / (2 * np.pi * x * x), d_s
 
 
 def smooth_closed_form_applies(q_r: float, q_s: float, q_0: float) -> bool:
