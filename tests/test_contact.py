@@ -939,3 +939,38 @@ def test_persson_in_threads_leaves_xarray_options_as_it_found_them():
         list(pool.map(run, range(32)))
     assert xr.get_options()["keep_attrs"] == before
     assert (topo + 0.01 * topo.x).attrs["units"] == "nm"
+
+
+@pytest.mark.parametrize("batched", [True, False])
+def test_laplacian_response_is_the_response_of_the_fixed_spline(batched, monkeypatch):
+    """The Laplacian's response to each bin of G, one fit of many columns.
+
+    Against differences of the public route, one curve per bin moved by 1e-6 in ln G with
+    its error moved alike (the spline's weights, G's relative errors, unchanged; the even
+    start recomputed from the moved bins): the same linear response to round-off of the
+    differences (asserted 1e-5 of the largest response of each lag).  Rescaling G
+    rescales the Laplacian: each row sums to it, ``d lap / d ln G = lap`` (to the forward
+    differences' curvature terms, 1e-5 of the row's absolute sum).  With a SciPy that
+    fits one column at a time (``batched=False``) the same numbers.
+    """
+    from xrough._kernels import acf_curve
+
+    if not batched:
+        monkeypatch.setattr(acf_curve, "_batched", lambda: False)
+    dr = np.geomspace(1.0, 300.0, 24)
+    rng = np.random.default_rng(3)
+    g = dr**1.4 / (1 + (dr / 60.0) ** 1.4) * np.exp(0.01 * rng.standard_normal(dr.size))
+    err = g * np.geomspace(1e-3, 0.2, dr.size)
+    curve = acf_curve.AcfCurve(dr, g, err, smoothing="fixed")
+    lap, J = curve.laplacian_response(dr)
+    np.testing.assert_allclose(lap, curve.laplacian(dr), rtol=1e-10)
+    step = 1e-6
+    ref = np.empty_like(J)
+    for i in range(dr.size):
+        moved = np.ones(dr.size)
+        moved[i] = np.exp(step)
+        ref[:, i] = (acf_curve.AcfCurve(dr, g * moved, err * moved, smoothing="fixed")
+                     .laplacian(dr) - lap) / step
+    scale = np.max(np.abs(ref), axis=1, keepdims=True)
+    assert np.all(np.abs(J - ref) <= 1e-5 * scale)
+    assert np.all(np.abs(J.sum(axis=1) - lap) <= 1e-5 * np.abs(J).sum(axis=1))

@@ -33,6 +33,9 @@ pixel scale, and G zig-zags between neighbouring bins by far more than its stand
 
 from __future__ import annotations
 
+import inspect
+from functools import lru_cache
+
 import numpy as np
 
 from .deferred import interpolate
@@ -202,6 +205,23 @@ def require_acf(dr: np.ndarray, g: np.ndarray, *, min_bins: int = 2) -> None:
         raise ValueError(f"G {problem}")
 
 
+@lru_cache(maxsize=1)
+def _batched() -> bool:
+    """Whether make_smoothing_spline fits many columns of ordinates at once (its ``axis``).
+
+    Not in the oldest SciPy supported (1.13): there the columns are fitted one by one.
+    """
+    return "axis" in inspect.signature(interpolate.make_smoothing_spline).parameters
+
+
+def _smoothing_splines(x, ys, w, lam) -> interpolate.BSpline:
+    """Return the smoothing splines of the columns of ``ys`` (one fit where SciPy batches)."""
+    if _batched():
+        return interpolate.make_smoothing_spline(x, ys, w=w, lam=lam)
+    fits = [interpolate.make_smoothing_spline(x, col, w=w, lam=lam) for col in ys.T]
+    return interpolate.BSpline(fits[0].t, np.stack([f.c for f in fits], axis=-1), fits[0].k)
+
+
 def _roughness(spline, x: np.ndarray) -> float:
     """``int y''^2 dx`` of a cubic spline over the samples ``x`` (Simpson per interval)."""
     mid = 0.5 * (x[1:] + x[:-1])
@@ -245,9 +265,12 @@ class AcfCurve:
         # the smoothing spline anchored below the first sample where G is smooth there
         self.anchor = not self.rough_start()
 
-    def _even_start(self) -> tuple[float, float]:
-        """Return ``(a, b)`` of ``G = a r^2 + b r^4`` below the first sample (module docstring)."""
-        (r0, r1), (g0, g1) = self.dr[:2] ** 2, self.g[:2]
+    def _even_start(self, g01=None) -> tuple[float, float]:
+        """Return ``(a, b)`` of ``G = a r^2 + b r^4`` below the first sample (module docstring).
+
+        ``g01``: the first two values of G instead of the curve's.
+        """
+        (r0, r1), (g0, g1) = self.dr[:2] ** 2, self.g[:2] if g01 is None else g01
         b = (g1 / r1 - g0 / r0) / (r1 - r0)
         a = g0 / r0 - b * r0
         if not (b <= 0 and a > 0 and r0 * 2 * -b <= a):
@@ -320,15 +343,9 @@ class AcfCurve:
         ``int y''^2 dx``, which falls monotonically with the smoothing parameter.
         """
         if self._spline is None and self.x.size >= 5:
-            w = None
-            if self.error is not None:
-                rel = np.hypot(self.error / self.g, LATTICE_JITTER)
-                w = 1.0 / rel**2
-                w = w / w.mean()
-            span = self.x[-1] - self.x[0]
-            density = (self.x.size - 1) / span  # samples per unit ln(dr)
-            lam = density * (SMOOTHING_DECADES * np.log(10)) ** 4
-            fixed = interpolate.make_smoothing_spline(*self._anchored(w), lam=lam)
+            w = self._weights()
+            x, y, w_all, lam = self._fixed_samples(w)
+            fixed = interpolate.make_smoothing_spline(x, y, w=w_all, lam=lam)
             self._spline = fixed
             if self.error is not None and self.smoothing == "auto":
                 # a noisy G: cross-validation's smoothing, of G's samples alone (the even
@@ -337,6 +354,51 @@ class AcfCurve:
                 if _roughness(gcv, self.x) < _roughness(fixed, self.x):
                     self._spline = gcv
         return self._spline
+
+    def _weights(self) -> np.ndarray | None:
+        """Weights of the smoothing spline: one over G's relative variance (None: equal)."""
+        if self.error is None:
+            return None
+        w = 1.0 / np.hypot(self.error / self.g, LATTICE_JITTER) ** 2
+        return w / w.mean()
+
+    def _fixed_samples(self, w: np.ndarray | None):
+        """``x, y, w, lam`` of the fixed-length smoothing spline (:meth:`_smooth`)."""
+        span = self.x[-1] - self.x[0]
+        density = (self.x.size - 1) / span  # samples per unit ln(dr)
+        return *self._anchored(w), density * (SMOOTHING_DECADES * np.log(10)) ** 4
+
+    def laplacian_response(self, r: np.ndarray,
+                           step: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+        """Return the fixed-length spline's Laplacian at ``r`` and its response to ``ln G``.
+
+        Returns the Laplacian at ``r`` (:meth:`laplacian` of a ``smoothing="fixed"``
+        curve; NaN outside the samples' lags) and ``J[k, i] = d laplacian(r_k) / d ln g_i``
+        by forward differences of ``step``, with the even start following the first two
+        samples and the spline's weights held: the spline is linear in ``ln G`` then, and
+        all the perturbed curves are one fit of as many columns.  The weights are G's
+        relative errors, which scale with G in a measurement: held, a rescaled G rescales
+        the Laplacian exactly (each row of ``J`` sums to 1), where weights recomputed from
+        the perturbed G and the same errors would move the spline by their residuals.
+        ``i`` runs over the samples of the curve (``dr``: the finite, positive G given,
+        with a finite error).
+        """
+        if self.x.size < 5:
+            raise ValueError("the smoothing spline needs at least 5 samples")
+        x, y, w, lam = self._fixed_samples(self._weights())
+        n, first = self.x.size, y.size - self.x.size  # the even start's samples come first
+        ys = np.repeat(y[:, None], n + 1, axis=1)
+        ys[first + np.arange(n), 1 + np.arange(n)] += step
+        for i in range(first and 2):  # the even start follows the first two samples
+            g01 = self.g[:2].copy()
+            g01[i] *= np.exp(step)
+            ys[:first, 1 + i] = self._start_samples(*self._even_start(g01))[1]
+        splines = _smoothing_splines(x, ys, w, lam)
+        r = np.asarray(r, dtype=float)
+        lr = np.log(r)
+        lap = np.exp(splines(lr)) * (splines(lr, 2) + splines(lr, 1) ** 2) / (r[:, None] ** 2)
+        lap[(lr < self.x[0]) | (lr > self.x[-1])] = np.nan
+        return lap[:, 0], (lap[:, 1:] - lap[:, :1]) / step
 
     def _anchored(self, w: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Give the samples of the smoothing spline: G's, and two of the even start below.
@@ -352,10 +414,13 @@ class AcfCurve:
         w = np.ones_like(self.x) if w is None else w
         if not self.anchor:
             return self.x, self.y, w
+        x, y = self._start_samples(self.a, self.b)
+        return np.r_[x, self.x], np.r_[y, self.y], np.r_[np.full(2, w[0]), w]
+
+    def _start_samples(self, a: float, b: float) -> tuple[np.ndarray, np.ndarray]:
+        """``ln r`` and ``ln G`` of the even start's two samples (:meth:`_anchored`)."""
         r = self.dr[0] * np.array([0.5, 0.7])
-        start = self.a * r**2 + self.b * r**4
-        return (np.r_[np.log(r), self.x], np.r_[np.log(start), self.y],
-                np.r_[np.full(2, w[0]), w])
+        return np.log(r), np.log(a * r**2 + b * r**4)
 
     def log_slopes(self, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``y' = dlnG/dlnr`` and ``y''`` of the smoothed curve at ``r``.

@@ -13,7 +13,7 @@ import numpy as np
 from .acf_curve import AcfCurve, require_acf
 from .deferred import optimize, special
 from .shape_factors import rolloff_factor, self_affine_factor
-from .uncertainty import propagated_std, relative_covariance
+from .uncertainty import linear_std, propagated_std, relative_covariance
 
 __all__ = ["KAPPA_PERSSON", "STEEP_DECAY", "WEIGHTINGS", "EQ51_PRINTED", "contact_area",
            "improved_area", "weighting", "asymptote_weight", "nonincreasing",
@@ -250,10 +250,11 @@ def laplacian_std_curve(g, error, inflation, *, dr, window=(0.0, np.inf), size, 
     """Statistical standard deviation of :func:`laplacian_curve`'s Laplacian, per lag.
 
     The finite-area covariance of G's bins (as :func:`energy_std_curve`) propagated
-    linearly through the smoothing spline of the lags inside ``window`` (its weights, the
-    standard errors, held; its smoothing the fixed length: where G's noise makes the
-    spline smooth more, this is an upper bound); NaN outside the window, at ``dr = 0``
-    and where G is not finite.
+    linearly through the smoothing spline of the lags inside ``window`` (its weights, from
+    the standard errors, and its even start held: one fit of a column per bin,
+    :meth:`AcfCurve.laplacian_response`; its smoothing the fixed length: where G's noise
+    makes the spline smooth more, this is an upper bound); NaN outside the window, at
+    ``dr = 0`` and where G is not finite.
     """
     g = np.asarray(g, dtype=float)
     inside = ~((dr > 0) & ((dr < window[0]) | (dr > window[1])))
@@ -263,15 +264,16 @@ def laplacian_std_curve(g, error, inflation, *, dr, window=(0.0, np.inf), size, 
         return out
     err = None if error is None else np.asarray(error, dtype=float)[inside]
     infl = None if inflation is None else np.asarray(inflation, dtype=float)[inside]
-    lags = dr_in[dr_in > 0]
     require_acf(dr_in, g_in)
-
-    def lap(values):  # the fixed-length spline's response: one fit per lag, not two
-        return AcfCurve(dr_in, values, err, smoothing="fixed").laplacian(lags)
-
+    curve = AcfCurve(dr_in, g_in, err, smoothing="fixed")
+    kept = np.isin(dr_in, curve.dr)  # its samples (positive lags, finite errors)
+    if np.count_nonzero(kept) < 5:
+        return out
     cov = relative_covariance(dr_in, g_in, size=size, pixel=pixel, geometry=geometry,
                               n_maps=n_maps, inflation=infl)
-    out[np.flatnonzero(inside)[dr_in > 0]] = propagated_std(lap, g_in, cov)
+    lags = dr_in > 0
+    _, J = curve.laplacian_response(dr_in[lags])
+    out[np.flatnonzero(inside)[lags]] = linear_std(J, cov[np.ix_(kept, kept)])
     return out
 
 

@@ -41,7 +41,7 @@ from .hankel import PowerLawInterpolant, profile_spectrum_kernel
 from .spectrum_of_acf import smooth_acf_kernel, spectrum_from_acf_kernel
 
 __all__ = ["g_covariance", "g_variance", "covariance_from_acf", "finite_area_variance",
-           "relative_covariance", "propagated_std", "regional_scatter"]
+           "relative_covariance", "propagated_std", "linear_std", "regional_scatter"]
 
 
 def _interpolator(dr: np.ndarray, g: np.ndarray):
@@ -532,6 +532,17 @@ def propagated_std(f, g: np.ndarray, rel_cov: np.ndarray, step: float = 1e-6) ->
         gi = g.copy()
         gi[i] *= np.exp(step)
         J[:, i] = (np.atleast_1d(f(gi)) - f0) / step
+    return linear_std(J, rel_cov)
+
+
+def linear_std(J: np.ndarray, rel_cov: np.ndarray) -> np.ndarray:
+    """Return ``sqrt(diag(J S J^T))``: the standard deviations of outputs ``J`` maps ``ln g`` to.
+
+    ``J[k, i] = d f_k / d ln g_i`` and ``S`` the relative covariance of ``g``; NaN where
+    the covariance is not finite (:func:`propagated_std` builds ``J`` by differences).
+    """
+    if not np.all(np.isfinite(rel_cov)):
+        return np.full(J.shape[0], np.nan)
     with np.errstate(invalid="ignore"):
         return np.sqrt(np.maximum(np.einsum("ki,ij,kj->k", J, rel_cov, J), 0.0))
 
