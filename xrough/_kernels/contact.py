@@ -179,23 +179,38 @@ def patch_radius_std_curve(g, *, dr, E_star, gamma, size, pixel, geometry, n_map
 
     The finite-area errors of G's bins with their full covariance (as
     :func:`energy_std_curve`) propagated linearly through the roots of
-    :func:`patch_radius_curve`; NaN where a radius is infinite (the surfaces stick
-    everywhere: no root to move) or G is not finite.
+    :func:`patch_radius_curve`: a root ``a*`` of ``f(a; G)`` moves by ``-(df/dln g_i) /
+    (df/da)``, the conditions of the moved G evaluated at ``a*`` alone (one evaluation
+    per bin, no search); NaN where a radius is infinite (the surfaces stick everywhere:
+    no root to move) or G is not finite.
     """
     if not np.all(np.isfinite(g)):
         return np.array([np.nan, np.nan])
-
-    def radii(values):
-        return patch_radius_curve(values, dr=dr, E_star=E_star, gamma=gamma)[:2]
-
-    finite = np.isfinite(radii(g))
+    radii = patch_radius_curve(g, dr=dr, E_star=E_star, gamma=gamma)[:2]
+    finite = np.isfinite(radii)
     if not finite.any():
         return np.array([np.nan, np.nan])
     cov = relative_covariance(dr, g, size=size, pixel=pixel, geometry=geometry,
                               n_maps=n_maps, inflation=inflation)
-    with np.errstate(invalid="ignore"):
-        std = propagated_std(radii, g, cov)
-    return np.where(finite, std, np.nan)
+    # each radius is the first root a* of f(a; G): it moves by -(df/dln g_i) / (df/da)
+    # (implicit functions), f of the moved curve evaluated at a* alone, not searched again
+    roots = np.where(finite, radii, 1.0)[:, None]
+    conditions = _patch_conditions(_curve(g, None, dr), E_star, gamma)
+    h = 1e-6
+    at = roots * np.array([1.0, 1.0 - h, 1.0 + h])  # a*, and a* -+ h a* for df/da
+    with np.errstate(all="ignore"):
+        f = np.array([c(a) for c, a in zip(conditions, at)])
+        slope = (f[:, 2] - f[:, 1]) / (2 * h * roots[:, 0])
+        J = np.zeros((2, g.size))
+        valid = np.flatnonzero(np.isfinite(g) & (g > 0) & (dr > 0))
+        for i in valid:
+            moved = g.copy()
+            moved[i] *= np.exp(h)
+            f_i = [c(a[:1])[0] for c, a in zip(_patch_conditions(_curve(moved, None, dr),
+                                                                 E_star, gamma), at)]
+            J[:, i] = -(np.array(f_i) - f[:, 0]) / h / slope
+    std = linear_std(J, cov)
+    return np.where(finite & (slope > 0), std, np.nan)
 
 
 def first_decade_slope(g, error=None, *, dr) -> float:
@@ -337,6 +352,21 @@ def _first_root(f, lo: float, hi: float, n: int = 4000) -> float:
                                  xtol=1e-14 * grid[k], rtol=1e-12))
 
 
+def _patch_conditions(curve: AcfCurve, E_star: float, gamma: float) -> tuple:
+    """Return the functions of ``a`` whose first roots are ``a_c`` (eq. 46), its upper (eq. 44).
+
+    ``v_el(a) - gamma`` with ``v_el(a) = E* int_0^a G / r^2 dr / 4`` (eq. 44), and that plus
+    ``E* G(a) / (8 a)`` (eq. 46), on G continued as :class:`AcfCurve` continues it.
+    """
+    def upper(a):
+        return E_star / 4 * curve.cumulative_g_over_r2(a)[0] - gamma
+
+    def refined(a):
+        return upper(a) + E_star * curve(a) / (8 * a)
+
+    return refined, upper
+
+
 def patch_radius_curve(g, *, dr, E_star, gamma) -> np.ndarray:
     """``[a_c (eq. 46), a_c upper (eq. 44), v_el]`` of one curve (m, m, J m-2).
 
@@ -359,12 +389,7 @@ def patch_radius_curve(g, *, dr, E_star, gamma) -> np.ndarray:
     curve = _curve(g, None, dr)
     r0, r_last = curve.dr[0], curve.dr[-1]
     v_full = E_star / 4 * curve.cumulative_g_over_r2(np.array([np.inf]))[0][0]
-
-    def upper(a):
-        return E_star / 4 * curve.cumulative_g_over_r2(a)[0] - gamma
-
-    def refined(a):
-        return upper(a) + E_star * curve(a) / (8 * a)
+    refined, upper = _patch_conditions(curve, E_star, gamma)
 
     def root(f, below, beyond):
         if f(np.array([r0]))[0] >= 0:  # in the even start below r0
