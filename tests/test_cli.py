@@ -236,6 +236,34 @@ def test_report_figure_keeps_every_label_inside_and_apart(files, report):
     assert right.get_tightbbox(renderer).x0 > left.get_window_extent(renderer).x1
 
 
+@pytest.mark.parametrize("n_files", [3, 12])
+def test_report_figure_names_the_files_without_a_value(n_files):
+    """A file whose contact area is all NaN printed 'no finite values' over the others'
+    lines, one text per such file on top of each other, without naming it, and turned
+    the log axis under the others linear when drawn last. Now the others are drawn as
+    they are and one note names the files without a value (four, then how many more)."""
+    from xrough.cli.report import _figure
+
+    topo = xrough.self_affine_surface(hurst=0.7, lambda_r=32, lambda_s=4, size=128, n=128,
+                                      rms_gradient=0.3, unit="nm", seed=1)
+    G = topo.rough.acf()
+    P = G.rough.persson(E_star=E_STAR, p0=P0)
+    failed = P.assign(a_r=P.a_r * np.nan)
+    measured = [{"name": f"f{k}", "results": {"G": G.copy(), "persson": P if k == 0 else
+                                              failed}} for k in range(n_files)]
+    fig = _figure(measured, "0.1 MPa")
+    try:
+        ax = fig.axes[1]
+        texts = [t.get_text() for t in ax.texts]
+        names = ", ".join(f"f{k}" for k in range(1, min(n_files, 5)))
+        more = f" and {n_files - 5} more" if n_files > 5 else ""
+        assert texts == [f"no finite values: {names}{more}"]
+        assert len(ax.lines) >= 1 and ax.get_yscale() == "log"
+        assert not fig.axes[0].texts and len(fig.axes[0].lines) == n_files
+    finally:
+        plt.close(fig)
+
+
 def test_report_archive_and_figure(files, report):
     status, out, _ = report
     assert status == 0 and "wrote out/report.nc, out/report.csv and out/report.png" in out

@@ -346,25 +346,57 @@ def _figure(measured: list[dict], p0_text: str):
     fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(12, 4.5), gridspec_kw=_MARGINS)
     many = len(measured) > _LEGEND_LINES  # a legend of every file would cover the data
     style = dict(linewidth=0.8, alpha=0.6) if many else {}
-    for m, G in zip(measured, curves):
-        G.name = G.name or "G"
-        label = None if many else m["name"]
-        _in_units(G, dr_unit, g_unit).rough.plot(ax=ax0, label=label, error=not many,
-                                                 **style)
+    areas = []
+    for m in measured:
         a_r = m["results"]["persson"].a_r
         a_r = a_r.assign_coords(dr=a_r.dr * u.conversion_factor(a_r.dr.attrs["units"],
                                                                 dr_unit))
         a_r["dr"].attrs.update(units=dr_unit, long_name="resolution dr")
+        areas.append(a_r.assign_attrs(long_name=f"contact area at p0 = {p0_text}"))
+    names = [m["name"] for m in measured]
+    for G in curves:
+        G.name = G.name or "G"
+    for k in _drawn(ax0, curves, names):
+        _in_units(curves[k], dr_unit, g_unit).rough.plot(
+            ax=ax0, label=None if many else names[k], error=not many, **style)
+    for k in _drawn(ax1, areas, names):
         # questionable curves dashed, the expected exact area hatched, log where it spans
         # decades (the finest value is the one quoted)
-        plot_loglog(a_r.assign_attrs(long_name=f"contact area at p0 = {p0_text}"), ax=ax1,
-                    label=label, error=not many, short_range_linear=True, **style)
+        plot_loglog(areas[k], ax=ax1, label=None if many else names[k], error=not many,
+                    short_range_linear=True, **style)
     for ax in (ax0, ax1):
         if many:
             ax.set_title(f"{len(measured)} measurements", fontsize="medium")
             if ax.get_legend() is not None:
                 ax.get_legend().remove()
     return fig
+
+
+def _drawn(ax, curves: list, names: list[str]) -> list[int]:
+    """Return the files to draw on ``ax``: those with a finite value, the others named there.
+
+    A file without one would draw an empty panel that says why (its reason over the
+    others' lines, and a linear axis under them): with several files they are named in
+    one note instead, and their reasons are in the report's table. One file alone, or
+    all of them without, draws the first as a failed result.
+    """
+    empty = [k for k, c in enumerate(curves) if not np.isfinite(np.asarray(c.values)).any()]
+    if len(curves) == 1 or len(empty) == len(curves):
+        if len(curves) > 1:
+            ax.text(0.5, 0.08, _empty_note(names, empty), transform=ax.transAxes,
+                    ha="center", va="bottom", fontsize="small", wrap=True)
+        return [0]
+    if empty:
+        ax.text(0.5, 0.02, _empty_note(names, empty), transform=ax.transAxes, ha="center",
+                va="bottom", fontsize="small", wrap=True)
+    return [k for k in range(len(curves)) if k not in empty]
+
+
+def _empty_note(names: list[str], empty: list[int], shown: int = 4) -> str:
+    """``no finite values: a, b and 3 more`` (the files ``empty``)."""
+    listed = ", ".join(names[k] for k in empty[:shown])
+    more = len(empty) - shown
+    return f"no finite values: {listed}" + (f" and {more} more" if more > 0 else "")
 
 
 #: The report figure's margins and gap, in shares of its 12 x 4.5 inches.
