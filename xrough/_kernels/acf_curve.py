@@ -378,8 +378,9 @@ class AcfCurve:
         samples and the spline's weights held: the spline is linear in ``ln G`` then, and
         all the perturbed curves are one fit of as many columns.  The weights are G's
         relative errors, which scale with G in a measurement: held, a rescaled G rescales
-        the Laplacian exactly (each row of ``J`` sums to 1), where weights recomputed from
-        the perturbed G and the same errors would move the spline by their residuals.
+        the Laplacian exactly (each row of ``J`` sums to the Laplacian), where weights
+        recomputed from the perturbed G and the same errors would move the spline by their
+        residuals.
         ``i`` runs over the samples of the curve (``dr``: the finite, positive G given,
         with a finite error).
         """

@@ -222,7 +222,8 @@ def cutoff_slopes(dr, hurst: float, q_r: float, q_s: float, q_0: float = 0.0,
     only the plateau's height ``C_r = c q_r^(-2-2H)`` moves:
     ``dG/dq_r = -(2 + 2H) / q_r G_flat`` with ``G_flat = C_r [g(q_r dr) - g(q_0 dr)] /
     (2 pi dr^2)`` (module docstring).  The smooth roll-off's ``dG/dq_r`` has no such form
-    (it is ``None``).
+    (it is ``None``).  Units: those of G times a length (``q`` in the inverse unit of
+    ``dr``, ``C_r`` in G's unit times a length squared).
     """
     x = np.asarray(dr, dtype=float)
     H = float(hurst)

@@ -381,14 +381,11 @@ def _drawn(ax, curves: list, names: list[str]) -> list[int]:
     all of them without, draws the first as a failed result.
     """
     empty = [k for k, c in enumerate(curves) if not np.isfinite(np.asarray(c.values)).any()]
-    if len(curves) == 1 or len(empty) == len(curves):
-        if len(curves) > 1:
-            ax.text(0.5, 0.08, _empty_note(names, empty), transform=ax.transAxes,
-                    ha="center", va="bottom", fontsize="small", wrap=True)
-        return [0]
-    if empty:
+    if len(curves) > 1 and empty:  # below the reason a failed first file prints mid-panel
         ax.text(0.5, 0.02, _empty_note(names, empty), transform=ax.transAxes, ha="center",
                 va="bottom", fontsize="small", wrap=True)
+    if len(empty) == len(curves):
+        return [0]
     return [k for k in range(len(curves)) if k not in empty]
 
 
